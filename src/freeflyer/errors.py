@@ -1,0 +1,67 @@
+"""Error hierarchy of freeflyer.
+
+Every error names what is wrong and how to fix it. The classes derive from the
+matching built-in exceptions so that ``except ValueError`` keeps working.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+
+__all__ = [
+    "FreeflyerError",
+    "ModelError",
+    "ShapeError",
+    "UnknownNameError",
+    "SingularConfigurationError",
+    "NearSingularWarning",
+]
+
+
+class FreeflyerError(Exception):
+    """Base class of every error raised by freeflyer."""
+
+
+class ModelError(FreeflyerError, ValueError):
+    """A model description is not physical or not a valid tree.
+
+    The message starts with the field path (``bodies[2].inertia``) and ends
+    with the fix.
+    """
+
+    def __init__(self, field: str, problem: str, fix: str) -> None:
+        self.field = field
+        self.problem = problem
+        self.fix = fix
+        super().__init__(f"{field}: {problem}; {fix}")
+
+
+class ShapeError(FreeflyerError, ValueError):
+    """An array argument has the wrong shape ("expected (..., 7), got (5,)")."""
+
+
+class UnknownNameError(FreeflyerError, KeyError):
+    """A body, joint or end-effector name that the model does not have."""
+
+    def __init__(self, kind: str, name: object, known: Iterable[str]) -> None:
+        known = list(known)
+        close = difflib.get_close_matches(str(name), known, n=3)
+        hint = f" Did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+        self.message = f"unknown {kind} {name!r}; known: {', '.join(known) or '(none)'}.{hint}"
+        super().__init__(self.message)
+
+    def __str__(self) -> str:  # KeyError would quote the whole message
+        return self.message
+
+
+class SingularConfigurationError(FreeflyerError, ArithmeticError):
+    """A request needs the inverse of a matrix that is singular here."""
+
+    def __init__(self, what: str, determinant: float, fix: str = "") -> None:
+        self.determinant = determinant
+        super().__init__(f"{what} is singular (determinant {determinant:.3e}). {fix}".strip())
+
+
+class NearSingularWarning(UserWarning):
+    """A matrix is close to singular; results may be inaccurate."""

@@ -1,0 +1,263 @@
+"""Jacobians: point J+ (1991 eqs. 7-10), J_q (eq. 21), J_z (eqs. 22-23), J* (1992 eq. 14).
+
+All are batched over q (..., N). Velocities follow the conventions:
+zdot0 = [rdot_cm (inertial), omega0 (spacecraft frame), qdot]. With the
+attitude at identity (``attitude=None``) the inertial and spacecraft frames
+coincide and every matrix is the paper's spacecraft-frame ⁰J.
+
+The linear-velocity part of a point Jacobian is built from barycentric
+vectors: with s_l = sum over the bodies i outboard of joint l of T_i v_iP,
+
+    J11 = -[rho_P]x,    J12[:, l] = u_l x s_l,    J22[:, l] = u_l if P is outboard of joint l
+
+which is 1991 eq. 10b evaluated joint by joint (u_l: joint axis, spacecraft frame).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ._batch import chunked, joint_array
+from .conventions import attitude_matrix, euler321_from_matrix, euler321_rate_matrix, quaternion_rate_matrix, skew
+from .errors import ShapeError
+from .kinematics import _rotations, joint_axes
+from .model import Model
+from .momentum import _blocks
+
+__all__ = [
+    "point_jacobian",
+    "end_effector_jacobian",
+    "actuation_jacobian",
+    "task_jacobian",
+    "generalized_jacobian",
+    "generalized_jacobian_drift",
+    "jacobian_determinant",
+    "manipulability",
+]
+
+
+def _point_terms(
+    model: Model, rot: np.ndarray, tables: np.ndarray, bodies: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Kernel: rho (C, P, 3), J12 (C, P, 3, N), J22 (C, P, 3, N) for P points (spacecraft frame)."""
+    sub = model.subtree.astype(float)
+    w = np.einsum("cbij,pbj->cpbi", rot, tables)
+    s = np.einsum("li,cpix->cplx", sub, w)  # subtree sums s_l
+    rho = s[:, :, 0]
+    axes = joint_axes(model, rot)  # (C, N, 3)
+    j12 = np.cross(axes[:, None, :, :], s[:, :, 1:, :], axis=-1)  # (C, P, N, 3)
+    outboard = sub[1:, bodies].T  # (P, N): 1 if the point's body is outboard of joint l
+    j22 = axes[:, None, :, :] * outboard[None, :, :, None]
+    return rho, np.swapaxes(j12, -1, -2), np.swapaxes(j22, -1, -2)
+
+
+def _assemble(rho: np.ndarray, j12: np.ndarray, j22: np.ndarray, t0: np.ndarray | None) -> np.ndarray:
+    """Rows [v; w] over columns [rdot_cm, omega0, qdot] (1991 eq. 10a, then eq. 9)."""
+    n = j12.shape[-1]
+    out = np.zeros(rho.shape[:-1] + (6, 6 + n))
+    out[..., 0:3, 0:3] = np.eye(3)
+    out[..., 0:3, 3:6] = -skew(rho)
+    out[..., 0:3, 6:] = j12
+    out[..., 3:6, 3:6] = np.eye(3)
+    out[..., 3:6, 6:] = j22
+    if t0 is not None:
+        t = t0[..., None, :, :] if t0.ndim > 2 else t0
+        out[..., 0:3, 3:] = t @ out[..., 0:3, 3:]
+        out[..., 3:6, 3:] = t @ out[..., 3:6, 3:]
+    return out
+
+
+def point_jacobian(model: Model, q: Any, body: str | int, point: Any = None, *, attitude: Any = None) -> np.ndarray:
+    """J+_{k,m} of 1991 eqs. 7-10 for a point of a body, (..., 6, 6+N).
+
+    Maps zdot0 to [velocity of the point; angular velocity of the body], both in
+    the inertial frame (spacecraft frame when ``attitude`` is None). ``point``
+    is in the body frame; default the body's CM (m = CM).
+    """
+    q = joint_array(model, q)
+    k = model.body_index(body)
+    p = model.com[k] if point is None else np.asarray(point, dtype=float)
+    table = model.bary.point_vectors(model, k, p)[None]
+    bodies = np.array([k])
+
+    def kernel(qq: np.ndarray) -> np.ndarray:
+        rho, j12, j22 = _point_terms(model, _rotations(model, qq), table, bodies)
+        return _assemble(rho[:, 0], j12[:, 0], j22[:, 0], None)
+
+    out = chunked(kernel, q, core_ndims=(1,))
+    return out if attitude is None else _rotate_rows(out, attitude)
+
+
+def _rotate_rows(jac: np.ndarray, attitude: Any) -> np.ndarray:
+    t0 = attitude_matrix(attitude)
+    out = jac.copy()
+    out[..., 0:3, 3:] = t0 @ jac[..., 0:3, 3:]
+    out[..., 3:6, 3:] = t0 @ jac[..., 3:6, 3:]
+    return out
+
+
+def end_effector_jacobian(model: Model, q: Any, end_effector: str | int = 0, *, attitude: Any = None) -> np.ndarray:
+    """J+ of 1991 eq. 13 for an end effector, (..., 6, 6+N)."""
+    e = model.end_effector_index(end_effector)
+    return point_jacobian(model, q, int(model.end_effector_body[e]), model.end_effector_point[e], attitude=attitude)
+
+
+def actuation_jacobian(model: Model, q: Any, *, attitude: Any = None) -> np.ndarray:
+    """J_q of 1991 eq. 21, (..., 6+N, 6+N): Q_c = J_q^T [f_S, n_S, tau].
+
+    Maps zdot0 to [velocity of the spacecraft CM, omega0, qdot], all in the
+    spacecraft frame, so that the thruster force f_S and torque n_S (at the
+    spacecraft CM) are given in the spacecraft frame. Always invertible.
+    """
+    jac = point_jacobian(model, q, 0)
+    n = model.n_joints
+    out = np.zeros(jac.shape[:-2] + (6 + n, 6 + n))
+    out[..., 0:6, :] = jac
+    out[..., 6:, 6:] = np.eye(n)
+    if attitude is not None:
+        out[..., 0:3, 0:3] = np.swapaxes(attitude_matrix(attitude), -1, -2)
+    return out
+
+
+def task_jacobian(
+    model: Model,
+    q: Any,
+    *,
+    attitude: Any = None,
+    end_effectors: Any = None,
+    orientation: str | None = "euler321",
+    spacecraft: bool = True,
+) -> np.ndarray:
+    """J_z of 1991 eqs. 22-23: zdot1 = J_z zdot0, (..., rows, 6+N).
+
+    z1 stacks, for each end effector in ``end_effectors`` (default all), its
+    inertial position and orientation rates, then (``spacecraft=True``) the
+    spacecraft CM position and orientation rates. ``orientation`` is
+    ``"euler321"`` (3 rows, Θ of 1991 eq. 11; singular at ±90° pitch),
+    ``"quaternion"`` (4 rows, [x, y, z, w]) or ``None`` (positions only).
+    """
+    q = joint_array(model, q)
+    if orientation not in ("euler321", "quaternion", None):
+        raise ValueError(f"orientation: expected 'euler321', 'quaternion' or None, got {orientation!r}")
+    ees = range(model.n_end_effectors) if end_effectors is None else [model.end_effector_index(e) for e in np.atleast_1d(end_effectors)]
+    t0 = np.broadcast_to(attitude_matrix(attitude), q.shape[:-1] + (3, 3))
+    rot = body_rot = None
+    blocks = []
+    targets = [(int(model.end_effector_body[e]), model.end_effector_point[e]) for e in ees]
+    if spacecraft:
+        targets.append((0, model.com[0]))
+    for body, point in targets:
+        jac = point_jacobian(model, q, body, point, attitude=t0)
+        blocks.append(jac[..., 0:3, :])
+        if orientation is None:
+            continue
+        if rot is None:
+            body_rot = np.einsum("...ij,...bjk->...bik", t0, _rotations_batched(model, q))
+        rot = body_rot[..., body, :, :]  # type: ignore[index]
+        if orientation == "euler321":
+            rate = euler321_rate_matrix(euler321_from_matrix(rot))
+            blocks.append(np.linalg.solve(rate, jac[..., 3:6, :]))
+        else:
+            from scipy.spatial.transform import Rotation
+
+            quat = Rotation.from_matrix(rot.reshape(-1, 3, 3)).as_quat().reshape(rot.shape[:-2] + (4,))
+            blocks.append(quaternion_rate_matrix(quat) @ jac[..., 3:6, :])
+    return np.concatenate(blocks, axis=-2)
+
+
+def _rotations_batched(model: Model, q: np.ndarray) -> np.ndarray:
+    return chunked(lambda qq: _rotations(model, qq), q, core_ndims=(1,))
+
+
+def _gj_kernel(model: Model, qq: np.ndarray) -> np.ndarray:
+    rot = _rotations(model, qq)
+    d, d_q, _ = _blocks(model, rot, need_qq=False)
+    x = np.linalg.solve(d, d_q)  # omega0 = -x qdot   (1992 eq. 12 with zero momentum)
+    rho, j12, j22 = _point_terms(model, rot, model.bary.end_effector_table, model.end_effector_body)
+    n_e = rho.shape[1]
+    out = np.empty((qq.shape[0], n_e, 6, model.n_joints))
+    # v = J12 qdot + J11 omega0 = J12 qdot - rho x omega0 = (J12 + rho x X) qdot
+    out[:, :, 0:3, :] = j12 + np.cross(rho[:, :, :, None], x[:, None, :, :], axis=2)
+    out[:, :, 3:6, :] = j22 - x[:, None]
+    return out.reshape(qq.shape[0], 6 * n_e, model.n_joints)
+
+
+def generalized_jacobian(model: Model, q: Any) -> np.ndarray:
+    """The generalized Jacobian ⁰J* of 1992 eq. 14, (..., 6E, N), spacecraft frame.
+
+    Rows [v; w] for each end effector in ``model.end_effector_names`` order:
+    end-effector velocities V_E = diag(T0, ..., T0) ⁰J* qdot of a free-floating
+    system with zero linear and angular momentum. For nonzero momentum add
+    :func:`generalized_jacobian_drift`.
+    """
+    q = joint_array(model, q)
+    return chunked(lambda qq: _gj_kernel(model, qq), q, core_ndims=(1,))
+
+
+def generalized_jacobian_drift(
+    model: Model, q: Any, angular_momentum: Any, linear_momentum: Any = None, *, attitude: Any = None
+) -> np.ndarray:
+    """End-effector velocity (..., 6E) at qdot = 0 due to nonzero system momentum.
+
+    With angular momentum h (about the system CM) and linear momentum p, both
+    inertial, V_E = diag(T0) ⁰J* qdot + drift, where per end effector
+    drift = [p/M + T0 (w_d x rho_E); T0 w_d] and w_d = D^-1 T0^T h (1992 eq. 12).
+    """
+    q = joint_array(model, q)
+    t0 = attitude_matrix(attitude)
+    h = np.asarray(angular_momentum, dtype=float)
+    if h.shape[-1:] != (3,):
+        raise ShapeError(f"angular_momentum: expected shape (..., 3), got {h.shape}")
+    h0 = np.einsum("...ji,...j->...i", t0, h)
+
+    def kernel(qq: np.ndarray, hh: np.ndarray) -> np.ndarray:
+        rot = _rotations(model, qq)
+        d, _, _ = _blocks(model, rot, need_qq=False)
+        wd = np.linalg.solve(d, hh[..., None])[..., 0]
+        rho, _, _ = _point_terms(model, rot, model.bary.end_effector_table, model.end_effector_body)
+        return np.concatenate([np.cross(wd[:, None, :], rho), np.broadcast_to(wd[:, None, :], rho.shape)], axis=-1)
+
+    drift0 = chunked(kernel, q, h0, core_ndims=(1, 1))  # (..., E, 6)
+    drift = np.concatenate(
+        [np.einsum("...ij,...ej->...ei", t0, drift0[..., 0:3]), np.einsum("...ij,...ej->...ei", t0, drift0[..., 3:6])], axis=-1
+    )
+    if linear_momentum is not None:
+        p = np.asarray(linear_momentum, dtype=float)
+        if p.shape[-1:] != (3,):
+            raise ShapeError(f"linear_momentum: expected shape (..., 3), got {p.shape}")
+        drift = drift + np.concatenate([p / model.total_mass, np.zeros_like(p)], axis=-1)[..., None, :]
+    return drift.reshape(drift.shape[:-2] + (-1,))
+
+
+def jacobian_determinant(model: Model, q: Any) -> np.ndarray:
+    """det ⁰J*(q) (1992 eq. 17), (...). Zero at dynamic singularities.
+
+    For a planar model J* is taken in the plane: the rows [v_x, v_y] of every
+    end effector (2E x N, as in the 1992 paper's examples); otherwise all 6E
+    rows. That matrix must be square; for redundant systems use
+    :func:`manipulability`.
+    """
+    jac = _singularity_rows(model, generalized_jacobian(model, q))
+    if jac.shape[-1] != jac.shape[-2]:
+        raise ShapeError(
+            f"J* has shape {jac.shape[-2:]} here, not square, so it has no determinant; "
+            "use ff.manipulability(model, q) (sqrt det J* J*^T) or the smallest singular value"
+        )
+    return np.linalg.det(jac)
+
+
+def manipulability(model: Model, q: Any) -> np.ndarray:
+    """sqrt(det(J* J*^T)) with J* in the plane for planar models (see :func:`jacobian_determinant`), (...)."""
+    jac = _singularity_rows(model, generalized_jacobian(model, q))
+    if jac.shape[-2] > jac.shape[-1]:
+        return np.sqrt(np.abs(np.linalg.det(np.swapaxes(jac, -1, -2) @ jac)))
+    return np.sqrt(np.abs(np.linalg.det(jac @ np.swapaxes(jac, -1, -2))))
+
+
+def _singularity_rows(model: Model, jac: np.ndarray) -> np.ndarray:
+    if not model.is_planar:
+        return jac
+    rows = np.concatenate([[6 * e, 6 * e + 1] for e in range(model.n_end_effectors)])
+    return jac[..., rows, :]
