@@ -8,8 +8,19 @@ for frames, units and orders.
 
 from __future__ import annotations
 
-from . import conventions, models
+from . import conventions, models, planar
 from .barycentric import BarycentricVectors, barycentric_vectors
+from .dynamics import (
+    ExternalWrench,
+    actuation_from_generalized_forces,
+    forward_dynamics,
+    generalized_forces,
+    inverse_dynamics,
+    nonlinear_forces,
+    point_bias_acceleration,
+    spacecraft_fixed_dynamics,
+    system_inertia_matrix_rate,
+)
 from .errors import (
     FreeflyerError,
     ModelError,
@@ -47,12 +58,14 @@ from .momentum import (
     linear_momentum,
     system_inertia_matrix,
 )
-from . import planar
+from .singularity import DeterminantMap, jacobian_determinant_map
 
 __version__ = "0.1.0"
 
 __all__ = [
     "BarycentricVectors",
+    "DeterminantMap",
+    "ExternalWrench",
     "FreeflyerError",
     "InertiaBlocks",
     "Model",
@@ -62,6 +75,7 @@ __all__ = [
     "ShapeError",
     "SingularConfigurationError",
     "UnknownNameError",
+    "actuation_from_generalized_forces",
     "actuation_jacobian",
     "angular_momentum",
     "barycentric_vectors",
@@ -71,21 +85,29 @@ __all__ = [
     "end_effector_jacobian",
     "end_effector_positions",
     "end_effector_rotations",
+    "forward_dynamics",
     "forward_kinematics",
+    "generalized_forces",
     "generalized_jacobian",
     "generalized_jacobian_drift",
     "inertia_blocks",
+    "inverse_dynamics",
     "jacobian_determinant",
+    "jacobian_determinant_map",
     "kinetic_energy",
     "linear_momentum",
     "load",
     "manipulability",
     "models",
+    "nonlinear_forces",
     "planar",
+    "point_bias_acceleration",
     "point_jacobian",
     "point_positions",
     "save",
+    "spacecraft_fixed_dynamics",
     "system_cm",
     "system_inertia_matrix",
+    "system_inertia_matrix_rate",
     "task_jacobian",
 ]

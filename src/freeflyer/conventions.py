@@ -59,8 +59,8 @@ from .errors import ShapeError
 
 __all__ = [
     "QUATERNION_ORDER",
-    "attitude_matrix",
     "as_quaternion",
+    "attitude_matrix",
     "euler321_from_matrix",
     "euler321_rate_matrix",
     "quaternion_rate_matrix",
@@ -74,7 +74,7 @@ QUATERNION_ORDER = ("x", "y", "z", "w")
 def skew(v: np.ndarray) -> np.ndarray:
     """Cross-product matrix ``[v]x`` of (..., 3) vectors, shape (..., 3, 3)."""
     v = np.asarray(v, dtype=float)
-    out = np.zeros(v.shape + (3,))
+    out = np.zeros((*v.shape, 3))
     out[..., 0, 1] = -v[..., 2]
     out[..., 0, 2] = v[..., 1]
     out[..., 1, 0] = v[..., 2]
@@ -101,8 +101,7 @@ def as_quaternion(attitude: Any) -> np.ndarray:
     norm = np.linalg.norm(quat, axis=-1)
     if np.any(np.abs(norm - 1.0) > 1e-6):
         raise ValueError(
-            f"attitude: quaternion norm {np.max(np.abs(norm - 1.0)) + 1:.6g} is not 1; "
-            "pass a unit quaternion [x, y, z, w] (scalar last)"
+            f"attitude: quaternion norm {np.max(np.abs(norm - 1.0)) + 1:.6g} is not 1; pass a unit quaternion [x, y, z, w] (scalar last)"
         )
     return quat
 
@@ -122,7 +121,7 @@ def attitude_matrix(attitude: Any) -> np.ndarray:
         return arr
     quat = as_quaternion(arr)
     flat = Rotation.from_quat(quat.reshape(-1, 4)).as_matrix()
-    return flat.reshape(quat.shape[:-1] + (3, 3))
+    return flat.reshape((*quat.shape[:-1], 3, 3))
 
 
 def euler321_from_matrix(matrix: np.ndarray) -> np.ndarray:
@@ -135,7 +134,7 @@ def euler321_from_matrix(matrix: np.ndarray) -> np.ndarray:
     matrix = np.asarray(matrix, dtype=float)
     flat = matrix.reshape(-1, 3, 3)
     zyx = Rotation.from_matrix(flat).as_euler("ZYX")  # yaw, pitch, roll
-    return zyx[:, ::-1].reshape(matrix.shape[:-2] + (3,))
+    return zyx[:, ::-1].reshape((*matrix.shape[:-2], 3))
 
 
 def euler321_rate_matrix(theta: np.ndarray) -> np.ndarray:
@@ -149,7 +148,7 @@ def euler321_rate_matrix(theta: np.ndarray) -> np.ndarray:
     # omega = yaw_rate*e_z + pitch_rate*Rz e_y + roll_rate*Rz Ry e_x.
     # The paper prints -sin(theta1), cos(theta1) in the second column; the
     # derivation gives theta3 (the yaw) there: a misprint, see docs/paper-notes.md.
-    out = np.zeros(theta.shape[:-1] + (3, 3))
+    out = np.zeros((*theta.shape[:-1], 3, 3))
     out[..., 0, 0] = np.cos(t2) * np.cos(t3)
     out[..., 1, 0] = np.cos(t2) * np.sin(t3)
     out[..., 2, 0] = -np.sin(t2)
@@ -167,7 +166,7 @@ def quaternion_rate_matrix(quat: np.ndarray) -> np.ndarray:
     """
     quat = np.asarray(quat, dtype=float)
     x, y, z, w = (quat[..., i] for i in range(4))
-    out = np.empty(quat.shape[:-1] + (4, 3))
+    out = np.empty((*quat.shape[:-1], 4, 3))
     # dq/dt = 1/2 [omega; 0] ⊗ q for omega in the outer (inertial) frame.
     out[..., 0, :] = np.stack([w, z, -y], axis=-1)
     out[..., 1, :] = np.stack([-z, w, x], axis=-1)

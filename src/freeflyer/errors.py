@@ -12,10 +12,10 @@ from collections.abc import Iterable
 __all__ = [
     "FreeflyerError",
     "ModelError",
-    "ShapeError",
-    "UnknownNameError",
-    "SingularConfigurationError",
     "NearSingularWarning",
+    "ShapeError",
+    "SingularConfigurationError",
+    "UnknownNameError",
 ]
 
 

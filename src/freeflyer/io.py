@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 from .errors import ModelError
 from .model import Model, ModelBuilder
 
-__all__ = ["load", "save", "load_toml", "load_urdf", "to_toml_dict", "to_urdf_string"]
+__all__ = ["load", "load_toml", "load_urdf", "save", "to_toml_dict", "to_urdf_string"]
 
 _BODY_KEYS = {"name", "mass", "inertia", "com", "end_effector", "end_effector_name", "frame"}
 _JOINT_KEYS = {"name", "type", "parent", "child", "origin", "rpy", "axis", "limits"}
@@ -135,7 +135,13 @@ def to_toml_dict(model: Model) -> dict[str, Any]:
                 frames.append(
                     (
                         {"name": frame_name, "frame": True},
-                        {"name": f"{frame_name}_fixed", "type": "fixed", "parent": name, "child": frame_name, "origin": _list(model.end_effector_point[e])},
+                        {
+                            "name": f"{frame_name}_fixed",
+                            "type": "fixed",
+                            "parent": name,
+                            "child": frame_name,
+                            "origin": _list(model.end_effector_point[e]),
+                        },
                     )
                 )
         bodies.append(body)
@@ -168,9 +174,15 @@ def _frame_name(model: Model, e: int) -> str:
 # --------------------------------------------------------------------- URDF
 def load_urdf(path: str | Path) -> Model:
     """Read a URDF file (via yourdfpy). Root link = spacecraft; each leaf link an end effector."""
+    import xml.etree.ElementTree as ElementTree
+
     import yourdfpy
 
     path = Path(path)
+    try:  # yourdfpy silently falls back to a recovering parser on bad XML: check well-formedness first
+        ElementTree.parse(path)
+    except ElementTree.ParseError as exc:
+        raise ModelError(str(path), f"malformed URDF XML: {exc}", "fix the file so that it is valid URDF XML") from None
     try:
         urdf = yourdfpy.URDF.load(
             str(path), build_scene_graph=False, load_meshes=False, build_collision_scene_graph=False, load_collision_meshes=False
@@ -199,7 +211,9 @@ def from_urdf_robot(robot: Any, source: str = "") -> Model:
     for i, joint in enumerate(robot.joints):
         path = f"{source or 'urdf'}: joint[{i}] ({joint.name})"
         if joint.type not in ("revolute", "continuous", "fixed"):
-            raise ModelError(f"{path}.type", f"unsupported joint type {joint.type!r}", "freeflyer models revolute, continuous and fixed joints")
+            raise ModelError(
+                f"{path}.type", f"unsupported joint type {joint.type!r}", "freeflyer models revolute, continuous and fixed joints"
+            )
         origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=float)
         limits = None
         if joint.type == "revolute" and joint.limit is not None and joint.limit.lower is not None and joint.limit.upper is not None:
@@ -226,7 +240,11 @@ def to_urdf_string(model: Model) -> str:
     for k, name in enumerate(model.body_names):
         origin = np.eye(4)
         origin[:3, 3] = model.com[k]
-        links.append(yourdfpy.Link(name=name, inertial=yourdfpy.Inertial(origin=origin, mass=float(model.mass[k]), inertia=np.array(model.inertia[k]))))
+        links.append(
+            yourdfpy.Link(
+                name=name, inertial=yourdfpy.Inertial(origin=origin, mass=float(model.mass[k]), inertia=np.array(model.inertia[k]))
+            )
+        )
         if k > 0:
             j = k - 1
             place = np.eye(4)
@@ -240,7 +258,9 @@ def to_urdf_string(model: Model) -> str:
                     child=name,
                     origin=place,
                     axis=np.array(model.joint_axis[k]),
-                    limit=yourdfpy.Limit(effort=0.0, velocity=0.0, lower=float(model.joint_lower[j]), upper=float(model.joint_upper[j])) if bounded else None,
+                    limit=yourdfpy.Limit(effort=0.0, velocity=0.0, lower=float(model.joint_lower[j]), upper=float(model.joint_upper[j]))
+                    if bounded
+                    else None,
                 )
             )
     for e in range(model.n_end_effectors):
@@ -248,9 +268,14 @@ def to_urdf_string(model: Model) -> str:
         links.append(yourdfpy.Link(name=ee_name))
         place = np.eye(4)
         place[:3, 3] = model.end_effector_point[e]
-        joints.append(yourdfpy.Joint(name=f"{ee_name}_fixed", type="fixed", parent=model.body_names[model.end_effector_body[e]], child=ee_name, origin=place))
+        joints.append(
+            yourdfpy.Joint(
+                name=f"{ee_name}_fixed", type="fixed", parent=model.body_names[model.end_effector_body[e]], child=ee_name, origin=place
+            )
+        )
     urdf = yourdfpy.URDF(robot=yourdfpy.Robot(name=model.name, links=links, joints=joints), build_scene_graph=False, load_meshes=False)
-    return urdf.write_xml_string()
+    text = urdf.write_xml_string()  # yourdfpy returns bytes (lxml tostring), despite its docstring
+    return text.decode("utf-8") if isinstance(text, bytes) else text
 
 
 # --------------------------------------------------------------------- save

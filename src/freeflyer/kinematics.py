@@ -13,19 +13,19 @@ from typing import Any
 
 import numpy as np
 
-from ._batch import chunked, joint_array
+from ._batch import chunked, joint_array, sincos
 from .conventions import attitude_matrix
 from .model import Model
 
 __all__ = [
-    "body_rotations",
-    "forward_kinematics",
-    "joint_axes",
     "body_cm_positions",
-    "system_cm",
+    "body_rotations",
     "end_effector_positions",
     "end_effector_rotations",
+    "forward_kinematics",
+    "joint_axes",
     "point_positions",
+    "system_cm",
 ]
 
 
@@ -38,8 +38,10 @@ def _rotations(model: Model, q: np.ndarray) -> np.ndarray:
     if n == 1:
         return out
     k_axis = model.rotation_basis
-    s = np.sin(q)[:, :, None, None]
-    c = 1.0 - np.cos(q)[:, :, None, None]
+    sin, cos = np.empty_like(q), np.empty_like(q)
+    sincos(q, sin, cos)
+    s = sin[:, :, None, None]
+    c = 1.0 - cos[:, :, None, None]
     local = k_axis[0] + s * k_axis[1] + c * k_axis[2]  # (C, N, 3, 3)
     parent = model.parent
     for k in range(1, n):
@@ -59,7 +61,7 @@ def body_rotations(model: Model, q: Any) -> np.ndarray:
 
 def _frames(model: Model, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     rot = _rotations(model, q)
-    pos = np.zeros(rot.shape[:2] + (3,))
+    pos = np.zeros((*rot.shape[:2], 3))
     for k in range(1, model.n_bodies):
         p = model.parent[k]
         pos[:, k] = pos[:, p] + rot[:, p] @ model.joint_origin[k]

@@ -85,7 +85,9 @@ def _rotation_matrix(rotation: Any, path: str) -> np.ndarray:
         return np.asarray(rotation.as_matrix())
     arr = np.asarray(rotation, dtype=float)
     if arr.shape != (3, 3) or not np.all(np.isfinite(arr)):
-        raise ModelError(path, f"expected a 3x3 rotation matrix, got shape {arr.shape}", "give a proper rotation (or rpy = [r, p, y] in a file)")
+        raise ModelError(
+            path, f"expected a 3x3 rotation matrix, got shape {arr.shape}", "give a proper rotation (or rpy = [r, p, y] in a file)"
+        )
     if np.max(np.abs(arr @ arr.T - np.eye(3))) > 1e-8 or np.linalg.det(arr) < 0:
         raise ModelError(path, "is not a proper rotation matrix", "give an orthonormal matrix with determinant +1")
     return arr
@@ -230,7 +232,9 @@ class ModelBuilder:
             except (TypeError, ValueError):
                 raise ModelError(f"{path}.limits", f"cannot read {limits!r} as [lower, upper]", "give two numbers in rad") from None
             if np.isnan(lower) or np.isnan(upper) or not lower < upper:
-                raise ModelError(f"{path}.limits", f"lower {lower} must be below upper {upper}", "give [lower, upper] in rad with lower < upper")
+                raise ModelError(
+                    f"{path}.limits", f"lower {lower} must be below upper {upper}", "give [lower, upper] in rad with lower < upper"
+                )
         self._joints.append(
             JointSpec(
                 name=name,
@@ -282,7 +286,9 @@ def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], s
         children[joint.parent].append(joint)
     roots = [b.name for b in bodies if b.name not in parent_joint]
     if not roots:
-        raise ModelError("joints", "every body has a parent joint, so the joints form a cycle", "leave the spacecraft (root) without a parent joint")
+        raise ModelError(
+            "joints", "every body has a parent joint, so the joints form a cycle", "leave the spacecraft (root) without a parent joint"
+        )
     if len(roots) > 1:
         raise ModelError(
             "joints",
@@ -447,7 +453,17 @@ class Model:
     rotation_basis: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        for name in ("joint_origin", "joint_rotation", "joint_axis", "joint_lower", "joint_upper", "mass", "com", "inertia", "end_effector_point"):
+        for name in (
+            "joint_origin",
+            "joint_rotation",
+            "joint_axis",
+            "joint_lower",
+            "joint_upper",
+            "mass",
+            "com",
+            "inertia",
+            "end_effector_point",
+        ):
             object.__setattr__(self, name, _frozen(getattr(self, name)))
         for name in ("parent", "end_effector_body"):
             object.__setattr__(self, name, _frozen(getattr(self, name), int))
@@ -529,7 +545,9 @@ class Model:
             raise ModelError(f"{path}.mass", f"must be positive and finite, got {mass!r}", "give the payload mass in kg (> 0)")
         i_p = inertia_matrix(inertia, f"{path}.inertia")
         k = int(self.end_effector_body[e])
-        c_p = self.end_effector_point[e] + _vector(offset, f"{path}.offset", "give the payload CM offset [x, y, z] from the end effector, body frame")
+        c_p = self.end_effector_point[e] + _vector(
+            offset, f"{path}.offset", "give the payload CM offset [x, y, z] from the end effector, body frame"
+        )
         m_k, c_k = self.mass[k], self.com[k]
         m_new = m_k + m_p
         c_new = (m_k * c_k + m_p * c_p) / m_new
@@ -544,7 +562,14 @@ class Model:
         mass_new[k] = m_new
         com_new[k] = c_new
         inertia_new[k] = shifted(self.inertia[k], m_k, c_k) + shifted(i_p, m_p, c_p)
-        record = {"name": name, "end_effector": self.end_effector_names[e], "mass": m_p, "inertia": i_p.tolist(), "cm": c_p.tolist(), "body": self.body_names[k]}
+        record = {
+            "name": name,
+            "end_effector": self.end_effector_names[e],
+            "mass": m_p,
+            "inertia": i_p.tolist(),
+            "cm": c_p.tolist(),
+            "body": self.body_names[k],
+        }
         return Model(
             name=f"{self.name}+{name}",
             body_names=self.body_names,
@@ -562,7 +587,7 @@ class Model:
             end_effector_body=self.end_effector_body,
             end_effector_point=self.end_effector_point,
             source=self.source,
-            payloads=self.payloads + (record,),
+            payloads=(*self.payloads, record),
         )
 
     def __repr__(self) -> str:

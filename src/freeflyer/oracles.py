@@ -21,7 +21,14 @@ import numpy as np
 from .conventions import as_quaternion, attitude_matrix
 from .model import Model
 
-__all__ = ["to_pinocchio", "pinocchio_configuration", "pinocchio_velocity"]
+__all__ = [
+    "acceleration_from_pinocchio",
+    "pinocchio_acceleration",
+    "pinocchio_configuration",
+    "pinocchio_velocity",
+    "to_pinocchio",
+    "velocity_from_pinocchio",
+]
 
 
 def to_pinocchio(model: Model) -> Any:
@@ -34,6 +41,7 @@ def to_pinocchio(model: Model) -> Any:
 
     pm = pin.Model()
     pm.name = model.name
+    pm.gravity = pin.Motion.Zero()  # in orbit: no gravity field (Pinocchio's default is -9.81 z)
     ids = [pm.addJoint(0, pin.JointModelFreeFlyer(), pin.SE3.Identity(), "root_joint")]
     for k in range(model.n_bodies):
         if k > 0:
@@ -71,3 +79,74 @@ def pinocchio_velocity(model: Model, pin_model: Any, q: Any, velocity: Any, atti
     omega0, qdot = velocity[3:6], velocity[6:]
     v_local = t0.T @ velocity[0:3] - np.cross(omega0, c) - jcom[:, 6:] @ qdot
     return np.concatenate([v_local, omega0, qdot])[: 6 + n]
+
+
+def _com_terms(model: Model, pin_model: Any, q: Any, qdot: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """c, J_c and Jdot_c qdot: the system CM seen from the spacecraft frame origin, spacecraft frame.
+
+    Computed by Pinocchio with the base held at rest at the identity, so that
+    its world frame is the spacecraft frame: c = data.com, J_c = the joint
+    columns of the CM Jacobian, Jdot_c qdot = the CM acceleration at qddot = 0.
+    """
+    import pinocchio as pin
+
+    data = pin_model.createData()
+    q_id = pinocchio_configuration(model, q)
+    jcom = pin.jacobianCenterOfMass(pin_model, data, q_id)
+    v_rel = np.concatenate([np.zeros(6), qdot])
+    pin.centerOfMass(pin_model, data, q_id, v_rel, np.zeros(pin_model.nv))
+    return np.array(data.com[0]), np.array(jcom[:, 6:]), np.array(data.acom[0])
+
+
+def pinocchio_acceleration(model: Model, pin_model: Any, q: Any, velocity: Any, acceleration: Any, attitude: Any = None) -> np.ndarray:
+    """Pinocchio acceleration a = d/dt [v_local, w_local, qdot] for freeflyer's zdot0, zddot0 (unbatched).
+
+    Differentiating the velocity map rdot_cm = T0 x, x = v_O + w x c + J_c qdot
+    (v_O: base origin velocity, base frame; w = omega0; c(q), J_c(q) as in
+    :func:`_com_terms`), with dT0/dt = T0 [w]x, dc/dt = J_c qdot and
+    d/dt (J_c qdot) = J_c qddot + Jdot_c qdot:
+
+        T0^T rddot_cm = w x x + dv_O/dt + dw/dt x c + w x (J_c qdot) + J_c qddot + Jdot_c qdot
+
+    so dv_O/dt = T0^T rddot_cm - w x (T0^T rdot_cm) - dw/dt x c - w x (J_c qdot)
+    - J_c qddot - Jdot_c qdot, while dw/dt = d/dt omega0 and the joint rows are
+    qddot. Pinocchio's free-flyer a is exactly (dv_O/dt, dw/dt): the time
+    derivative of the local-frame twist coordinates (the classical acceleration
+    of the base origin is dv_O/dt + w x v_O).
+    """
+    velocity = np.asarray(velocity, dtype=float)
+    acceleration = np.asarray(acceleration, dtype=float)
+    t0 = attitude_matrix(attitude)
+    omega, qdot = velocity[3:6], velocity[6:]
+    omega_dot, qddot = acceleration[3:6], acceleration[6:]
+    c, j_c, jdot_c_qdot = _com_terms(model, pin_model, q, qdot)
+    v_dot = (
+        t0.T @ acceleration[0:3]
+        - np.cross(omega, t0.T @ velocity[0:3])
+        - np.cross(omega_dot, c)
+        - np.cross(omega, j_c @ qdot)
+        - j_c @ qddot
+        - jdot_c_qdot
+    )
+    return np.concatenate([v_dot, omega_dot, qddot])
+
+
+def velocity_from_pinocchio(model: Model, pin_model: Any, q: Any, pin_velocity: Any, attitude: Any = None) -> np.ndarray:
+    """freeflyer's zdot0 from Pinocchio's [v_local, w_local, qdot] (unbatched): rdot_cm = T0 (v_O + w x c + J_c qdot)."""
+    nu = np.asarray(pin_velocity, dtype=float)
+    c, j_c, _ = _com_terms(model, pin_model, q, nu[6:])
+    return np.concatenate([attitude_matrix(attitude) @ (nu[0:3] + np.cross(nu[3:6], c) + j_c @ nu[6:]), nu[3:]])
+
+
+def acceleration_from_pinocchio(
+    model: Model, pin_model: Any, q: Any, pin_velocity: Any, pin_acceleration: Any, attitude: Any = None
+) -> np.ndarray:
+    """freeflyer's zddot0 from Pinocchio's velocity and acceleration (unbatched): the inverse of
+    :func:`pinocchio_acceleration`, rddot_cm = T0 (w x x + dv_O/dt + dw/dt x c + w x J_c qdot + J_c qddot + Jdot_c qdot)."""
+    nu = np.asarray(pin_velocity, dtype=float)
+    nu_dot = np.asarray(pin_acceleration, dtype=float)
+    omega, qdot = nu[3:6], nu[6:]
+    c, j_c, jdot_c_qdot = _com_terms(model, pin_model, q, qdot)
+    x = nu[0:3] + np.cross(omega, c) + j_c @ qdot
+    r_dd = np.cross(omega, x) + nu_dot[0:3] + np.cross(nu_dot[3:6], c) + np.cross(omega, j_c @ qdot) + j_c @ nu_dot[6:] + jdot_c_qdot
+    return np.concatenate([attitude_matrix(attitude) @ r_dd, nu_dot[3:]])

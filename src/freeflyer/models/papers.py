@@ -30,7 +30,9 @@ def planar_link(mass: float, inertia_zz: float) -> np.ndarray:
     return np.array([mass * LINK_RADIUS**2 / 2.0, inertia_zz, inertia_zz])
 
 
-def _add_arm(b: ModelBuilder, prefix: str, base: str, mount: tuple[float, float, float], links: list[tuple[float, float, float, float]]) -> None:
+def _add_arm(
+    b: ModelBuilder, prefix: str, base: str, mount: tuple[float, float, float], links: list[tuple[float, float, float, float]]
+) -> None:
     """Add a planar arm: links (l, r, m, I) mounted at ``mount`` (spacecraft frame)."""
     parent, origin = base, mount
     for k, (l_in, r_out, m, inertia) in enumerate(links, start=1):

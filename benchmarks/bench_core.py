@@ -1,0 +1,326 @@
+"""Core benchmark: J* and det J* over many random configurations, freeflyer against a Pinocchio loop.
+
+For each system, in the same process and run:
+
+* freeflyer: one batched call ``ff.generalized_jacobian(model, Q)`` and one
+  ``ff.jacobian_determinant(model, Q)`` (``ff.manipulability`` for a redundant arm, whose J* is
+  not square) on Q of shape (configs, N); best of ``repeats`` wall-clock times;
+* Pinocchio: a Python loop over a subsample, written the way a user would write it: per
+  configuration ``computeCentroidalMap``, ``computeJointJacobians``, ``updateFramePlacements``,
+  ``getFrameJacobian(..., LOCAL_WORLD_ALIGNED)`` per end effector, then
+  J* = J_q - J_b A_b^-1 A_q with numpy and ``np.linalg.det`` (sqrt det(J* J*ᵀ) for the redundant
+  arm); best of ``repeats`` as well;
+* optionally the same compiled freeflyer programs run by numba (``numba_backend``), reported
+  separately: freeflyer itself depends on numpy only.
+
+Before timing, J* and the determinant of both agree on a sample of configurations to 1e-10
+(relative to the largest entry), else the benchmark stops. Results: configurations per second,
+the ratios freeflyer / Pinocchio loop, machine information, as a dict for ``run.py`` to write.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+import freeflyer as ff
+from freeflyer.jacobians import _singularity_row_indices
+from freeflyer.oracles import pinocchio_configuration, to_pinocchio
+
+#: Agreement required between freeflyer and Pinocchio before timing (relative to the largest entry).
+VERIFY_RTOL = 1e-10
+TARGET_RATIO = 100.0
+GOAL_RATIO = 500.0
+
+
+@dataclass(frozen=True)
+class System:
+    key: str
+    description: str
+    model: ff.Model
+    square: bool  # J* (singularity rows) square: det J*; else manipulability sqrt det(J* J*ᵀ)
+
+    @property
+    def det_name(self) -> str:
+        return "det J*" if self.square else "manipulability sqrt(det(J* J*^T))"
+
+    def freeflyer_det(self, q: np.ndarray) -> np.ndarray:
+        return ff.jacobian_determinant(self.model, q) if self.square else ff.manipulability(self.model, q)
+
+
+def systems() -> list[System]:
+    paper = ff.models.papadopoulos1992()
+    arm = ff.models.spacecraft_7dof()
+    return [
+        System(
+            "papadopoulos1992",
+            "Papadopoulos 1992 two-arm planar system (N = 4; J* 12 x 4, det over the planar rows [vx, vy] of both end effectors: 4 x 4)",
+            paper,
+            True,
+        ),
+        System(
+            "spacecraft_7dof",
+            "1500 kg spacecraft with a 7-DOF iiwa-style arm, 3D (N = 7; J* 6 x 7 is not square: 'det' is the manipulability "
+            "sqrt(det(J* J*^T)), ff.manipulability)",
+            arm,
+            False,
+        ),
+    ]
+
+
+class PinocchioLoop:
+    """J* from Pinocchio's centroidal momentum map, one configuration at a time."""
+
+    def __init__(self, system: System) -> None:
+        import pinocchio as pin
+
+        self.pin = pin
+        self.system = system
+        model = system.model
+        self.pm = to_pinocchio(model)
+        self.data = self.pm.createData()
+        self.frames = [self.pm.getFrameId(name) for name in model.end_effector_names]
+        self.base = pinocchio_configuration(model, np.zeros(model.n_joints))
+        self.rows = _singularity_row_indices(model)
+
+    def jstar(self, q: np.ndarray) -> np.ndarray:
+        pin, pm, data = self.pin, self.pm, self.data
+        config = self.base.copy()
+        config[7:] = q
+        centroidal = pin.computeCentroidalMap(pm, data, config)
+        pin.computeJointJacobians(pm, data, config)
+        pin.updateFramePlacements(pm, data)
+        jac = np.vstack([pin.getFrameJacobian(pm, data, f, pin.LOCAL_WORLD_ALIGNED) for f in self.frames])
+        return jac[:, 6:] - jac[:, :6] @ np.linalg.solve(centroidal[:, :6], centroidal[:, 6:])
+
+    def det(self, q: np.ndarray) -> float:
+        jac = self.jstar(q)[self.rows]
+        if self.system.square:
+            return float(np.linalg.det(jac))
+        return float(np.sqrt(np.linalg.det(jac @ jac.T)))
+
+    def loop(self, which: str, qs: np.ndarray) -> list[Any]:
+        fn = self.jstar if which == "jstar" else self.det
+        return [fn(q) for q in qs]
+
+
+def best_of(fn: Callable[[], Any], repeats: int) -> dict[str, Any]:
+    """Best wall-clock and process-CPU time over ``repeats`` calls."""
+    wall, cpu = [], []
+    for _ in range(repeats):
+        c0, t0 = time.process_time(), time.perf_counter()
+        result = fn()
+        wall.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+        del result
+    return {"wall_s": wall, "cpu_s": cpu, "best_wall_s": min(wall), "best_cpu_s": min(cpu)}
+
+
+def rate(timing: dict[str, Any], n: int) -> dict[str, Any]:
+    out = dict(timing)
+    out["configs"] = n
+    out["configs_per_s"] = n / timing["best_wall_s"]
+    out["cpu_configs_per_s"] = n / timing["best_cpu_s"] if timing["best_cpu_s"] > 0 else None
+    return out
+
+
+def verify(system: System, loop: PinocchioLoop, q: np.ndarray, batch: int) -> dict[str, float]:
+    """freeflyer (as benchmarked: one batch of ``batch`` configurations) against Pinocchio on a sample."""
+    model = system.model
+    jstar = ff.generalized_jacobian(model, q[:batch])
+    dets = system.freeflyer_det(q[:batch])
+    picks = np.unique(np.concatenate([[0, batch - 1], np.random.default_rng(1).integers(0, batch, size=30)]))
+    err_j = err_d = 0.0
+    scale_d = 0.0
+    for i in picks:
+        ref = loop.jstar(q[i])
+        err_j = max(err_j, float(np.max(np.abs(jstar[i] - ref)) / np.max(np.abs(ref))))
+        ref_d = loop.det(q[i])
+        err_d = max(err_d, abs(float(dets[i]) - ref_d))
+        scale_d = max(scale_d, abs(ref_d))
+    err_d /= max(scale_d, 1e-300)
+    if not (err_j <= VERIFY_RTOL and err_d <= VERIFY_RTOL):
+        raise AssertionError(
+            f"{system.key}: freeflyer and Pinocchio disagree (J* {err_j:.1e}, {system.det_name} {err_d:.1e} > {VERIFY_RTOL})"
+        )
+    return {"max_rel_err_jstar": err_j, "max_rel_err_det": err_d, "configurations_checked": len(picks)}
+
+
+def machine_info() -> dict[str, Any]:
+    import numpy
+
+    info: dict[str, Any] = {
+        "cpu_count": os.cpu_count(),
+        "platform": platform.platform(),
+        "machine": platform.machine(),
+        "python": platform.python_version(),
+        "numpy": numpy.__version__,
+        "freeflyer": ff.__version__,
+    }
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            names = [line.split(":", 1)[1].strip() for line in f if line.startswith("model name")]
+        info["cpu"] = names[0] if names else platform.processor()
+    except OSError:
+        info["cpu"] = platform.processor()
+    try:
+        import pinocchio
+
+        info["pinocchio"] = pinocchio.__version__
+    except ImportError:
+        info["pinocchio"] = None
+    try:
+        import numba
+
+        info["numba"] = numba.__version__
+        info["numba_threads"] = numba.get_num_threads()
+    except ImportError:
+        info["numba"] = None
+    if hasattr(os, "getloadavg"):
+        info["load_average_at_start"] = list(os.getloadavg())
+    names = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
+    info["threads_env"] = {k: os.environ[k] for k in names if k in os.environ}
+    return info
+
+
+def bench_system(
+    system: System,
+    configs: int,
+    pinocchio_configs: int,
+    repeats: int,
+    numba: bool,
+    log: Callable[[str], None],
+) -> dict[str, Any]:
+    model = system.model
+    rng = np.random.default_rng(2024)
+    lower = np.where(np.isfinite(model.joint_lower), model.joint_lower, -np.pi)
+    upper = np.where(np.isfinite(model.joint_upper), model.joint_upper, np.pi)
+    q = rng.uniform(lower, upper, size=(configs, model.n_joints))
+    loop = PinocchioLoop(system)
+    result: dict[str, Any] = {
+        "description": system.description,
+        "n_bodies": model.n_bodies,
+        "n_joints": model.n_joints,
+        "n_end_effectors": model.n_end_effectors,
+        "jstar_shape": [6 * model.n_end_effectors, model.n_joints],
+        "det": system.det_name,
+    }
+    # first large calls: trace and compile this model's kernels (once per model; reported, not in the timings)
+    t0 = time.perf_counter()
+    ff.generalized_jacobian(model, q[:4096])
+    system.freeflyer_det(q[:4096])
+    result["freeflyer_warmup_s"] = time.perf_counter() - t0
+    log(f"[{system.key}] verifying against Pinocchio")
+    result["verification"] = verify(system, loop, q, min(configs, 4096))
+
+    log(f"[{system.key}] freeflyer (numpy), {configs:,} configurations, best of {repeats}")
+    ours = {
+        "jstar": rate(best_of(lambda: ff.generalized_jacobian(model, q), repeats), configs),
+        "det": rate(best_of(lambda: system.freeflyer_det(q), repeats), configs),
+    }
+    result["freeflyer"] = ours
+
+    sub = q[:pinocchio_configs]
+    log(f"[{system.key}] Pinocchio loop, {len(sub):,} configurations, best of {repeats}")
+    theirs = {
+        "jstar": rate(best_of(lambda: loop.loop("jstar", sub), repeats), len(sub)),
+        "det": rate(best_of(lambda: loop.loop("det", sub), repeats), len(sub)),
+    }
+    result["pinocchio_loop"] = theirs
+    result["ratio"] = {k: ours[k]["configs_per_s"] / theirs[k]["configs_per_s"] for k in ours}
+    result["ratio_cpu"] = {k: ours[k]["cpu_configs_per_s"] / theirs[k]["cpu_configs_per_s"] for k in ours}
+    if numba:
+        result["numba"] = bench_numba(system, q, theirs, repeats, log)
+    return result
+
+
+def bench_numba(system: System, q: np.ndarray, theirs: dict[str, Any], repeats: int, log: Callable[[str], None]) -> dict[str, Any]:
+    """The same compiled programs run by numba (evaluation only; see numba_backend.py)."""
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return {"available": False}
+    from freeflyer._batch import compiled
+    from freeflyer.jacobians import _build
+    from numba_backend import NumbaProgram
+
+    model = system.model
+    out: dict[str, Any] = {"available": True}
+    det_key = "det" if system.square else "manipulability"
+    for name, key in (("jstar", "jstar"), ("det", det_key)):
+        program = compiled(model, key, lambda eager, key=key: _build(model, key, eager))
+        assert program is not None
+        log(f"[{system.key}] numba {name}: compiling")
+        nb = NumbaProgram(program, parallel=True, batch_first=(name == "jstar"))
+        check = nb(q[:4096])
+        ref = ff.generalized_jacobian(model, q[:4096]).reshape(4096, -1) if name == "jstar" else system.freeflyer_det(q[:4096])[:, None]
+        ref = ref if name == "jstar" else ref.T
+        err = float(np.max(np.abs(check - ref)) / np.max(np.abs(ref)))
+        timing = rate(best_of(lambda nb=nb: nb(q), repeats), len(q))
+        timing["compile_s"] = nb.compile_seconds
+        timing["max_rel_err_vs_numpy"] = err
+        timing["ratio"] = timing["configs_per_s"] / theirs[name]["configs_per_s"]
+        out[name] = timing
+    return out
+
+
+def run(configs: int, pinocchio_configs: int, repeats: int, numba: bool, log: Callable[[str], None] = print) -> dict[str, Any]:
+    report: dict[str, Any] = {
+        "benchmark": "core: J* and det J* over random configurations, freeflyer (one batched call) vs a Python loop over Pinocchio",
+        "machine": machine_info(),
+        "settings": {"configs": configs, "pinocchio_configs": pinocchio_configs, "repeats": repeats, "numba": numba},
+        "targets": {"min_ratio": TARGET_RATIO, "goal_ratio": GOAL_RATIO},
+        "notes": [
+            "configs_per_s: configurations / best wall-clock time of one call over the whole batch (freeflyer) "
+            "or of the loop over the subsample (Pinocchio); cpu_configs_per_s uses process CPU time instead, "
+            "which is steadier on a shared machine (the numpy path is single-threaded).",
+            "ratio = freeflyer configs/s / Pinocchio-loop configs/s, both measured in this run.",
+            "freeflyer's batched J* is returned with the batch axis innermost in memory (a transposed view), "
+            "which is what makes it cheap to write; values and shape are the documented ones.",
+            "numba: the same traced programs compiled by numba with prange over all cores; evaluation only, not a dependency.",
+        ],
+        "systems": {},
+    }
+    for system in systems():
+        report["systems"][system.key] = bench_system(system, configs, pinocchio_configs, repeats, numba, log)
+    if hasattr(os, "getloadavg"):
+        report["machine"]["load_average_at_end"] = list(os.getloadavg())
+    return report
+
+
+def table(report: dict[str, Any]) -> str:
+    """A readable table of the report."""
+    lines = []
+    head = f"{'system':18s} {'quantity':36s} {'freeflyer cfg/s':>16s} {'Pinocchio cfg/s':>16s} {'ratio':>8s} {'ratio (cpu)':>12s}"
+    lines.append(head)
+    lines.append("-" * len(head))
+    for key, res in report["systems"].items():
+        for name in ("jstar", "det"):
+            label = "J*" if name == "jstar" else res["det"]
+            ours, theirs = res["freeflyer"][name], res["pinocchio_loop"][name]
+            lines.append(
+                f"{key:18s} {label:36s} {ours['configs_per_s']:16,.0f} {theirs['configs_per_s']:16,.0f} "
+                f"{res['ratio'][name]:7.0f}x {res['ratio_cpu'][name]:11.0f}x"
+            )
+    numba_rows = [(k, r["numba"]) for k, r in report["systems"].items() if r.get("numba", {}).get("available")]
+    if numba_rows:
+        lines.append("")
+        lines.append(f"numba back end (evaluation, {report['machine'].get('numba_threads')} threads):")
+        for key, nb in numba_rows:
+            for name in ("jstar", "det"):
+                label = "J*" if name == "jstar" else report["systems"][key]["det"]
+                t = nb[name]
+                lines.append(
+                    f"{key:18s} {label:36s} {t['configs_per_s']:16,.0f} {'':>16s} {t['ratio']:7.0f}x   (compile {t['compile_s']:.1f} s)"
+                )
+    lines.append("")
+    lines.append(f"target: >= {report['targets']['min_ratio']:.0f}x on both systems (goal {report['targets']['goal_ratio']:.0f}x)")
+    machine = report["machine"]
+    lines.append(f"machine: {machine.get('cpu')}, {machine['cpu_count']} cpus, load average {machine.get('load_average_at_start')}")
+    return "\n".join(lines)

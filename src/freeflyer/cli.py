@@ -1,0 +1,214 @@
+"""The ``freeflyer`` command line (typer): ``freeflyer COMMAND ...`` or ``python -m freeflyer COMMAND ...``.
+
+A thin layer over the library: each command resolves its inputs, calls
+library functions, and prints or writes their results. Shared rules:
+
+- MODEL is a ``.toml`` / ``.urdf`` path or a built-in name (:data:`BUILTIN_MODELS`).
+- Bad input (a :class:`~freeflyer.FreeflyerError`, ``ValueError`` or ``OSError``
+  such as a missing file) prints ONE line ``error: <message>`` on stderr and
+  exits with code 1; no traceback.
+- Files the user names as input are only read. ``--out`` directories are
+  created; files written there are outputs and are replaced on a re-run.
+
+New commands register on :data:`app` with ``@app.command("name")`` and wrap
+their body in ``with user_errors():``.
+"""
+
+from __future__ import annotations
+
+import difflib
+import json
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import typer
+
+from .errors import FreeflyerError, ModelError
+from .io import load
+from .model import Model
+from .models import papadopoulos1991, papadopoulos1992
+from .report import PAPER_PAYLOAD, model_info, paper_systems, render_text, write_model_reports
+from .singularity import jacobian_determinant_map
+
+__all__ = ["BUILTIN_MODELS", "app", "load_model", "main", "output_dir", "user_errors", "with_payload"]
+
+#: Built-in models by CLI name: (description, factory).
+BUILTIN_MODELS: dict[str, tuple[str, Callable[[], Model]]] = {
+    "papadopoulos1991": ("Papadopoulos & Dubowsky 1991, §V example", papadopoulos1991),
+    "papadopoulos1992": ("Papadopoulos 1992, Table I, two arms", lambda: papadopoulos1992(arms=2)),
+    "papadopoulos1992-one-arm": ("Papadopoulos 1992, Table I, manipulator 2 removed", lambda: papadopoulos1992(arms=1)),
+}
+
+_MODEL_SUFFIXES = (".toml", ".urdf", ".xml")
+
+app = typer.Typer(
+    name="freeflyer",
+    help="Kinematics, dynamics and workspaces of space robots (Papadopoulos & Dubowsky 1991, Papadopoulos 1992).",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+# --------------------------------------------------------------------- shared pieces
+@contextmanager
+def user_errors() -> Iterator[None]:
+    """Turn bad input into one ``error: ...`` line on stderr and exit code 1."""
+    try:
+        yield
+    except (FreeflyerError, OSError, ValueError) as exc:
+        message = " ".join(str(exc).split()) or type(exc).__name__
+        typer.echo(f"error: {message}", err=True)
+        raise typer.Exit(1) from None
+
+
+def load_model(spec: str) -> Model:
+    """A built-in model by name (case and ``-``/``_`` ignored) or a model file by path."""
+    key = spec.strip().lower().replace("_", "-")
+    if key in BUILTIN_MODELS:
+        return BUILTIN_MODELS[key][1]()
+    path = Path(spec)
+    if path.is_file():
+        return load(path)
+    if path.exists():
+        raise ModelError(spec, "is not a file", "give the path of a .toml or .urdf model file")
+    if path.suffix.lower() in _MODEL_SUFFIXES or "/" in spec or "\\" in spec:
+        raise FileNotFoundError(f"{spec}: no such model file")
+    close = difflib.get_close_matches(key, list(BUILTIN_MODELS), n=3, cutoff=0.5)
+    hint = f"did you mean {', '.join(repr(c) for c in close)}? " if close else ""
+    raise ModelError(
+        f"MODEL {spec!r}",
+        "is neither a model file nor a built-in model",
+        f"{hint}built-in models: {', '.join(BUILTIN_MODELS)}; or give a .toml or .urdf path",
+    )
+
+
+def _inertia(text: str) -> Any:
+    try:
+        values = [float(v) for v in text.replace(",", " ").split()]
+    except ValueError:
+        raise ValueError(f"--payload-inertia: cannot read {text!r} as numbers; give I (kg m²), Ixx,Iyy,Izz, or 9 numbers") from None
+    if len(values) == 1:
+        return values[0]
+    if len(values) == 3:
+        return values
+    if len(values) == 9:
+        return np.reshape(values, (3, 3))
+    raise ValueError(f"--payload-inertia: expected 1, 3 or 9 numbers, got {len(values)}")
+
+
+def with_payload(model: Model, mass: float | None, inertia: str | None, end_effector: str | None) -> Model:
+    """Apply the ``--payload-*`` options: the model after capturing a payload, or the model unchanged."""
+    if mass is None:
+        if inertia is not None or end_effector is not None:
+            raise ValueError("--payload-inertia and --payload-ee need --payload-mass")
+        return model
+    if inertia is None:
+        raise ValueError("--payload-mass needs --payload-inertia (kg m² about the payload CM: I, or Ixx,Iyy,Izz)")
+    ee: str | int = 0
+    if end_effector is not None:
+        ee = int(end_effector) if end_effector.isdigit() and end_effector not in model.end_effector_names else end_effector
+    return model.with_payload(end_effector=ee, mass=mass, inertia=_inertia(inertia))
+
+
+def output_dir(path: Path) -> Path:
+    """Create the ``--out`` directory (and its parents); refuse a path that is a file."""
+    if path.exists() and not path.is_dir():
+        raise FileExistsError(f"--out {path}: exists and is not a directory; choose another --out")
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def _version(value: bool) -> None:
+    if value:
+        from . import __version__
+
+        typer.echo(f"freeflyer {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit.")] = False,
+) -> None:
+    """Kinematics, dynamics and workspaces of space robots (Papadopoulos & Dubowsky 1991, Papadopoulos 1992)."""
+
+
+# --------------------------------------------------------------------- commands
+ModelArg = Annotated[
+    str,
+    typer.Argument(metavar="MODEL", help=f"A .toml or .urdf model file, or a built-in model: {', '.join(BUILTIN_MODELS)}."),
+]
+PayloadMass = Annotated[float | None, typer.Option("--payload-mass", help="Inspect the model after capturing a payload of this mass (kg).")]
+PayloadInertia = Annotated[
+    str | None,
+    typer.Option(
+        "--payload-inertia", help="Payload inertia about its CM (kg m²): I (isotropic; Izz for planar models), Ixx,Iyy,Izz, or 9 numbers."
+    ),
+]
+PayloadEE = Annotated[
+    str | None, typer.Option("--payload-ee", help="End effector (name or index) that holds the payload; default the first.")
+]
+
+
+@app.command("inspect")
+def inspect_command(
+    model: ModelArg,
+    json_output: Annotated[bool, typer.Option("--json", help="Print one JSON object instead of text.")] = False,
+    payload_mass: PayloadMass = None,
+    payload_inertia: PayloadInertia = None,
+    payload_ee: PayloadEE = None,
+) -> None:
+    """Print a model: joints, end effectors, mass properties and barycentric vectors (1992 eqs. 5-9)."""
+    with user_errors():
+        info = model_info(with_payload(load_model(model), payload_mass, payload_inertia, payload_ee))
+    typer.echo(json.dumps(info, indent=2) if json_output else render_text(info).rstrip("\n"))
+
+
+DETJ_MAP_PNG = "detJ_map_1992_one_arm_captured.png"
+
+
+@app.command("demo")
+def demo_command(
+    out: Annotated[Path, typer.Option("--out", help="Output directory (created).")] = Path("out"),
+) -> None:
+    """Write reports of the papers' systems (OUT/models/) and the det J* map of the captured one-arm system."""
+    from matplotlib.figure import Figure
+
+    with user_errors():
+        out = output_dir(out)
+        systems = paper_systems()
+        mass, inertia = PAPER_PAYLOAD
+        written = write_model_reports(
+            systems,
+            out / "models",
+            title="freeflyer: the systems of Papadopoulos & Dubowsky 1991 and Papadopoulos 1992",
+            preamble=(
+                "Written by `freeflyer demo`; one section per system, the same content as `freeflyer inspect MODEL`.",
+                "",
+                f"![det J* map of the 1992 one-arm system after capture](../{DETJ_MAP_PNG})",
+            ),
+        )
+        captured = next(model for slug, _, model in systems if slug == "papadopoulos1992_one_arm_captured")
+        dmap = jacobian_determinant_map(captured, (0, 1), n=361)
+        fig = Figure(figsize=(6.4, 5.6), layout="constrained")
+        ax = fig.add_subplot()
+        dmap.plot(ax)
+        ax.set_title(
+            f"1992 one-arm system after capturing the payload ({mass:g} kg, {inertia:g} kg m²)\n"
+            "dynamic singularities: det ⁰J*(q) = 0 (1992 eq. 17)",
+            fontsize="medium",
+        )
+        png = out / DETJ_MAP_PNG
+        fig.savefig(png, dpi=200)
+        written.append(png)
+    for path in written:
+        typer.echo(str(path))
+
+
+def main() -> None:
+    """Entry point of the ``freeflyer`` script and of ``python -m freeflyer``."""
+    app(prog_name="freeflyer")

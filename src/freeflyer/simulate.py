@@ -1,0 +1,417 @@
+"""Simulation with controllers in the loop: ``simulate`` (one run) and ``rollout`` (a batch).
+
+The state is integrated in the paper's coordinates (1991 eq. 19): the system
+CM position and velocity (inertial), the spacecraft attitude quaternion
+[x, y, z, w] with dq/dt = 1/2 q ⊗ [omega0, 0] (omega0 in the spacecraft frame),
+omega0, q and qdot. Accelerations come from :func:`freeflyer.forward_dynamics`.
+
+Integrators: an adaptive one from scipy (``solve_ivp``, default DOP853 with
+tolerances exposed), or fixed-step classical RK4 (``fixed_step=dt``), which is
+also what batched rollouts use (scipy has no batched fixed-step integrator).
+After each RK4 step the quaternion is renormalised (a projection onto unit
+quaternions, of the order of the local truncation error).
+
+A controller is a callable ``controller(t, state) -> joint torques (N,) or
+Actuation``. With ``sample_period`` it is sampled and held (zero-order hold);
+without it, it is evaluated continuously (adaptive) or once per step (RK4).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from functools import partial
+from typing import Any
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from .dynamics import forward_dynamics
+from .errors import FreeflyerError, ShapeError
+from .model import Model
+from .state import Actuation, State, pack_state, unpack_state
+from .trajectory import Trajectory
+
+__all__ = ["ActuatorLimits", "SimulationError", "rollout", "simulate"]
+
+Controller = Callable[[float, State], Any]
+
+
+class SimulationError(FreeflyerError, RuntimeError):
+    """A simulation failed part-way; ``trajectory`` holds what was computed up to the failure."""
+
+    def __init__(self, message: str, trajectory: Trajectory | None = None) -> None:
+        super().__init__(message)
+        self.trajectory = trajectory
+
+
+@dataclass(frozen=True)
+class ActuatorLimits:
+    """Symmetric actuator limits: each component is saturated to [-limit, +limit].
+
+    ``joint_torque`` (scalar or (N,), N m), ``spacecraft_force`` (scalar or (3,),
+    N, spacecraft frame), ``spacecraft_torque`` (scalar or (3,), N m). ``None``
+    means unlimited. Saturation is recorded in ``Trajectory.saturated``.
+    """
+
+    joint_torque: Any = None
+    spacecraft_force: Any = None
+    spacecraft_torque: Any = None
+
+    def apply(self, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        saturated = np.zeros(tau.shape[:-1], dtype=bool)
+        out = []
+        for value, limit, name in (
+            (tau, self.joint_torque, "joint_torque"),
+            (force, self.spacecraft_force, "spacecraft_force"),
+            (torque, self.spacecraft_torque, "spacecraft_torque"),
+        ):
+            if limit is None:
+                out.append(value)
+                continue
+            lim = np.asarray(limit, dtype=float)
+            if np.any(lim <= 0) or not np.all(np.isfinite(lim)):
+                raise ValueError(f"limits.{name}: every limit must be positive and finite, got {limit!r}")
+            clipped = np.clip(value, -lim, lim)
+            saturated |= np.any(clipped != value, axis=-1)
+            out.append(clipped)
+        return out[0], out[1], out[2], saturated
+
+
+def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Controller output -> (tau, f_S, n_S) arrays, with errors that name what is wrong."""
+    n = model.n_joints
+    if not isinstance(raw, Actuation):
+        raw = Actuation(joint_torque=raw)
+    parts = []
+    for name, size in (("joint_torque", n), ("spacecraft_force", 3), ("spacecraft_torque", 3)):
+        value = getattr(raw, name)
+        if value is None:
+            parts.append(np.zeros((*batch, size)))
+            continue
+        arr = np.asarray(value, dtype=float)
+        if arr.shape != (*batch, size):
+            raise ShapeError(f"controller returned {name} of shape {arr.shape}; expected {(*batch, size)}")
+        if not np.all(np.isfinite(arr)):
+            raise ValueError(f"controller returned a non-finite {name}: {arr}")
+        parts.append(arr)
+    return parts[0], parts[1], parts[2]
+
+
+def _derivative(model: Model, x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray, external: Any) -> np.ndarray:
+    n = model.n_joints
+    quat = x[..., 6:10] / np.linalg.norm(x[..., 6:10], axis=-1, keepdims=True)
+    omega = x[..., 10:13]
+    q, qdot = x[..., 13 : 13 + n], x[..., 13 + n :]
+    velocity = np.concatenate([x[..., 3:6], omega, qdot], axis=-1)
+    acc = forward_dynamics(model, q, velocity, tau, spacecraft_force=force, spacecraft_torque=torque, attitude=quat, external=external)
+    vec, w = quat[..., 0:3], quat[..., 3:4]
+    dquat = 0.5 * np.concatenate([w * omega + np.cross(vec, omega), -np.sum(vec * omega, axis=-1, keepdims=True)], axis=-1)
+    return np.concatenate([x[..., 3:6], acc[..., 0:3], dquat, acc[..., 3:6], qdot, acc[..., 6:]], axis=-1)
+
+
+def _rk4_step(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, dt: float) -> np.ndarray:
+    k1 = f(x)
+    k2 = f(x + 0.5 * dt * k1)
+    k3 = f(x + 0.5 * dt * k2)
+    k4 = f(x + dt * k3)
+    out = x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    out[..., 6:10] /= np.linalg.norm(out[..., 6:10], axis=-1, keepdims=True)
+    return out
+
+
+class _Recorder:
+    def __init__(self, model: Model) -> None:
+        self.model = model
+        self.t: list[float] = []
+        self.x: list[np.ndarray] = []
+        self.act: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+
+    def add(self, t: float, x: np.ndarray, act: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> None:
+        self.t.append(float(t))
+        x = x.copy()
+        x[..., 6:10] /= np.linalg.norm(x[..., 6:10], axis=-1, keepdims=True)
+        self.x.append(x)
+        self.act.append(act)
+
+    def trajectory(self, status: str = "finished", message: str = "") -> Trajectory:
+        model = self.model
+        n = model.n_joints
+        if self.x:
+            xs = np.stack(self.x)
+            acts = [np.stack([a[i] for a in self.act]) for i in range(4)]
+        else:
+            xs = np.zeros((0, 13 + 2 * n))
+            acts = [np.zeros((0, n)), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0,), dtype=bool)]
+        s = unpack_state(model, xs)
+        return Trajectory(
+            t=np.asarray(self.t),
+            q=np.array(s.q),
+            qdot=np.array(s.qdot),
+            omega=np.array(s.omega),
+            attitude=np.array(s.attitude),
+            r_cm=np.array(s.r_cm),
+            v_cm=np.array(s.v_cm),
+            joint_torque=acts[0],
+            spacecraft_force=acts[1],
+            spacecraft_torque=acts[2],
+            saturated=acts[3],
+            status=status,
+            message=message,
+            model_name=model.name,
+            model=model,
+        )
+
+
+def _progress(enabled: bool, duration: float) -> Any:
+    if not enabled:
+        return None
+    from rich.progress import Progress
+
+    bar = Progress(transient=True)
+    bar.start()
+    bar.add_task("simulating", total=duration)
+    return bar
+
+
+def simulate(
+    model: Model,
+    initial_state: State,
+    duration: float,
+    controller: Controller | None = None,
+    *,
+    method: str = "DOP853",
+    rtol: float = 1e-10,
+    atol: float = 1e-10,
+    fixed_step: float | None = None,
+    sample_period: float | None = None,
+    output_period: float | None = None,
+    limits: ActuatorLimits | None = None,
+    events: Sequence[Callable[[float, State], float]] = (),
+    external: Any = (),
+    progress: bool = False,
+) -> Trajectory:
+    """Simulate ``model`` from ``initial_state`` for ``duration`` seconds.
+
+    ``controller(t, state)`` returns joint torques (N,) or an :class:`Actuation`
+    (None: free-floating, no actuation). Adaptive integration (scipy
+    ``solve_ivp`` with ``method``, ``rtol``, ``atol``) unless ``fixed_step``
+    (s) selects RK4. ``sample_period`` holds the controller output between
+    samples. States are output every ``output_period`` (default 0.01 s, or the
+    fixed step if larger). ``events``: callables (t, state) -> float; the run
+    stops where one crosses zero (scipy's ``terminal``/``direction`` attributes
+    are honoured). ``external``: wrenches passed to forward dynamics.
+
+    A failure part-way (controller error, non-finite state, integrator
+    failure) raises :class:`SimulationError` whose ``trajectory`` holds the
+    states computed up to the failure.
+    """
+    state = initial_state.resolve(model)
+    if np.asarray(state.q).ndim != 1:
+        raise ShapeError("initial_state: simulate takes one state; use freeflyer.rollout for a batch of states")
+    duration = float(duration)
+    if not np.isfinite(duration) or duration <= 0:
+        raise ValueError(f"duration: must be positive and finite, got {duration!r}")
+    for name, value in (("fixed_step", fixed_step), ("sample_period", sample_period), ("output_period", output_period)):
+        if value is not None and (not np.isfinite(value) or value <= 0):
+            raise ValueError(f"{name}: must be positive, got {value!r}")
+    limits = limits or ActuatorLimits()
+    period = output_period or max(0.01, fixed_step or 0.0)
+    x0 = pack_state(state)
+    rec = _Recorder(model)
+    zero = (np.zeros(model.n_joints), np.zeros(3), np.zeros(3))
+
+    def command(t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        if controller is None:
+            return (*zero, np.array(False))
+        raw = controller(t, unpack_state(model, x))
+        tau, force, torque = _actuation(model, raw, ())
+        return limits.apply(tau, force, torque)
+
+    bar = _progress(progress, duration)
+    try:
+        if fixed_step is not None:
+            status = _run_rk4(model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar)
+        else:
+            status = _run_adaptive(model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar)
+    except SimulationError as exc:
+        raise SimulationError(str(exc), rec.trajectory("failed", str(exc))) from exc
+    except (FreeflyerError, ValueError, ArithmeticError, RuntimeError, TypeError, KeyError, IndexError) as exc:
+        t_fail = rec.t[-1] if rec.t else 0.0
+        message = f"simulation failed after t = {t_fail:.6g} s: {type(exc).__name__}: {exc}"
+        raise SimulationError(message, rec.trajectory("failed", message)) from exc
+    finally:
+        if bar is not None:
+            bar.stop()
+    return rec.trajectory(*status)
+
+
+def _check_finite(t: float, x: np.ndarray) -> None:
+    if not np.all(np.isfinite(x)):
+        raise SimulationError(f"the state became non-finite at t = {t:.6g} s (unstable controller or too large a step?)")
+
+
+def _event_value(events: Sequence[Any], model: Model, t: float, x: np.ndarray) -> np.ndarray:
+    return np.array([float(ev(t, unpack_state(model, x))) for ev in events])
+
+
+def _run_rk4(
+    model: Model,
+    x0: np.ndarray,
+    duration: float,
+    dt: float,
+    sample_period: float | None,
+    period: float,
+    command: Any,
+    events: Sequence[Any],
+    external: Any,
+    rec: _Recorder,
+    bar: Any,
+) -> tuple[str, str]:
+    steps = round(duration / dt)
+    if abs(steps * dt - duration) > 1e-9 * duration:
+        raise ValueError(f"fixed_step: {dt} does not divide duration {duration}; choose a step that does")
+    hold = sample_period or dt
+    stride = max(1, round(period / dt))
+    x, t = x0.copy(), 0.0
+    act = command(0.0, x)
+    next_sample = hold
+    rec.add(0.0, x, act)
+    prev_ev = _event_value(events, model, 0.0, x) if events else None
+    for i in range(1, steps + 1):
+        tau, force, torque, _ = act
+        x = _rk4_step(partial(_derivative, model, tau=tau, force=force, torque=torque, external=external), x, dt)
+        t = i * dt
+        _check_finite(t, x)
+        if t >= next_sample - 1e-12 * hold and i < steps:
+            act = command(t, x)
+            next_sample += hold
+        if i % stride == 0 or i == steps:
+            rec.add(t, x, act)
+        if bar is not None and i % max(1, steps // 100) == 0:
+            bar.update(bar.task_ids[0], completed=t)
+        if events:
+            now = _event_value(events, model, t, x)
+            for k, ev in enumerate(events):
+                direction = getattr(ev, "direction", 0)
+                crossed = (prev_ev[k] < 0 <= now[k] and direction >= 0) or (prev_ev[k] > 0 >= now[k] and direction <= 0)  # type: ignore[index]
+                if crossed and getattr(ev, "terminal", True):
+                    if rec.t[-1] != t:
+                        rec.add(t, x, act)
+                    return "event", f"event {k} ({getattr(ev, '__name__', 'event')}) at t = {t:.6g} s"
+            prev_ev = now
+    return "finished", ""
+
+
+def _run_adaptive(
+    model: Model,
+    x0: np.ndarray,
+    duration: float,
+    method: str,
+    rtol: float,
+    atol: float,
+    sample_period: float | None,
+    period: float,
+    command: Any,
+    events: Sequence[Any],
+    external: Any,
+    rec: _Recorder,
+    bar: Any,
+) -> tuple[str, str]:
+    n_out = int(np.floor(duration / period + 1e-9))
+    t_out = np.append(np.arange(n_out + 1) * period, duration) if n_out * period < duration - 1e-12 else np.arange(n_out + 1) * period
+    if sample_period is not None:
+        bounds = np.unique(np.append(np.arange(0.0, duration, sample_period), duration))
+    else:
+        bounds = np.linspace(0.0, duration, 101 if bar is not None else 2)
+    ivp_events = []
+    for ev in events:
+
+        def wrapped(t: float, y: np.ndarray, ev: Any = ev) -> float:
+            return float(ev(t, unpack_state(model, y)))
+
+        wrapped.terminal = getattr(ev, "terminal", True)  # type: ignore[attr-defined]
+        wrapped.direction = getattr(ev, "direction", 0)  # type: ignore[attr-defined]
+        ivp_events.append(wrapped)
+    x = x0.copy()
+    rec.add(0.0, x, command(0.0, x))
+    for a, b in itertools.pairwise(bounds):
+        held = command(a, x) if sample_period is not None else None
+
+        def rhs(t: float, y: np.ndarray, held: Any = held) -> np.ndarray:
+            tau, force, torque, _ = held if held is not None else command(t, y)
+            return _derivative(model, y, tau, force, torque, external)
+
+        inside = t_out[(t_out > a + 1e-12) & (t_out <= b + 1e-12)]
+        sol = solve_ivp(
+            rhs, (a, b), x, method=method, rtol=rtol, atol=atol, t_eval=inside if inside.size else None, events=ivp_events or None
+        )
+        if sol.status == -1:
+            raise SimulationError(f"integrator failed between t = {a:.6g} and {b:.6g} s: {sol.message}")
+        times = sol.t if inside.size else np.array([])
+        for k, tk in enumerate(times):
+            _check_finite(float(tk), sol.y[:, k])
+            rec.add(float(tk), sol.y[:, k], held if held is not None else command(float(tk), sol.y[:, k]))
+        x = sol.y[:, -1] if sol.y.shape[1] else x
+        if bar is not None:
+            bar.update(bar.task_ids[0], completed=b)
+        if sol.status == 1:
+            hit = [k for k, te in enumerate(sol.t_events) if len(te)]
+            t_ev = float(sol.t_events[hit[0]][0])
+            y_ev = sol.y_events[hit[0]][0]
+            rec.add(t_ev, y_ev, held if held is not None else command(t_ev, y_ev))
+            return "event", f"event {hit[0]} at t = {t_ev:.6g} s"
+    return "finished", ""
+
+
+def rollout(
+    model: Model,
+    initial_states: State,
+    duration: float,
+    *,
+    dt: float,
+    controller: Controller | None = None,
+    sample_period: float | None = None,
+    output_period: float | None = None,
+    limits: ActuatorLimits | None = None,
+    external: Any = (),
+) -> Trajectory:
+    """Simulate a batch of initial states at once with fixed-step RK4.
+
+    ``initial_states`` is a :class:`State` whose fields have a leading batch
+    axis B (fields may broadcast). ``controller(t, states)`` sees the whole
+    batch (fields (B, ...)) and returns batched torques (B, N) or an
+    :class:`Actuation` of batched arrays; per-trajectory controller parameters
+    are arrays of length B that the controller closes over. Returns a
+    :class:`Trajectory` whose arrays are (T, B, ...).
+    """
+    state = initial_states.resolve(model)
+    x = pack_state(state)
+    if x.ndim != 2:
+        raise ShapeError(f"initial_states: expected fields with one leading batch axis (B, ...), got a state of shape {x.shape}")
+    batch = x.shape[:1]
+    limits = limits or ActuatorLimits()
+    steps = round(float(duration) / dt)
+    if steps <= 0 or abs(steps * dt - duration) > 1e-9 * duration:
+        raise ValueError(f"dt: {dt} must divide duration {duration}")
+    hold = round((sample_period or dt) / dt)
+    stride = max(1, round((output_period or dt) / dt))
+    zero = (np.zeros((*batch, model.n_joints)), np.zeros((*batch, 3)), np.zeros((*batch, 3)))
+
+    def command(t: float, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        if controller is None:
+            return (*zero, np.zeros(batch, dtype=bool))
+        return limits.apply(*_actuation(model, controller(t, unpack_state(model, xx)), batch))
+
+    rec = _Recorder(model)
+    act = command(0.0, x)
+    rec.add(0.0, x, act)
+    for i in range(1, steps + 1):
+        tau, force, torque, _ = act
+        x = _rk4_step(partial(_derivative, model, tau=tau, force=force, torque=torque, external=external), x, dt)
+        if i % hold == 0 and i < steps:
+            act = command(i * dt, x)
+        if i % stride == 0 or i == steps:
+            rec.add(i * dt, x, act)
+    return rec.trajectory()

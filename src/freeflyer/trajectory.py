@@ -1,0 +1,205 @@
+"""A simulated trajectory: states against time, the actuation applied, and derived quantities.
+
+Arrays are time first. Frames: r_cm, v_cm, momentum and end-effector positions
+inertial; omega and the actuation in the spacecraft frame (see conventions).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import dataclass, field, fields
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .conventions import attitude_matrix, euler321_from_matrix
+from .kinematics import end_effector_positions, point_positions
+from .model import Model
+from .momentum import angular_momentum, kinetic_energy
+
+__all__ = ["Trajectory"]
+
+_ARRAYS = (
+    "t",
+    "q",
+    "qdot",
+    "omega",
+    "attitude",
+    "r_cm",
+    "v_cm",
+    "joint_torque",
+    "spacecraft_force",
+    "spacecraft_torque",
+    "saturated",
+)
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """States at the output times ``t`` (T,), and the actuation held over each output instant.
+
+    Batched rollouts (:func:`freeflyer.rollout`) carry a batch axis after time:
+    ``q`` is (T, B, N), ``r_cm`` (T, B, 3), and so on.
+
+    ``status`` is ``"finished"``, ``"event"`` (a terminal event stopped it) or
+    ``"failed"`` (then ``message`` says why and the arrays hold what was
+    computed before the failure). Derived quantities need ``model``.
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qdot: np.ndarray
+    omega: np.ndarray
+    attitude: np.ndarray
+    r_cm: np.ndarray
+    v_cm: np.ndarray
+    joint_torque: np.ndarray
+    spacecraft_force: np.ndarray
+    spacecraft_torque: np.ndarray
+    saturated: np.ndarray
+    status: str = "finished"
+    message: str = ""
+    model_name: str = ""
+    model: Model | None = field(default=None, repr=False)
+
+    # ----------------------------------------------------------- derived
+    def _need_model(self) -> Model:
+        if self.model is None:
+            raise ValueError("this trajectory has no model attached; load it with Trajectory.load(path, model=...)")
+        return self.model
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """zdot0 = [v_cm, omega, qdot] (T, 6+N)."""
+        return np.concatenate([self.v_cm, self.omega, self.qdot], axis=-1)
+
+    @cached_property
+    def angular_momentum(self) -> np.ndarray:
+        """Angular momentum about the system CM, inertial frame (T, 3)."""
+        return angular_momentum(self._need_model(), self.q, self.velocity, attitude=self.attitude)
+
+    @cached_property
+    def linear_momentum(self) -> np.ndarray:
+        """M v_cm, inertial frame (T, 3)."""
+        return self._need_model().total_mass * self.v_cm
+
+    @cached_property
+    def kinetic_energy(self) -> np.ndarray:
+        """1/2 zdot0^T H+ zdot0 (T,)."""
+        return kinetic_energy(self._need_model(), self.q, self.velocity)
+
+    @cached_property
+    def end_effector_positions(self) -> np.ndarray:
+        """End-effector positions in the inertial frame (T, E, 3): r_cm + T0 rho_E."""
+        return self.r_cm[..., None, :] + end_effector_positions(self._need_model(), self.q, attitude=self.attitude)
+
+    @cached_property
+    def spacecraft_position(self) -> np.ndarray:
+        """Spacecraft CM in the inertial frame (T, 3)."""
+        model = self._need_model()
+        rho = point_positions(model, self.q, 0, model.com[0])
+        return self.r_cm + np.einsum("...ij,...j->...i", attitude_matrix(self.attitude), rho)
+
+    @cached_property
+    def spacecraft_euler321(self) -> np.ndarray:
+        """Spacecraft Euler 3-2-1 angles [roll, pitch, yaw] (T, 3), rad (1991 eq. 11)."""
+        return euler321_from_matrix(attitude_matrix(self.attitude))
+
+    # ----------------------------------------------------------- plot
+    def plot(self, axes: Any = None) -> list[Any]:
+        """Joint angles, spacecraft attitude and position, and actuation against time.
+
+        ``axes``: four matplotlib Axes (or None: a new figure). Returns the line artists.
+        """
+        if axes is None:
+            from matplotlib.figure import Figure
+
+            fig = Figure(figsize=(9, 7), layout="constrained")
+            axes = fig.subplots(2, 2, sharex=True).ravel()
+        ax_q, ax_att, ax_pos, ax_act = axes
+        artists: list[Any] = []
+        artists += ax_q.plot(self.t, np.degrees(self.q))
+        ax_q.set_ylabel("joint angle (deg)")
+        artists += ax_att.plot(self.t, np.degrees(self.spacecraft_euler321) if self.model is not None else self.attitude)
+        ax_att.set_ylabel("spacecraft roll, pitch, yaw (deg)" if self.model is not None else "quaternion")
+        artists += ax_pos.plot(self.t, self.spacecraft_position if self.model is not None else self.r_cm)
+        ax_pos.set_ylabel("spacecraft CM x, y, z (m)" if self.model is not None else "system CM (m)")
+        artists += ax_act.plot(self.t, self.joint_torque)
+        artists += ax_act.plot(self.t, self.spacecraft_force, linestyle="--")
+        ax_act.set_ylabel("joint torque (N m), thrust (N, dashed)")
+        for ax in (ax_pos, ax_act):
+            ax.set_xlabel("time (s)")
+        return artists
+
+    # ----------------------------------------------------------- files
+    def save(self, path: str | Path, *, overwrite: bool = False) -> Path:
+        """Write ``.npz`` (all arrays and metadata) or ``.csv`` (one row per time). Never overwrites unless asked."""
+        path = Path(path)
+        if path.exists() and not overwrite:
+            raise FileExistsError(f"{path}: exists; freeflyer does not overwrite files (pass overwrite=True or choose another name)")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        meta = {"status": self.status, "message": self.message, "model_name": self.model_name or (self.model.name if self.model else "")}
+        if path.suffix == ".npz":
+            with path.open("wb") as fh:
+                np.savez(fh, **{name: getattr(self, name) for name in _ARRAYS}, meta=json.dumps(meta))
+        elif path.suffix == ".csv":
+            header, columns = self._columns()
+            with path.open("w", newline="", encoding="utf-8") as fh:
+                fh.write(f"# freeflyer trajectory {json.dumps(meta)}\n")
+                writer = csv.writer(fh)
+                writer.writerow(header)
+                writer.writerows(np.column_stack(columns).tolist())
+        else:
+            raise ValueError(f"{path}: unknown trajectory file type {path.suffix!r}; use .npz or .csv")
+        return path
+
+    def _columns(self) -> tuple[list[str], list[np.ndarray]]:
+        header: list[str] = []
+        columns: list[np.ndarray] = []
+        for name in _ARRAYS:
+            arr = np.asarray(getattr(self, name), dtype=float)
+            arr2 = arr.reshape(arr.shape[0], -1)
+            header += [name] if arr.ndim == 1 else [f"{name}[{i}]" for i in range(arr2.shape[1])]
+            columns.append(arr2)
+        return header, columns
+
+    @classmethod
+    def load(cls, path: str | Path, model: Model | None = None) -> Trajectory:
+        """Read a trajectory written by :meth:`save`; attach ``model`` for the derived quantities."""
+        path = Path(path)
+        if path.suffix == ".npz":
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {name: data[name] for name in _ARRAYS}
+                meta = json.loads(str(data["meta"]))
+        elif path.suffix == ".csv":
+            with path.open(encoding="utf-8") as fh:
+                first = fh.readline()
+                meta = json.loads(first.split(" ", 3)[3]) if first.startswith("# freeflyer trajectory") else {}
+                header = next(csv.reader([fh.readline()]))
+                table = np.loadtxt(fh, delimiter=",", ndmin=2)
+            arrays = {}
+            for name in _ARRAYS:
+                cols = [i for i, h in enumerate(header) if h == name or h.startswith(f"{name}[")]
+                arrays[name] = table[:, cols[0]] if header[cols[0]] == name else table[:, cols]
+            arrays["saturated"] = arrays["saturated"].astype(bool)
+        else:
+            raise ValueError(f"{path}: unknown trajectory file type {path.suffix!r}; use .npz or .csv")
+        return cls(
+            **arrays,
+            status=meta.get("status", "finished"),
+            message=meta.get("message", ""),
+            model_name=meta.get("model_name", ""),
+            model=model,
+        )
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+    def equals(self, other: Trajectory, rtol: float = 0.0, atol: float = 0.0) -> bool:
+        """Array-wise comparison (for round-trip tests)."""
+        return all(
+            np.allclose(getattr(self, f.name), getattr(other, f.name), rtol=rtol, atol=atol) for f in fields(self) if f.name in _ARRAYS
+        )

@@ -1,0 +1,300 @@
+"""The command line: inspect (text, JSON, files, payloads), demo, and one-line errors."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner, Result
+
+import freeflyer as ff
+from freeflyer.cli import app
+
+runner = CliRunner()
+
+
+def invoke(*args: str) -> Result:
+    return runner.invoke(app, list(args))
+
+
+def inspect_json(*args: str) -> dict[str, Any]:
+    result = invoke("inspect", *args, "--json")
+    assert result.exit_code == 0, result.output
+    assert result.stderr == ""
+    return json.loads(result.stdout)
+
+
+def assert_one_line_error(result: Result, *needles: str) -> str:
+    assert result.exit_code == 1, result.output
+    assert result.stdout == ""
+    lines = result.stderr.splitlines()
+    assert len(lines) == 1, result.stderr
+    assert lines[0].startswith("error: ")
+    assert "Traceback" not in result.output
+    for needle in needles:
+        assert needle in lines[0]
+    return lines[0]
+
+
+def sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def by_body(info: dict[str, Any], key: str) -> dict[str, Any]:
+    return {row["body"]: row[key] for row in info["barycentric"]}
+
+
+# --------------------------------------------------------------------- inspect
+def test_inspect_text_papadopoulos1992() -> None:
+    result = invoke("inspect", "papadopoulos1992")
+    assert result.exit_code == 0, result.output
+    assert result.stderr == ""
+    out = result.stdout
+    assert out.splitlines()[0] == "papadopoulos1992"
+    assert "total mass          540 kg" in out
+    assert "planar              yes" in out
+    for name in ("arm1_q1", "arm1_q2", "arm2_q1", "arm2_q2", "arm1_ee", "arm2_ee", "spacecraft", "arm2_link2"):
+        assert name in out
+    for section in ("Joints", "End effectors", "Mass properties", "Barycentric vectors (1992 eqs. 5-9)"):
+        assert f"\n{section}\n" in out
+    # μ* of arm 1, link 1: (40 + 30) / 540; r* to joint 2 of arm 1: 1 - (40 * 0.5 + 30 * 1) / 540
+    row = next(line for line in out.splitlines() if line.split()[:2] == ["1", "arm1_link1"] and "0.12963" in line)
+    assert "[0.0925926, 0, 0]" in row
+    assert "0.907407" in next(line for line in out.splitlines() if line.split()[:2] == ["2", "arm1_link2"] and "[0.0277778" in line)
+    assert "none" in next(line for line in out.splitlines() if line.split()[:2] == ["0", "arm1_q1"])
+
+
+def test_inspect_json_matches_library() -> None:
+    info = inspect_json("papadopoulos1992")
+    model = ff.models.papadopoulos1992(arms=2)
+    bary = ff.barycentric_vectors(model)
+    assert info["name"] == "papadopoulos1992"
+    assert info["total_mass"] == 540.0
+    assert info["is_planar"] is True
+    assert [j["name"] for j in info["joints"]] == list(model.joint_names)
+    assert [e["name"] for e in info["end_effectors"]] == ["arm1_ee", "arm2_ee"]
+    assert [b["name"] for b in info["bodies"]] == list(model.body_names)
+    mu = [row["outboard_mass_fraction"] for row in info["barycentric"]]
+    np.testing.assert_allclose(mu, bary.outboard_mass_fraction, rtol=1e-15)
+    np.testing.assert_allclose(mu, [1.0, 70 / 540, 30 / 540, 70 / 540, 30 / 540], rtol=1e-14)
+    for key in ("r_star", "l_star", "c_star", "barycenter"):
+        np.testing.assert_allclose([row[key] for row in info["barycentric"]], getattr(bary, key), rtol=1e-15, atol=1e-15)
+    r_star = by_body(info, "r_star")
+    assert r_star["arm1_link1"] == pytest.approx([0.5, 0.0, 0.0])
+    assert r_star["arm2_link1"] == pytest.approx([-0.5, 0.0, 0.0])
+    assert r_star["arm1_link2"] == pytest.approx([1.0 - 50.0 / 540.0, 0.0, 0.0])
+    np.testing.assert_allclose(info["system_cm_q0"], ff.system_cm(model, np.zeros(4)), atol=1e-15)
+    # at q = 0 every link points along +x: link CMs at x = 1, 2 (arm 1) and 0, 1 (arm 2)
+    assert info["system_cm_q0"] == pytest.approx([(40 * 1.0 + 30 * 2.0 + 40 * 0.0 + 30 * 1.0) / 540, 0.0, 0.0])
+    joint = info["joints"][2]
+    assert joint == {
+        "index": 2,
+        "name": "arm2_q1",
+        "parent": "spacecraft",
+        "child": "arm2_link1",
+        "origin": [-0.5, 0.0, 0.0],
+        "axis": [0.0, 0.0, 1.0],
+        "limits_deg": None,
+    }
+    link2 = info["bodies"][2]
+    assert link2["mass"] == 30.0 and link2["cm"] == [0.5, 0.0, 0.0]
+    assert link2["principal_moments"] == pytest.approx([30 * 0.05**2 / 2, 2.5, 2.5])
+    ee = info["end_effectors"][0]
+    assert ee["body"] == "arm1_link2" and ee["point"] == [1.0, 0.0, 0.0]
+    np.testing.assert_allclose(ee["r_star"], bary.end_effector_table[0, 2], rtol=1e-15)
+
+
+def test_inspect_text_and_json_agree_on_every_model() -> None:
+    for name, mass in (("papadopoulos1991", 47.0), ("papadopoulos1992-one-arm", 470.0), ("PAPADOPOULOS1992_ONE_ARM", 470.0)):
+        info = inspect_json(name)
+        assert info["total_mass"] == mass
+        text = invoke("inspect", name).stdout
+        assert f"{mass:g} kg" in text and info["name"] in text
+
+
+def test_inspect_toml_and_urdf_files(tmp_path: Path) -> None:
+    model = ff.models.papadopoulos1992(arms=2)
+    builtin = inspect_json("papadopoulos1992")
+    for suffix in ("toml", "urdf"):
+        path = ff.save(model, tmp_path / f"robot.{suffix}")
+        info = inspect_json(str(path))
+        assert info["source"] == str(path)
+        assert info["total_mass"] == pytest.approx(540.0)
+        assert info["is_planar"] is True
+        assert [j["name"] for j in info["joints"]] == list(model.joint_names)
+        for key in ("outboard_mass_fraction", "r_star", "c_star"):
+            theirs, ours = by_body(info, key), by_body(builtin, key)
+            assert set(theirs) == set(ours)
+            for body in ours:
+                np.testing.assert_allclose(theirs[body], ours[body], atol=1e-12)
+        text = invoke("inspect", str(path))
+        assert text.exit_code == 0 and str(path) in text.stdout
+
+
+def test_inspect_with_payload() -> None:
+    info = inspect_json("papadopoulos1992-one-arm", "--payload-mass", "400", "--payload-inertia", "25")
+    captured = ff.models.papadopoulos1992(arms=1).with_payload(end_effector=0, mass=400.0, inertia=25.0)
+    assert info["total_mass"] == pytest.approx(870.0)
+    assert info["name"] == captured.name
+    np.testing.assert_allclose([r["outboard_mass_fraction"] for r in info["barycentric"]], captured.bary.outboard_mass_fraction)
+    np.testing.assert_allclose([r["r_star"] for r in info["barycentric"]], captured.bary.r_star, atol=1e-15)
+    assert info["bodies"][2]["mass"] == pytest.approx(430.0)
+    (payload,) = info["payloads"]
+    assert payload["mass"] == 400.0 and payload["end_effector"] == "arm1_ee"
+    assert np.diag(payload["inertia"]) == pytest.approx([25.0, 25.0, 25.0])
+
+    second = inspect_json("papadopoulos1992", "--payload-mass", "400", "--payload-inertia", "10,20,25", "--payload-ee", "arm2_ee")
+    assert second["payloads"][0]["end_effector"] == "arm2_ee"
+    assert np.diag(second["payloads"][0]["inertia"]) == pytest.approx([10.0, 20.0, 25.0])
+    assert by_body(second, "outboard_mass_fraction")["arm2_link2"] == pytest.approx(430.0 / 940.0)
+    assert by_body(second, "outboard_mass_fraction")["arm1_link2"] == pytest.approx(30.0 / 940.0)
+    by_index = inspect_json("papadopoulos1992", "--payload-mass", "400", "--payload-inertia", "10,20,25", "--payload-ee", "1")
+    assert by_index == second
+
+    text = invoke("inspect", "papadopoulos1992-one-arm", "--payload-mass", "400", "--payload-inertia", "25")
+    assert "870 kg" in text.stdout and "payload" in text.stdout and "held by arm1_ee" in text.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "needles"),
+    [
+        (["--payload-mass", "400"], ["--payload-inertia"]),
+        (["--payload-inertia", "25"], ["--payload-mass"]),
+        (["--payload-mass", "-1", "--payload-inertia", "25"], ["mass", "positive"]),
+        (["--payload-mass", "400", "--payload-inertia", "1,2"], ["--payload-inertia", "1, 3 or 9"]),
+        (["--payload-mass", "400", "--payload-inertia", "heavy"], ["--payload-inertia", "heavy"]),
+        (["--payload-mass", "400", "--payload-inertia", "25", "--payload-ee", "arm3_ee"], ["arm3_ee", "Did you mean"]),
+    ],
+)
+def test_payload_errors(args: list[str], needles: list[str]) -> None:
+    assert_one_line_error(invoke("inspect", "papadopoulos1992", *args), *needles)
+
+
+# --------------------------------------------------------------------- errors
+def test_missing_file(tmp_path: Path) -> None:
+    missing = tmp_path / "nothing.toml"
+    assert_one_line_error(invoke("inspect", str(missing)), str(missing), "no such model file")
+    assert not missing.exists()
+
+
+def test_directory_is_not_a_model(tmp_path: Path) -> None:
+    assert_one_line_error(invoke("inspect", str(tmp_path)), "is not a file")
+
+
+def test_malformed_toml(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "x"\n[[bodies]\nmass = 1\n', encoding="utf-8")
+    line = assert_one_line_error(invoke("inspect", str(bad)), str(bad), "malformed TOML")
+    assert "line 2" in line
+
+
+def test_invalid_model_in_toml(tmp_path: Path) -> None:
+    bad = tmp_path / "negative.toml"
+    bad.write_text('name = "x"\n[[bodies]]\nname = "bus"\nmass = -3\ninertia = 1\n', encoding="utf-8")
+    assert_one_line_error(invoke("inspect", str(bad)), "bodies[0] (bus).mass", "positive")
+
+
+def test_malformed_urdf(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.urdf"
+    bad.write_text("<robot name='x'><link name='a'>\n", encoding="utf-8")
+    assert_one_line_error(invoke("inspect", str(bad)), "malformed URDF")
+
+
+def test_unknown_builtin_name_suggests() -> None:
+    line = assert_one_line_error(invoke("inspect", "papadopolous1992"), "papadopolous1992", "did you mean", "'papadopoulos1992'")
+    assert "papadopoulos1992-one-arm" in line  # lists the built-in names
+
+
+def test_input_file_is_never_written(tmp_path: Path) -> None:
+    model = ff.models.papadopoulos1992(arms=2)
+    paths = [ff.save(model, tmp_path / "robot.toml"), ff.save(model, tmp_path / "robot.urdf")]
+    before = {p: (sha256(p), p.stat().st_mtime_ns) for p in paths}
+    for path in paths:
+        assert invoke("inspect", str(path)).exit_code == 0
+        assert invoke("inspect", str(path), "--json", "--payload-mass", "400", "--payload-inertia", "25").exit_code == 0
+        assert invoke("inspect", str(path), "--payload-mass", "400").exit_code == 1
+    assert {p: (sha256(p), p.stat().st_mtime_ns) for p in paths} == before
+    assert sorted(tmp_path.iterdir()) == sorted(paths)
+
+
+# --------------------------------------------------------------------- demo
+@pytest.fixture(scope="module")
+def demo_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Result]:
+    out = tmp_path_factory.mktemp("demo") / "nested" / "out"
+    return out, invoke("demo", "--out", str(out))
+
+
+DEMO_MODELS = (
+    "papadopoulos1991",
+    "papadopoulos1992",
+    "papadopoulos1992_one_arm",
+    "papadopoulos1992_one_arm_captured",
+    "papadopoulos1992_captured",
+)
+
+
+def test_demo_writes_reports_and_map(demo_run: tuple[Path, Result]) -> None:
+    out, result = demo_run
+    assert result.exit_code == 0, result.output
+    printed = [Path(line) for line in result.stdout.splitlines()]
+    png = out / "detJ_map_1992_one_arm_captured.png"
+    expected = [out / "models" / f"{slug}.{ext}" for slug in DEMO_MODELS for ext in ("json", "md")]
+    assert printed == [*expected, out / "models" / "report.md", png]
+    for path in printed:
+        assert path.is_file() and path.stat().st_size > 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert png.stat().st_size > 20_000
+
+
+def test_demo_report_mentions_every_model(demo_run: tuple[Path, Result]) -> None:
+    out, _ = demo_run
+    report = (out / "models" / "report.md").read_text(encoding="utf-8")
+    names = {
+        "papadopoulos1991",
+        "papadopoulos1992",
+        "papadopoulos1992_one_arm",
+        "papadopoulos1992_one_arm+payload",
+        "papadopoulos1992+payload",
+    }
+    for name in names:
+        assert f"## `{name}`" in report
+    assert report.count("### Barycentric vectors") == len(DEMO_MODELS)
+    assert "detJ_map_1992_one_arm_captured.png" in report
+
+
+def test_demo_json_equals_inspect(demo_run: tuple[Path, Result]) -> None:
+    out, _ = demo_run
+    assert json.loads((out / "models" / "papadopoulos1992.json").read_text(encoding="utf-8")) == inspect_json("papadopoulos1992")
+    captured = json.loads((out / "models" / "papadopoulos1992_one_arm_captured.json").read_text(encoding="utf-8"))
+    assert captured == inspect_json("papadopoulos1992-one-arm", "--payload-mass", "400", "--payload-inertia", "25")
+    two_arm = json.loads((out / "models" / "papadopoulos1992_captured.json").read_text(encoding="utf-8"))
+    assert two_arm["total_mass"] == pytest.approx(940.0) and two_arm["payloads"][0]["end_effector"] == "arm1_ee"
+
+
+def test_demo_out_is_a_file(tmp_path: Path) -> None:
+    target = tmp_path / "out"
+    target.write_text("keep me", encoding="utf-8")
+    assert_one_line_error(invoke("demo", "--out", str(target)), "not a directory")
+    assert target.read_text(encoding="utf-8") == "keep me"
+
+
+# --------------------------------------------------------------------- python -m freeflyer
+def test_python_m_freeflyer() -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "freeflyer", "inspect", "papadopoulos1991"], capture_output=True, text=True, check=False, timeout=120
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.splitlines()[0] == "papadopoulos1991"
+    assert "47 kg" in done.stdout and "Barycentric vectors" in done.stdout
+    failed = subprocess.run(
+        [sys.executable, "-m", "freeflyer", "inspect", "no_such_model.urdf"], capture_output=True, text=True, check=False, timeout=120
+    )
+    assert failed.returncode == 1
+    assert failed.stdout == ""
+    assert failed.stderr.splitlines() == ["error: no_such_model.urdf: no such model file"]
