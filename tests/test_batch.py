@@ -172,3 +172,37 @@ def test_empty_batch_gives_empty_results() -> None:
     assert ff.system_inertia_matrix(PAPER, q).shape == (0, 10, 10)
     assert ff.end_effector_positions(PAPER, q).shape == (0, 2, 3)
     assert ff.angular_momentum(PAPER, q, np.zeros((0, 10))).shape == (0, 3)
+
+
+@pytest.mark.parametrize("which", ["papadopoulos1992", "spacecraft_7dof", "random"])
+def test_numba_back_end_equals_numpy_back_end(which: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The optional numba build of the traced J*, det and manipulability programs gives the numpy results.
+
+    numba is a test dependency (the ``fast`` extra), so this runs the compiled path for real; the
+    threshold is lowered so that a small batch takes it, and angles beyond the sin/cos table fall back.
+    """
+    import freeflyer._numba_programs as nbp
+
+    assert nbp.available(), "numba is in the test extras; install .[test]"
+    model = {
+        "papadopoulos1992": ff.models.papadopoulos1992(),
+        "spacecraft_7dof": ff.models.spacecraft_7dof(),
+        "random": TREE,
+    }[which]
+    q = np.random.default_rng(3).uniform(-4.0, 4.0, size=(2048 + 5, model.n_joints))
+    q[3, 0] = 3e5  # beyond the sin/cos table: the whole call falls back to the numpy back end
+    monkeypatch.setattr(freeflyer._batch, "COMPILE_MIN", 16)
+    monkeypatch.setenv("FREEFLYER_NUMBA", "0")
+    ref = {"J": ff.generalized_jacobian(model, q[4:]), "m": ff.manipulability(model, q[4:]), "far": ff.generalized_jacobian(model, q)}
+    monkeypatch.setattr(nbp, "NUMBA_MIN", 16)
+    monkeypatch.setenv("FREEFLYER_NUMBA", "1")
+    jac = ff.generalized_jacobian(model, q[4:])
+    assert jac.shape == ref["J"].shape
+    np.testing.assert_allclose(jac, ref["J"], rtol=0, atol=1e-13 * np.abs(ref["J"]).max())
+    np.testing.assert_allclose(ff.manipulability(model, q[4:]), ref["m"], rtol=1e-12, atol=1e-14)
+    np.testing.assert_array_equal(ff.generalized_jacobian(model, q), ref["far"])
+    assert ("numba", "jstar") in freeflyer._batch.program_cache(model).programs
+    if model.is_planar:
+        ref_det = ff.jacobian_determinant(model, q[4:])
+        monkeypatch.setenv("FREEFLYER_NUMBA", "0")
+        np.testing.assert_allclose(ff.jacobian_determinant(model, q[4:]), ref_det, rtol=1e-12, atol=1e-14)

@@ -496,12 +496,21 @@ def map_angles(program: Program, q: np.ndarray) -> np.ndarray:
 
 class _ProgramCache:
     def __init__(self) -> None:
-        self.programs: dict[Any, Program | None] = {}
+        self.programs: dict[Any, Any] = {}
         self.lock = threading.Lock()
 
 
 _PROGRAMS: weakref.WeakKeyDictionary[Model, _ProgramCache] = weakref.WeakKeyDictionary()
 _PROGRAMS_LOCK = threading.Lock()
+
+
+def program_cache(model: Model) -> _ProgramCache:
+    """The per-model cache of compiled programs (kept as long as the model lives)."""
+    with _PROGRAMS_LOCK:
+        cache = _PROGRAMS.get(model)
+        if cache is None:
+            cache = _PROGRAMS[model] = _ProgramCache()
+    return cache
 
 
 def compiled(model: Model, key: Any, build: Callable[[bool], Program | None]) -> Program | None:
@@ -510,10 +519,7 @@ def compiled(model: Model, key: Any, build: Callable[[bool], Program | None]) ->
     ``build(eager_offsets)`` traces it; both ways of handling constant offsets are tried and the
     program with fewer numpy calls is kept. ``build`` may return None (no compiled form).
     """
-    with _PROGRAMS_LOCK:
-        cache = _PROGRAMS.get(model)
-        if cache is None:
-            cache = _PROGRAMS[model] = _ProgramCache()
+    cache = program_cache(model)
     if key not in cache.programs:
         with cache.lock:
             if key not in cache.programs:

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from . import _numba_programs
 from ._batch import COMPILE_MIN, Program, Sym, Tape, chunked, compiled, joint_array, map_angles
 from .conventions import attitude_matrix, euler321_from_matrix, euler321_rate_matrix, quaternion_rate_matrix, skew
 from .errors import ShapeError
@@ -331,8 +332,12 @@ def _compiled_map(model: Model, which: str, q: np.ndarray, core: tuple[int, ...]
     program = compiled(model, which, lambda eager: _build(model, which, eager))
     assert program is not None
     batch = q.shape[:-1]
-    out = map_angles(program, q.reshape(int(np.prod(batch, dtype=int)), model.n_joints))
-    return out.T.reshape(batch + core)
+    flat = q.reshape(int(np.prod(batch, dtype=int)), model.n_joints)
+    if flat.shape[0] >= _numba_programs.NUMBA_MIN and _numba_programs.enabled():
+        fast = _numba_programs.program(model, which, program)(flat)
+        if fast is not None:
+            return fast.reshape(batch + core)
+    return map_angles(program, flat).T.reshape(batch + core)
 
 
 def _compile_batch(q: np.ndarray) -> bool:

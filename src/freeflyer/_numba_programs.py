@@ -1,6 +1,8 @@
-"""Evaluation only: the compiled freeflyer programs (``freeflyer._batch.Program``) run by numba.
+"""Optional back end: the traced freeflyer programs (``freeflyer._batch.Program``) compiled by numba.
 
-freeflyer itself depends on numpy only. This module emits the same traced straight-line program
+Used by :mod:`freeflyer.jacobians` for large batches when numba is installed (the ``fast``
+extra, ``pip install freeflyer[fast]``) and :func:`enabled`; freeflyer runs without it, on the
+numpy back end, with the same results (the same program, the same sin/cos). This module emits the same traced straight-line program
 (the one the numpy back end runs as ufunc calls on rows of CHUNK configurations) as scalar code in
 a loop over configurations, compiled by numba: everything stays in registers, LLVM vectorises the
 loop over configurations, and ``prange`` spreads blocks of configurations over the cores. sin and
@@ -9,12 +11,32 @@ cos are evaluated inside the loop with the same table + short series as ``freefl
 
 from __future__ import annotations
 
+import os
 import time
 from typing import Any
 
 import numpy as np
 
-from freeflyer import _batch
+from . import _batch
+
+#: Batches of at least this many configurations use numba when it is enabled (compiling a program
+#: takes 1-5 s once per model and process, so small batches stay on the numpy back end).
+NUMBA_MIN = 65536
+
+
+def available() -> bool:
+    """True when numba can be imported."""
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def enabled() -> bool:
+    """numba installed and not switched off by the environment variable ``FREEFLYER_NUMBA=0``."""
+    return os.environ.get("FREEFLYER_NUMBA", "1") != "0" and available()
+
 
 BLOCK = 2048
 
@@ -49,8 +71,8 @@ def numba_source(program: _batch.Program, name: str = "kernel", batch_first: boo
         if s_reg < 0 and c_reg < 0:
             continue
         body.append(f"    qv{j} = qt[{j}, i - lo]")
-        lines = _SINCOS.format(j=j, s=s_reg if s_reg >= 0 else f"_unused_s{j}", c=c_reg if c_reg >= 0 else f"_unused_c{j}")
-        body += lines.strip("\n").splitlines()
+        block = _SINCOS.format(j=j, s=s_reg if s_reg >= 0 else f"_unused_s{j}", c=c_reg if c_reg >= 0 else f"_unused_c{j}")
+        body += block.strip("\n").splitlines()
     for r, (kind, a, b, k) in enumerate(program.ops):
         if kind == "in":
             continue
@@ -119,11 +141,12 @@ class NumbaProgram:
         self._max_abs(q)
         self.compile_seconds = time.perf_counter() - t
 
-    def __call__(self, q: np.ndarray) -> np.ndarray:
-        """(size, n_outputs) with ``batch_first``, else (n_outputs, size)."""
+    def __call__(self, q: np.ndarray) -> np.ndarray | None:
+        """(size, n_outputs) with ``batch_first``, else (n_outputs, size); None when an angle is
+        beyond the range of the sin/cos table (or NaN): the caller then uses the numpy back end."""
         q = np.ascontiguousarray(q, dtype=float)
         if not self._max_abs(q) <= _batch._MAX_TABLE_ANGLE:
-            raise ValueError("angles beyond the range of the sin/cos table (or NaN)")
+            return None
         out = np.empty((q.shape[0], self.n_outputs) if self.batch_first else (self.n_outputs, q.shape[0]))
         self._kernel(q, out)
         return out
@@ -137,3 +160,14 @@ def _max_abs(q: np.ndarray) -> float:  # pragma: no cover - compiled
         if not a <= best:
             best = a
     return best
+
+
+def program(model: Any, which: str, traced: _batch.Program) -> NumbaProgram:
+    """The numba build of ``traced`` (program ``which`` of ``model``), compiled once per model and process."""
+    cache = _batch.program_cache(model)
+    key = ("numba", which)
+    if key not in cache.programs:
+        with cache.lock:
+            if key not in cache.programs:
+                cache.programs[key] = NumbaProgram(traced, parallel=True, batch_first=True)
+    return cache.programs[key]
