@@ -22,7 +22,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 #: name -> module (in this folder). Register a new benchmark by adding one line.
 BENCHMARKS: dict[str, str] = {
+    "control": "bench_control",
     "core": "bench_core",
+    "dynamics": "bench_dynamics",
+    "workspace": "bench_workspace",
 }
 
 

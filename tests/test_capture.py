@@ -122,6 +122,24 @@ def test_optimal_posture_is_the_best_on_both_families(r_plus: float) -> None:
     np.testing.assert_allclose(Rotation.from_quat(posture.attitude).as_rotvec(), [0.0, 0.0, posture.theta], atol=1e-12)
 
 
+@pytest.mark.parametrize("family", [0, 1])
+def test_optimal_posture_on_each_family(family: int) -> None:
+    r_plus = 0.54
+    posture = optimal_capture_posture(CAPTURED, 0, r_plus, family=family)
+    assert posture.family == family and abs(posture.residual) < 1e-10
+    fam = capture_families(CAPTURED, 0, r_plus, np.linspace(-np.pi, np.pi, 100_001))
+    # the posture lies on its family: q2 = q2_family(q1)
+    on = capture_families(CAPTURED, 0, r_plus, posture.q[0])
+    assert abs(np.angle(np.exp(1j * (on.q2[family] - posture.q[1])))) < 1e-7
+    # and is the best of that family over a dense scan
+    best = np.nanmax(np.abs(fam.det[:, family]))
+    assert best * (1.0 - 1e-8) <= posture.measure <= best * (1.0 + 1e-9)
+    with pytest.raises(ValueError, match="family"):
+        optimal_capture_posture(CAPTURED, 0, r_plus, family=2)
+    with pytest.raises(ff.ModelError, match="two-link"):
+        optimal_capture_posture(ff.models.papadopoulos1992(arms=2), 0, 1.0, family=0)
+
+
 def test_optimal_posture_limits_direction_and_3d() -> None:
     limited = ff.ModelBuilder("limited")
     limited.add_body("bus", mass=300.0, inertia=40.0)

@@ -175,7 +175,8 @@ DETJ_MAP_PNG = "detJ_map_1992_one_arm_captured.png"
 def demo_command(
     out: Annotated[Path, typer.Option("--out", help="Output directory (created).")] = Path("out"),
 ) -> None:
-    """Write reports of the papers' systems (OUT/models/) and the det J* map of the captured one-arm system."""
+    """The main job: reproduce both papers (OUT/1991/, OUT/1992/: report.json, report.md, figures), write
+    reports of the papers' systems (OUT/models/) and the det J* map of the captured one-arm system."""
     from matplotlib.figure import Figure
 
     with user_errors():
@@ -205,6 +206,125 @@ def demo_command(
         png = out / DETJ_MAP_PNG
         fig.savefig(png, dpi=200)
         written.append(png)
+        from .paper1991 import reproduce_1991
+        from .paper1992 import reproduce_1992
+
+        for paper, reproduce in (("1991", reproduce_1991), ("1992", reproduce_1992)):
+            typer.echo(f"reproducing {paper} into {out / paper} ...", err=True)
+            written += reproduce(output_dir(out / paper))
+        written.append(_write_demo_index(out, written))
+    for path in written:
+        typer.echo(str(path))
+
+
+def _write_demo_index(out: Path, written: list[Path]) -> Path:
+    """OUT/README.md: what `freeflyer demo` wrote, with the paper-vs-freeflyer summary of each report."""
+    lines = ["# freeflyer demo output", "", "Written by `make demo` (`freeflyer demo --out OUT`).", ""]
+    for paper in ("1991", "1992"):
+        rows = json.loads((out / paper / "report.json").read_text())["rows"]
+        compared = [r for r in rows if r["agrees"] is not None]
+        agree = sum(1 for r in compared if r["agrees"])
+        lines.append(
+            f"- [{paper}/report.md]({paper}/report.md): {len(rows)} rows, {len(compared)} with a printed number, "
+            f"{agree} agree at the printed precision (the others are explained row by row)."
+        )
+    lines.append("- [models/](models/): the papers' systems, as `freeflyer inspect` prints them.")
+    lines += ["", "Files:", ""] + [f"- `{p.relative_to(out)}`" for p in written if p.is_relative_to(out)]
+    index = out / "README.md"
+    index.write_text("\n".join(lines) + "\n")
+    return index
+
+
+@app.command("workspace")
+def workspace_command(
+    model: ModelArg,
+    arm: Annotated[
+        list[str] | None, typer.Option("--arm", help="End effector (name or index) to analyse; repeat for several. Default: all.")
+    ] = None,
+    payload_mass: PayloadMass = None,
+    payload_inertia: PayloadInertia = None,
+    payload_ee: PayloadEE = None,
+    piw: Annotated[
+        bool | None, typer.Option("--piw/--no-piw", help="Compute the PIW/PDW (eq. 17). Default: only when J* is square.")
+    ] = None,
+    samples: Annotated[int, typer.Option("--samples", min=16, help="Configurations sampled for the PIW.")] = 1 << 16,
+    out: Annotated[Path | None, typer.Option("--out", help="Write workspace.json and one plot per end effector here (created).")] = None,
+    json_output: Annotated[bool, typer.Option("--json", help="Print one JSON object instead of the table.")] = False,
+) -> None:
+    """Workspace limits about the system CM (1992 eqs. 15-17): reachable, guaranteed, PIW/PDW, with method and accuracy."""
+    from .workspace_report import limits_json, workspace_limits, write_workspace_plots
+
+    with user_errors():
+        loaded = with_payload(load_model(model), payload_mass, payload_inertia, payload_ee)
+        names = loaded.end_effector_names
+        chosen = [int(a) if a.isdigit() and a not in names else a for a in arm or []]
+        limits = workspace_limits(loaded, chosen or None, piw=piw, samples=samples)
+        written = []
+        if out is not None:
+            out = output_dir(out)
+            (out / "workspace.json").write_text(limits_json(limits) + "\n")
+            written = [out / "workspace.json", *write_workspace_plots(limits, out)]
+    typer.echo(limits_json(limits) if json_output else limits.render_text().rstrip("\n"))
+    for path in written:
+        typer.echo(f"wrote {path}", err=True)
+
+
+@app.command("capture")
+def capture_command(
+    scenario: Annotated[Path, typer.Argument(metavar="SCENARIO", help="Capture scenario TOML (schema: docs/workspaces.md).")],
+    out: Annotated[Path | None, typer.Option("--out", help="Write capture.json and the plots here (created).")] = None,
+) -> None:
+    """Plan a payload capture (1992 §V): approach distance, CM+, R+, capture posture and spacecraft orientation."""
+    from .capture_scenario import load_capture_scenario, run_capture_scenario, write_capture_outputs
+
+    with user_errors():
+        result = run_capture_scenario(load_capture_scenario(scenario))
+        written = write_capture_outputs(result, output_dir(out)) if out is not None else []
+    typer.echo(result.render_text().rstrip("\n"))
+    for path in written:
+        typer.echo(f"wrote {path}", err=True)
+
+
+@app.command("simulate")
+def simulate_command(
+    scenario: Annotated[Path, typer.Argument(metavar="SCENARIO", help="Simulation scenario TOML (schema: docs/simulation.md).")],
+    out: Annotated[Path, typer.Option("--out", help="Output directory (created): trajectory .npz/.csv/.json and .png plots.")] = Path(
+        "out"
+    ),
+    progress: Annotated[
+        bool | None, typer.Option("--progress/--no-progress", help="Progress bar on stderr (default: when stderr is a terminal).")
+    ] = None,
+) -> None:
+    """Simulate a scenario (model, initial state, actuation or controller, duration); write the trajectory and its plots."""
+    import sys
+
+    from .scenario import load_scenario, simulate_scenario
+
+    with user_errors():
+        loaded = load_scenario(scenario)
+        written = simulate_scenario(loaded, output_dir(out), progress=sys.stderr.isatty() if progress is None else progress)
+    for path in written:
+        typer.echo(str(path))
+
+
+PAPERS = ("1991", "1992")
+
+
+@app.command("reproduce")
+def reproduce_command(
+    paper: Annotated[str, typer.Argument(metavar="PAPER", help="Which paper: 1991 (Papadopoulos & Dubowsky) or 1992 (Papadopoulos).")],
+    out: Annotated[Path, typer.Option("--out", help="Output directory (created): report.json, report.md and the figures.")] = Path("out"),
+) -> None:
+    """Reproduce a paper's tables, example and figures; write the paper-vs-freeflyer report to OUT."""
+    with user_errors():
+        if paper not in PAPERS:
+            raise ValueError(f"PAPER {paper!r}: unknown; choose one of {', '.join(PAPERS)}")
+        out = output_dir(out)
+        if paper == "1991":
+            from .paper1991 import reproduce_1991 as reproduce
+        else:
+            from .paper1992 import reproduce_1992 as reproduce
+        written = reproduce(out)
     for path in written:
         typer.echo(str(path))
 

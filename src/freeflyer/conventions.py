@@ -99,9 +99,12 @@ def as_quaternion(attitude: Any) -> np.ndarray:
     if not np.all(np.isfinite(quat)):
         raise ValueError("attitude: quaternion has NaN or infinite entries")
     norm = np.linalg.norm(quat, axis=-1)
-    if np.any(np.abs(norm - 1.0) > 1e-6):
+    off = np.abs(norm - 1.0)
+    if np.any(off > 1e-6):
+        worst = float(np.reshape(norm, -1)[np.argmax(np.reshape(off, -1))])
         raise ValueError(
-            f"attitude: quaternion norm {np.max(np.abs(norm - 1.0)) + 1:.6g} is not 1; pass a unit quaternion [x, y, z, w] (scalar last)"
+            f"attitude: quaternion norm {worst:.6g} is not 1 (tolerance 1e-6); pass a unit quaternion [x, y, z, w] (scalar last), "
+            "e.g. q / np.linalg.norm(q)"
         )
     return quat
 

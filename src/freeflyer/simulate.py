@@ -27,15 +27,20 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from . import _batch, _compiled
 from .dynamics import forward_dynamics
 from .errors import FreeflyerError, ShapeError
 from .model import Model
+from .pd import JointPD
 from .state import Actuation, State, pack_state, unpack_state
 from .trajectory import Trajectory
 
 __all__ = ["ActuatorLimits", "SimulationError", "rollout", "simulate"]
 
 Controller = Callable[[float, State], Any]
+
+#: The adaptive integrators of ``scipy.integrate.solve_ivp`` that ``simulate(method=...)`` accepts.
+METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
 
 
 class SimulationError(FreeflyerError, RuntimeError):
@@ -58,6 +63,20 @@ class ActuatorLimits:
     joint_torque: Any = None
     spacecraft_force: Any = None
     spacecraft_torque: Any = None
+
+    def __post_init__(self) -> None:
+        for name in ("joint_torque", "spacecraft_force", "spacecraft_torque"):
+            limit = getattr(self, name)
+            if limit is None:
+                continue
+            try:
+                lim = np.asarray(limit, dtype=float)
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"ActuatorLimits.{name}: expected a positive number or an array of them, got {limit!r}") from exc
+            if lim.ndim > 1 or np.any(~np.isfinite(lim)) or np.any(lim <= 0):
+                raise ValueError(
+                    f"ActuatorLimits.{name}: every limit must be positive and finite (a scalar or one per component), got {limit!r}"
+                )
 
     def apply(self, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         saturated = np.zeros(tau.shape[:-1], dtype=bool)
@@ -82,21 +101,42 @@ class ActuatorLimits:
 def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Controller output -> (tau, f_S, n_S) arrays, with errors that name what is wrong."""
     n = model.n_joints
+    if raw is None:
+        raise TypeError(f"controller returned None; return joint torques of shape {(*batch, n)} or a freeflyer.Actuation")
     if not isinstance(raw, Actuation):
         raw = Actuation(joint_torque=raw)
     parts = []
-    for name, size in (("joint_torque", n), ("spacecraft_force", 3), ("spacecraft_torque", 3)):
+    for name, size, what in (
+        ("joint_torque", n, f"one torque per joint: {', '.join(model.joint_names) or 'none'}"),
+        ("spacecraft_force", 3, "thruster force, spacecraft frame"),
+        ("spacecraft_torque", 3, "thruster torque, spacecraft frame"),
+    ):
         value = getattr(raw, name)
         if value is None:
             parts.append(np.zeros((*batch, size)))
             continue
-        arr = np.asarray(value, dtype=float)
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise TypeError(f"controller returned a {name} that is not numbers: {value!r}") from exc
         if arr.shape != (*batch, size):
-            raise ShapeError(f"controller returned {name} of shape {arr.shape}; expected {(*batch, size)}")
-        if not np.all(np.isfinite(arr)):
+            raise ShapeError(f"controller returned {name} of shape {arr.shape}; expected {(*batch, size)} ({what})")
+        if not np.isfinite(arr).all():
             raise ValueError(f"controller returned a non-finite {name}: {arr}")
         parts.append(arr)
     return parts[0], parts[1], parts[2]
+
+
+def _call_controller(controller: Controller, model: Model, t: float, x: np.ndarray, batch: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+    """Evaluate the controller at (t, x); any failure becomes a SimulationError that says when and what."""
+    try:
+        raw = controller(t, unpack_state(model, x))
+    except Exception as exc:
+        raise SimulationError(f"the controller raised {type(exc).__name__} at t = {t:.6g} s: {exc}") from exc
+    try:
+        return _actuation(model, raw, batch)
+    except (TypeError, ValueError) as exc:
+        raise SimulationError(f"bad controller output at t = {t:.6g} s: {exc}") from exc
 
 
 def _derivative(model: Model, x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray, external: Any) -> np.ndarray:
@@ -111,6 +151,25 @@ def _derivative(model: Model, x: np.ndarray, tau: np.ndarray, force: np.ndarray,
     return np.concatenate([x[..., 3:6], acc[..., 0:3], dquat, acc[..., 3:6], qdot, acc[..., 6:]], axis=-1)
 
 
+def _rhs(model: Model, external: Any, backend: str) -> Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
+    """The state derivative ``f(x, tau, force, torque)`` of one state: compiled (numba) or the numpy reference."""
+    if not _compiled.use_compiled(backend, external):
+        return partial(_derivative, model, external=external)
+    kernels = _compiled.kernels(model)
+    run = kernels.module.deriv_blocks
+    n = model.n_joints
+
+    def compiled(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
+        if not np.abs(x[13 : 13 + n]).max(initial=0.0) <= _batch._MAX_TABLE_ANGLE:
+            return _derivative(model, x, tau, force, torque, external)  # beyond the sin/cos table (or NaN): the reference path
+        u = np.concatenate([tau, force, torque])[None]
+        out = np.empty((1, x.shape[-1]))
+        run(0, 1, np.ascontiguousarray(x, dtype=float)[None], u, out)
+        return out[0]
+
+    return compiled
+
+
 def _rk4_step(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, dt: float) -> np.ndarray:
     k1 = f(x)
     k2 = f(x + 0.5 * dt * k1)
@@ -119,6 +178,32 @@ def _rk4_step(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, dt: float) -
     out = x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
     out[..., 6:10] /= np.linalg.norm(out[..., 6:10], axis=-1, keepdims=True)
     return out
+
+
+def _stepper(model: Model, dt: float, external: Any, backend: str) -> Callable[..., np.ndarray]:
+    """One RK4 step ``step(x, tau, force, torque) -> new x``: compiled (numba) or the numpy reference."""
+    if _compiled.use_compiled(backend, external):
+        kernels = _compiled.kernels(model)
+
+        n = model.n_joints
+        single = kernels.module.steps_single
+
+        def compiled_step(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
+            out = np.array(x, dtype=float, order="C")
+            u = np.empty((*x.shape[:-1], n + 6))
+            u[..., :n], u[..., n : n + 3], u[..., n + 3 :] = tau, force, torque
+            if out.ndim == 1:
+                single(out, u, dt, 1)
+            else:
+                kernels.steps_batch(out, u, dt, 1)
+            return out
+
+        return compiled_step
+
+    def numpy_step(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
+        return _rk4_step(partial(_derivative, model, tau=tau, force=force, torque=torque, external=external), x, dt)
+
+    return numpy_step
 
 
 class _Recorder:
@@ -167,9 +252,10 @@ class _Recorder:
 def _progress(enabled: bool, duration: float) -> Any:
     if not enabled:
         return None
+    from rich.console import Console
     from rich.progress import Progress
 
-    bar = Progress(transient=True)
+    bar = Progress(console=Console(stderr=True), transient=True)
     bar.start()
     bar.add_task("simulating", total=duration)
     return bar
@@ -191,6 +277,7 @@ def simulate(
     events: Sequence[Callable[[float, State], float]] = (),
     external: Any = (),
     progress: bool = False,
+    backend: str = "auto",
 ) -> Trajectory:
     """Simulate ``model`` from ``initial_state`` for ``duration`` seconds.
 
@@ -202,21 +289,38 @@ def simulate(
     fixed step if larger). ``events``: callables (t, state) -> float; the run
     stops where one crosses zero (scipy's ``terminal``/``direction`` attributes
     are honoured). ``external``: wrenches passed to forward dynamics.
+    ``backend``: ``"auto"`` evaluates the equations of motion (the RK4 steps, or
+    the right-hand side the adaptive integrator calls) with the compiled kernels
+    of :mod:`freeflyer._compiled` when numba is installed and there are no
+    ``external`` wrenches, ``"numpy"`` with the numpy reference
+    (:func:`freeflyer.forward_dynamics`), ``"numba"`` insists on the compiled
+    kernels. Both give the same numbers to rounding (tests/test_compiled.py).
 
     A failure part-way (controller error, non-finite state, integrator
     failure) raises :class:`SimulationError` whose ``trajectory`` holds the
     states computed up to the failure.
     """
+    if not isinstance(initial_state, State):
+        raise TypeError(f"initial_state: expected a freeflyer.State, got {type(initial_state).__name__}")
     state = initial_state.resolve(model)
     if np.asarray(state.q).ndim != 1:
         raise ShapeError("initial_state: simulate takes one state; use freeflyer.rollout for a batch of states")
-    duration = float(duration)
-    if not np.isfinite(duration) or duration <= 0:
-        raise ValueError(f"duration: must be positive and finite, got {duration!r}")
+    duration = _positive("duration", duration)
     for name, value in (("fixed_step", fixed_step), ("sample_period", sample_period), ("output_period", output_period)):
-        if value is not None and (not np.isfinite(value) or value <= 0):
-            raise ValueError(f"{name}: must be positive, got {value!r}")
+        if value is not None:
+            _positive(name, value)
+    if fixed_step is None:
+        if not (isinstance(method, str) and method in METHODS) and not isinstance(method, type):
+            raise ValueError(f"method: unknown integrator {method!r}; choose one of {', '.join(METHODS)} (or pass fixed_step for RK4)")
+        _positive("rtol", rtol)
+        _positive("atol", atol)
+    if controller is not None and not callable(controller):
+        raise TypeError(f"controller: expected a callable (t, state) -> joint torques or Actuation, got {type(controller).__name__}")
     limits = limits or ActuatorLimits()
+    if backend not in _compiled.BACKENDS:
+        raise ValueError(f"backend: expected 'auto', 'numpy' or 'numba', got {backend!r}")
+    if backend == "numba":
+        _compiled.use_compiled(backend, external)  # a clear error now if the compiled path cannot run this
     period = output_period or max(0.01, fixed_step or 0.0)
     x0 = pack_state(state)
     rec = _Recorder(model)
@@ -225,18 +329,20 @@ def simulate(
     def command(t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         if controller is None:
             return (*zero, np.array(False))
-        raw = controller(t, unpack_state(model, x))
-        tau, force, torque = _actuation(model, raw, ())
+        tau, force, torque = _call_controller(controller, model, t, x, ())
         return limits.apply(tau, force, torque)
 
     bar = _progress(progress, duration)
     try:
         if fixed_step is not None:
-            status = _run_rk4(model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar)
+            status = _run_rk4(model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar, backend)
         else:
-            status = _run_adaptive(model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar)
+            status = _run_adaptive(
+                model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar, backend
+            )
     except SimulationError as exc:
-        raise SimulationError(str(exc), rec.trajectory("failed", str(exc))) from exc
+        exc.trajectory = rec.trajectory("failed", str(exc))
+        raise
     except (FreeflyerError, ValueError, ArithmeticError, RuntimeError, TypeError, KeyError, IndexError) as exc:
         t_fail = rec.t[-1] if rec.t else 0.0
         message = f"simulation failed after t = {t_fail:.6g} s: {type(exc).__name__}: {exc}"
@@ -247,13 +353,31 @@ def simulate(
     return rec.trajectory(*status)
 
 
+def _positive(name: str, value: Any) -> float:
+    """``value`` as a positive finite float, or a ValueError naming ``name``."""
+    try:
+        out = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected a positive number, got {value!r}") from exc
+    if not np.isfinite(out) or out <= 0:
+        raise ValueError(f"{name}: must be positive and finite, got {value!r}")
+    return out
+
+
 def _check_finite(t: float, x: np.ndarray) -> None:
-    if not np.all(np.isfinite(x)):
+    if not np.isfinite(x).all():
         raise SimulationError(f"the state became non-finite at t = {t:.6g} s (unstable controller or too large a step?)")
 
 
 def _event_value(events: Sequence[Any], model: Model, t: float, x: np.ndarray) -> np.ndarray:
-    return np.array([float(ev(t, unpack_state(model, x))) for ev in events])
+    return np.array([_event(ev, model, t, x) for ev in events])
+
+
+def _event(ev: Any, model: Model, t: float, x: np.ndarray) -> float:
+    try:
+        return float(ev(t, unpack_state(model, x)))
+    except Exception as exc:
+        raise SimulationError(f"event {getattr(ev, '__name__', ev)!r} raised {type(exc).__name__} at t = {t:.6g} s: {exc}") from exc
 
 
 def _run_rk4(
@@ -268,7 +392,9 @@ def _run_rk4(
     external: Any,
     rec: _Recorder,
     bar: Any,
+    backend: str = "numpy",
 ) -> tuple[str, str]:
+    step = _stepper(model, dt, external, backend)
     steps = round(duration / dt)
     if abs(steps * dt - duration) > 1e-9 * duration:
         raise ValueError(f"fixed_step: {dt} does not divide duration {duration}; choose a step that does")
@@ -281,7 +407,7 @@ def _run_rk4(
     prev_ev = _event_value(events, model, 0.0, x) if events else None
     for i in range(1, steps + 1):
         tau, force, torque, _ = act
-        x = _rk4_step(partial(_derivative, model, tau=tau, force=force, torque=torque, external=external), x, dt)
+        x = step(x, tau, force, torque)
         t = i * dt
         _check_finite(t, x)
         if t >= next_sample - 1e-12 * hold and i < steps:
@@ -318,30 +444,35 @@ def _run_adaptive(
     external: Any,
     rec: _Recorder,
     bar: Any,
+    backend: str = "numpy",
 ) -> tuple[str, str]:
     n_out = int(np.floor(duration / period + 1e-9))
     t_out = np.append(np.arange(n_out + 1) * period, duration) if n_out * period < duration - 1e-12 else np.arange(n_out + 1) * period
     if sample_period is not None:
-        bounds = np.unique(np.append(np.arange(0.0, duration, sample_period), duration))
+        # sample instants k * sample_period (no accumulated rounding), each one a restart of the integrator
+        n_samples = int(np.ceil(duration / sample_period - 1e-9))
+        bounds = np.append(np.arange(n_samples) * sample_period, duration)
     else:
         bounds = np.linspace(0.0, duration, 101 if bar is not None else 2)
+    derivative = _rhs(model, external, backend)
     ivp_events = []
     for ev in events:
 
         def wrapped(t: float, y: np.ndarray, ev: Any = ev) -> float:
-            return float(ev(t, unpack_state(model, y)))
+            return _event(ev, model, t, y)
 
         wrapped.terminal = getattr(ev, "terminal", True)  # type: ignore[attr-defined]
         wrapped.direction = getattr(ev, "direction", 0)  # type: ignore[attr-defined]
         ivp_events.append(wrapped)
     x = x0.copy()
-    rec.add(0.0, x, command(0.0, x))
+    first = command(0.0, x)
+    rec.add(0.0, x, first)
     for a, b in itertools.pairwise(bounds):
-        held = command(a, x) if sample_period is not None else None
+        held = (first if a == 0.0 else command(a, x)) if sample_period is not None else None
 
         def rhs(t: float, y: np.ndarray, held: Any = held) -> np.ndarray:
             tau, force, torque, _ = held if held is not None else command(t, y)
-            return _derivative(model, y, tau, force, torque, external)
+            return derivative(y, tau, force, torque)
 
         inside = t_out[(t_out > a + 1e-12) & (t_out <= b + 1e-12)]
         sol = solve_ivp(
@@ -376,6 +507,7 @@ def rollout(
     output_period: float | None = None,
     limits: ActuatorLimits | None = None,
     external: Any = (),
+    backend: str = "auto",
 ) -> Trajectory:
     """Simulate a batch of initial states at once with fixed-step RK4.
 
@@ -385,6 +517,12 @@ def rollout(
     :class:`Actuation` of batched arrays; per-trajectory controller parameters
     are arrays of length B that the controller closes over. Returns a
     :class:`Trajectory` whose arrays are (T, B, ...).
+
+    ``backend`` as in :func:`simulate`: with the compiled kernels the RK4 steps
+    of the whole batch run in parallel (blocks of trajectories on a thread
+    pool, see :mod:`freeflyer._compiled`), and a controller
+    that is None or a :class:`freeflyer.pd.JointPD` (gains per trajectory,
+    open-loop feed-forward) runs compiled too, with no Python per step.
     """
     state = initial_states.resolve(model)
     x = pack_state(state)
@@ -392,6 +530,7 @@ def rollout(
         raise ShapeError(f"initial_states: expected fields with one leading batch axis (B, ...), got a state of shape {x.shape}")
     batch = x.shape[:1]
     limits = limits or ActuatorLimits()
+    duration, dt = _positive("duration", duration), _positive("dt", dt)
     steps = round(float(duration) / dt)
     if steps <= 0 or abs(steps * dt - duration) > 1e-9 * duration:
         raise ValueError(f"dt: {dt} must divide duration {duration}")
@@ -402,14 +541,21 @@ def rollout(
     def command(t: float, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         if controller is None:
             return (*zero, np.zeros(batch, dtype=bool))
-        return limits.apply(*_actuation(model, controller(t, unpack_state(model, xx)), batch))
+        return limits.apply(*_call_controller(controller, model, t, xx, batch))
 
     rec = _Recorder(model)
+    if _compiled.use_compiled(backend, external) and (controller is None or isinstance(controller, JointPD)):
+        rows = _compiled.rollout_rows(model, x, dt, steps, hold, stride, controller, limits)
+        for row in rows or ():
+            rec.add(*row)
+        if rows is not None:
+            return rec.trajectory()
+    step = _stepper(model, dt, external, backend)
     act = command(0.0, x)
     rec.add(0.0, x, act)
     for i in range(1, steps + 1):
         tau, force, torque, _ = act
-        x = _rk4_step(partial(_derivative, model, tau=tau, force=force, torque=torque, external=external), x, dt)
+        x = step(x, tau, force, torque)
         if i % hold == 0 and i < steps:
             act = command(i * dt, x)
         if i % stride == 0 or i == steps:

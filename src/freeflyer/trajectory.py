@@ -16,9 +16,10 @@ from typing import Any
 import numpy as np
 
 from .conventions import attitude_matrix, euler321_from_matrix
-from .kinematics import end_effector_positions, point_positions
+from .kinematics import end_effector_positions, end_effector_rotations, point_positions
 from .model import Model
 from .momentum import angular_momentum, kinetic_energy
+from .state import State
 
 __all__ = ["Trajectory"]
 
@@ -97,6 +98,12 @@ class Trajectory:
         return self.r_cm[..., None, :] + end_effector_positions(self._need_model(), self.q, attitude=self.attitude)
 
     @cached_property
+    def end_effector_rotations(self) -> np.ndarray:
+        """End-effector frame orientations, body frame -> inertial frame (T, E, 3, 3): T0 R_E."""
+        model = self._need_model()
+        return np.einsum("...ij,...ejk->...eik", attitude_matrix(self.attitude), end_effector_rotations(model, self.q))
+
+    @cached_property
     def spacecraft_position(self) -> np.ndarray:
         """Spacecraft CM in the inertial frame (T, 3)."""
         model = self._need_model()
@@ -138,10 +145,17 @@ class Trajectory:
     def save(self, path: str | Path, *, overwrite: bool = False) -> Path:
         """Write ``.npz`` (all arrays and metadata) or ``.csv`` (one row per time). Never overwrites unless asked."""
         path = Path(path)
+        if path.suffix not in (".npz", ".csv"):
+            raise ValueError(f"{path}: unknown trajectory file type {path.suffix!r}; use .npz or .csv")
         if path.exists() and not overwrite:
             raise FileExistsError(f"{path}: exists; freeflyer does not overwrite files (pass overwrite=True or choose another name)")
         path.parent.mkdir(parents=True, exist_ok=True)
-        meta = {"status": self.status, "message": self.message, "model_name": self.model_name or (self.model.name if self.model else "")}
+        meta: dict[str, Any] = {
+            "status": self.status,
+            "message": self.message,
+            "model_name": self.model_name or (self.model.name if self.model else ""),
+            "shapes": {name: list(np.shape(getattr(self, name))[1:]) for name in _ARRAYS},
+        }
         if path.suffix == ".npz":
             with path.open("wb") as fh:
                 np.savez(fh, **{name: getattr(self, name) for name in _ARRAYS}, meta=json.dumps(meta))
@@ -172,19 +186,13 @@ class Trajectory:
         path = Path(path)
         if path.suffix == ".npz":
             with np.load(path, allow_pickle=False) as data:
+                missing = [name for name in (*_ARRAYS, "meta") if name not in data.files]
+                if missing:
+                    raise ValueError(f"{path}: not a freeflyer trajectory file, missing {', '.join(missing)}")
                 arrays = {name: data[name] for name in _ARRAYS}
                 meta = json.loads(str(data["meta"]))
         elif path.suffix == ".csv":
-            with path.open(encoding="utf-8") as fh:
-                first = fh.readline()
-                meta = json.loads(first.split(" ", 3)[3]) if first.startswith("# freeflyer trajectory") else {}
-                header = next(csv.reader([fh.readline()]))
-                table = np.loadtxt(fh, delimiter=",", ndmin=2)
-            arrays = {}
-            for name in _ARRAYS:
-                cols = [i for i, h in enumerate(header) if h == name or h.startswith(f"{name}[")]
-                arrays[name] = table[:, cols[0]] if header[cols[0]] == name else table[:, cols]
-            arrays["saturated"] = arrays["saturated"].astype(bool)
+            arrays, meta = _read_csv(path)
         else:
             raise ValueError(f"{path}: unknown trajectory file type {path.suffix!r}; use .npz or .csv")
         return cls(
@@ -195,6 +203,17 @@ class Trajectory:
             model=model,
         )
 
+    def state(self, index: int = -1) -> State:
+        """The state at output ``index`` (default: the last one), e.g. to continue a simulation."""
+        return State(
+            q=self.q[index].copy(),
+            qdot=self.qdot[index].copy(),
+            omega=self.omega[index].copy(),
+            attitude=self.attitude[index].copy(),
+            r_cm=self.r_cm[index].copy(),
+            v_cm=self.v_cm[index].copy(),
+        )
+
     def __len__(self) -> int:
         return int(self.t.shape[0])
 
@@ -203,3 +222,27 @@ class Trajectory:
         return all(
             np.allclose(getattr(self, f.name), getattr(other, f.name), rtol=rtol, atol=atol) for f in fields(self) if f.name in _ARRAYS
         )
+
+
+def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """Arrays and metadata of a CSV written by :meth:`Trajectory.save` (errors name what is wrong)."""
+    with path.open(encoding="utf-8") as fh:
+        first = fh.readline()
+        if not first.startswith("# freeflyer trajectory "):
+            raise ValueError(f"{path}: not a freeflyer trajectory CSV (the first line must be '# freeflyer trajectory {{...}}')")
+        meta = json.loads(first[len("# freeflyer trajectory ") :])
+        header = next(csv.reader([fh.readline()]), [])
+        rows = [line for line in fh if line.strip()]
+    table = np.loadtxt(rows, delimiter=",", ndmin=2) if rows else np.zeros((0, len(header)))
+    if table.shape[1] != len(header):
+        raise ValueError(f"{path}: {table.shape[1]} columns of data but {len(header)} column names")
+    shapes = meta.get("shapes", {})
+    arrays = {}
+    for name in _ARRAYS:
+        cols = [i for i, h in enumerate(header) if h == name or h.startswith(f"{name}[")]
+        if not cols:
+            raise ValueError(f"{path}: no column {name!r} (or {name}[i]); was it written by Trajectory.save?")
+        shape = tuple(shapes.get(name, [] if header[cols[0]] == name else [len(cols)]))
+        arrays[name] = table[:, cols].reshape((table.shape[0], *shape))
+    arrays["saturated"] = arrays["saturated"].astype(bool)
+    return arrays, meta

@@ -44,7 +44,7 @@ from ._workspace_results import (
     ReachableWorkspace,
 )
 from .barycentric import barycentric_vectors
-from .jacobians import generalized_jacobian
+from .jacobians import generalized_jacobian, jacobian_determinant
 from .kinematics import body_rotations, end_effector_positions, point_positions
 from .model import Model
 
@@ -166,8 +166,10 @@ def singularity_measure(model: Model, q: Any, *, end_effector: str | int | None 
     One call evaluates millions of configurations (in chunks).
     """
     e = None if end_effector is None else model.end_effector_index(end_effector)
-    fun = _jacobian_fun(model, e)
     arr = np.asarray(q, dtype=float)
+    if e is None and _jacobian_rows(model, None).size == model.n_joints:  # square: the dedicated (compiled) determinant
+        return np.asarray(jacobian_determinant(model, arr))
+    fun = _jacobian_fun(model, e)
     flat = arr.reshape(-1, model.n_joints) if arr.ndim > 1 else arr[None]
     out = search.batched(lambda qq: search.singularity_values(fun(qq)), flat)
     return out.reshape(arr.shape[:-1])
