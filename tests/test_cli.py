@@ -245,7 +245,14 @@ def test_demo_writes_reports_and_map(demo_run: tuple[Path, Result]) -> None:
     printed = [Path(line) for line in result.stdout.splitlines()]
     png = out / "detJ_map_1992_one_arm_captured.png"
     expected = [out / "models" / f"{slug}.{ext}" for slug in DEMO_MODELS for ext in ("json", "md")]
-    assert printed == [*expected, out / "models" / "report.md", png]
+    head = [*expected, out / "models" / "report.md", png]
+    assert printed[: len(head)] == head
+    rest = printed[len(head) :]
+    for paper in ("1991", "1992"):
+        assert out / paper / "report.json" in rest and out / paper / "report.md" in rest
+        assert any(p.parent == out / paper and p.suffix == ".png" for p in rest), paper
+    assert rest[-1] == out / "README.md"
+    assert "1991/report.md" in rest[-1].read_text() and "1992/report.md" in rest[-1].read_text()
     for path in printed:
         assert path.is_file() and path.stat().st_size > 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -527,11 +527,12 @@ def steps_single(x, u, dt, nsteps):
 @nb.njit(cache=True, nogil=True, error_model="numpy")
 def _control(Y, Z, sat, lo, cnt, sample, kp, kd, qref, vref, ff, lim):
     k = min(sample, ff.shape[0] - 1)
+    width = ff.shape[2]  # N (joint torques only) or NU; the columns beyond it are zero
     for i in range(cnt):
         b = lo + i
         flag = False
         for j in range(NU):
-            val = ff[k, b, j]
+            val = ff[k, b, j] if j < width else 0.0
             if j < N:
                 val = val + kp[b, j] * (qref[b, j] - Y[(13 + j) * LANES + i]) + kd[b, j] * (vref[b, j] - Y[(13 + N + j) * LANES + i])
             if val > lim[j]:
@@ -852,8 +853,8 @@ class Kernels:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Batched fixed-step RK4 with a joint PD controller, all compiled.
 
-        x0 (B, S); kp, kd, q_ref, qdot_ref (B, N); feedforward (K, B, N + 6) actuation at sample
-        k (the last held after K samples) or None; limit (N + 6,) symmetric saturation (inf for
+        x0 (B, S); kp, kd, q_ref, qdot_ref (B, N); feedforward (K, B, N + 6) actuation (or (K, B, N)
+        joint torques) at sample k (the last held after K samples) or None; limit (N + 6,) symmetric saturation (inf for
         none) or None. Returns states (T, B, S), actuations (T, B, N + 6), saturated (T, B).
         ``n_threads`` threads each run a contiguous range of blocks of ``LANES`` trajectories.
         """
@@ -879,11 +880,11 @@ class Kernels:
 
 def rollout_rows(
     model: Model, x0: np.ndarray, dt: float, steps: int, hold: int, stride: int, controller: Any, limits: Any
-) -> list[tuple[float, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]]] | None:
+) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] | None:
     """A whole batched rollout compiled: ``controller`` None or a :class:`freeflyer.pd.JointPD`.
 
-    Returns the output rows (t, states (B, S), (tau, f_S, n_S, saturated)) as
-    ``simulate.rollout`` records them, or None when this controller cannot run compiled (a
+    Returns the output times (T,), the states (T, B, S) and the actuation (tau (T, B, N),
+    f_S (T, B, 3), n_S (T, B, 3), saturated (T, B)), or None when this controller cannot run compiled (a
     feed-forward sampled at another period than the controller), or when an angle leaves the
     range of the sin/cos table (|q| > 1e5 rad): the caller then steps in Python.
     """
@@ -910,8 +911,7 @@ def rollout_rows(
             ff = np.asarray(controller.feedforward, dtype=float)
             if ff.shape[0] > 1 and not math.isclose(float(controller.feedforward_period), hold * dt, rel_tol=1e-9):
                 return None
-            feed = np.zeros((ff.shape[0], batch, n + 6))
-            feed[:, :, :n] = ff[:, None, :] if ff.ndim == 2 else ff
+            feed = np.ascontiguousarray(np.broadcast_to(ff[:, None, :] if ff.ndim == 2 else ff, (ff.shape[0], batch, n)))
     try:
         gains = [np.broadcast_to(np.asarray(g, dtype=float), (batch, n)) for g in gains]
     except ValueError:
@@ -919,8 +919,8 @@ def rollout_rows(
     xs, us, sat = kernels(model).rollout_pd(x0, dt, steps, hold, stride, gains[0], gains[1], gains[2], gains[3], feed, lim)
     if not np.max(np.abs(xs[:, :, 13 : 13 + n]), initial=0.0) <= _batch._MAX_TABLE_ANGLE:
         return None
-    times = [0.0] + [i * dt for i in range(1, steps + 1) if i % stride == 0 or i == steps]
-    return [(t, xs[r], (us[r, :, :n], us[r, :, n : n + 3], us[r, :, n + 3 :], sat[r])) for r, t in enumerate(times)]
+    times = np.array([0.0] + [i * dt for i in range(1, steps + 1) if i % stride == 0 or i == steps])
+    return times, xs, (us[:, :, :n], us[:, :, n : n + 3], us[:, :, n + 3 :], sat)
 
 
 def kernels(model: Model) -> Kernels:

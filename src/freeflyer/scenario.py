@@ -411,6 +411,10 @@ def _model_loader(base: Path | None) -> Callable[[str], tuple[Model, Path | None
 
 def scenario_from_dict(data: Any, *, source: str = "", base: Path | None = None) -> Scenario:
     """Validate a scenario given as a dict (a parsed TOML file); ``base``: folder of relative model paths."""
+    if isinstance(data, dict) and "payload" in data and "path" in data:
+        raise ModelError(
+            source or "scenario", "is a capture scenario (it has [payload] and [path])", "run it with `freeflyer capture`, not `simulate`"
+        )
     top = _table(data, _TOP_KEYS, source, "")
     if "model" not in top or not isinstance(top["model"], str):
         raise ModelError(

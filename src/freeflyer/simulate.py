@@ -51,6 +51,10 @@ class SimulationError(FreeflyerError, RuntimeError):
         self.trajectory = trajectory
 
 
+_NOT_SATURATED = np.array(False)
+_NOT_SATURATED.flags.writeable = False
+
+
 @dataclass(frozen=True)
 class ActuatorLimits:
     """Symmetric actuator limits: each component is saturated to [-limit, +limit].
@@ -79,6 +83,8 @@ class ActuatorLimits:
                 )
 
     def apply(self, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        if self.joint_torque is None and self.spacecraft_force is None and self.spacecraft_torque is None:
+            return tau, force, torque, _NOT_SATURATED if tau.ndim == 1 else np.zeros(tau.shape[:-1], dtype=bool)
         saturated = np.zeros(tau.shape[:-1], dtype=bool)
         out = []
         for value, limit, name in (
@@ -103,6 +109,11 @@ def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarr
     n = model.n_joints
     if raw is None:
         raise TypeError(f"controller returned None; return joint torques of shape {(*batch, n)} or a freeflyer.Actuation")
+    if isinstance(raw, np.ndarray) and raw.shape == (*batch, n) and raw.dtype == np.float64:
+        total = float(raw.dot(raw)) if raw.ndim == 1 else float(raw.sum())
+        if total - total == 0.0:  # finite (NaN and inf propagate): the fast path of plain torques
+            zeros = _zeros(batch)
+            return raw, zeros, zeros
     if not isinstance(raw, Actuation):
         raw = Actuation(joint_torque=raw)
     parts = []
@@ -125,6 +136,18 @@ def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarr
             raise ValueError(f"controller returned a non-finite {name}: {arr}")
         parts.append(arr)
     return parts[0], parts[1], parts[2]
+
+
+_ZEROS: dict[tuple[int, ...], np.ndarray] = {}
+
+
+def _zeros(batch: tuple[int, ...]) -> np.ndarray:
+    """A shared read-only zero thrust (batch, 3)."""
+    if batch not in _ZEROS:
+        zeros = np.zeros((*batch, 3))
+        zeros.flags.writeable = False
+        _ZEROS[batch] = zeros
+    return _ZEROS[batch]
 
 
 def _call_controller(controller: Controller, model: Model, t: float, x: np.ndarray, batch: tuple[int, ...]) -> tuple[np.ndarray, ...]:
@@ -229,24 +252,43 @@ class _Recorder:
         else:
             xs = np.zeros((0, 13 + 2 * n))
             acts = [np.zeros((0, n)), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0,), dtype=bool)]
-        s = unpack_state(model, xs)
-        return Trajectory(
-            t=np.asarray(self.t),
-            q=np.array(s.q),
-            qdot=np.array(s.qdot),
-            omega=np.array(s.omega),
-            attitude=np.array(s.attitude),
-            r_cm=np.array(s.r_cm),
-            v_cm=np.array(s.v_cm),
-            joint_torque=acts[0],
-            spacecraft_force=acts[1],
-            spacecraft_torque=acts[2],
-            saturated=acts[3],
-            status=status,
-            message=message,
-            model_name=model.name,
-            model=model,
-        )
+        return _trajectory(model, np.asarray(self.t), xs, (acts[0], acts[1], acts[2], acts[3]), status, message)
+
+
+def _trajectory(
+    model: Model,
+    t: np.ndarray,
+    xs: np.ndarray,
+    acts: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    status: str = "finished",
+    message: str = "",
+    *,
+    copy: bool = True,
+) -> Trajectory:
+    """A Trajectory from stacked flat states xs (T, ..., S) and actuation.
+
+    ``copy=False`` keeps the fields as views of ``xs`` (for the large arrays of
+    batched rollouts, which nothing else holds); otherwise each field gets its own array.
+    """
+    s = unpack_state(model, xs)
+    own = np.array if copy else np.asarray
+    return Trajectory(
+        t=t,
+        q=own(s.q),
+        qdot=own(s.qdot),
+        omega=own(s.omega),
+        attitude=own(s.attitude),
+        r_cm=own(s.r_cm),
+        v_cm=own(s.v_cm),
+        joint_torque=own(acts[0]),
+        spacecraft_force=own(acts[1]),
+        spacecraft_torque=own(acts[2]),
+        saturated=own(acts[3]),
+        status=status,
+        message=message,
+        model_name=model.name,
+        model=model,
+    )
 
 
 def _progress(enabled: bool, duration: float) -> Any:
@@ -309,6 +351,8 @@ def simulate(
     for name, value in (("fixed_step", fixed_step), ("sample_period", sample_period), ("output_period", output_period)):
         if value is not None:
             _positive(name, value)
+    if fixed_step is not None and abs(round(duration / fixed_step) * fixed_step - duration) > 1e-9 * duration:
+        raise ValueError(f"fixed_step: {fixed_step} does not divide duration {duration}; choose a step that does")
     if fixed_step is None:
         if not (isinstance(method, str) and method in METHODS) and not isinstance(method, type):
             raise ValueError(f"method: unknown integrator {method!r}; choose one of {', '.join(METHODS)} (or pass fixed_step for RK4)")
@@ -365,7 +409,8 @@ def _positive(name: str, value: Any) -> float:
 
 
 def _check_finite(t: float, x: np.ndarray) -> None:
-    if not np.isfinite(x).all():
+    total = float(x.dot(x)) if x.ndim == 1 else float(x.sum())
+    if total - total != 0.0 and not np.isfinite(x).all():  # NaN and inf propagate into the sum (overflow: checked in full)
         raise SimulationError(f"the state became non-finite at t = {t:.6g} s (unstable controller or too large a step?)")
 
 
@@ -394,10 +439,12 @@ def _run_rk4(
     bar: Any,
     backend: str = "numpy",
 ) -> tuple[str, str]:
-    step = _stepper(model, dt, external, backend)
     steps = round(duration / dt)
     if abs(steps * dt - duration) > 1e-9 * duration:
         raise ValueError(f"fixed_step: {dt} does not divide duration {duration}; choose a step that does")
+    if _compiled.use_compiled(backend, external) and not events:
+        return _run_rk4_compiled(model, x0, steps, dt, sample_period, period, command, rec, bar)
+    step = _stepper(model, dt, external, backend)
     hold = sample_period or dt
     stride = max(1, round(period / dt))
     x, t = x0.copy(), 0.0
@@ -427,6 +474,46 @@ def _run_rk4(
                         rec.add(t, x, act)
                     return "event", f"event {k} ({getattr(ev, '__name__', 'event')}) at t = {t:.6g} s"
             prev_ev = now
+    return "finished", ""
+
+
+def _run_rk4_compiled(
+    model: Model, x0: np.ndarray, steps: int, dt: float, sample_period: float | None, period: float, command: Any, rec: _Recorder, bar: Any
+) -> tuple[str, str]:
+    """RK4 with the compiled kernels, in place: runs of steps between samples and outputs go without Python."""
+    run = _compiled.kernels(model).module.steps_single
+    n = model.n_joints
+    # sample instants: every step without a sample period, else the steps nearest k * sample_period
+    sample_steps = 1 if sample_period is None else None
+    next_sample_time = sample_period or dt
+    stride = max(1, round(period / dt))
+    x = np.array(x0, dtype=float, order="C")
+    x[6:10] /= np.linalg.norm(x[6:10])
+    u = np.empty(n + 6)
+    act = command(0.0, x)
+    u[:n], u[n : n + 3], u[n + 3 :] = act[0], act[1], act[2]
+    rec.add(0.0, x, act)
+    report = max(1, steps // 100)
+    i = 0
+    while i < steps:
+        if sample_steps == 1:
+            todo = 1
+        else:
+            to_sample = max(1, round(next_sample_time / dt) - i)
+            todo = min(to_sample, stride - i % stride, steps - i)
+        run(x, u, dt, todo)
+        i += todo
+        t = i * dt
+        _check_finite(t, x)
+        if i < steps and (sample_steps == 1 or t >= next_sample_time - 1e-9 * dt):
+            act = command(t, x.copy())  # a copy: x is advanced in place, the controller may keep its state
+            u[:n], u[n : n + 3], u[n + 3 :] = act[0], act[1], act[2]
+            if sample_period is not None:
+                next_sample_time += sample_period
+        if i % stride == 0 or i == steps:
+            rec.add(t, x, act)
+        if bar is not None and i % report < todo:
+            bar.update(bar.task_ids[0], completed=t)
     return "finished", ""
 
 
@@ -465,26 +552,31 @@ def _run_adaptive(
         wrapped.direction = getattr(ev, "direction", 0)  # type: ignore[attr-defined]
         ivp_events.append(wrapped)
     x = x0.copy()
-    first = command(0.0, x)
-    rec.add(0.0, x, first)
+    held = command(0.0, x) if sample_period is not None else None
+    rec.add(0.0, x, held if held is not None else command(0.0, x))
     for a, b in itertools.pairwise(bounds):
-        held = (first if a == 0.0 else command(a, x)) if sample_period is not None else None
 
         def rhs(t: float, y: np.ndarray, held: Any = held) -> np.ndarray:
             tau, force, torque, _ = held if held is not None else command(t, y)
             return derivative(y, tau, force, torque)
 
         inside = t_out[(t_out > a + 1e-12) & (t_out <= b + 1e-12)]
-        sol = solve_ivp(
-            rhs, (a, b), x, method=method, rtol=rtol, atol=atol, t_eval=inside if inside.size else None, events=ivp_events or None
-        )
+        # always evaluate at b too: the next piece starts from the state there
+        t_eval = inside if inside.size and inside[-1] >= b - 1e-12 else np.append(inside, b)
+        t_eval[-1] = b
+        sol = solve_ivp(rhs, (a, b), x, method=method, rtol=rtol, atol=atol, t_eval=t_eval, events=ivp_events or None)
         if sol.status == -1:
             raise SimulationError(f"integrator failed between t = {a:.6g} and {b:.6g} s: {sol.message}")
-        times = sol.t if inside.size else np.array([])
-        for k, tk in enumerate(times):
-            _check_finite(float(tk), sol.y[:, k])
-            rec.add(float(tk), sol.y[:, k], held if held is not None else command(float(tk), sol.y[:, k]))
         x = sol.y[:, -1] if sol.y.shape[1] else x
+        _check_finite(float(sol.t[-1]) if sol.t.size else a, x)
+        # the actuation recorded at a sample instant is the one applied from there on
+        last = sol.status == 0 and b < duration - 1e-12 * duration
+        new_held = command(b, x) if held is not None and last else held
+        for k, tk in enumerate(sol.t[: inside.size]):
+            _check_finite(float(tk), sol.y[:, k])
+            act = held if held is None or tk < b - 1e-12 else new_held
+            rec.add(float(tk), sol.y[:, k], act if act is not None else command(float(tk), sol.y[:, k]))
+        held = new_held
         if bar is not None:
             bar.update(bar.task_ids[0], completed=b)
         if sol.status == 1:
@@ -545,11 +637,9 @@ def rollout(
 
     rec = _Recorder(model)
     if _compiled.use_compiled(backend, external) and (controller is None or isinstance(controller, JointPD)):
-        rows = _compiled.rollout_rows(model, x, dt, steps, hold, stride, controller, limits)
-        for row in rows or ():
-            rec.add(*row)
-        if rows is not None:
-            return rec.trajectory()
+        compiled = _compiled.rollout_rows(model, x, dt, steps, hold, stride, controller, limits)
+        if compiled is not None:
+            return _trajectory(model, *compiled, copy=False)  # the kernels keep the quaternions normalised
     step = _stepper(model, dt, external, backend)
     act = command(0.0, x)
     rec.add(0.0, x, act)

@@ -118,8 +118,7 @@ class State:
     def _trusted(cls, **fields: np.ndarray) -> State:
         """A state from arrays known to be valid (no checks: used by the integrators)."""
         state = object.__new__(cls)
-        for name in _FIELDS:
-            object.__setattr__(state, name, fields[name])
+        state.__dict__.update(fields)  # frozen: write the instance dict directly
         return state
 
     def resolve(self, model: Model) -> State:
