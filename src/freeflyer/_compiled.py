@@ -56,7 +56,7 @@ from .model import Model
 __all__ = ["LANES", "Kernels", "available", "enabled", "kernels"]
 
 #: Trajectories (or configurations) per block: one lane each, the batch axis innermost.
-LANES = 8
+LANES = 16
 
 Scalar = Any  # a float or a traced freeflyer._batch.Sym
 Vec = list[Any]
