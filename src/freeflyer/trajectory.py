@@ -128,15 +128,27 @@ class Trajectory:
             axes = fig.subplots(2, 2, sharex=True).ravel()
         ax_q, ax_att, ax_pos, ax_act = axes
         artists: list[Any] = []
-        artists += ax_q.plot(self.t, np.degrees(self.q))
+        joints = list(self.model.joint_names) if self.model is not None else [f"q{j + 1}" for j in range(self.q.shape[-1])]
+        artists += ax_q.plot(self.t, np.degrees(self.q), label=joints)
         ax_q.set_ylabel("joint angle (deg)")
-        artists += ax_att.plot(self.t, np.degrees(self.spacecraft_euler321) if self.model is not None else self.attitude)
-        ax_att.set_ylabel("spacecraft roll, pitch, yaw (deg)" if self.model is not None else "quaternion")
-        artists += ax_pos.plot(self.t, self.spacecraft_position if self.model is not None else self.r_cm)
-        ax_pos.set_ylabel("spacecraft CM x, y, z (m)" if self.model is not None else "system CM (m)")
-        artists += ax_act.plot(self.t, self.joint_torque)
-        artists += ax_act.plot(self.t, self.spacecraft_force, linestyle="--")
-        ax_act.set_ylabel("joint torque (N m), thrust (N, dashed)")
+        if self.model is not None:
+            artists += ax_att.plot(self.t, np.degrees(self.spacecraft_euler321), label=["roll", "pitch", "yaw"])
+            ax_att.set_ylabel("spacecraft attitude, Euler 3-2-1 (deg)")
+            artists += ax_pos.plot(self.t, self.spacecraft_position, label=["x", "y", "z"])
+            ax_pos.set_ylabel("spacecraft CM, inertial (m)")
+        else:
+            artists += ax_att.plot(self.t, self.attitude, label=["x", "y", "z", "w"])
+            ax_att.set_ylabel("attitude quaternion")
+            artists += ax_pos.plot(self.t, self.r_cm, label=["x", "y", "z"])
+            ax_pos.set_ylabel("system CM, inertial (m)")
+        artists += ax_act.plot(self.t, self.joint_torque, label=joints)
+        if np.any(self.spacecraft_force) or np.any(self.spacecraft_torque):
+            artists += ax_act.plot(self.t, self.spacecraft_force, linestyle="--", label=["f_x", "f_y", "f_z"])
+            artists += ax_act.plot(self.t, self.spacecraft_torque, linestyle=":", label=["n_x", "n_y", "n_z"])
+        ax_act.set_ylabel("joint torque (N m); thrust (N, --), (N m, :)")
+        for ax in (ax_q, ax_att, ax_pos, ax_act):
+            ax.legend(fontsize=7, loc="best")
+            ax.grid(alpha=0.3)
         for ax in (ax_pos, ax_act):
             ax.set_xlabel("time (s)")
         return artists
