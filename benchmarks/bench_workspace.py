@@ -18,30 +18,17 @@ from __future__ import annotations
 import os
 import platform
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 import freeflyer as ff
+from bench_core import numba_switch
 from freeflyer._workspace_search import joint_box
 from freeflyer.workspace import path_independent_workspace, reachable_workspace
 
 MM = 1e-3
-
-
-@contextmanager
-def numba_switch(on: bool) -> Iterator[None]:
-    old = os.environ.get("FREEFLYER_NUMBA")
-    os.environ["FREEFLYER_NUMBA"] = "1" if on else "0"
-    try:
-        yield
-    finally:
-        if old is None:
-            os.environ.pop("FREEFLYER_NUMBA", None)
-        else:
-            os.environ["FREEFLYER_NUMBA"] = old
 
 
 def best_of(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:

@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,7 +41,7 @@ import numpy as np
 
 from .capture import CapturePlan, CapturePosture, _is_two_link, capture_families, optimal_capture_posture, plan_capture
 from .errors import ModelError, UnknownNameError
-from .io import load
+from .io import load, read_toml
 from .model import Model, inertia_matrix
 
 __all__ = [
@@ -244,12 +243,7 @@ def load_capture_scenario(path: str | Path, *, model_loader: Callable[[str], Mod
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such scenario file")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ModelError(str(path), f"malformed TOML: {exc}", "fix the TOML syntax at that line") from None
-    except UnicodeDecodeError:
-        raise ModelError(str(path), "is not UTF-8 text", "save the scenario as UTF-8 TOML") from None
+    data = read_toml(path, "scenario")
     return capture_scenario_from_dict(data, source=str(path), base_dir=path.parent, model_loader=model_loader)
 
 

@@ -39,16 +39,20 @@ def load(path: str | Path) -> Model:
 
 
 # --------------------------------------------------------------------- TOML
-def load_toml(path: str | Path) -> Model:
-    """Read a model in freeflyer's TOML schema (see docs/model-files.md)."""
+def read_toml(path: str | Path, what: str = "model file") -> dict[str, Any]:
+    """The table of a TOML file; malformed TOML or text that is not UTF-8 is a ModelError naming the file."""
     path = Path(path)
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise ModelError(str(path), f"malformed TOML: {exc}", "fix the TOML syntax at that line") from None
     except UnicodeDecodeError:
-        raise ModelError(str(path), "is not UTF-8 text", "save the model file as UTF-8 TOML") from None
-    return from_dict(data, source=str(path))
+        raise ModelError(str(path), "is not UTF-8 text", f"save the {what} as UTF-8 TOML") from None
+
+
+def load_toml(path: str | Path) -> Model:
+    """Read a model in freeflyer's TOML schema (see docs/model-files.md)."""
+    return from_dict(read_toml(path), source=str(path))
 
 
 def _require(entry: dict[str, Any], key: str, path: str, fix: str) -> Any:

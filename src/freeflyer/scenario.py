@@ -58,7 +58,6 @@ Every error names the field and the fix (:class:`~freeflyer.ModelError`).
 from __future__ import annotations
 
 import json
-import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -68,7 +67,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .errors import ModelError
-from .io import load
+from .io import load, read_toml
 from .model import Model
 from .pd import JointPD
 from .simulate import METHODS, ActuatorLimits, SimulationError, simulate
@@ -478,10 +477,7 @@ def load_scenario(path: str | Path) -> Scenario:
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such scenario file")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ModelError(str(path), f"is not valid TOML ({exc})", "fix the TOML syntax") from None
+    data = read_toml(path, "scenario")
     return scenario_from_dict(data, source=str(path), base=path.parent)
 
 
