@@ -4,7 +4,7 @@
   transposed-Jacobian controller (eqs. 29-30) and the operational-space controller (eq. 27), exactly
   as ``freeflyer reproduce 1991`` runs it (adaptive LSODA, continuous control);
 * ``steps``: the same controllers sampled once per step with fixed-step RK4 (dt = 10 ms), steps per
-  second of ``freeflyer.simulate`` against MuJoCo (``freeflyer.mujoco_bridge.to_mujoco``, RK4, same
+  second of ``freeflyer.simulate`` against MuJoCo (``freeflyer.io.mujoco_bridge.to_mujoco``, RK4, same
   dt) running the same Python controller each step: state read back with ``from_mujoco_state``, joint
   torques into ``data.ctrl``, the thruster wrench (rotated to the world frame) into
   ``data.xfrc_applied`` of the spacecraft (MuJoCo applies it at the body CM, where the paper's
@@ -22,9 +22,9 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from freeflyer.control import OperationalSpaceController, TransposedJacobianController
-from freeflyer.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
-from freeflyer.paper1991 import run_controller, section5_setup
-from freeflyer.simulate import simulate
+from freeflyer.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
+from freeflyer.papers.paper1991 import run_controller, section5_setup
+from freeflyer.simulation.simulate import simulate
 
 DT = 0.01
 CONTROLLERS = {"tj": TransposedJacobianController, "ct": OperationalSpaceController}

@@ -11,7 +11,7 @@ For each system, in the same process and run:
   J* = J_q - J_b A_b^-1 A_q with numpy and ``np.linalg.det`` (sqrt det(J* J*ᵀ) for the redundant
   arm); best of ``repeats`` as well;
 * both of freeflyer's back ends: numpy (always) and, when the ``fast`` extra is installed, the same
-  traced programs compiled by numba (``freeflyer._numba_programs``, used automatically for batches
+  traced programs compiled by numba (``freeflyer.mechanics._numba_programs``, used automatically for batches
   of 65,536 configurations or more); the headline ratio uses what the library runs by default.
 
 Before timing, J* and the determinant of both agree on a sample of configurations to 1e-10
@@ -32,8 +32,8 @@ from typing import Any
 import numpy as np
 
 import freeflyer as ff
-from freeflyer.jacobians import _singularity_row_indices
-from freeflyer.oracles import pinocchio_configuration, to_pinocchio
+from freeflyer.io.oracles import pinocchio_configuration, to_pinocchio
+from freeflyer.mechanics.jacobians import _singularity_row_indices
 
 #: Agreement required between freeflyer and Pinocchio before timing (relative to the largest entry).
 VERIFY_RTOL = 1e-10

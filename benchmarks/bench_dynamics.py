@@ -5,7 +5,7 @@ For the 1992 two-arm system and the 7-DOF spacecraft (``ff.models.spacecraft_7do
 1. **Per configuration** (batched): H+ (1991 eq. 15), C+ (eq. 19) and forward dynamics for
    ``configs`` random states, one batched call, against the same quantities from Pinocchio in a
    Python loop (``pin.crba``, ``pin.nonLinearEffects``, ``pin.aba`` with a free-flyer root, one
-   ``Data`` reused). freeflyer's compiled kernels (numba, ``freeflyer._compiled``) and its numpy
+   ``Data`` reused). freeflyer's compiled kernels (numba, ``freeflyer.mechanics._compiled``) and its numpy
    reference (``ff.system_inertia_matrix``, ``ff.nonlinear_forces``, ``ff.forward_dynamics``).
 2. **One simulation**, fixed-step RK4 at 1 ms with a joint PD controller written in Python in the
    loop (the same function for both): MuJoCo (``mj_step``, integrator RK4, timestep 1 ms, the
@@ -39,12 +39,12 @@ import numpy as np
 
 import freeflyer as ff
 from bench_core import best_of, machine_info
-from freeflyer import _compiled
-from freeflyer.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
-from freeflyer.oracles import acceleration_from_pinocchio, pinocchio_configuration, pinocchio_velocity, to_pinocchio
-from freeflyer.pd import JointPD
-from freeflyer.simulate import rollout, simulate
-from freeflyer.state import State
+from freeflyer.core.state import State
+from freeflyer.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
+from freeflyer.io.oracles import acceleration_from_pinocchio, pinocchio_configuration, pinocchio_velocity, to_pinocchio
+from freeflyer.mechanics import _compiled
+from freeflyer.simulation.pd import JointPD
+from freeflyer.simulation.simulate import rollout, simulate
 
 DT = 1e-3
 TARGET_SIMULATION = 1.0
@@ -368,7 +368,7 @@ def batched_rollouts(model: ff.Model, batch: int, steps: int, repeats: int, log:
 _COLD = """
 import json, sys, time
 import freeflyer as ff
-from freeflyer import _compiled
+from freeflyer.mechanics import _compiled
 out = {}
 for key, make in (("papadopoulos1992", lambda: ff.models.papadopoulos1992(arms=2)), ("spacecraft_7dof", ff.models.spacecraft_7dof)):
     t0 = time.perf_counter()
@@ -422,7 +422,8 @@ def run(quick: bool, log: Callable[[str], None]) -> dict[str, Any]:
         "targets": {"simulation_ratio": TARGET_SIMULATION, "rollout_ratio": TARGET_ROLLOUT},
         "notes": [
             "*_per_s: items / best wall-clock time of `repeats` calls; ratios = freeflyer / reference, both measured in this run.",
-            "freeflyer_numba: the compiled kernels of freeflyer._compiled; freeflyer_numpy: the numpy reference path (single-threaded).",
+            "freeflyer_numba: the compiled kernels of freeflyer.mechanics._compiled; "
+            "freeflyer_numpy: the numpy reference path (single-threaded).",
             "Per configuration: freeflyer's batched calls use all threads; the Pinocchio loop is one Python thread (as a user writes it).",
             "One simulation: single-threaded everywhere. ratio_compiled_loop: Kernels.simulate (controller every step, RK4 compiled) vs "
             "MuJoCo mj_step with the same Python controller; ratio_simulate: the public freeflyer.simulate (validation, bookkeeping).",

@@ -5,7 +5,7 @@
   1 mm" when its reported ``accuracy`` is at most 1 mm and its PIW limits (R_min, R_max)
   are within 1 mm of a reference run with 16x more samples. Headline: the shortest
   wall-clock time (best of ``repeats``) among the budgets that reach 1 mm.
-* **det J* map throughput**: ``ff.singularity_measure(model, Q)`` (det J* where J* is
+* **det J* map throughput**: ``ff.workspace.singularity_measure(model, Q)`` (det J* where J* is
   square, else its smallest singular value) and the plain ``ff.jacobian_determinant`` /
   ``ff.manipulability`` over Q of shape (configs, N), uniform within the joint limits, for
   the two-arm 1992 system (N = 4, planar J* 4 x 4) and ``ff.models.spacecraft_7dof()``
@@ -25,8 +25,8 @@ import numpy as np
 
 import freeflyer as ff
 from bench_core import numba_switch
-from freeflyer._workspace_search import joint_box
-from freeflyer.workspace import path_independent_workspace, reachable_workspace
+from freeflyer.analysis._workspace_search import joint_box
+from freeflyer.analysis.workspace import path_independent_workspace, reachable_workspace
 
 MM = 1e-3
 
@@ -99,7 +99,7 @@ def bench_maps(configs: int, repeats: int, numba: bool, log: Callable[[str], Non
         for name, on in backends:
             with numba_switch(on):
                 for label, fn in (
-                    ("singularity_measure", lambda m=model, qq=q: ff.singularity_measure(m, qq)),
+                    ("singularity_measure", lambda m=model, qq=q: ff.workspace.singularity_measure(m, qq)),
                     (
                         "jacobian_determinant" if plain is ff.jacobian_determinant else "manipulability",
                         lambda m=model, f=plain, qq=q: f(m, qq),

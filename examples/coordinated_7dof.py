@@ -18,8 +18,6 @@ from matplotlib.figure import Figure
 from scipy.spatial.transform import Rotation
 
 import freeflyer as ff
-from freeflyer.simulate import simulate
-from freeflyer.state import State
 
 # the output folder is the first argument when this file is run as a script (not when a test runner imports it)
 run_directly = Path(sys.argv[0]).name == Path(__file__).name
@@ -27,8 +25,8 @@ out = Path(sys.argv[1]) if run_directly and len(sys.argv) > 1 else Path("out/exa
 out.mkdir(parents=True, exist_ok=True)
 
 model = ff.models.spacecraft_7dof()
-task = ff.TaskSpace.paper1991(model, orientation="quaternion")
-state0 = State(q=[0.0, 0.6, 0.0, -1.3, 0.0, 0.9, 0.0]).resolve(model)
+task = ff.control.TaskSpace.paper1991(model, orientation="quaternion")
+state0 = ff.State(q=[0.0, 0.6, 0.0, -1.3, 0.0, 0.9, 0.0]).resolve(model)
 start = task.coordinates(state0)
 tool_rotation = Rotation.from_quat(start[task.item_slices("tool.orientation")[0]])
 sc_position = start[task.item_slices("spacecraft.position")[0]]
@@ -38,7 +36,7 @@ goal = task.target(
     spacecraft_position=sc_position + np.array([0.1, 0.0, 0.0]),
     spacecraft_orientation=Rotation.from_euler("z", 3.0, degrees=True),
 )
-desired = ff.MinimumJerk(start, goal, 3.0, task=task)
+desired = ff.control.MinimumJerk(start, goal, 3.0, task=task)
 DURATION = 8.0
 
 # eq. 27 gains are accelerations (1/s², 1/s): ω = 3 rad/s, critically damped, for every row.
@@ -48,14 +46,16 @@ DURATION = 8.0
 stiffness = np.repeat([200.0, 5.0, 6000.0, 4000.0], 3)
 damping = np.repeat([100.0, 0.3, 6000.0, 4000.0], 3)
 controllers = {
-    "operational space (eq. 27)": ff.OperationalSpaceController(model, task, desired, kp=9.0, kd=6.0, null_space_damping=20.0),
-    "transposed Jacobian (eq. 29)": ff.TransposedJacobianController(model, task, desired, kp=stiffness, kd=damping, null_space_damping=0.2),
+    "operational space (eq. 27)": ff.control.OperationalSpaceController(model, task, desired, kp=9.0, kd=6.0, null_space_damping=20.0),
+    "transposed Jacobian (eq. 29)": ff.control.TransposedJacobianController(
+        model, task, desired, kp=stiffness, kd=damping, null_space_damping=0.2
+    ),
 }
 fig = Figure(figsize=(11, 7), layout="constrained")
 axes = fig.subplots(2, 2, sharex=True)
 for col, (name, controller) in enumerate(controllers.items()):
-    traj = simulate(model, state0, DURATION, controller, fixed_step=0.01)
-    z = task.coordinates(State(q=traj.q, attitude=traj.attitude, r_cm=traj.r_cm))
+    traj = ff.simulate(model, state0, DURATION, controller, fixed_step=0.01)
+    z = task.coordinates(ff.State(q=traj.q, attitude=traj.attitude, r_cm=traj.r_cm))
     e = task.error(goal, z)
     tool_err = np.linalg.norm(e[:, 0:3], axis=1)
     sc_err = np.linalg.norm(e[:, 6:9], axis=1)

@@ -4,189 +4,121 @@ Implements Papadopoulos & Dubowsky 1991 (coordinated manipulator/spacecraft
 motion control) and Papadopoulos 1992 (large payload manipulation) in general:
 3D trees with any number of arms and joints. See ``freeflyer.conventions``
 for frames, units and orders.
+
+The everyday names are here (``ff.simulate``, ``ff.forward_dynamics``, ...);
+the rest live in namespaces:
+
+- ``ff.conventions``: frames, quaternion order, velocity order, units.
+- ``ff.models``: built-in models and ``load_model(name_or_path)``.
+- ``ff.mechanics``: every mechanics function (``ff.planar``: the planar view).
+- ``ff.control``: controllers, desired motions, task spaces.
+- ``ff.workspace``: workspaces, determinant maps, workspace limits.
+- ``ff.capture``: payload capture planning (1992 §V), path placement.
+- ``ff.scenarios``: simulation and capture scenario files.
+- ``ff.papers``: reproduction of the papers.
+
+The packages below draw the layers (docs/architecture.md): ``core`` <
+``mechanics`` < ``simulation`` | ``control`` | ``analysis`` < ``io`` <
+``models`` < ``scenarios`` < ``papers`` < ``cli``.
 """
 
 from __future__ import annotations
 
-from . import conventions, models, planar
-from .barycentric import BarycentricVectors, barycentric_vectors
-from .capture import (
-    CaptureFamilies,
-    CapturePlan,
-    CapturePosture,
-    PathDoesNotFitError,
-    PathPlacement,
-    approach_distance,
-    capture_families,
-    optimal_capture_posture,
-    place_path,
-    plan_capture,
-)
-from .capture_scenario import CaptureScenario, load_capture_scenario, run_capture_scenario
-from .control import OperationalSpaceController, TransposedJacobianController
-from .desired import DesiredPoint, FunctionTrajectory, MinimumJerk, SetPoint, StraightLine
-from .dynamics import (
-    ExternalWrench,
-    actuation_from_generalized_forces,
-    forward_dynamics,
-    generalized_forces,
-    inverse_dynamics,
-    nonlinear_forces,
-    point_bias_acceleration,
-    spacecraft_fixed_dynamics,
-    system_inertia_matrix_rate,
-)
-from .errors import (
+# namespace modules: ``as`` marks them re-exported (they are attributes, not in __all__: see NAMESPACES)
+from . import control as control
+from . import mechanics as mechanics
+from . import models as models
+from . import papers as papers
+from . import scenarios as scenarios
+from .analysis import capture as capture
+from .analysis import workspace as workspace
+from .core import conventions as conventions
+from .core.barycentric import BarycentricVectors, barycentric_vectors
+from .core.builder import ModelBuilder
+from .core.errors import (
     FreeflyerError,
     ModelError,
     NearSingularWarning,
     ShapeError,
+    SimulationError,
     SingularConfigurationError,
     UnknownNameError,
 )
-from .io import load, save
-from .jacobians import (
+from .core.model import Model
+from .core.state import Actuation, ActuatorLimits, State
+from .io.model_files import load, save
+from .mechanics import planar as planar
+from .mechanics.dynamics import forward_dynamics, inverse_dynamics, nonlinear_forces
+from .mechanics.forces import ExternalWrench, generalized_forces
+from .mechanics.jacobians import (
     actuation_jacobian,
     end_effector_jacobian,
     generalized_jacobian,
-    generalized_jacobian_drift,
     jacobian_determinant,
     manipulability,
     point_jacobian,
     task_jacobian,
 )
-from .kinematics import (
+from .mechanics.kinematics import (
     body_cm_positions,
     body_rotations,
     end_effector_positions,
-    end_effector_rotations,
     forward_kinematics,
     point_positions,
     system_cm,
 )
-from .model import Model, ModelBuilder
-from .momentum import (
-    InertiaBlocks,
-    angular_momentum,
-    inertia_blocks,
-    kinetic_energy,
-    linear_momentum,
-    system_inertia_matrix,
-)
-from .pd import JointPD
-from .scenario import Scenario, load_scenario, run_scenario
-from .simulate import ActuatorLimits, SimulationError, rollout, simulate
-from .singularity import DeterminantMap, jacobian_determinant_map
-from .state import Actuation, State
-from .tasks import TaskItem, TaskSpace
-from .trajectory import Trajectory
-from .workspace import (
-    GuaranteedWorkspace,
-    PathIndependentWorkspace,
-    PayloadEffect,
-    ReachableWorkspace,
-    end_effector_radius,
-    guaranteed_workspace,
-    path_independent_workspace,
-    payload_effect,
-    reachable_workspace,
-    singularity_measure,
-)
-from .workspace_report import WorkspaceLimits, workspace_limits
+from .mechanics.momentum import angular_momentum, inertia_blocks, kinetic_energy, linear_momentum, system_inertia_matrix
+from .simulation.pd import JointPD
+from .simulation.simulate import rollout, simulate
+from .simulation.trajectory import Trajectory
 
 __version__ = "0.1.0"
+
+#: The namespace modules (attributes of ``freeflyer``, not star-exported): see the module docstring.
+NAMESPACES = ("capture", "control", "conventions", "mechanics", "models", "papers", "planar", "scenarios", "workspace")
 
 __all__ = [
     "Actuation",
     "ActuatorLimits",
     "BarycentricVectors",
-    "CaptureFamilies",
-    "CapturePlan",
-    "CapturePosture",
-    "CaptureScenario",
-    "DesiredPoint",
-    "DeterminantMap",
     "ExternalWrench",
     "FreeflyerError",
-    "FunctionTrajectory",
-    "GuaranteedWorkspace",
-    "InertiaBlocks",
     "JointPD",
-    "MinimumJerk",
     "Model",
     "ModelBuilder",
     "ModelError",
     "NearSingularWarning",
-    "OperationalSpaceController",
-    "PathDoesNotFitError",
-    "PathIndependentWorkspace",
-    "PathPlacement",
-    "PayloadEffect",
-    "ReachableWorkspace",
-    "Scenario",
-    "SetPoint",
     "ShapeError",
     "SimulationError",
     "SingularConfigurationError",
     "State",
-    "StraightLine",
-    "TaskItem",
-    "TaskSpace",
     "Trajectory",
-    "TransposedJacobianController",
     "UnknownNameError",
-    "WorkspaceLimits",
-    "actuation_from_generalized_forces",
     "actuation_jacobian",
     "angular_momentum",
-    "approach_distance",
     "barycentric_vectors",
     "body_cm_positions",
     "body_rotations",
-    "capture_families",
-    "conventions",
     "end_effector_jacobian",
     "end_effector_positions",
-    "end_effector_radius",
-    "end_effector_rotations",
     "forward_dynamics",
     "forward_kinematics",
     "generalized_forces",
     "generalized_jacobian",
-    "generalized_jacobian_drift",
-    "guaranteed_workspace",
     "inertia_blocks",
     "inverse_dynamics",
     "jacobian_determinant",
-    "jacobian_determinant_map",
     "kinetic_energy",
     "linear_momentum",
     "load",
-    "load_capture_scenario",
-    "load_scenario",
     "manipulability",
-    "models",
     "nonlinear_forces",
-    "optimal_capture_posture",
-    "path_independent_workspace",
-    "payload_effect",
-    "place_path",
-    "plan_capture",
-    "planar",
-    "point_bias_acceleration",
     "point_jacobian",
     "point_positions",
-    "reachable_workspace",
     "rollout",
-    "run_capture_scenario",
-    "run_scenario",
     "save",
     "simulate",
-    "singularity_measure",
-    "spacecraft_fixed_dynamics",
     "system_cm",
     "system_inertia_matrix",
-    "system_inertia_matrix_rate",
     "task_jacobian",
-    "workspace_limits",
 ]

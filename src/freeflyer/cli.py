@@ -3,7 +3,8 @@
 A thin layer over the library: each command resolves its inputs, calls
 library functions, and prints or writes their results. Shared rules:
 
-- MODEL is a ``.toml`` / ``.urdf`` path or a built-in name (:data:`BUILTIN_MODELS`).
+- MODEL is a ``.toml`` / ``.urdf`` path or a built-in name (:data:`freeflyer.models.BUILTIN_MODELS`),
+  read by :func:`freeflyer.models.load_model`.
 - Bad input (a :class:`~freeflyer.FreeflyerError`, ``ValueError`` or ``OSError``
   such as a missing file) prints ONE line ``error: <message>`` on stderr and
   exits with code 1; no traceback.
@@ -16,9 +17,8 @@ their body in ``with user_errors():``.
 
 from __future__ import annotations
 
-import difflib
 import json
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated, Any
@@ -26,23 +26,13 @@ from typing import Annotated, Any
 import numpy as np
 import typer
 
-from .errors import FreeflyerError, ModelError
-from .io import load
-from .model import Model
-from .models import papadopoulos1991, papadopoulos1992
-from .report import PAPER_PAYLOAD, model_info, paper_systems, render_text, write_model_reports
-from .singularity import jacobian_determinant_map
+from .analysis.singularity import jacobian_determinant_map
+from .core.errors import FreeflyerError
+from .core.model import Model
+from .models import BUILTIN_MODELS, load_model
+from .papers.report import PAPER_PAYLOAD, model_info, paper_systems, render_text, write_model_reports
 
-__all__ = ["BUILTIN_MODELS", "app", "load_model", "main", "output_dir", "user_errors", "with_payload"]
-
-#: Built-in models by CLI name: (description, factory).
-BUILTIN_MODELS: dict[str, tuple[str, Callable[[], Model]]] = {
-    "papadopoulos1991": ("Papadopoulos & Dubowsky 1991, §V example", papadopoulos1991),
-    "papadopoulos1992": ("Papadopoulos 1992, Table I, two arms", lambda: papadopoulos1992(arms=2)),
-    "papadopoulos1992-one-arm": ("Papadopoulos 1992, Table I, manipulator 2 removed", lambda: papadopoulos1992(arms=1)),
-}
-
-_MODEL_SUFFIXES = (".toml", ".urdf", ".xml")
+__all__ = ["app", "main", "output_dir", "user_errors", "with_payload"]
 
 app = typer.Typer(
     name="freeflyer",
@@ -63,27 +53,6 @@ def user_errors() -> Iterator[None]:
         message = " ".join(str(exc).split()) or type(exc).__name__
         typer.echo(f"error: {message}", err=True)
         raise typer.Exit(1) from None
-
-
-def load_model(spec: str) -> Model:
-    """A built-in model by name (case and ``-``/``_`` ignored) or a model file by path."""
-    key = spec.strip().lower().replace("_", "-")
-    if key in BUILTIN_MODELS:
-        return BUILTIN_MODELS[key][1]()
-    path = Path(spec)
-    if path.is_file():
-        return load(path)
-    if path.exists():
-        raise ModelError(spec, "is not a file", "give the path of a .toml or .urdf model file")
-    if path.suffix.lower() in _MODEL_SUFFIXES or "/" in spec or "\\" in spec:
-        raise FileNotFoundError(f"{spec}: no such model file")
-    close = difflib.get_close_matches(key, list(BUILTIN_MODELS), n=3, cutoff=0.5)
-    hint = f"did you mean {', '.join(repr(c) for c in close)}? " if close else ""
-    raise ModelError(
-        f"MODEL {spec!r}",
-        "is neither a model file nor a built-in model",
-        f"{hint}built-in models: {', '.join(BUILTIN_MODELS)}; or give a .toml or .urdf path",
-    )
 
 
 def _inertia(text: str) -> Any:
@@ -206,8 +175,7 @@ def demo_command(
         png = out / DETJ_MAP_PNG
         fig.savefig(png, dpi=200)
         written.append(png)
-        from .paper1991 import reproduce_1991
-        from .paper1992 import reproduce_1992
+        from .papers.reproduce import reproduce_1991, reproduce_1992
 
         for paper, reproduce in (("1991", reproduce_1991), ("1992", reproduce_1992)):
             typer.echo(f"reproducing {paper} into {out / paper} ...", err=True)
@@ -252,7 +220,7 @@ def workspace_command(
     json_output: Annotated[bool, typer.Option("--json", help="Print one JSON object instead of the table.")] = False,
 ) -> None:
     """Workspace limits about the system CM (1992 eqs. 15-17): reachable, guaranteed, PIW/PDW, with method and accuracy."""
-    from .workspace_report import limits_json, workspace_limits, write_workspace_plots
+    from .analysis.workspace_report import limits_json, workspace_limits, write_workspace_plots
 
     with user_errors():
         loaded = with_payload(load_model(model), payload_mass, payload_inertia, payload_ee)
@@ -275,7 +243,7 @@ def capture_command(
     out: Annotated[Path | None, typer.Option("--out", help="Write capture.json and the plots here (created).")] = None,
 ) -> None:
     """Plan a payload capture (1992 §V): approach distance, CM+, R+, capture posture and spacecraft orientation."""
-    from .capture_scenario import load_capture_scenario, run_capture_scenario, write_capture_outputs
+    from .scenarios.capture_scenario import load_capture_scenario, run_capture_scenario, write_capture_outputs
 
     with user_errors():
         result = run_capture_scenario(load_capture_scenario(scenario))
@@ -298,7 +266,8 @@ def simulate_command(
     """Simulate a scenario (model, initial state, actuation or controller, duration); write the trajectory and its plots."""
     import sys
 
-    from .scenario import load_scenario, simulate_scenario
+    from .scenarios.scenario import load_scenario
+    from .scenarios.scenario_outputs import simulate_scenario
 
     with user_errors():
         loaded = load_scenario(scenario)
@@ -321,9 +290,9 @@ def reproduce_command(
             raise ValueError(f"PAPER {paper!r}: unknown; choose one of {', '.join(PAPERS)}")
         out = output_dir(out)
         if paper == "1991":
-            from .paper1991 import reproduce_1991 as reproduce
+            from .papers.reproduce import reproduce_1991 as reproduce
         else:
-            from .paper1992 import reproduce_1992 as reproduce
+            from .papers.reproduce import reproduce_1992 as reproduce
         written = reproduce(out)
     for path in written:
         typer.echo(str(path))

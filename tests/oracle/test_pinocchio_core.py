@@ -34,7 +34,7 @@ from scipy.linalg import block_diag
 from scipy.spatial.transform import Rotation
 
 import freeflyer as ff
-from freeflyer.oracles import pinocchio_configuration, pinocchio_velocity, to_pinocchio
+from freeflyer.io.oracles import pinocchio_configuration, pinocchio_velocity, to_pinocchio
 from trees import build_random_model, random_trees
 
 RTOL = 1e-10
@@ -170,7 +170,7 @@ def compare(model: ff.Model, system: PinocchioSystem, rng: np.random.Generator) 
     check("H+", ff.system_inertia_matrix(model, q), ref["H+"])
     jstar = block_diag(*([t0] * (2 * n_e))) @ ff.generalized_jacobian(model, q)
     check("J*", jstar, ref["J*"])
-    drift = ff.generalized_jacobian_drift(model, q, ref["angular_momentum"], ref["linear_momentum"], attitude=quat)
+    drift = ff.mechanics.generalized_jacobian_drift(model, q, ref["angular_momentum"], ref["linear_momentum"], attitude=quat)
     check("end-effector velocity J* qdot + drift", jstar @ zdot0[6:] + drift, ref["ee_velocities"])
     for e in range(n_e):
         check("end-effector Jacobian J+", ff.end_effector_jacobian(model, q, e, attitude=quat), ref["ee_jacobians"][e])
@@ -184,7 +184,7 @@ def pinocchio_of(model: ff.Model) -> PinocchioSystem:
 
 
 def check_bridge(model: ff.Model, system: PinocchioSystem, case: dict) -> None:
-    """freeflyer.oracles' own conversions agree with the ones built here from Pinocchio's CM Jacobian."""
+    """freeflyer.io.oracles' own conversions agree with the ones built here from Pinocchio's CM Jacobian."""
     qp = pinocchio_configuration(model, case["q"], case["quat"], case["base"])
     np.testing.assert_array_equal(qp, case["qp"])
     check("oracles.pinocchio_velocity", pinocchio_velocity(model, system.pm, case["q"], case["zdot0"], case["quat"]), case["v"])
@@ -363,7 +363,7 @@ def test_batch_matches_pinocchio_loop(which: int) -> None:
     energy = ff.kinetic_energy(model, q, zdot0)
     hplus = ff.system_inertia_matrix(model, q)
     jstar = ff.generalized_jacobian(model, q)
-    drift = ff.generalized_jacobian_drift(model, q, h, p, attitude=quat)
+    drift = ff.mechanics.generalized_jacobian_drift(model, q, h, p, attitude=quat)
     point_jac = ff.point_jacobian(model, q, body, point, attitude=quat)
     assert positions.shape == (*shape, n_e, 3) and hplus.shape == (*shape, 6 + n, 6 + n) and jstar.shape == (*shape, 6 * n_e, n)
     assert drift.shape == (*shape, 6 * n_e) and point_jac.shape == (*shape, 6, 6 + n) and energy.shape == shape

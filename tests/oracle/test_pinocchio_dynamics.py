@@ -16,7 +16,7 @@ relative 1e-9:
 
 Pinocchio's state is (q_pin, nu, nu_dot) with the base twist in the local
 frame at the spacecraft frame origin; it is converted to and from zdot0,
-zddot0 by ``freeflyer.oracles`` (pinocchio_acceleration: d/dt of the velocity
+zddot0 by ``freeflyer.io.oracles`` (pinocchio_acceleration: d/dt of the velocity
 map rdot_cm = T0 (v_O + w x c + J_c qdot) with c, J_c and Jdot_c qdot from
 Pinocchio's own CM routines). That conversion is itself checked against
 Pinocchio's CM acceleration (``pin.centerOfMass`` with nu_dot). Thruster
@@ -34,7 +34,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 import freeflyer as ff
-from freeflyer.oracles import (
+from freeflyer.io.oracles import (
     acceleration_from_pinocchio,
     pinocchio_acceleration,
     pinocchio_configuration,
@@ -169,7 +169,7 @@ def run_case(model: ff.Model, rng: np.random.Generator) -> None:
     check("C+ vs pin.rnea", c_bary, c_pin)
 
     # spacecraft held fixed: the returned wrench keeps the spacecraft at rest in Pinocchio
-    qdd, f_s, n_s = ff.spacecraft_fixed_dynamics(m, c.q, c.velocity[6:], c.tau, c.attitude, external=ext)
+    qdd, f_s, n_s = ff.mechanics.spacecraft_fixed_dynamics(m, c.q, c.velocity[6:], c.tau, c.attitude, external=ext)
     nu_fixed = np.concatenate([np.zeros(6), c.velocity[6:]])
     nu_dot_fixed = pin.aba(pm, data, c.q_pin, nu_fixed, c.base_wrench(f_s, n_s, c.tau), c.fext(c.wrench))
     scale = float(np.max(np.abs(nu_dot_fixed[6:])))

@@ -8,8 +8,8 @@ from pathlib import Path
 from typer.testing import CliRunner
 
 from freeflyer.cli import app
-from freeflyer.paper1992 import PRINTED
-from freeflyer.paper1992_figures import FIGURE_NAMES
+from freeflyer.papers.paper1992 import PRINTED
+from freeflyer.papers.paper1992_figures import FIGURE_NAMES
 
 COEFFICIENTS = ("alpha", "beta", "gamma", "delta", "epsilon")
 LIMITS = ("R_max", "R_min", "GW_max", "GW_min")

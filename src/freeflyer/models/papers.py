@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model import Model, ModelBuilder
+from ..core.builder import ModelBuilder
+from ..core.model import Model
 
 __all__ = ["papadopoulos1991", "papadopoulos1992", "planar_link"]
 

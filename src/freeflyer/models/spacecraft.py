@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..model import Model, ModelBuilder
+from ..core.builder import ModelBuilder
+from ..core.model import Model
 
 __all__ = ["spacecraft_7dof"]
 

@@ -1,0 +1,416 @@
+"""Capture of a large payload (Papadopoulos 1992 §V), for any model: ``ff.capture``.
+
+The §V procedure: (1) compute the post-capture workspaces of the robot with
+the payload (:mod:`freeflyer.workspace`); (2) place the post-capture
+path-independent workspace (PIW) so that the payload's desired path fits in
+it (:func:`place_path`): this fixes the post-capture system CM, CM+, and the
+distance R+ from CM+ to the path start A; (3) the free-flyer's CM must come
+to the approach distance R = (M + m_p) / M R+ from the payload (eq. 19,
+:func:`approach_distance`); (4) choose the capture configuration that is as
+far as possible from dynamic singularities, max |det J*(q)| subject to
+|r_E(q)| = R+ (eq. 21) and the joint limits
+(:func:`optimal_capture_posture`), and the spacecraft attitude that puts the
+end effector on A (eq. 20). :func:`plan_capture` runs all of it.
+
+Positions of a path are in the inertial frame, 2D (planar models) or 3D, m.
+Angles in rad (``theta_deg``-style values only in :mod:`freeflyer.papers.paper1992`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from scipy.optimize import minimize
+from scipy.spatial.transform import Rotation
+
+from ..core.errors import ModelError
+from ..core.model import Model
+from ..mechanics.jacobians import end_effector_jacobian
+from ..mechanics.kinematics import end_effector_positions, forward_kinematics, system_cm
+from ..mechanics.planar import position_coefficients
+from . import _workspace_search as search
+from ._path_placement import PathDoesNotFitError, PathPlacement, approach_distance, place_path
+from ._workspace_reach import _jacobian_fun, end_effector_radius, reachable_workspace, singularity_measure
+from ._workspace_results import PathIndependentWorkspace, _axes, _circle, _freeze
+from ._workspace_singular import path_independent_workspace
+
+if TYPE_CHECKING:
+    from matplotlib.artist import Artist
+    from matplotlib.axes import Axes
+
+__all__ = [
+    "CaptureFamilies",
+    "CapturePlan",
+    "CapturePosture",
+    "PathDoesNotFitError",
+    "PathPlacement",
+    "approach_distance",
+    "capture_families",
+    "draw_system",
+    "optimal_capture_posture",
+    "place_path",
+    "plan_capture",
+]
+
+
+# ----------------------------------------------------------------------------------------------------------------- eq. 21 families
+@dataclass(frozen=True, eq=False)
+class CaptureFamilies:
+    """The two families q2(q1) of eq. 21 and det J* along them (1992 Fig. 6).
+
+    ``q1`` (...) rad; ``q2`` and ``det`` (..., 2): family 0 takes +acos, family
+    1 -acos; NaN where |r_E| = R+ has no solution for that q1.
+    """
+
+    R_plus: float
+    q1: np.ndarray
+    q2: np.ndarray
+    det: np.ndarray
+
+    def __post_init__(self) -> None:
+        _freeze(self)
+
+    def plot(self, ax: Axes | None = None, *, degrees: bool = True) -> list[Artist]:
+        """q2(q1) of both families and det J* along them (second y axis), like Fig. 6."""
+        ax = _axes(ax)
+        s = 180.0 / np.pi if degrees else 1.0
+        unit = "deg" if degrees else "rad"
+        artists: list[Artist] = []
+        twin = ax.twinx()
+        for k, style in ((0, "-"), (1, "--")):
+            artists += ax.plot(self.q1 * s, self.q2[..., k] * s, "C0" + style, label=f"q2, family {k + 1}")
+            artists += twin.plot(self.q1 * s, self.det[..., k], "C3" + style, label=f"det J*, family {k + 1}")
+        ax.set_xlabel(f"q1 ({unit})")
+        ax.set_ylabel(f"q2 ({unit})")
+        twin.set_ylabel("det J*")
+        return artists
+
+
+def _two_link_coefficients(model: Model, end_effector: str | int) -> np.ndarray:
+    ok = model.n_joints == 2 and model.n_bodies == 3 and list(model.parent) == [-1, 0, 1]
+    if not ok or not model.is_planar:
+        raise ModelError(
+            f"model {model.name!r}",
+            "eq. 21 has two families q2(q1) only for a planar spacecraft with one two-link arm",
+            "use optimal_capture_posture, which works for any model",
+        )
+    return position_coefficients(model, end_effector)
+
+
+def capture_families(model: Model, end_effector: str | int, R_plus: float, q1: Any) -> CaptureFamilies:
+    """Solve eq. 21, |r_E(q1, q2)| = R+, for q2: two families, and det J* along them; batched over q1 (...).
+
+    r_E = a0 + a1 e^{i q1} + a2 e^{i(q1+q2)} with the eq. 20 coefficients
+    (complex in general); with w = a0 + a1 e^{i q1},
+    q2 = arg w - arg a2 - q1 ± acos((R+² - |w|² - |a2|²) / (2 |a2| |w|)).
+    """
+    a = _two_link_coefficients(model, end_effector)
+    q1 = np.asarray(q1, dtype=float)
+    w = a[0] + a[1] * np.exp(1j * q1)
+    c = (float(R_plus) ** 2 - np.abs(w) ** 2 - np.abs(a[2]) ** 2) / (2.0 * np.abs(a[2]) * np.maximum(np.abs(w), 1e-300))
+    valid = np.abs(c) <= 1.0
+    base = np.angle(w) - np.angle(a[2]) - q1
+    acos = np.arccos(np.clip(c, -1.0, 1.0))
+    q2 = np.stack([base + acos, base - acos], axis=-1)
+    q2 = np.angle(np.exp(1j * q2))
+    q2 = np.where(valid[..., None], q2, np.nan)
+    q = np.stack([np.broadcast_to(q1[..., None], q2.shape), np.nan_to_num(q2)], axis=-1)
+    det = np.where(valid[..., None], singularity_measure(model, q), np.nan)
+    return CaptureFamilies(R_plus=float(R_plus), q1=q1, q2=q2, det=det)
+
+
+# ----------------------------------------------------------------------------------------------------------------- posture
+@dataclass(frozen=True, eq=False)
+class CapturePosture:
+    """The capture configuration of 1992 §V: max |det J*| subject to |r_E| = R+ and the joint limits.
+
+    ``q`` (N,) rad; ``measure``: |det J*| (square J*) or sqrt(det J* J*ᵀ),
+    see :func:`freeflyer.manipulability`; ``det``: the signed determinant
+    (None if J* is not square); ``residual`` = |r_E(q)| - R+ (m);
+    ``attitude``: quaternion [x, y, z, w] of the spacecraft that puts the end
+    effector at CM+ + R+ ``direction`` (eq. 20; the smallest rotation in
+    3D); ``theta``: that attitude as the planar angle θ (rad; None in 3D);
+    ``family``: 0 or 1 (eq. 21) for a planar two-link arm.
+    """
+
+    model_name: str
+    end_effector: str
+    q: np.ndarray
+    R_plus: float
+    measure: float
+    det: float | None
+    residual: float
+    direction: np.ndarray
+    attitude: np.ndarray
+    theta: float | None
+    family: int | None
+    starts: int
+
+    def __post_init__(self) -> None:
+        _freeze(self)
+
+    def plot(self, model: Model, ax: Axes | None = None, *, center: Any = (0.0, 0.0)) -> list[Artist]:
+        """Stick figure of ``model`` in this posture and attitude, system CM at ``center`` (x-y plane)."""
+        return draw_system(_axes(ax), model, self.q, attitude=self.attitude, center=center)
+
+
+def draw_system(
+    ax: Axes, model: Model, q: Any, *, attitude: Any = None, center: Any = (0.0, 0.0), color: str = "k", label: str | None = None
+) -> list[Artist]:
+    """Stick figure of ``model`` at joint angles q (N,), x-y plane of the inertial frame, m.
+
+    The system CM is put at ``center`` (2 or 3 numbers) and the spacecraft
+    turned by ``attitude`` (quaternion [x, y, z, w]; None: identity). Links
+    are lines from joint to joint (from the spacecraft CM for the first
+    link of each arm), end effectors dots, the spacecraft a square at its CM,
+    the system CM a small circle. Returns the artists.
+    """
+    q = np.asarray(q, dtype=float)
+    rot, pos = forward_kinematics(model, q)
+    cm = system_cm(model, q)
+    t0 = np.eye(3) if attitude is None else Rotation.from_quat(np.asarray(attitude, dtype=float)).as_matrix()
+    c = np.zeros(3)
+    given = np.asarray(center, dtype=float).ravel()
+    c[: given.size] = given
+
+    def to_i(point: Any) -> np.ndarray:
+        return np.asarray((t0 @ (np.asarray(point) - cm).T).T + c)
+
+    joints = to_i(pos)
+    artists: list[Artist] = []
+    for k in range(1, model.n_bodies):
+        p = int(model.parent[k])
+        start = to_i(pos[p] + rot[p] @ model.com[p]) if p == 0 else joints[p]
+        artists += ax.plot([start[0], joints[k][0]], [start[1], joints[k][1]], "-", color=color, lw=2, label=label if k == 1 else None)
+    for e, body in enumerate(model.end_effector_body):
+        tip = to_i(pos[body] + rot[body] @ model.end_effector_point[e])
+        artists += ax.plot([joints[body][0], tip[0]], [joints[body][1], tip[1]], "-", color=color, lw=2)
+        artists += ax.plot(tip[0], tip[1], "o", color=color, ms=4)
+    sc = to_i(model.com[0])
+    artists += ax.plot(sc[0], sc[1], "s", color=color, ms=12, mfc="0.8")
+    artists.append(_circle(ax, c, 0.01, edgecolor=color))
+    ax.set_aspect("equal")
+    ax.autoscale_view()
+    return artists
+
+
+def _dexterity(model: Model, q: np.ndarray) -> np.ndarray:
+    """Product of the singular values of J* (1992 eq. 14; planar rows for a planar model), (...) for q (..., N).
+
+    |det J*| when J* is square, sqrt(det J* J*ᵀ) (the manipulability) otherwise.
+    """
+    jac = _jacobian_fun(model, None)(np.asarray(q, dtype=float))
+    return np.prod(np.linalg.svd(jac, compute_uv=False), axis=-1)
+
+
+def _is_two_link(model: Model) -> bool:
+    return model.n_joints == 2 and model.is_planar and model.n_bodies == 3 and list(model.parent) == [-1, 0, 1]
+
+
+def _family_of(model: Model, e: int, R_plus: float, q: np.ndarray) -> int | None:
+    """Which eq. 21 family (0: +acos, 1: -acos) a configuration on |r_E| = R+ belongs to; None if not a two-link arm."""
+    if not _is_two_link(model):
+        return None
+    fam = capture_families(model, e, R_plus, q[0])
+    gap = np.abs(np.angle(np.exp(1j * (fam.q2 - q[1]))))
+    return None if np.all(np.isnan(gap)) else int(np.nanargmin(gap))
+
+
+def _starts(model: Model, e: int, R_plus: float, box: search.JointBox, samples: int, starts: int, seed: int) -> list[np.ndarray]:
+    out: list[np.ndarray] = []
+    if _is_two_link(model):  # the best point of each family of eq. 21 on a fine q1 grid
+        q1 = np.linspace(-np.pi, np.pi, 3601)
+        fam = capture_families(model, e, R_plus, q1)
+        for k in range(2):
+            d = np.abs(fam.det[:, k])
+            if np.any(np.isfinite(d)):
+                i = int(np.nanargmax(d))
+                out.append(np.array([q1[i], fam.q2[i, k]]))
+    q = search.sobol(samples, box.lo, box.hi, seed)
+    r = end_effector_radius(model, q, e)
+    near = np.argsort(np.abs(r - R_plus))[: max(64, q.shape[0] // 50)]
+    meas = _dexterity(model, q[near])
+    out += [q[i] for i in near[np.argsort(-meas)][:starts]]
+    return out
+
+
+def optimal_capture_posture(
+    model: Model,
+    end_effector: str | int,
+    R_plus: float,
+    *,
+    direction: Any = None,
+    family: int | None = None,
+    samples: int = 1 << 14,
+    starts: int = 8,
+    seed: int = 0,
+) -> CapturePosture:
+    """The capture posture that maximises |det J*| (or sqrt det J* J*ᵀ) with |r_E(q)| = R+ (1992 §V, eq. 21).
+
+    SLSQP with the equality constraint |r_E|² = R+² (analytic gradient from
+    :func:`freeflyer.end_effector_jacobian`) and the joint limits as bounds,
+    from the best point of each eq. 21 family (planar two-link arm) and the
+    best of ``samples`` Sobol configurations near |r_E| = R+. Ties between
+    mirror optima go to det > 0, then the larger first joint angle (the
+    paper's "choosing the positive value"). ``direction``: unit vector from
+    CM+ to the path start A, inertial (default +x: eq. 20 with x_E = R+,
+    y_E = 0); the attitude rotates r_E onto it. ``family`` (0: +acos,
+    1: -acos; planar two-link arm only): the best posture on that family
+    of eq. 21 only (the paper's Fig. 6 shows both).
+    """
+    e = model.end_effector_index(end_effector)
+    if family is not None:
+        if family not in (0, 1) or isinstance(family, bool):
+            raise ValueError(f"family: expected 0 (+acos) or 1 (-acos) of eq. 21, got {family!r}")
+        _two_link_coefficients(model, e)  # ModelError unless a planar two-link arm
+    R_plus = float(R_plus)
+    reach = reachable_workspace(model, e)
+    tol = 10.0 * reach.accuracy
+    if not (np.isfinite(R_plus) and reach.R_min - tol <= R_plus <= reach.R_max + tol):
+        raise ValueError(
+            f"R_plus = {R_plus!r} m is outside the reachable workspace [{reach.R_min:.6g}, {reach.R_max:.6g}] m of {reach.end_effector!r}"
+        )
+    box = search.joint_box(model.joint_lower, model.joint_upper)
+    bounds = [(None, None) if f else (lo, hi) for lo, hi, f in zip(box.lo, box.hi, box.free, strict=True)]
+
+    def constraint(q: np.ndarray) -> np.ndarray:
+        return np.array([(end_effector_radius(model, q, e) ** 2 - R_plus**2)])
+
+    def constraint_jac(q: np.ndarray) -> np.ndarray:
+        r = end_effector_positions(model, q)[e]
+        return (2.0 * r @ end_effector_jacobian(model, q, e)[0:3, 6:])[None, :]
+
+    def objective(q: np.ndarray) -> float:
+        return -float(_dexterity(model, q))
+
+    results = []
+    candidates = _starts(model, e, R_plus, box, samples, starts, seed)
+    for q0 in candidates:
+        res = minimize(
+            objective,
+            q0,
+            method="SLSQP",
+            bounds=bounds,
+            constraints=[{"type": "eq", "fun": constraint, "jac": constraint_jac}],
+            options={"ftol": 1e-14, "maxiter": 500},
+        )
+        q = np.asarray(res.x)
+        residual = float(end_effector_radius(model, q, e)) - R_plus
+        inside = bool(np.all((q >= box.lo - 1e-12) | box.free) and np.all((q <= box.hi + 1e-12) | box.free))
+        if abs(residual) < 1e-9 * max(1.0, R_plus) and inside:
+            on = _family_of(model, e, R_plus, q)
+            if family is None or on == family:
+                results.append((float(_dexterity(model, q)), q, on))
+    if not results:
+        which = "" if family is None else f" on family {family}"
+        raise ValueError(f"optimal_capture_posture: no start converged to |r_E| = {R_plus:.6g} m{which}; try more samples or starts")
+    best_value = max(r[0] for r in results)
+    square = _square(model)
+
+    def rank(item: tuple[float, np.ndarray, int | None]) -> tuple[bool, float, float]:
+        value, q, _ = item
+        det = float(singularity_measure(model, q)) if square else 0.0
+        return (value >= best_value * (1.0 - 1e-9), det > 0.0, float(np.angle(np.exp(1j * q[0]))) if q.size else 0.0)
+
+    value, q, on_family = max(results, key=rank)
+    q = np.where(box.free, np.angle(np.exp(1j * q)), q)
+    r0 = end_effector_positions(model, q)[e]
+    d = np.zeros(3)
+    if direction is None:
+        d[0] = 1.0
+    else:
+        given = np.asarray(direction, dtype=float).ravel()
+        if given.size not in (2, 3) or not np.all(np.isfinite(given)) or np.linalg.norm(given) == 0.0:
+            raise ValueError(f"direction: expected a nonzero 2D or 3D vector, got {direction!r}")
+        d[: given.size] = given / np.linalg.norm(given)
+    theta: float | None
+    if model.is_planar and abs(d[2]) < 1e-12:
+        theta = float(np.angle(np.exp(1j * (np.arctan2(d[1], d[0]) - np.arctan2(r0[1], r0[0])))))
+        rotation = Rotation.from_rotvec([0.0, 0.0, theta])
+    else:
+        theta = None
+        rotation = Rotation.align_vectors(d[None], r0[None] / np.linalg.norm(r0))[0]
+    return CapturePosture(
+        model_name=model.name,
+        end_effector=model.end_effector_names[e],
+        q=q,
+        R_plus=R_plus,
+        measure=value,
+        det=float(singularity_measure(model, q)) if square else None,
+        residual=float(end_effector_radius(model, q, e)) - R_plus,
+        direction=d,
+        attitude=rotation.as_quat(),
+        theta=theta,
+        family=on_family,
+        starts=len(candidates),
+    )
+
+
+def _square(model: Model) -> bool:
+    rows = 2 * model.n_end_effectors if model.is_planar else 6 * model.n_end_effectors
+    return rows == model.n_joints
+
+
+# ----------------------------------------------------------------------------------------------------------------- the whole §V
+@dataclass(frozen=True, eq=False)
+class CapturePlan:
+    """The §V procedure end to end: workspaces after capture, path placement, approach, posture."""
+
+    before: Model
+    captured: Model
+    end_effector: str
+    piw: PathIndependentWorkspace
+    placement: PathPlacement
+    posture: CapturePosture
+
+    @property
+    def approach_distance(self) -> float:
+        """Eq. 19, m."""
+        assert self.placement.approach_distance is not None
+        return self.placement.approach_distance
+
+    def plot(self, ax: Axes | None = None) -> list[Artist]:
+        """Fig. 7: reachable workspace before capture (dashed, around the free-flyer's CM), PIW after capture around
+        CM+, the path, the approach point and the capture posture."""
+        ax = _axes(ax)
+        artists: list[Artist] = []
+        if self.placement.approach_point is not None:  # the reachable workspace before capture, around the free-flyer's CM
+            before = reachable_workspace(self.before, self.end_effector)
+            for r in (before.R_min, before.R_max):
+                if r > 0.0:
+                    artists.append(_circle(ax, self.placement.approach_point[:2], r, edgecolor="C0", linestyle="--", linewidth=1.0))
+        artists += self.piw.plot(ax, center=self.placement.cm_plus[:2])
+        artists += self.placement.plot(ax, annulus=False)
+        artists += self.posture.plot(self.captured, ax, center=self.placement.cm_plus)
+        return artists
+
+
+def plan_capture(
+    model: Model,
+    end_effector: str | int,
+    path: Any,
+    *,
+    mass: float,
+    inertia: Any,
+    offset: Sequence[float] = (0.0, 0.0, 0.0),
+    rule: str = "perpendicular",
+    R_plus: float | None = None,
+    samples: int = 1 << 18,
+) -> CapturePlan:
+    """Run 1992 §V: capture of a payload (``mass`` kg, ``inertia`` about its CM) that must then follow ``path``.
+
+    Returns the post-capture PIW, where CM+ and the free-flyer's CM must be
+    (eq. 19), and the capture posture and attitude (eqs. 20-21). Raises
+    :class:`PathDoesNotFitError` when the path fits nowhere.
+    """
+    e = model.end_effector_index(end_effector)
+    captured = model.with_payload(e, mass=mass, inertia=inertia, offset=offset)
+    piw = path_independent_workspace(captured, e, samples=samples)
+    placement = place_path(piw, path, rule=rule, R_plus=R_plus, robot_mass=model.total_mass, payload_mass=float(mass))
+    posture = optimal_capture_posture(captured, e, placement.R_plus, direction=placement.direction)
+    return CapturePlan(
+        before=model, captured=captured, end_effector=model.end_effector_names[e], piw=piw, placement=placement, posture=posture
+    )

@@ -1,0 +1,278 @@
+"""The immutable :class:`Model` of a space robot (:class:`~freeflyer.core.builder.ModelBuilder` makes it).
+
+A model is a tree of rigid bodies rooted at the spacecraft (body 0), joined by
+revolute joints (fixed joints are merged into the parent at build time). It is
+validated once, when built, and never changes: ``with_payload`` returns a new
+model. Everything that depends only on the mass distribution (outboard mass
+fractions, barycenters, barycentric vectors, 1992 eqs. 5-9) is computed at
+build time; see :mod:`freeflyer.core.barycentric`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from . import barycentric
+from .errors import ModelError, UnknownNameError
+
+__all__ = ["Model", "check_inertia", "inertia_matrix"]
+
+_INERTIA_RTOL = 1e-9
+
+
+def _vector(value: Any, path: str, fix: str) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(path, f"cannot read {value!r} as three numbers", fix) from None
+    if arr.shape != (3,):
+        raise ModelError(path, f"expected three numbers [x, y, z], got shape {arr.shape}", fix)
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(path, "has NaN or infinite entries", fix)
+    return arr
+
+
+def inertia_matrix(value: Any, path: str) -> np.ndarray:
+    """Read an inertia given as a 3x3 matrix, three principal moments, or one isotropic moment."""
+    fix = "give a 3x3 symmetric matrix, [Ixx, Iyy, Izz], or one number (isotropic), in kg m^2 about the CM"
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(path, f"cannot read {value!r} as an inertia", fix) from None
+    if arr.shape == ():
+        arr = np.eye(3) * arr
+    elif arr.shape == (3,):
+        arr = np.diag(arr)
+    elif arr.shape != (3, 3):
+        raise ModelError(path, f"expected shape (3, 3), (3,) or a scalar, got {arr.shape}", fix)
+    check_inertia(arr, path)
+    return arr
+
+
+def check_inertia(inertia: np.ndarray, path: str) -> None:
+    """Raise :class:`ModelError` unless ``inertia`` is a physical inertia matrix about a CM.
+
+    Physical means finite, symmetric, positive definite, and principal moments
+    that satisfy the triangle inequality ``I1 <= I2 + I3``.
+    """
+    fix = "use the inertia of a real body about its CM (symmetric, positive definite, each principal moment <= the sum of the other two)"
+    if not np.all(np.isfinite(inertia)):
+        raise ModelError(path, "has NaN or infinite entries", fix)
+    scale = max(float(np.max(np.abs(inertia))), 1e-300)
+    if np.max(np.abs(inertia - inertia.T)) > 1e-9 * scale:
+        raise ModelError(path, "is not symmetric", fix)
+    moments = np.linalg.eigvalsh(0.5 * (inertia + inertia.T))
+    if moments[0] <= 0.0:
+        raise ModelError(path, f"is not positive definite (principal moments {moments.tolist()})", fix)
+    if moments[2] > (moments[0] + moments[1]) * (1.0 + _INERTIA_RTOL):
+        raise ModelError(
+            path,
+            f"violates the triangle inequality: principal moment {moments[2]:.6g} > {moments[0]:.6g} + {moments[1]:.6g}",
+            fix,
+        )
+
+
+def _frozen(arr: Any, dtype: Any = float) -> np.ndarray:
+    out = np.array(arr, dtype=dtype, copy=True)
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    """A space robot: a tree of rigid bodies rooted at the spacecraft (body 0).
+
+    Body k > 0 is moved by joint k - 1 (``joint_names[k - 1]``); bodies are in
+    depth-first order, so each arm's joints are contiguous, as in the 1992
+    paper's q = [q⁽¹⁾, ..., q⁽ⁿ⁾]. All arrays are read-only.
+
+    Attributes (body frames unless stated)
+        parent            (B,) parent body index, -1 for the spacecraft
+        joint_origin      (B, 3) joint position in the parent frame (row 0 unused)
+        joint_rotation    (B, 3, 3) joint frame relative to the parent frame
+        joint_axis        (B, 3) unit joint axis in the joint (= child) frame
+        joint_lower/upper (N,) joint limits in rad (±inf when none)
+        mass, com, inertia  per body; inertia about the CM
+        end_effector_body, end_effector_point  (E,), (E, 3)
+    """
+
+    name: str
+    body_names: tuple[str, ...]
+    parent: np.ndarray
+    joint_names: tuple[str, ...]
+    joint_origin: np.ndarray
+    joint_rotation: np.ndarray
+    joint_axis: np.ndarray
+    joint_lower: np.ndarray
+    joint_upper: np.ndarray
+    mass: np.ndarray
+    com: np.ndarray
+    inertia: np.ndarray
+    end_effector_names: tuple[str, ...]
+    end_effector_body: np.ndarray
+    end_effector_point: np.ndarray
+    source: str = ""
+    payloads: tuple[dict[str, Any], ...] = ()
+    # derived at build time
+    total_mass: float = field(init=False)
+    subtree: np.ndarray = field(init=False, repr=False)
+    bary: barycentric.BarycentricVectors = field(init=False, repr=False)
+    rotation_basis: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        for name in (
+            "joint_origin",
+            "joint_rotation",
+            "joint_axis",
+            "joint_lower",
+            "joint_upper",
+            "mass",
+            "com",
+            "inertia",
+            "end_effector_point",
+        ):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+        for name in ("parent", "end_effector_body"):
+            object.__setattr__(self, name, _frozen(getattr(self, name), int))
+        n = len(self.body_names)
+        subtree = np.zeros((n, n), dtype=bool)
+        for k in range(n):
+            j = k
+            while j >= 0:
+                subtree[j, k] = True
+                j = int(self.parent[j])
+        object.__setattr__(self, "subtree", _frozen(subtree, bool))
+        object.__setattr__(self, "total_mass", float(np.sum(self.mass)))
+        object.__setattr__(self, "bary", barycentric.compute(self))
+        # (P, P K, P K^2) per joint: placement P, axis cross matrix K; the joint's
+        # rotation relative to its parent is P (1 + sin q K + (1 - cos q) K^2).
+        axis = self.joint_axis[1:]
+        kx = np.zeros((self.n_joints, 3, 3))
+        kx[:, 0, 1], kx[:, 0, 2], kx[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
+        kx -= np.swapaxes(kx, 1, 2)
+        place = self.joint_rotation[1:]
+        object.__setattr__(self, "rotation_basis", _frozen(np.stack([place, place @ kx, place @ kx @ kx])))
+
+    # ----------------------------------------------------------------- sizes
+    @property
+    def n_bodies(self) -> int:
+        """Number of bodies B after fixed joints are merged (spacecraft included)."""
+        return len(self.body_names)
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joint angles N (= B - 1)."""
+        return len(self.joint_names)
+
+    @property
+    def n_end_effectors(self) -> int:
+        return len(self.end_effector_names)
+
+    @property
+    def is_planar(self) -> bool:
+        """True when the model moves in the spacecraft x-y plane (see :mod:`freeflyer.conventions`)."""
+        return barycentric.is_planar(self)
+
+    # ----------------------------------------------------------------- lookup
+    def body_index(self, name: str | int) -> int:
+        return _lookup("body", name, self.body_names)
+
+    def joint_index(self, name: str | int) -> int:
+        return _lookup("joint", name, self.joint_names)
+
+    def end_effector_index(self, name: str | int) -> int:
+        return _lookup("end effector", name, self.end_effector_names)
+
+    # ----------------------------------------------------------------- payload
+    def with_payload(
+        self,
+        end_effector: str | int = 0,
+        mass: float = 0.0,
+        inertia: Any = 0.0,
+        offset: Any = (0.0, 0.0, 0.0),
+        name: str = "payload",
+    ) -> Model:
+        """Return a NEW model with a payload rigidly grasped by an end effector.
+
+        The payload (``mass`` kg, ``inertia`` about its own CM: a scalar means an
+        isotropic inertia whose Izz is that value, the planar papers' I_p; or
+        [Ixx, Iyy, Izz]; or 3x3 in the grasping body's axes) is merged into the
+        grasping link (1992 §IV: "the payload becomes part of the last link").
+        Its CM is at the end-effector point plus ``offset`` (grasping body
+        frame; default zero: grasped at its CM, as in 1992 §V). The end-effector
+        point itself does not move.
+        """
+        e = self.end_effector_index(end_effector)
+        path = f"with_payload(end_effector={self.end_effector_names[e]!r})"
+        try:
+            m_p = float(mass)
+        except (TypeError, ValueError):
+            raise ModelError(f"{path}.mass", f"cannot read {mass!r} as a number", "give the payload mass in kg") from None
+        if not np.isfinite(m_p) or m_p <= 0.0:
+            raise ModelError(f"{path}.mass", f"must be positive and finite, got {mass!r}", "give the payload mass in kg (> 0)")
+        i_p = inertia_matrix(inertia, f"{path}.inertia")
+        k = int(self.end_effector_body[e])
+        c_p = self.end_effector_point[e] + _vector(
+            offset, f"{path}.offset", "give the payload CM offset [x, y, z] from the end effector, body frame"
+        )
+        m_k, c_k = self.mass[k], self.com[k]
+        m_new = m_k + m_p
+        c_new = (m_k * c_k + m_p * c_p) / m_new
+
+        def shifted(inertia_c: np.ndarray, m: float, c: np.ndarray) -> np.ndarray:
+            d = c - c_new
+            return inertia_c + m * (d @ d * np.eye(3) - np.outer(d, d))
+
+        mass_new = self.mass.copy()
+        com_new = self.com.copy()
+        inertia_new = self.inertia.copy()
+        mass_new[k] = m_new
+        com_new[k] = c_new
+        inertia_new[k] = shifted(self.inertia[k], m_k, c_k) + shifted(i_p, m_p, c_p)
+        record = {
+            "name": name,
+            "end_effector": self.end_effector_names[e],
+            "mass": m_p,
+            "inertia": i_p.tolist(),
+            "cm": c_p.tolist(),
+            "body": self.body_names[k],
+        }
+        return Model(
+            name=f"{self.name}+{name}",
+            body_names=self.body_names,
+            parent=self.parent,
+            joint_names=self.joint_names,
+            joint_origin=self.joint_origin,
+            joint_rotation=self.joint_rotation,
+            joint_axis=self.joint_axis,
+            joint_lower=self.joint_lower,
+            joint_upper=self.joint_upper,
+            mass=mass_new,
+            com=com_new,
+            inertia=inertia_new,
+            end_effector_names=self.end_effector_names,
+            end_effector_body=self.end_effector_body,
+            end_effector_point=self.end_effector_point,
+            source=self.source,
+            payloads=(*self.payloads, record),
+        )
+
+    def __repr__(self) -> str:
+        return (
+            f"Model({self.name!r}: {self.n_bodies} bodies, {self.n_joints} joints, "
+            f"{self.n_end_effectors} end effectors, mass {self.total_mass:.6g} kg)"
+        )
+
+
+def _lookup(kind: str, key: str | int, names: Sequence[str]) -> int:
+    if isinstance(key, (int, np.integer)) and not isinstance(key, bool):
+        if 0 <= int(key) < len(names):
+            return int(key)
+        raise UnknownNameError(kind, key, [f"{i}={n}" for i, n in enumerate(names)])
+    if key in names:
+        return list(names).index(str(key))
+    raise UnknownNameError(kind, key, names)

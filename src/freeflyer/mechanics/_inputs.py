@@ -1,0 +1,58 @@
+"""Argument checks shared by the mechanics entry points (private).
+
+Joint arrays (..., N), vectors (..., size), velocities zdot0 (..., 6 + N) and
+attitudes (quaternion [x, y, z, w], ``Rotation`` or 3x3 matrices) are read
+with a batch shape and checked to be finite; errors name the argument and the
+expected shape. ``_rotate`` applies T0 (spacecraft -> inertial) or its
+transpose, the identity when the attitude is None.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from ..core.conventions import attitude_matrix
+from ..core.errors import ShapeError
+from ..core.model import Model
+from ._batch import joint_array, vector_array
+
+
+def _finite(arr: np.ndarray, name: str) -> np.ndarray:
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: has NaN or infinite entries; every entry must be a finite number")
+    return arr
+
+
+def _joints(model: Model, value: Any, name: str) -> np.ndarray:
+    return _finite(joint_array(model, value, name), name)
+
+
+def _vector(value: Any, size: int, name: str, what: str) -> np.ndarray:
+    return _finite(vector_array(value, size, name, what), name)
+
+
+def _velocity(model: Model, value: Any, name: str = "velocity") -> np.ndarray:
+    return _vector(value, 6 + model.n_joints, name, "zdot0 = [rdot_cm (inertial), omega0 (spacecraft frame), qdot]")
+
+
+def _attitude(attitude: Any) -> np.ndarray | None:
+    """T0 (..., 3, 3) or None for the identity; checks finiteness and orthonormality."""
+    if attitude is None:
+        return None
+    t0 = attitude_matrix(attitude)
+    if t0.shape[-2:] != (3, 3):
+        raise ShapeError(f"attitude: expected a quaternion (..., 4), a Rotation or matrices (..., 3, 3), got {np.shape(attitude)}")
+    _finite(t0, "attitude")
+    err = np.max(np.abs(t0 @ np.swapaxes(t0, -1, -2) - np.eye(3)), initial=0.0)
+    if err > 1e-6 or np.any(np.linalg.det(t0) < 0):
+        raise ValueError("attitude: the matrix is not a proper rotation (orthonormal, determinant +1)")
+    return t0
+
+
+def _rotate(t0: np.ndarray | None, vec: np.ndarray, inverse: bool = False) -> np.ndarray:
+    """T0 @ vec (or T0^T @ vec), broadcasting over batch axes; identity when t0 is None."""
+    if t0 is None:
+        return vec
+    return np.einsum("...ji,...j->...i" if inverse else "...ij,...j->...i", t0, vec)

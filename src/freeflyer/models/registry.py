@@ -1,0 +1,48 @@
+"""Built-in models by name, and :func:`load_model`: a built-in name or a model file path.
+
+This is how a MODEL argument of the CLI and the ``model = ...`` field of a
+scenario file are read.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Callable
+from pathlib import Path
+
+from ..core.errors import ModelError
+from ..core.model import Model
+from ..io.model_files import load
+from .papers import papadopoulos1991, papadopoulos1992
+
+__all__ = ["BUILTIN_MODELS", "load_model"]
+
+#: Built-in models by CLI name: (description, factory).
+BUILTIN_MODELS: dict[str, tuple[str, Callable[[], Model]]] = {
+    "papadopoulos1991": ("Papadopoulos & Dubowsky 1991, §V example", papadopoulos1991),
+    "papadopoulos1992": ("Papadopoulos 1992, Table I, two arms", lambda: papadopoulos1992(arms=2)),
+    "papadopoulos1992-one-arm": ("Papadopoulos 1992, Table I, manipulator 2 removed", lambda: papadopoulos1992(arms=1)),
+}
+
+_MODEL_SUFFIXES = (".toml", ".urdf", ".xml")
+
+
+def load_model(spec: str) -> Model:
+    """A built-in model by name (case and ``-``/``_`` ignored) or a model file by path."""
+    key = spec.strip().lower().replace("_", "-")
+    if key in BUILTIN_MODELS:
+        return BUILTIN_MODELS[key][1]()
+    path = Path(spec)
+    if path.is_file():
+        return load(path)
+    if path.exists():
+        raise ModelError(spec, "is not a file", "give the path of a .toml or .urdf model file")
+    if path.suffix.lower() in _MODEL_SUFFIXES or "/" in spec or "\\" in spec:
+        raise FileNotFoundError(f"{spec}: no such model file")
+    close = difflib.get_close_matches(key, list(BUILTIN_MODELS), n=3, cutoff=0.5)
+    hint = f"did you mean {', '.join(repr(c) for c in close)}? " if close else ""
+    raise ModelError(
+        f"MODEL {spec!r}",
+        "is neither a model file nor a built-in model",
+        f"{hint}built-in models: {', '.join(BUILTIN_MODELS)}; or give a .toml or .urdf path",
+    )

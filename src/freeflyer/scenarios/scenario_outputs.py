@@ -1,0 +1,114 @@
+"""What ``freeflyer simulate SCENARIO.toml --out DIR`` writes: NAME.npz, NAME.csv, NAME.png, NAME_momentum.png, NAME.json.
+
+:func:`simulate_scenario` runs a :class:`~freeflyer.scenarios.Scenario` and
+writes its outputs; a partial trajectory is written too when the simulation
+fails part-way. Files the scenario reads are never written.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core.errors import SimulationError
+from ..simulation.trajectory import Trajectory
+from .scenario import Scenario, run_scenario
+
+__all__ = ["simulate_scenario", "write_trajectory_outputs"]
+
+
+def write_trajectory_outputs(traj: Trajectory, out: Path, scenario: Scenario) -> list[Path]:
+    """Write NAME.npz, NAME.csv, NAME.png, NAME_momentum.png and NAME.json (summary) into ``out``.
+
+    Outputs of an earlier run are replaced; a file the scenario reads (the
+    scenario itself, its model file) is never written: that is an error.
+    """
+    stem = scenario.output_name
+    targets = [out / f"{stem}.json"]
+    targets += [out / f"{stem}.npz"] if scenario.write_npz else []
+    targets += [out / f"{stem}.csv"] if scenario.write_csv else []
+    targets += [out / f"{stem}.png", out / f"{stem}_momentum.png"] if scenario.write_plots else []
+    inputs = {p.resolve() for p in scenario.input_files}
+    for target in targets:
+        if target.resolve() in inputs:
+            raise FileExistsError(
+                f"{target}: is an input of this scenario; freeflyer never overwrites its inputs (choose another --out or outputs.name)"
+            )
+    written = []
+    for target in targets:
+        if target.suffix in (".npz", ".csv"):
+            traj.save(target, overwrite=True)
+        elif target.suffix == ".json":
+            target.write_text(json.dumps(_summary(traj, scenario), indent=2) + "\n", encoding="utf-8")
+        elif target.stem.endswith("_momentum"):
+            _save_momentum_plot(traj, target)
+        else:
+            _save_trajectory_plot(traj, target)
+        written.append(target)
+    return written
+
+
+def simulate_scenario(scenario: Scenario, out: Path, *, progress: bool = False) -> list[Path]:
+    """Run a scenario and write its outputs into ``out``; what ``freeflyer simulate`` does.
+
+    When the simulation fails part-way, the partial trajectory is written (status
+    ``"failed"`` and the reason in NAME.json and the files' metadata) and the
+    :class:`~freeflyer.SimulationError` is raised again, naming the files.
+    """
+    try:
+        traj = run_scenario(scenario, progress=progress)
+    except SimulationError as exc:
+        if exc.trajectory is None:
+            raise
+        written = write_trajectory_outputs(exc.trajectory, out, scenario)
+        raise SimulationError(f"{exc} (partial trajectory up to the failure written to {written[0].parent})", exc.trajectory) from exc
+    return write_trajectory_outputs(traj, out, scenario)
+
+
+def _summary(traj: Trajectory, scenario: Scenario) -> dict[str, Any]:
+    summary: dict[str, Any] = {
+        "scenario": scenario.source,
+        "description": scenario.description,
+        "model": scenario.model.name,
+        "joint_names": list(scenario.model.joint_names),
+        "status": traj.status,
+        "message": traj.message,
+        "samples": len(traj),
+        "t_end": float(traj.t[-1]) if len(traj) else None,
+    }
+    if len(traj):
+        h = traj.angular_momentum
+        summary["final_state"] = {k: np.asarray(getattr(traj, k)[-1]).tolist() for k in ("q", "qdot", "omega", "attitude", "r_cm", "v_cm")}
+        summary["angular_momentum_change"] = float(np.max(np.linalg.norm(h - h[0], axis=-1)))
+        summary["kinetic_energy"] = {"initial": float(traj.kinetic_energy[0]), "final": float(traj.kinetic_energy[-1])}
+        summary["saturated_fraction"] = float(np.mean(traj.saturated))
+    return summary
+
+
+def _save_trajectory_plot(traj: Trajectory, path: Path) -> None:
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(10, 7), layout="constrained")
+    traj.plot(fig.subplots(2, 2, sharex=True).ravel())
+    fig.suptitle(f"{traj.model_name}: {traj.status}" + (f" ({traj.message})" if traj.message else ""), fontsize=9)
+    fig.savefig(path, dpi=110)
+
+
+def _save_momentum_plot(traj: Trajectory, path: Path) -> None:
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(8, 7), layout="constrained")
+    ax_h, ax_p, ax_e = fig.subplots(3, 1, sharex=True)
+    if len(traj):
+        ax_h.plot(traj.t, traj.angular_momentum, label=["x", "y", "z"])
+        ax_p.plot(traj.t, traj.linear_momentum, label=["x", "y", "z"])
+        ax_e.plot(traj.t, traj.kinetic_energy)
+        ax_h.legend(loc="upper right", fontsize=8)
+    ax_h.set_ylabel("angular momentum\nabout CM (N m s)")
+    ax_p.set_ylabel("linear momentum (N s)")
+    ax_e.set_ylabel("kinetic energy (J)")
+    ax_e.set_xlabel("time (s)")
+    fig.savefig(path, dpi=110)

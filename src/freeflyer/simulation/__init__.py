@@ -1,0 +1,19 @@
+"""Simulation with controllers in the loop: :func:`simulate`, batched :func:`rollout`, :class:`Trajectory`, :class:`JointPD`.
+
+:mod:`.simulate` holds the public calls and their checks, :mod:`._integrate`
+the integration loops (scipy adaptive or RK4, numpy or compiled kernels),
+:mod:`.trajectory` the recorded result, :mod:`.pd` a joint-space PD
+controller that the compiled rollouts run without Python.
+
+Layer: imports :mod:`freeflyer.core` and :mod:`freeflyer.mechanics` only.
+"""
+
+from __future__ import annotations
+
+from ..core.errors import SimulationError
+from ..core.state import ActuatorLimits
+from .pd import JointPD
+from .simulate import METHODS, rollout, simulate
+from .trajectory import Trajectory
+
+__all__ = ["METHODS", "ActuatorLimits", "JointPD", "SimulationError", "Trajectory", "rollout", "simulate"]

@@ -1,0 +1,279 @@
+"""Simulation with controllers in the loop: ``simulate`` (one run) and ``rollout`` (a batch).
+
+The state is integrated in the paper's coordinates (1991 eq. 19): the system
+CM position and velocity (inertial), the spacecraft attitude quaternion
+[x, y, z, w] with dq/dt = 1/2 q ⊗ [omega0, 0] (omega0 in the spacecraft frame),
+omega0, q and qdot. Accelerations come from :func:`freeflyer.forward_dynamics`.
+
+Integrators: an adaptive one from scipy (``solve_ivp``, default DOP853 with
+tolerances exposed), or fixed-step classical RK4 (``fixed_step=dt``), which is
+also what batched rollouts use (scipy has no batched fixed-step integrator).
+After each RK4 step the quaternion is renormalised (a projection onto unit
+quaternions, of the order of the local truncation error).
+
+A controller is a callable ``controller(t, state) -> joint torques (N,) or
+Actuation``. With ``sample_period`` it is sampled and held (zero-order hold);
+without it, it is evaluated continuously (adaptive) or once per step (RK4).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..core.errors import FreeflyerError, ShapeError, SimulationError
+from ..core.model import Model
+from ..core.state import Actuation, ActuatorLimits, State, pack_state, unpack_state
+from ..mechanics import _compiled
+from ._integrate import _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory
+from .pd import JointPD
+from .trajectory import Trajectory
+
+__all__ = ["ActuatorLimits", "SimulationError", "rollout", "simulate"]
+
+Controller = Callable[[float, State], Any]
+
+#: The adaptive integrators of ``scipy.integrate.solve_ivp`` that ``simulate(method=...)`` accepts.
+METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
+
+
+def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Controller output -> (tau, f_S, n_S) arrays, with errors that name what is wrong."""
+    n = model.n_joints
+    if raw is None:
+        raise TypeError(f"controller returned None; return joint torques of shape {(*batch, n)} or a freeflyer.Actuation")
+    if isinstance(raw, np.ndarray) and raw.shape == (*batch, n) and raw.dtype == np.float64:
+        total = float(raw.dot(raw)) if raw.ndim == 1 else float(raw.sum())
+        if total - total == 0.0:  # finite (NaN and inf propagate): the fast path of plain torques
+            zeros = _zeros(batch)
+            return raw, zeros, zeros
+    if not isinstance(raw, Actuation):
+        raw = Actuation(joint_torque=raw)
+    parts = []
+    for name, size, what in (
+        ("joint_torque", n, f"one torque per joint: {', '.join(model.joint_names) or 'none'}"),
+        ("spacecraft_force", 3, "thruster force, spacecraft frame"),
+        ("spacecraft_torque", 3, "thruster torque, spacecraft frame"),
+    ):
+        value = getattr(raw, name)
+        if value is None:
+            parts.append(np.zeros((*batch, size)))
+            continue
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise TypeError(f"controller returned a {name} that is not numbers: {value!r}") from exc
+        if arr.shape != (*batch, size):
+            raise ShapeError(f"controller returned {name} of shape {arr.shape}; expected {(*batch, size)} ({what})")
+        if not np.isfinite(arr).all():
+            raise ValueError(f"controller returned a non-finite {name}: {arr}")
+        parts.append(arr)
+    return parts[0], parts[1], parts[2]
+
+
+_ZEROS: dict[tuple[int, ...], np.ndarray] = {}
+
+
+def _zeros(batch: tuple[int, ...]) -> np.ndarray:
+    """A shared read-only zero thrust (batch, 3)."""
+    if batch not in _ZEROS:
+        zeros = np.zeros((*batch, 3))
+        zeros.flags.writeable = False
+        _ZEROS[batch] = zeros
+    return _ZEROS[batch]
+
+
+def _call_controller(controller: Controller, model: Model, t: float, x: np.ndarray, batch: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+    """Evaluate the controller at (t, x); any failure becomes a SimulationError that says when and what."""
+    try:
+        raw = controller(t, unpack_state(model, x))
+    except Exception as exc:
+        raise SimulationError(f"the controller raised {type(exc).__name__} at t = {t:.6g} s: {exc}") from exc
+    try:
+        return _actuation(model, raw, batch)
+    except (TypeError, ValueError) as exc:
+        raise SimulationError(f"bad controller output at t = {t:.6g} s: {exc}") from exc
+
+
+def _progress(enabled: bool, duration: float) -> Any:
+    if not enabled:
+        return None
+    from rich.console import Console
+    from rich.progress import Progress
+
+    bar = Progress(console=Console(stderr=True), transient=True)
+    bar.start()
+    bar.add_task("simulating", total=duration)
+    return bar
+
+
+def simulate(
+    model: Model,
+    initial_state: State,
+    duration: float,
+    controller: Controller | None = None,
+    *,
+    method: str = "DOP853",
+    rtol: float = 1e-10,
+    atol: float = 1e-10,
+    fixed_step: float | None = None,
+    sample_period: float | None = None,
+    output_period: float | None = None,
+    limits: ActuatorLimits | None = None,
+    events: Sequence[Callable[[float, State], float]] = (),
+    external: Any = (),
+    progress: bool = False,
+    backend: str = "auto",
+) -> Trajectory:
+    """Simulate ``model`` from ``initial_state`` for ``duration`` seconds.
+
+    ``controller(t, state)`` returns joint torques (N,) or an :class:`Actuation`
+    (None: free-floating, no actuation). Adaptive integration (scipy
+    ``solve_ivp`` with ``method``, ``rtol``, ``atol``) unless ``fixed_step``
+    (s) selects RK4. ``sample_period`` holds the controller output between
+    samples. States are output every ``output_period`` (default 0.01 s, or the
+    fixed step if larger). ``events``: callables (t, state) -> float; the run
+    stops where one crosses zero (scipy's ``terminal``/``direction`` attributes
+    are honoured). ``external``: wrenches passed to forward dynamics.
+    ``backend``: ``"auto"`` evaluates the equations of motion (the RK4 steps, or
+    the right-hand side the adaptive integrator calls) with the compiled kernels
+    of :mod:`freeflyer.mechanics._compiled` when numba is installed and there are no
+    ``external`` wrenches, ``"numpy"`` with the numpy reference
+    (:func:`freeflyer.forward_dynamics`), ``"numba"`` insists on the compiled
+    kernels. Both give the same numbers to rounding (tests/mechanics/test_compiled.py).
+
+    A failure part-way (controller error, non-finite state, integrator
+    failure) raises :class:`SimulationError` whose ``trajectory`` holds the
+    states computed up to the failure.
+    """
+    if not isinstance(initial_state, State):
+        raise TypeError(f"initial_state: expected a freeflyer.State, got {type(initial_state).__name__}")
+    state = initial_state.resolve(model)
+    if np.asarray(state.q).ndim != 1:
+        raise ShapeError("initial_state: simulate takes one state; use freeflyer.rollout for a batch of states")
+    duration = _positive("duration", duration)
+    for name, value in (("fixed_step", fixed_step), ("sample_period", sample_period), ("output_period", output_period)):
+        if value is not None:
+            _positive(name, value)
+    if fixed_step is not None and abs(round(duration / fixed_step) * fixed_step - duration) > 1e-9 * duration:
+        raise ValueError(f"fixed_step: {fixed_step} does not divide duration {duration}; choose a step that does")
+    if fixed_step is None:
+        if not (isinstance(method, str) and method in METHODS) and not isinstance(method, type):
+            raise ValueError(f"method: unknown integrator {method!r}; choose one of {', '.join(METHODS)} (or pass fixed_step for RK4)")
+        _positive("rtol", rtol)
+        _positive("atol", atol)
+    if controller is not None and not callable(controller):
+        raise TypeError(f"controller: expected a callable (t, state) -> joint torques or Actuation, got {type(controller).__name__}")
+    limits = limits or ActuatorLimits()
+    if backend not in _compiled.BACKENDS:
+        raise ValueError(f"backend: expected 'auto', 'numpy' or 'numba', got {backend!r}")
+    if backend == "numba":
+        _compiled.use_compiled(backend, external)  # a clear error now if the compiled path cannot run this
+    period = output_period or max(0.01, fixed_step or 0.0)
+    x0 = pack_state(state)
+    rec = _Recorder(model)
+    zero = (np.zeros(model.n_joints), np.zeros(3), np.zeros(3))
+
+    def command(t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        if controller is None:
+            return (*zero, np.array(False))
+        tau, force, torque = _call_controller(controller, model, t, x, ())
+        return limits.apply(tau, force, torque)
+
+    bar = _progress(progress, duration)
+    try:
+        if fixed_step is not None:
+            status = _run_rk4(model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar, backend)
+        else:
+            status = _run_adaptive(
+                model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar, backend
+            )
+    except SimulationError as exc:
+        exc.trajectory = rec.trajectory("failed", str(exc))
+        raise
+    except (FreeflyerError, ValueError, ArithmeticError, RuntimeError, TypeError, KeyError, IndexError) as exc:
+        t_fail = rec.t[-1] if rec.t else 0.0
+        message = f"simulation failed after t = {t_fail:.6g} s: {type(exc).__name__}: {exc}"
+        raise SimulationError(message, rec.trajectory("failed", message)) from exc
+    finally:
+        if bar is not None:
+            bar.stop()
+    return rec.trajectory(*status)
+
+
+def _positive(name: str, value: Any) -> float:
+    """``value`` as a positive finite float, or a ValueError naming ``name``."""
+    try:
+        out = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected a positive number, got {value!r}") from exc
+    if not np.isfinite(out) or out <= 0:
+        raise ValueError(f"{name}: must be positive and finite, got {value!r}")
+    return out
+
+
+def rollout(
+    model: Model,
+    initial_states: State,
+    duration: float,
+    *,
+    dt: float,
+    controller: Controller | None = None,
+    sample_period: float | None = None,
+    output_period: float | None = None,
+    limits: ActuatorLimits | None = None,
+    external: Any = (),
+    backend: str = "auto",
+) -> Trajectory:
+    """Simulate a batch of initial states at once with fixed-step RK4.
+
+    ``initial_states`` is a :class:`State` whose fields have a leading batch
+    axis B (fields may broadcast). ``controller(t, states)`` sees the whole
+    batch (fields (B, ...)) and returns batched torques (B, N) or an
+    :class:`Actuation` of batched arrays; per-trajectory controller parameters
+    are arrays of length B that the controller closes over. Returns a
+    :class:`Trajectory` whose arrays are (T, B, ...).
+
+    ``backend`` as in :func:`simulate`: with the compiled kernels the RK4 steps
+    of the whole batch run in parallel (blocks of trajectories on a thread
+    pool, see :mod:`freeflyer.mechanics._compiled`), and a controller
+    that is None or a :class:`freeflyer.simulation.pd.JointPD` (gains per trajectory,
+    open-loop feed-forward) runs compiled too, with no Python per step.
+    """
+    state = initial_states.resolve(model)
+    x = pack_state(state)
+    if x.ndim != 2:
+        raise ShapeError(f"initial_states: expected fields with one leading batch axis (B, ...), got a state of shape {x.shape}")
+    batch = x.shape[:1]
+    limits = limits or ActuatorLimits()
+    duration, dt = _positive("duration", duration), _positive("dt", dt)
+    steps = round(float(duration) / dt)
+    if steps <= 0 or abs(steps * dt - duration) > 1e-9 * duration:
+        raise ValueError(f"dt: {dt} must divide duration {duration}")
+    hold = round((sample_period or dt) / dt)
+    stride = max(1, round((output_period or dt) / dt))
+    zero = (np.zeros((*batch, model.n_joints)), np.zeros((*batch, 3)), np.zeros((*batch, 3)))
+
+    def command(t: float, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        if controller is None:
+            return (*zero, np.zeros(batch, dtype=bool))
+        return limits.apply(*_call_controller(controller, model, t, xx, batch))
+
+    rec = _Recorder(model)
+    if _compiled.use_compiled(backend, external) and (controller is None or isinstance(controller, JointPD)):
+        compiled = _compiled.rollout_rows(model, x, dt, steps, hold, stride, controller, limits)
+        if compiled is not None:
+            return _trajectory(model, *compiled, copy=False)  # the kernels keep the quaternions normalised
+    step = _stepper(model, dt, external, backend)
+    act = command(0.0, x)
+    rec.add(0.0, x, act)
+    for i in range(1, steps + 1):
+        tau, force, torque, _ = act
+        x = step(x, tau, force, torque)
+        if i % hold == 0 and i < steps:
+            act = command(i * dt, x)
+        if i % stride == 0 or i == steps:
+            rec.add(i * dt, x, act)
+    return rec.trajectory()
