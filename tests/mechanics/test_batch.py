@@ -1,6 +1,6 @@
 """Batch first (STYLE.md): every batched function takes (..., N), an unbatched input gives an
 unbatched output, and a batch equals the loop over single configurations, also across the
-internal chunks of ``freeflyer.mechanics._batch.CHUNK`` configurations."""
+internal chunks of ``freeflyer.mechanics._arrays.CHUNK`` configurations."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import freeflyer as ff
-import freeflyer.mechanics._batch
+import freeflyer.mechanics._arrays
 from trees import build_random_model
 
 PAPER = ff.models.papadopoulos1992()  # planar, two arms, square planar J* (4 x 4)
@@ -118,14 +118,14 @@ def test_batch_equals_loop(model: ff.Model, name: str) -> None:
 @pytest.mark.parametrize(("model", "name"), PARAMS)
 def test_batch_equals_loop_across_small_chunks(model: ff.Model, name: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """With CHUNK = 5 a (3, 4) batch runs in three pieces; the pieces must join in order."""
-    monkeypatch.setattr(freeflyer.mechanics._batch, "CHUNK", 5)
+    monkeypatch.setattr(freeflyer.mechanics._arrays, "CHUNK", 5)
     x = make_inputs(model, (3, 4), seed=3)
     assert_batch_equals_loop(ALL_CASES[name], model, x, [(a, b) for a in range(3) for b in range(4)])
 
 
 @pytest.mark.parametrize(("model", "name"), PARAMS)
 def test_batch_larger_than_the_chunk_equals_loop(model: ff.Model, name: str) -> None:
-    chunk = freeflyer.mechanics._batch.CHUNK  # 4096
+    chunk = freeflyer.mechanics._arrays.CHUNK  # 4096
     size = 2 * chunk + 7  # three chunks, the last one short
     x = make_inputs(model, (size,), seed=4)
     picks = {0, 1, chunk - 1, chunk, chunk + 1, 2 * chunk - 1, 2 * chunk, size - 1}
@@ -134,7 +134,7 @@ def test_batch_larger_than_the_chunk_equals_loop(model: ff.Model, name: str) -> 
 
 
 def test_two_dimensional_batch_across_the_chunk_boundary() -> None:
-    chunk = freeflyer.mechanics._batch.CHUNK
+    chunk = freeflyer.mechanics._arrays.CHUNK
     cols = chunk // 2 + 52  # 2 * cols > chunk: the boundary falls inside row 1, at column chunk - cols
     x = make_inputs(PAPER, (2, cols), seed=6)
     picks = [(0, 0), (0, cols - 1), (1, chunk - cols - 1), (1, chunk - cols), (1, cols - 1)]
@@ -174,37 +174,3 @@ def test_empty_batch_gives_empty_results() -> None:
     assert ff.system_inertia_matrix(PAPER, q).shape == (0, 10, 10)
     assert ff.end_effector_positions(PAPER, q).shape == (0, 2, 3)
     assert ff.angular_momentum(PAPER, q, np.zeros((0, 10))).shape == (0, 3)
-
-
-@pytest.mark.parametrize("which", ["papadopoulos1992", "spacecraft_7dof", "random"])
-def test_numba_back_end_equals_numpy_back_end(which: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    """The optional numba build of the traced J*, det and manipulability programs gives the numpy results.
-
-    numba is a test dependency (the ``fast`` extra), so this runs the compiled path for real; the
-    threshold is lowered so that a small batch takes it, and angles beyond the sin/cos table fall back.
-    """
-    import freeflyer.mechanics._numba_programs as nbp
-
-    assert nbp.available(), "numba is in the test extras; install .[test]"
-    model = {
-        "papadopoulos1992": ff.models.papadopoulos1992(),
-        "spacecraft_7dof": ff.models.spacecraft_7dof(),
-        "random": TREE,
-    }[which]
-    q = np.random.default_rng(3).uniform(-4.0, 4.0, size=(2048 + 5, model.n_joints))
-    q[3, 0] = 3e5  # beyond the sin/cos table: the whole call falls back to the numpy back end
-    monkeypatch.setattr(freeflyer.mechanics._batch, "COMPILE_MIN", 16)
-    monkeypatch.setenv("FREEFLYER_NUMBA", "0")
-    ref = {"J": ff.generalized_jacobian(model, q[4:]), "m": ff.manipulability(model, q[4:]), "far": ff.generalized_jacobian(model, q)}
-    monkeypatch.setattr(nbp, "NUMBA_MIN", 16)
-    monkeypatch.setenv("FREEFLYER_NUMBA", "1")
-    jac = ff.generalized_jacobian(model, q[4:])
-    assert jac.shape == ref["J"].shape
-    np.testing.assert_allclose(jac, ref["J"], rtol=0, atol=1e-13 * np.abs(ref["J"]).max())
-    np.testing.assert_allclose(ff.manipulability(model, q[4:]), ref["m"], rtol=1e-12, atol=1e-14)
-    np.testing.assert_array_equal(ff.generalized_jacobian(model, q), ref["far"])
-    assert ("numba", "jstar") in freeflyer.mechanics._batch.program_cache(model).programs
-    if model.is_planar:
-        ref_det = ff.jacobian_determinant(model, q[4:])
-        monkeypatch.setenv("FREEFLYER_NUMBA", "0")
-        np.testing.assert_allclose(ff.jacobian_determinant(model, q[4:]), ref_det, rtol=1e-12, atol=1e-14)

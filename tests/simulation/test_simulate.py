@@ -364,14 +364,14 @@ def test_rollout_equals_a_loop_of_simulations() -> None:
     def batched(t: float, s: ff.State) -> np.ndarray:
         return -gains[:, None] * s.q - s.qdot + np.sin(t)
 
-    traj = ff.rollout(model, batch, 1.0, dt=0.005, controller=batched, sample_period=0.01, output_period=0.05, backend="numpy")
+    traj = ff.rollout(model, batch, 1.0, dt=0.005, controller=batched, sample_period=0.01, output_period=0.05)
     assert traj.q.shape == (21, 5, model.n_joints)
     for b, s in enumerate(states):
 
         def single(t: float, x: ff.State, b: int = b) -> np.ndarray:
             return -gains[b] * x.q - x.qdot + np.sin(t)
 
-        one = ff.simulate(model, s, 1.0, single, fixed_step=0.005, sample_period=0.01, output_period=0.05, backend="numpy")
+        one = ff.simulate(model, s, 1.0, single, fixed_step=0.005, sample_period=0.01, output_period=0.05)
         assert np.allclose(one.t, traj.t)
         for name in ("q", "qdot", "omega", "attitude", "r_cm", "v_cm", "joint_torque"):
             assert np.allclose(getattr(one, name), getattr(traj, name)[:, b], rtol=0, atol=1e-12), name

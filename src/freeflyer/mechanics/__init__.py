@@ -6,9 +6,12 @@ everyday ones are also at the top level (``ff.forward_dynamics``); this
 namespace gathers all of them, including the less common ones
 (``generalized_jacobian_drift``, ``point_bias_acceleration``,
 ``spacecraft_fixed_dynamics``, ...). :mod:`.planar` is the planar view
-(``ff.planar``). The private modules ``_batch``, ``_compiled``,
-``_numba_programs`` and :mod:`.recursive` are the compiled back end and the
-O(N) recursions.
+(``ff.planar``). The physics is written once in the engine (private):
+:mod:`._tree` (the model as arrays), :mod:`._recursions` (the O(N) recursions
+of one configuration), :mod:`._configuration` (J*, J+, H+, forward dynamics,
+RK4), :mod:`._drivers` (batch loops, serial and threaded) and :mod:`._engine`
+(the Python side), compiled once per machine (:mod:`._numba_cache`). The
+papers' barycentric closed forms (``method="barycentric"``) check it.
 
 Layer: imports :mod:`freeflyer.core` only.
 """

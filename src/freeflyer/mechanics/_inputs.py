@@ -16,7 +16,7 @@ import numpy as np
 from ..core.conventions import attitude_matrix
 from ..core.errors import ShapeError
 from ..core.model import Model
-from ._batch import joint_array, vector_array
+from ._arrays import joint_array, vector_array
 
 
 def _finite(arr: np.ndarray, name: str) -> np.ndarray:

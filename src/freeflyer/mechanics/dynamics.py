@@ -41,7 +41,7 @@ acceleration of the barycentric vector b_ij. psi_i is Euler's equation of the
 barycentric body i (augmented inertia D_ii) plus the coupling through the
 barycentric vectors; this is the ``method="barycentric"`` closed form. The
 ``method="recursive"`` route is an O(N) Newton-Euler recursion on the tree
-(:mod:`freeflyer.mechanics.recursive`).
+(the engine, :mod:`freeflyer.mechanics._recursions`), the default.
 
 Generalized forces Q (1991 eqs. 18 and 21) and their inversion into thruster
 and joint actuation live in :mod:`freeflyer.mechanics.forces`.
@@ -49,7 +49,6 @@ and joint actuation live in :mod:`freeflyer.mechanics.forces`.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -58,13 +57,13 @@ import scipy.linalg
 
 from ..core.errors import ShapeError, SingularConfigurationError
 from ..core.model import Model
-from ._batch import chunked
+from . import _engine
+from ._arrays import chunked, pieces
 from ._inputs import _attitude, _joints, _rotate, _vector, _velocity
-from .forces import _actuation_0, _generalized_forces_0, _wrenches
+from .forces import _actuation_0, _actuation_vector, _engine_wrenches, _generalized_forces_0, _wrenches
 from .jacobians import actuation_jacobian
-from .kinematics import body_rotations
+from .kinematics import _rotations
 from .momentum import system_inertia_matrix
-from .recursive import _cross, aba, rnea_generalized_forces
 
 __all__ = [
     "forward_dynamics",
@@ -75,31 +74,13 @@ __all__ = [
     "system_inertia_matrix_rate",
 ]
 
-_METHODS = ("barycentric", "recursive")
-#: Upper bound on (configurations x bodies^2) per kernel call; keeps the pair arrays small.
-_PAIR_BUDGET = 1 << 17
+_METHODS = ("recursive", "barycentric")
 
 
 def _method(method: str) -> str:
     if method not in _METHODS:
-        raise ValueError(f"method: expected 'barycentric' or 'recursive', got {method!r}")
+        raise ValueError(f"method: expected 'recursive' (the engine) or 'barycentric' (the closed form of 1991 eq. 19), got {method!r}")
     return method
-
-
-def _pieces(kernel: Callable[..., Any], n_bodies: int) -> Callable[..., Any]:
-    """Wrap a flat-batch kernel so that it runs on slices small enough for its B^2 pair arrays."""
-    step = max(1, _PAIR_BUDGET // max(1, n_bodies * n_bodies))
-
-    def run(*arrays: np.ndarray) -> Any:
-        size = arrays[0].shape[0]
-        if size <= step:
-            return kernel(*arrays)
-        parts = [kernel(*(a[s : s + step] for a in arrays)) for s in range(0, size, step)]
-        if isinstance(parts[0], tuple):
-            return tuple(np.concatenate([p[i] for p in parts]) for i in range(len(parts[0])))
-        return np.concatenate(parts)
-
-    return run
 
 
 # ----------------------------------------------------------------- tree motion (spacecraft frame)
@@ -122,8 +103,20 @@ class _Motion:
     kappa: np.ndarray
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b over the last axis (length 3), broadcasting."""
+    return np.stack(
+        [
+            a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+            a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+            a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0],
+        ],
+        axis=-1,
+    )
+
+
 def _motion(model: Model, q: np.ndarray, omega0: np.ndarray, qdot: np.ndarray) -> _Motion:
-    rot = body_rotations(model, q)
+    rot = _rotations(model, q)
     batch, n = q.shape[0], model.n_bodies
     axis = np.zeros((batch, n, 3))
     axis[:, 1:] = np.einsum("ckij,kj->cki", rot[:, 1:], model.joint_axis[1:])
@@ -177,28 +170,27 @@ def _c_plus_barycentric(model: Model, q: np.ndarray, velocity: np.ndarray) -> np
     return out
 
 
-def _c_plus_recursive(model: Model, q: np.ndarray, velocity: np.ndarray) -> np.ndarray:
-    zero = np.zeros_like(velocity)
-    out = np.zeros_like(velocity)
-    out[:, 3:] = rnea_generalized_forces(model, q, velocity, zero)
-    return out
-
-
-def nonlinear_forces(model: Model, q: Any, velocity: Any, *, method: str = "barycentric") -> np.ndarray:
+def nonlinear_forces(model: Model, q: Any, velocity: Any, *, method: str = "recursive") -> np.ndarray:
     """C+ of 1991 eq. 19, (..., 6 + N): H+ zddot0 + C+ = Q.
 
     ``velocity`` is zdot0 = [rdot_cm (inertial), omega0 (spacecraft frame),
     qdot]. The rows are [0 (the CM moves as a particle: M rddot_cm = total
     force), spacecraft-frame omega0 row, joint rows]; C+ does not depend on
-    the attitude or on rdot_cm. ``method="barycentric"`` is the closed form of
-    the module docstring (quasi-Lagrangian, barycentric vectors);
-    ``method="recursive"`` is the O(N) Newton-Euler recursion of
-    :mod:`freeflyer.mechanics.recursive`. Both give the same numbers.
+    the attitude or on rdot_cm. ``method="recursive"`` (default) is the
+    engine's O(N) Newton-Euler recursion (:mod:`._recursions`);
+    ``method="barycentric"`` is the closed form of the module docstring
+    (quasi-Lagrangian, barycentric vectors). Both give the same numbers.
     """
-    kernel = _c_plus_barycentric if _method(method) == "barycentric" else _c_plus_recursive
+    method = _method(method)
     q = _joints(model, q, "q")
     v = _velocity(model, velocity)
-    return chunked(_pieces(lambda qq, vv: kernel(model, qq, vv), model.n_bodies), q, v, core_ndims=(1, 1))
+    if method == "recursive":
+        rows = _engine.residual_rows(model, q, v)
+        out = np.zeros((*rows.shape[:-1], 6 + model.n_joints))
+        out[..., 3:] = rows
+        return out
+    kernel = _c_plus_barycentric
+    return chunked(pieces(lambda qq, vv: kernel(model, qq, vv), model.n_bodies), q, v, core_ndims=(1, 1))
 
 
 # ----------------------------------------------------------------- dH+/dt
@@ -247,7 +239,7 @@ def system_inertia_matrix_rate(model: Model, q: Any, qdot: Any) -> np.ndarray:
     """
     q = _joints(model, q, "q")
     qd = _joints(model, qdot, "qdot")
-    return chunked(_pieces(lambda qq, vv: _hplus_rate(model, qq, vv), model.n_bodies), q, qd, core_ndims=(1, 1))
+    return chunked(pieces(lambda qq, vv: _hplus_rate(model, qq, vv), model.n_bodies), q, qd, core_ndims=(1, 1))
 
 
 # ----------------------------------------------------------------- bias acceleration of a point
@@ -315,7 +307,7 @@ def forward_dynamics(
     attitude: Any = None,
     *,
     external: Any = (),
-    method: str = "barycentric",
+    method: str = "recursive",
 ) -> np.ndarray:
     """zddot0 = [rddot_cm (inertial), d/dt omega0 (spacecraft frame), qddot], (..., 6 + N).
 
@@ -323,30 +315,34 @@ def forward_dynamics(
     ``spacecraft_force`` / ``spacecraft_torque`` (spacecraft frame, at the
     spacecraft CM); free-floating: leave them None (zero). ``external``: extra
     :class:`ExternalWrench` items. ``attitude`` None = identity (then rddot_cm
-    is in the spacecraft frame). ``method="barycentric"`` uses H+ and the
-    closed-form C+ with a Cholesky solve; ``method="recursive"`` the O(N)
-    articulated-body algorithm (:func:`freeflyer.mechanics.recursive.aba`).
+    is in the spacecraft frame). ``method="recursive"`` (default): the engine,
+    H+ by composite rigid bodies and C+ - Q by Newton-Euler, one Cholesky
+    solve, at every batch size; ``method="barycentric"``: the barycentric H+
+    (1991 eq. 16) and closed-form C+ with a Cholesky solve.
     """
     method = _method(method)
     q = _joints(model, q, "q")
     v = _velocity(model, velocity)
     t0 = _attitude(attitude)
+    if method == "recursive":
+        u = _actuation_vector(model, joint_torque, spacecraft_force, spacecraft_torque)
+        acc, ok = _engine.accelerations(model, q, v, u, t0, _engine_wrenches(model, _wrenches(external)))
+        if not np.all(ok):
+            h = system_inertia_matrix(model, q)[..., 3:, 3:]
+            raise SingularConfigurationError("H+ (1991 eq. 15)", float(np.min(np.linalg.det(h))), "the mass properties are not physical")
+        return acc
     q_0 = _generalized_forces_0(model, q, joint_torque, spacecraft_force, spacecraft_torque, _wrenches(external), t0)
     batch = np.broadcast_shapes(q.shape[:-1], v.shape[:-1], q_0.shape[:-1])
     out = np.empty((*batch, 6 + model.n_joints))
     out[..., 0:3] = _rotate(t0, q_0[..., 0:3]) / model.total_mass
-    if method == "barycentric":
-        h = system_inertia_matrix(model, q)[..., 3:, 3:]
-        c = nonlinear_forces(model, q, v)
-        out[..., 3:] = _cholesky_solve(h, q_0[..., 3:] - c[..., 3:], "H+ (1991 eq. 15)")
-    else:
-        force, torque, tau = _actuation_0(model, q, q_0)
-        out[..., 3:] = aba(model, q, v, force, torque, tau)
+    h = system_inertia_matrix(model, q, method="barycentric")[..., 3:, 3:]
+    c = nonlinear_forces(model, q, v, method="barycentric")
+    out[..., 3:] = _cholesky_solve(h, q_0[..., 3:] - c[..., 3:], "H+ (1991 eq. 15)")
     return out
 
 
 def inverse_dynamics(
-    model: Model, q: Any, velocity: Any, acceleration: Any, attitude: Any = None, *, external: Any = (), method: str = "barycentric"
+    model: Model, q: Any, velocity: Any, acceleration: Any, attitude: Any = None, *, external: Any = (), method: str = "recursive"
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(spacecraft_force, spacecraft_torque, joint_torque) that produce ``acceleration``.
 
@@ -354,7 +350,8 @@ def inverse_dynamics(
     frame), qddot]; the thruster force and torque act at the spacecraft CM and
     are returned in the spacecraft frame, with the joint torques (..., N):
     J_q^-T (H+ zddot0 + C+ - Q_external), 1991 eqs. 19, 21 and 30.
-    ``method="recursive"`` evaluates H+ zddot0 + C+ by Newton-Euler instead.
+    ``method="recursive"`` (default) evaluates H+ zddot0 + C+ by the engine's
+    Newton-Euler recursion; ``method="barycentric"`` from the barycentric H+ and C+.
     """
     method = _method(method)
     q = _joints(model, q, "q")
@@ -363,11 +360,11 @@ def inverse_dynamics(
     t0 = _attitude(attitude)
     if method == "barycentric":
         rows = (
-            np.einsum("...ij,...j->...i", system_inertia_matrix(model, q)[..., 3:, 3:], acc[..., 3:])
-            + nonlinear_forces(model, q, v)[..., 3:]
+            np.einsum("...ij,...j->...i", system_inertia_matrix(model, q, method="barycentric")[..., 3:, 3:], acc[..., 3:])
+            + nonlinear_forces(model, q, v, method="barycentric")[..., 3:]
         )
     else:
-        rows = rnea_generalized_forces(model, q, v, acc)
+        rows = _engine.residual_rows(model, q, v, acc)
     # H+ zddot0 + C+ with its first block (M rddot_cm) in the spacecraft frame
     first = model.total_mass * _rotate(t0, acc[..., 0:3], inverse=True)
     batch = np.broadcast_shapes(first.shape[:-1], rows.shape[:-1])

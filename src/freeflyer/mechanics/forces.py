@@ -25,6 +25,8 @@ from .kinematics import body_rotations
 
 __all__ = ["ExternalWrench", "actuation_from_generalized_forces", "generalized_forces"]
 
+_FRAME_CODES = {"inertial": 0, "spacecraft": 1, "body": 2}
+
 
 _FRAMES = ("inertial", "spacecraft", "body")
 
@@ -57,6 +59,37 @@ def _wrenches(external: Any) -> tuple[ExternalWrench, ...]:
         if w.frame not in _FRAMES:
             raise ValueError(f"external[{i}].frame: expected 'inertial', 'spacecraft' or 'body', got {w.frame!r}")
     return items
+
+
+def _engine_wrenches(model: Model, external: Sequence[ExternalWrench]) -> tuple[np.ndarray, np.ndarray]:
+    """External wrenches as the engine takes them: ext_i (W, 2) = [body, frame code], ext_f (..., W, 9) = [point, force, couple]."""
+    ext_i = np.zeros((len(external), 2), dtype=np.int64)
+    rows = []
+    for i, w in enumerate(external):
+        ext_i[i] = model.body_index(w.body), _FRAME_CODES[w.frame]
+        p = _vector(w.point, 3, f"external[{i}].point", "point in the body frame")
+        if p.shape != (3,):
+            raise ShapeError(f"external[{i}].point: expected shape (3,), got {p.shape}")
+        f = _vector(w.force, 3, f"external[{i}].force", "force, in the wrench's frame")
+        n_ = _vector(w.torque, 3, f"external[{i}].torque", "couple, in the wrench's frame")
+        rows.append(np.concatenate(np.broadcast_arrays(np.broadcast_to(p, f.shape), f, n_), axis=-1))
+    if not rows:
+        return ext_i, np.zeros((0, 9))
+    batch = np.broadcast_shapes(*(r.shape[:-1] for r in rows))
+    return ext_i, np.stack([np.broadcast_to(r, (*batch, 9)) for r in rows], axis=-2)
+
+
+def _actuation_vector(model: Model, tau: Any, force: Any, torque: Any) -> np.ndarray:
+    """u = [tau (N), f_S (3), n_S (3)] (..., N + 6) as the engine takes it; None is zero."""
+    parts = []
+    for value, size, name, what in (
+        (tau, model.n_joints, "joint_torque", f"one torque per joint: {', '.join(model.joint_names) or 'none'}"),
+        (force, 3, "spacecraft_force", "thruster force at the spacecraft CM, spacecraft frame"),
+        (torque, 3, "spacecraft_torque", "thruster torque, spacecraft frame"),
+    ):
+        parts.append(np.zeros(size) if value is None else _vector(value, size, name, what))
+    batch = np.broadcast_shapes(*(p.shape[:-1] for p in parts))
+    return np.concatenate([np.broadcast_to(p, batch + p.shape[-1:]) for p in parts], axis=-1)
 
 
 def _generalized_forces_0(

@@ -1,10 +1,11 @@
-"""Forward kinematics in the spacecraft frame, plain and barycentric.
+"""Forward kinematics in the spacecraft frame, recursive and barycentric.
 
 Every function takes joint angles ``q`` of shape (..., N) and broadcasts over
 the leading axes; positions are in the spacecraft frame 0. Two independent
-routes give positions relative to the system CM: the barycentric sums of 1992
-eqs. 4 and 10 (used everywhere in freeflyer) and plain recursive forward
-kinematics followed by the mass-weighted mean (used to check them).
+routes give positions relative to the system CM: ``method="recursive"`` (the
+default), the engine's forward recursion and the mass-weighted mean
+(:mod:`._recursions`, every batch size), and ``method="barycentric"``, the sums
+of barycentric vectors of 1992 eqs. 4 and 10 (numpy, the readable reference).
 """
 
 from __future__ import annotations
@@ -15,7 +16,8 @@ import numpy as np
 
 from ..core.conventions import attitude_matrix
 from ..core.model import Model
-from ._batch import chunked, joint_array, sincos
+from . import _engine
+from ._arrays import chunked, joint_array
 
 __all__ = [
     "body_cm_positions",
@@ -30,7 +32,7 @@ __all__ = [
 
 
 def _rotations(model: Model, q: np.ndarray) -> np.ndarray:
-    """Kernel: ⁰T_k (C, B, 3, 3) for flat q (C, N). Rodrigues, one parent product per body."""
+    """⁰T_k (C, B, 3, 3) for flat q (C, N) in numpy, for the barycentric reference: Rodrigues, one parent product per body."""
     batch = q.shape[0]
     n = model.n_bodies
     out = np.empty((batch, n, 3, 3))
@@ -38,10 +40,8 @@ def _rotations(model: Model, q: np.ndarray) -> np.ndarray:
     if n == 1:
         return out
     k_axis = model.rotation_basis
-    sin, cos = np.empty_like(q), np.empty_like(q)
-    sincos(q, sin, cos)
-    s = sin[:, :, None, None]
-    c = 1.0 - cos[:, :, None, None]
+    s = np.sin(q)[:, :, None, None]
+    c = 1.0 - np.cos(q)[:, :, None, None]
     local = k_axis[0] + s * k_axis[1] + c * k_axis[2]  # (C, N, 3, 3)
     parent = model.parent
     for k in range(1, n):
@@ -55,17 +55,7 @@ def body_rotations(model: Model, q: Any) -> np.ndarray:
 
     1991 eq. 6's ⁰T_k: ``x_0 = T_k @ x_k``. Row 0 is the identity.
     """
-    q = joint_array(model, q)
-    return chunked(lambda qq: _rotations(model, qq), q, core_ndims=(1,))
-
-
-def _frames(model: Model, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    rot = _rotations(model, q)
-    pos = np.zeros((*rot.shape[:2], 3))
-    for k in range(1, model.n_bodies):
-        p = model.parent[k]
-        pos[:, k] = pos[:, p] + rot[:, p] @ model.joint_origin[k]
-    return rot, pos
+    return forward_kinematics(model, q)[0]
 
 
 def forward_kinematics(model: Model, q: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -73,8 +63,7 @@ def forward_kinematics(model: Model, q: Any) -> tuple[np.ndarray, np.ndarray]:
 
     Origins are measured from the spacecraft frame origin, in the spacecraft frame.
     """
-    q = joint_array(model, q)
-    return chunked(lambda qq: _frames(model, qq), q, core_ndims=(1,))
+    return _engine.frames(model, joint_array(model, q))
 
 
 def joint_axes(model: Model, rotations: np.ndarray) -> np.ndarray:
@@ -84,47 +73,45 @@ def joint_axes(model: Model, rotations: np.ndarray) -> np.ndarray:
 
 def system_cm(model: Model, q: Any) -> np.ndarray:
     """System CM measured from the spacecraft frame origin, spacecraft frame, (..., 3)."""
-    rot, pos = forward_kinematics(model, q)
-    cms = pos + np.einsum("...kij,kj->...ki", rot, model.com)
-    return np.einsum("k,...ki->...i", model.mass, cms) / model.total_mass
+    return -_engine.points(model, joint_array(model, q), 0, (0.0, 0.0, 0.0))[..., 0, :]
 
 
-def body_cm_positions(model: Model, q: Any, *, method: str = "barycentric") -> np.ndarray:
+_METHODS = ("recursive", "barycentric")
+
+
+def _method(method: str) -> str:
+    if method not in _METHODS:
+        raise ValueError(f"method: expected 'recursive' (the engine) or 'barycentric' (1992 eq. 4), got {method!r}")
+    return method
+
+
+def body_cm_positions(model: Model, q: Any, *, method: str = "recursive") -> np.ndarray:
     """rho_k: every body CM relative to the system CM, spacecraft frame, (..., B, 3).
 
-    ``method="barycentric"`` sums one barycentric vector per body (1992 eq. 4);
-    ``method="recursive"`` uses plain forward kinematics minus the system CM.
-    Both give the same numbers; the second exists to check the first.
+    ``method="recursive"`` (default): forward recursion minus the system CM (the
+    engine); ``method="barycentric"``: one barycentric vector per body summed
+    (1992 eq. 4). Both give the same numbers; each checks the other.
     """
     q = joint_array(model, q)
-    if method == "barycentric":
-        table = model.bary.point_table
-        return chunked(lambda qq: np.einsum("cbij,kbj->cki", _rotations(model, qq), table), q, core_ndims=(1,))
-    if method == "recursive":
-        rot, pos = forward_kinematics(model, q)
-        cms = pos + np.einsum("...kij,kj->...ki", rot, model.com)
-        return cms - (np.einsum("k,...ki->...i", model.mass, cms) / model.total_mass)[..., None, :]
-    raise ValueError(f"method: expected 'barycentric' or 'recursive', got {method!r}")
+    if _method(method) == "recursive":
+        return _engine.points(model, q, np.arange(model.n_bodies), model.com)
+    table = model.bary.point_table
+    return chunked(lambda qq: np.einsum("cbij,kbj->cki", _rotations(model, qq), table), q, core_ndims=(1,))
 
 
-def end_effector_positions(model: Model, q: Any, *, attitude: Any = None, method: str = "barycentric") -> np.ndarray:
+def end_effector_positions(model: Model, q: Any, *, attitude: Any = None, method: str = "recursive") -> np.ndarray:
     """r_E of every end effector relative to the system CM, (..., E, 3).
 
-    1992 eq. 10 as a barycentric sum, in the spacecraft frame; with ``attitude``
-    (quaternion [x, y, z, w], Rotation or 3x3) rotated into the inertial frame.
-    ``method="recursive"`` uses plain forward kinematics instead (a check).
+    In the spacecraft frame; with ``attitude`` (quaternion [x, y, z, w],
+    Rotation or 3x3) rotated into the inertial frame. ``method="barycentric"``
+    evaluates 1992 eq. 10 as a barycentric sum instead of the engine's recursion.
     """
     q = joint_array(model, q)
-    if method == "barycentric":
+    if _method(method) == "recursive":
+        r_e = _engine.points(model, q, model.end_effector_body, model.end_effector_point)
+    else:
         table = model.bary.end_effector_table
         r_e = chunked(lambda qq: np.einsum("cbij,ebj->cei", _rotations(model, qq), table), q, core_ndims=(1,))
-    elif method == "recursive":
-        rot, pos = forward_kinematics(model, q)
-        body = model.end_effector_body
-        tips = pos[..., body, :] + np.einsum("...eij,ej->...ei", rot[..., body, :, :], model.end_effector_point)
-        r_e = tips - system_cm(model, q)[..., None, :]
-    else:
-        raise ValueError(f"method: expected 'barycentric' or 'recursive', got {method!r}")
     if attitude is None:
         return r_e
     return np.einsum("...ij,...ej->...ei", attitude_matrix(attitude), r_e)
@@ -135,11 +122,16 @@ def end_effector_rotations(model: Model, q: Any) -> np.ndarray:
     return body_rotations(model, q)[..., model.end_effector_body, :, :]
 
 
-def point_positions(model: Model, q: Any, body: str | int, point: Any = (0.0, 0.0, 0.0)) -> np.ndarray:
+def point_positions(model: Model, q: Any, body: str | int, point: Any = (0.0, 0.0, 0.0), *, method: str = "recursive") -> np.ndarray:
     """Any point of any body relative to the system CM, spacecraft frame, (..., 3).
 
-    ``point`` is in the body frame. 1991 eqs. 1-3: a sum of barycentric vectors.
+    ``point`` is in the body frame. ``method="barycentric"``: 1991 eqs. 1-3, a
+    sum of barycentric vectors; default the engine's recursion.
     """
     k = model.body_index(body)
-    table = model.bary.point_vectors(model, k, np.asarray(point, dtype=float))
-    return np.einsum("...bij,bj->...i", body_rotations(model, q), table)
+    p = np.asarray(point, dtype=float)
+    q = joint_array(model, q)
+    if _method(method) == "recursive":
+        return _engine.points(model, q, k, p)[..., 0, :]
+    table = model.bary.point_vectors(model, k, p)
+    return chunked(lambda qq: np.einsum("cbij,bj->ci", _rotations(model, qq), table), q, core_ndims=(1,))

@@ -1,7 +1,7 @@
 """The integration loops behind :func:`freeflyer.simulate` and :func:`freeflyer.rollout` (private).
 
-The state derivative (numpy reference :func:`_derivative`, or the compiled
-kernels of :mod:`freeflyer.mechanics._compiled`), one RK4 step, the fixed-step
+The state derivative and RK4 steps are the engine's (:mod:`freeflyer.mechanics._engine`,
+one compiled call per run of steps); here are the fixed-step
 and adaptive (scipy ``solve_ivp``) loops, events, and the recorder that turns
 the flat states into a :class:`~freeflyer.Trajectory`. The flat state is
 ``x = [r_cm, v_cm, attitude (x, y, z, w), omega, q, qdot]`` (see
@@ -12,85 +12,56 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Callable, Sequence
-from functools import partial
 from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..core.errors import SimulationError
+from ..core.errors import ShapeError, SimulationError
 from ..core.model import Model
 from ..core.state import unpack_state
-from ..mechanics import _batch, _compiled
-from ..mechanics.dynamics import forward_dynamics
+from ..mechanics import _engine
+from ..mechanics.forces import _engine_wrenches, _wrenches
 from .trajectory import Trajectory
 
 
-def _derivative(model: Model, x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray, external: Any) -> np.ndarray:
+def _engine_inputs(model: Model, external: Any) -> tuple[np.ndarray, np.ndarray]:
+    """External wrenches (constant; forces and couples (3,)) as the engine takes them."""
+    ext_i, ext_f = _engine_wrenches(model, _wrenches(external))
+    if ext_f.ndim != 2:
+        raise ShapeError(f"external: a simulation takes constant wrenches (force and torque of shape (3,)), got {ext_f.shape[:-2]} batches")
+    return ext_i, ext_f
+
+
+def _u(model: Model, tau: np.ndarray, force: np.ndarray, torque: np.ndarray, out: np.ndarray) -> np.ndarray:
     n = model.n_joints
-    quat = x[..., 6:10] / np.linalg.norm(x[..., 6:10], axis=-1, keepdims=True)
-    omega = x[..., 10:13]
-    q, qdot = x[..., 13 : 13 + n], x[..., 13 + n :]
-    velocity = np.concatenate([x[..., 3:6], omega, qdot], axis=-1)
-    acc = forward_dynamics(model, q, velocity, tau, spacecraft_force=force, spacecraft_torque=torque, attitude=quat, external=external)
-    vec, w = quat[..., 0:3], quat[..., 3:4]
-    dquat = 0.5 * np.concatenate([w * omega + np.cross(vec, omega), -np.sum(vec * omega, axis=-1, keepdims=True)], axis=-1)
-    return np.concatenate([x[..., 3:6], acc[..., 0:3], dquat, acc[..., 3:6], qdot, acc[..., 6:]], axis=-1)
-
-
-def _rhs(model: Model, external: Any, backend: str) -> Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
-    """The state derivative ``f(x, tau, force, torque)`` of one state: compiled (numba) or the numpy reference."""
-    if not _compiled.use_compiled(backend, external):
-        return partial(_derivative, model, external=external)
-    kernels = _compiled.kernels(model)
-    run = kernels.module.deriv_blocks
-    n = model.n_joints
-
-    def compiled(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
-        if not np.abs(x[13 : 13 + n]).max(initial=0.0) <= _batch._MAX_TABLE_ANGLE:
-            return _derivative(model, x, tau, force, torque, external)  # beyond the sin/cos table (or NaN): the reference path
-        u = np.concatenate([tau, force, torque])[None]
-        out = np.empty((1, x.shape[-1]))
-        run(0, 1, np.ascontiguousarray(x, dtype=float)[None], u, out)
-        return out[0]
-
-    return compiled
-
-
-def _rk4_step(f: Callable[[np.ndarray], np.ndarray], x: np.ndarray, dt: float) -> np.ndarray:
-    k1 = f(x)
-    k2 = f(x + 0.5 * dt * k1)
-    k3 = f(x + 0.5 * dt * k2)
-    k4 = f(x + dt * k3)
-    out = x + dt / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-    out[..., 6:10] /= np.linalg.norm(out[..., 6:10], axis=-1, keepdims=True)
+    out[..., :n], out[..., n : n + 3], out[..., n + 3 :] = tau, force, torque
     return out
 
 
-def _stepper(model: Model, dt: float, external: Any, backend: str) -> Callable[..., np.ndarray]:
-    """One RK4 step ``step(x, tau, force, torque) -> new x``: compiled (numba) or the numpy reference."""
-    if _compiled.use_compiled(backend, external):
-        kernels = _compiled.kernels(model)
+def _rhs(model: Model, external: Any) -> Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
+    """The state derivative ``f(x, tau, force, torque)`` of one state (the engine, one compiled call)."""
+    stepper = _engine.Stepper(model, _engine_inputs(model, external))
+    u = np.zeros(model.n_joints + 6)
 
-        n = model.n_joints
-        single = kernels.module.steps_single
+    def derivative(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
+        out = np.empty(stepper.size)
+        if not stepper.derivative(np.ascontiguousarray(x, dtype=float), _u(model, tau, force, torque, u), out):
+            raise SimulationError("H+ (1991 eq. 15) is not positive definite at this state: the mass properties are not physical")
+        return out
 
-        def compiled_step(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
-            out = np.array(x, dtype=float, order="C")
-            u = np.empty((*x.shape[:-1], n + 6))
-            u[..., :n], u[..., n : n + 3], u[..., n + 3 :] = tau, force, torque
-            if out.ndim == 1:
-                single(out, u, dt, 1)
-            else:
-                kernels.steps_batch(out, u, dt, 1)
-            return out
+    return derivative
 
-        return compiled_step
 
-    def numpy_step(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
-        return _rk4_step(partial(_derivative, model, tau=tau, force=force, torque=torque, external=external), x, dt)
+def _stepper(model: Model, dt: float, external: Any) -> Callable[..., np.ndarray]:
+    """One RK4 step of a batch of states ``step(x (B, S), tau, force, torque) -> new x`` (the engine, threads across B)."""
+    ext = _engine_inputs(model, external)
 
-    return numpy_step
+    def step(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
+        u = _u(model, tau, force, torque, np.empty((*x.shape[:-1], model.n_joints + 6)))
+        return _engine.rk4_batch(model, x, u, dt, 1, ext)
+
+    return step
 
 
 class _Recorder:
@@ -156,7 +127,8 @@ def _trajectory(
 
 
 def _check_finite(t: float, x: np.ndarray) -> None:
-    total = float(x.dot(x)) if x.ndim == 1 else float(x.sum())
+    with np.errstate(over="ignore", invalid="ignore"):
+        total = float(x.dot(x)) if x.ndim == 1 else float(x.sum())
     if total - total != 0.0 and not np.isfinite(x).all():  # NaN and inf propagate into the sum (overflow: checked in full)
         raise SimulationError(f"the state became non-finite at t = {t:.6g} s (unstable controller or too large a step?)")
 
@@ -184,30 +156,44 @@ def _run_rk4(
     external: Any,
     rec: _Recorder,
     bar: Any,
-    backend: str = "numpy",
 ) -> tuple[str, str]:
+    """Fixed-step RK4 on the engine, in place: runs of steps between samples, outputs and events go without Python."""
     steps = round(duration / dt)  # simulate() checked that dt divides the duration
-    if _compiled.use_compiled(backend, external) and not events:
-        return _run_rk4_compiled(model, x0, steps, dt, sample_period, period, command, rec, bar)
-    step = _stepper(model, dt, external, backend)
-    hold = sample_period or dt
+    stepper = _engine.Stepper(model, _engine_inputs(model, external))
+    n = model.n_joints
+    # sample instants: every step without a sample period, else the steps nearest k * sample_period
+    next_sample_time = sample_period or dt
     stride = max(1, round(period / dt))
-    x, t = x0.copy(), 0.0
+    x = np.array(x0, dtype=float, order="C")
+    x[6:10] /= np.linalg.norm(x[6:10])
+    u = np.empty(n + 6)
     act = command(0.0, x)
-    next_sample = hold
+    _u(model, act[0], act[1], act[2], u)
     rec.add(0.0, x, act)
     prev_ev = _event_value(events, model, 0.0, x) if events else None
-    for i in range(1, steps + 1):
-        tau, force, torque, _ = act
-        x = step(x, tau, force, torque)
+    report = max(1, steps // 100)
+    i = 0
+    while i < steps:
+        if events or sample_period is None:
+            todo = 1
+        else:
+            to_sample = max(1, round(next_sample_time / dt) - i)
+            todo = min(to_sample, stride - i % stride, steps - i)
+        done = stepper.rk4(x, u, dt, todo)
+        i += done
         t = i * dt
+        if done < todo:
+            _check_finite(t, x)
+            raise SimulationError(f"H+ (1991 eq. 15) is not positive definite at t = {t:.6g} s: the mass properties are not physical")
         _check_finite(t, x)
-        if t >= next_sample - 1e-12 * hold and i < steps:
-            act = command(t, x)
-            next_sample += hold
+        if i < steps and (sample_period is None or t >= next_sample_time - 1e-9 * dt):
+            act = command(t, x.copy())  # a copy: x is advanced in place, the controller may keep its state
+            _u(model, act[0], act[1], act[2], u)
+            if sample_period is not None:
+                next_sample_time += sample_period
         if i % stride == 0 or i == steps:
             rec.add(t, x, act)
-        if bar is not None and i % max(1, steps // 100) == 0:
+        if bar is not None and i % report < todo:
             bar.update(bar.task_ids[0], completed=t)
         if events:
             now = _event_value(events, model, t, x)
@@ -219,46 +205,6 @@ def _run_rk4(
                         rec.add(t, x, act)
                     return "event", f"event {k} ({getattr(ev, '__name__', 'event')}) at t = {t:.6g} s"
             prev_ev = now
-    return "finished", ""
-
-
-def _run_rk4_compiled(
-    model: Model, x0: np.ndarray, steps: int, dt: float, sample_period: float | None, period: float, command: Any, rec: _Recorder, bar: Any
-) -> tuple[str, str]:
-    """RK4 with the compiled kernels, in place: runs of steps between samples and outputs go without Python."""
-    run = _compiled.kernels(model).module.steps_single
-    n = model.n_joints
-    # sample instants: every step without a sample period, else the steps nearest k * sample_period
-    sample_steps = 1 if sample_period is None else None
-    next_sample_time = sample_period or dt
-    stride = max(1, round(period / dt))
-    x = np.array(x0, dtype=float, order="C")
-    x[6:10] /= np.linalg.norm(x[6:10])
-    u = np.empty(n + 6)
-    act = command(0.0, x)
-    u[:n], u[n : n + 3], u[n + 3 :] = act[0], act[1], act[2]
-    rec.add(0.0, x, act)
-    report = max(1, steps // 100)
-    i = 0
-    while i < steps:
-        if sample_steps == 1:
-            todo = 1
-        else:
-            to_sample = max(1, round(next_sample_time / dt) - i)
-            todo = min(to_sample, stride - i % stride, steps - i)
-        run(x, u, dt, todo)
-        i += todo
-        t = i * dt
-        _check_finite(t, x)
-        if i < steps and (sample_steps == 1 or t >= next_sample_time - 1e-9 * dt):
-            act = command(t, x.copy())  # a copy: x is advanced in place, the controller may keep its state
-            u[:n], u[n : n + 3], u[n + 3 :] = act[0], act[1], act[2]
-            if sample_period is not None:
-                next_sample_time += sample_period
-        if i % stride == 0 or i == steps:
-            rec.add(t, x, act)
-        if bar is not None and i % report < todo:
-            bar.update(bar.task_ids[0], completed=t)
     return "finished", ""
 
 
@@ -276,7 +222,6 @@ def _run_adaptive(
     external: Any,
     rec: _Recorder,
     bar: Any,
-    backend: str = "numpy",
 ) -> tuple[str, str]:
     n_out = int(np.floor(duration / period + 1e-9))
     t_out = np.append(np.arange(n_out + 1) * period, duration) if n_out * period < duration - 1e-12 else np.arange(n_out + 1) * period
@@ -286,7 +231,7 @@ def _run_adaptive(
         bounds = np.append(np.arange(n_samples) * sample_period, duration)
     else:
         bounds = np.linspace(0.0, duration, 101 if bar is not None else 2)
-    derivative = _rhs(model, external, backend)
+    derivative = _rhs(model, external)
     ivp_events = []
     for ev in events:
 

@@ -26,8 +26,8 @@ import numpy as np
 from ..core.errors import FreeflyerError, ShapeError, SimulationError
 from ..core.model import Model
 from ..core.state import Actuation, ActuatorLimits, State, pack_state, unpack_state
-from ..mechanics import _compiled
-from ._integrate import _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory
+from ..mechanics import _engine
+from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory
 from .pd import JointPD
 from .trajectory import Trajectory
 
@@ -125,7 +125,6 @@ def simulate(
     events: Sequence[Callable[[float, State], float]] = (),
     external: Any = (),
     progress: bool = False,
-    backend: str = "auto",
 ) -> Trajectory:
     """Simulate ``model`` from ``initial_state`` for ``duration`` seconds.
 
@@ -136,13 +135,10 @@ def simulate(
     samples. States are output every ``output_period`` (default 0.01 s, or the
     fixed step if larger). ``events``: callables (t, state) -> float; the run
     stops where one crosses zero (scipy's ``terminal``/``direction`` attributes
-    are honoured). ``external``: wrenches passed to forward dynamics.
-    ``backend``: ``"auto"`` evaluates the equations of motion (the RK4 steps, or
-    the right-hand side the adaptive integrator calls) with the compiled kernels
-    of :mod:`freeflyer.mechanics._compiled` when numba is installed and there are no
-    ``external`` wrenches, ``"numpy"`` with the numpy reference
-    (:func:`freeflyer.forward_dynamics`), ``"numba"`` insists on the compiled
-    kernels. Both give the same numbers to rounding (tests/mechanics/test_compiled.py).
+    are honoured). ``external``: constant wrenches (:class:`ExternalWrench`).
+    The equations of motion (the RK4 steps, or the right-hand side the
+    adaptive integrator calls) are the engine's (:mod:`freeflyer.mechanics._engine`):
+    runs of RK4 steps between controller samples are one compiled call.
 
     A failure part-way (controller error, non-finite state, integrator
     failure) raises :class:`SimulationError` whose ``trajectory`` holds the
@@ -167,10 +163,7 @@ def simulate(
     if controller is not None and not callable(controller):
         raise TypeError(f"controller: expected a callable (t, state) -> joint torques or Actuation, got {type(controller).__name__}")
     limits = limits or ActuatorLimits()
-    if backend not in _compiled.BACKENDS:
-        raise ValueError(f"backend: expected 'auto', 'numpy' or 'numba', got {backend!r}")
-    if backend == "numba":
-        _compiled.use_compiled(backend, external)  # a clear error now if the compiled path cannot run this
+    _engine_inputs(model, external)  # a clear error now for bad wrenches
     period = output_period or max(0.01, fixed_step or 0.0)
     x0 = pack_state(state)
     rec = _Recorder(model)
@@ -185,11 +178,9 @@ def simulate(
     bar = _progress(progress, duration)
     try:
         if fixed_step is not None:
-            status = _run_rk4(model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar, backend)
+            status = _run_rk4(model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar)
         else:
-            status = _run_adaptive(
-                model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar, backend
-            )
+            status = _run_adaptive(model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar)
     except SimulationError as exc:
         exc.trajectory = rec.trajectory("failed", str(exc))
         raise
@@ -225,7 +216,6 @@ def rollout(
     output_period: float | None = None,
     limits: ActuatorLimits | None = None,
     external: Any = (),
-    backend: str = "auto",
 ) -> Trajectory:
     """Simulate a batch of initial states at once with fixed-step RK4.
 
@@ -236,11 +226,11 @@ def rollout(
     are arrays of length B that the controller closes over. Returns a
     :class:`Trajectory` whose arrays are (T, B, ...).
 
-    ``backend`` as in :func:`simulate`: with the compiled kernels the RK4 steps
-    of the whole batch run in parallel (blocks of trajectories on a thread
-    pool, see :mod:`freeflyer.mechanics._compiled`), and a controller
-    that is None or a :class:`freeflyer.simulation.pd.JointPD` (gains per trajectory,
-    open-loop feed-forward) runs compiled too, with no Python per step.
+    The RK4 steps of the whole batch run on the engine with the trajectories
+    on numba's threads; a controller that is None or a
+    :class:`freeflyer.simulation.pd.JointPD` (gains per trajectory, open-loop
+    feed-forward) runs compiled too, with no Python per step (one call for
+    the whole rollout).
     """
     state = initial_states.resolve(model)
     x = pack_state(state)
@@ -262,11 +252,11 @@ def rollout(
         return limits.apply(*_call_controller(controller, model, t, xx, batch))
 
     rec = _Recorder(model)
-    if _compiled.use_compiled(backend, external) and (controller is None or isinstance(controller, JointPD)):
-        compiled = _compiled.rollout_rows(model, x, dt, steps, hold, stride, controller, limits)
+    if controller is None or isinstance(controller, JointPD):
+        compiled = _rollout_pd(model, x, dt, steps, hold, stride, controller, limits, external)
         if compiled is not None:
             return _trajectory(model, *compiled, copy=False)  # the kernels keep the quaternions normalised
-    step = _stepper(model, dt, external, backend)
+    step = _stepper(model, dt, external)
     act = command(0.0, x)
     rec.add(0.0, x, act)
     for i in range(1, steps + 1):
@@ -277,3 +267,60 @@ def rollout(
         if i % stride == 0 or i == steps:
             rec.add(i * dt, x, act)
     return rec.trajectory()
+
+
+def _rollout_pd(
+    model: Model,
+    x0: np.ndarray,
+    dt: float,
+    steps: int,
+    hold: int,
+    stride: int,
+    controller: JointPD | None,
+    limits: ActuatorLimits,
+    external: Any,
+) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] | None:
+    """A whole batched rollout with a joint PD (or none) in one compiled call.
+
+    Returns the output times (T,), the states (T, B, S) and the actuation (tau, f_S, n_S,
+    saturated), or None when the controller needs Python (a feed-forward sampled at another
+    period than the controller, or gains that do not broadcast: the Python path reports those).
+    A trajectory that fails (H+ not positive definite, a non-finite state) raises a SimulationError.
+    """
+    n = model.n_joints
+    batch = x0.shape[0]
+    lim = np.full(n + 6, np.inf)
+    limits.apply(np.zeros(n), np.zeros(3), np.zeros(3))  # validates the limits (same errors as the Python path)
+    for sl, value in (
+        (slice(0, n), limits.joint_torque),
+        (slice(n, n + 3), limits.spacecraft_force),
+        (slice(n + 3, n + 6), limits.spacecraft_torque),
+    ):
+        if value is not None:
+            lim[sl] = np.broadcast_to(np.asarray(value, dtype=float), lim[sl].shape)
+    zeros = np.zeros((batch, n))
+    feed = np.zeros((1, batch, n))
+    gains: list[Any] = [zeros, zeros, zeros, zeros]
+    if controller is not None:
+        gains = [controller.kp, controller.kd, controller.q_ref, controller.qdot_ref]
+        if controller.feedforward is not None:
+            ff = np.asarray(controller.feedforward, dtype=float)
+            if ff.shape[0] > 1 and not np.isclose(float(controller.feedforward_period or 0.0), hold * dt, rtol=1e-9, atol=0.0):
+                return None
+            feed = np.broadcast_to(ff[:, None, :] if ff.ndim == 2 else ff, (ff.shape[0], batch, n))
+    try:
+        arrays = tuple(np.broadcast_to(np.asarray(g, dtype=float), (batch, n)) for g in gains)
+    except ValueError:
+        return None
+    xs, us, sat, done = _engine.rollout(model, x0, dt, steps, hold, stride, arrays, feed, lim, _engine_inputs(model, external))  # type: ignore[arg-type]
+    times = np.array([0.0] + [i * dt for i in range(1, steps + 1) if i % stride == 0 or i == steps])
+    if np.any(done < steps):
+        first = int(np.argmin(done))
+        t_fail = float(done[first] * dt)
+        message = (
+            f"trajectory {first} of the rollout became non-finite or singular at t = {t_fail:.6g} s "
+            "(unstable controller or too large a step?); its later samples are NaN"
+        )
+        traj = _trajectory(model, times, xs, (us[:, :, :n], us[:, :, n : n + 3], us[:, :, n + 3 :], sat), "failed", message, copy=False)
+        raise SimulationError(message, traj)
+    return times, xs, (us[:, :, :n], us[:, :, n : n + 3], us[:, :, n + 3 :], sat)

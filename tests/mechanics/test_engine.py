@@ -1,0 +1,267 @@
+"""The engine (the O(N) recursions, compiled once for all models) against the barycentric closed forms.
+
+Each public quantity has two algorithms, each written once: the engine (``method="recursive"``,
+the default, every batch size) and the papers' barycentric forms (``method="barycentric"``,
+numpy). Here they check each other on random trees and the paper systems, at batch sizes that
+cross every internal threshold of the engine (serial below ``Batched.PARALLEL_MIN``, threads in
+blocks of ``BLOCK`` above); the simulations and rollouts on the engine are checked against an RK4
+written here on the barycentric forward dynamics. tests/oracle checks both against Pinocchio and
+MuJoCo.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+import freeflyer as ff
+from freeflyer.core.errors import ShapeError
+from freeflyer.core.state import Actuation, State
+from freeflyer.mechanics import _drivers
+from freeflyer.simulation.pd import JointPD
+from freeflyer.simulation.simulate import ActuatorLimits, rollout, simulate
+from freeflyer.simulation.trajectory import Trajectory
+from trees import build_random_model, random_trees
+
+RTOL = 1e-10
+#: Batch sizes on both sides of every threshold of the drivers (serial / threaded, block edges).
+SIZES = (1, 3, _drivers.BLOCK + 1, _drivers.Batched.PARALLEL_MIN - 1, _drivers.Batched.PARALLEL_MIN, 2 * _drivers.Batched.PARALLEL_MIN + 7)
+
+MODELS = {
+    "papadopoulos1991": ff.models.papadopoulos1991,
+    "papadopoulos1992": lambda: ff.models.papadopoulos1992(arms=2),
+    "papadopoulos1992_payload": lambda: ff.models.papadopoulos1992(arms=2).with_payload(end_effector=0, mass=400.0, inertia=25.0),
+    "spacecraft_7dof": ff.models.spacecraft_7dof,
+    "random_tree": lambda: build_random_model(np.random.default_rng(7), [2], [0], [1]),  # a branch and a fixed joint
+}
+
+
+def assert_rel(ours: np.ndarray, ref: np.ndarray, rtol: float = RTOL) -> None:
+    """Agreement to rtol relative to the largest entry of the reference (per leading row)."""
+    ours, ref = np.asarray(ours), np.asarray(ref)
+    assert ours.shape == ref.shape, (ours.shape, ref.shape)
+    if ref.size == 0:
+        return
+    flat_ref = ref.reshape(ref.shape[0], -1) if ref.ndim > 1 else ref[None]
+    flat_ours = ours.reshape(flat_ref.shape)
+    scale = np.maximum(np.max(np.abs(flat_ref), axis=-1, keepdims=True), 1e-300)
+    err = np.max(np.abs(flat_ours - flat_ref) / scale)
+    assert err <= rtol, f"relative error {err:.2e} > {rtol:.0e}"
+
+
+def random_inputs(model: ff.Model, rng: np.random.Generator, size: int) -> dict[str, np.ndarray]:
+    n = model.n_joints
+    return {
+        "q": rng.uniform(-np.pi, np.pi, size=(size, n)),
+        "v": rng.normal(size=(size, 6 + n)),
+        "a": rng.normal(size=(size, 6 + n)),
+        "tau": rng.normal(scale=5.0, size=(size, n)),
+        "f": rng.normal(size=(size, 3)),
+        "n": rng.normal(size=(size, 3)),
+        "quat": Rotation.random(size, random_state=rng).as_quat(),
+    }
+
+
+def wrenches(model: ff.Model) -> list[ff.ExternalWrench]:
+    last = model.n_bodies - 1
+    return [
+        ff.ExternalWrench(body=last, force=[1.0, -2.0, 0.5], torque=[0.1, 0.0, -0.3], point=[0.1, 0.05, 0.0], frame="body"),
+        ff.ExternalWrench(body=0, force=[0.0, 3.0, 0.0], torque=[0.2, 0.0, 0.0], frame="inertial"),
+        ff.ExternalWrench(body=min(1, last), force=[0.5, 0.5, 0.0], frame="spacecraft"),
+    ]
+
+
+def check_all(model: ff.Model, x: dict[str, np.ndarray]) -> None:
+    """Every quantity with two algorithms: the engine against the barycentric closed form."""
+    q, v, a = x["q"], x["v"], x["a"]
+    assert_rel(ff.end_effector_positions(model, q), ff.end_effector_positions(model, q, method="barycentric"))
+    assert_rel(ff.body_cm_positions(model, q), ff.body_cm_positions(model, q, method="barycentric"))
+    last = model.n_bodies - 1
+    assert_rel(ff.point_jacobian(model, q, last, [0.1, 0.2, 0.3]), ff.point_jacobian(model, q, last, [0.1, 0.2, 0.3], method="barycentric"))
+    assert_rel(ff.generalized_jacobian(model, q), ff.generalized_jacobian(model, q, method="barycentric"))
+    assert_rel(ff.system_inertia_matrix(model, q), ff.system_inertia_matrix(model, q, method="barycentric"))
+    assert_rel(ff.nonlinear_forces(model, q, v)[:, 3:], ff.nonlinear_forces(model, q, v, method="barycentric")[:, 3:])
+    ext = wrenches(model)
+    args = (x["tau"], x["f"], x["n"], x["quat"])
+    assert_rel(
+        ff.forward_dynamics(model, q, v, *args, external=ext), ff.forward_dynamics(model, q, v, *args, external=ext, method="barycentric")
+    )
+    ours = ff.inverse_dynamics(model, q, v, a, x["quat"], external=ext)
+    ref = ff.inverse_dynamics(model, q, v, a, x["quat"], external=ext, method="barycentric")
+    for o, r in zip(ours, ref, strict=True):
+        assert_rel(o, r, 1e-9)
+
+
+@pytest.mark.parametrize("size", SIZES)
+@pytest.mark.parametrize("name", sorted(MODELS))
+def test_engine_matches_barycentric_forms_at_every_batch_size(name: str, size: int) -> None:
+    model = MODELS[name]()
+    check_all(model, random_inputs(model, np.random.default_rng(size), size))
+
+
+@settings(max_examples=40, deadline=None)
+@given(random_trees(), st.integers(0, 2**32 - 1), st.sampled_from((1, 300)))
+def test_engine_matches_barycentric_forms_on_random_trees(model: ff.Model, seed: int, size: int) -> None:
+    check_all(model, random_inputs(model, np.random.default_rng(seed), size))
+
+
+def test_batch_shapes_and_broadcasting() -> None:
+    model = ff.models.papadopoulos1992(arms=2)
+    n = model.n_joints
+    rng = np.random.default_rng(2)
+    q = rng.uniform(-1, 1, size=(4, 70, n))
+    jac = ff.generalized_jacobian(model, q)
+    assert jac.shape == (4, 70, 6 * model.n_end_effectors, n)
+    np.testing.assert_array_equal(jac[2, 5], ff.generalized_jacobian(model, q[2, 5]))
+    v = rng.normal(size=6 + n)  # one velocity for the whole batch
+    acc = ff.forward_dynamics(model, q, v)
+    assert acc.shape == (4, 70, 6 + n)
+    np.testing.assert_allclose(acc[3, 9], ff.forward_dynamics(model, q[3, 9], v), rtol=1e-13, atol=1e-13)
+    assert ff.system_inertia_matrix(model, np.zeros((0, n))).shape == (0, 6 + n, 6 + n)
+
+
+# ----------------------------------------------------------------- simulation on the engine vs an RK4 written here
+def reference_rk4(model: ff.Model, x0: np.ndarray, u_of: object, dt: float, steps: int, hold: int, external: object = ()) -> np.ndarray:
+    """Classical RK4 on ff.forward_dynamics(method="barycentric"), u sampled every ``hold`` steps: states (steps + 1, S)."""
+    n = model.n_joints
+
+    def deriv(x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        quat = x[6:10] / np.linalg.norm(x[6:10])
+        w = x[10:13]
+        vel = np.concatenate([x[3:6], w, x[13 + n :]])
+        acc = ff.forward_dynamics(
+            model, x[13 : 13 + n], vel, u[:n], u[n : n + 3], u[n + 3 :], quat, external=external, method="barycentric"
+        )
+        dq = 0.5 * np.concatenate([quat[3] * w + np.cross(quat[:3], w), [-quat[:3] @ w]])
+        return np.concatenate([x[3:6], acc[:3], dq, acc[3:6], x[13 + n :], acc[6:]])
+
+    out = [x0.copy()]
+    x = x0.copy()
+    u = u_of(0.0, x)  # type: ignore[operator]
+    for i in range(1, steps + 1):
+        k1 = deriv(x, u)
+        k2 = deriv(x + 0.5 * dt * k1, u)
+        k3 = deriv(x + 0.5 * dt * k2, u)
+        k4 = deriv(x + dt * k3, u)
+        x = x + dt / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        x[6:10] /= np.linalg.norm(x[6:10])
+        out.append(x.copy())
+        if i % hold == 0:
+            u = u_of(i * dt, x)  # type: ignore[operator]
+    return np.array(out)
+
+
+def trajectories_close(a: Trajectory, b: Trajectory, atol: float = 1e-9) -> None:
+    np.testing.assert_array_equal(a.t, b.t)
+    for field in ("q", "qdot", "omega", "attitude", "r_cm", "v_cm", "joint_torque", "spacecraft_force", "spacecraft_torque"):
+        np.testing.assert_allclose(getattr(a, field), getattr(b, field), rtol=0, atol=atol, err_msg=field)
+    np.testing.assert_array_equal(a.saturated, b.saturated)
+
+
+def flat(model: ff.Model, state: State) -> np.ndarray:
+    from freeflyer.core.state import pack_state
+
+    return pack_state(state.resolve(model))
+
+
+@pytest.mark.parametrize("name", ["papadopoulos1992", "spacecraft_7dof"])
+def test_simulation_with_python_controller_and_wrenches_matches_reference_rk4(name: str) -> None:
+    model = MODELS[name]()
+    n = model.n_joints
+    state = State(q=np.linspace(0.1, 0.4, n), qdot=np.linspace(0.1, -0.1, n), omega=[0.0, 0.0, 0.02], v_cm=[0.01, 0.0, 0.0])
+    pd = JointPD(kp=np.linspace(2.0, 4.0, n), kd=np.linspace(0.8, 0.4, n), q_ref=np.full(n, 0.4), qdot_ref=0.1)  # stable at 1 ms
+    ext = wrenches(model)
+
+    def controller(t: float, s: State) -> Actuation:  # joint PD plus thrusters, so every input is exercised
+        return Actuation(joint_torque=pd(t, s), spacecraft_force=[1.0, -2.0, 0.5], spacecraft_torque=[0.0, 0.3, -1.0])
+
+    ours = simulate(model, state, 0.04, controller, fixed_step=1e-3, sample_period=2e-3, output_period=1e-3, external=ext)
+
+    def u_of(t: float, x: np.ndarray) -> np.ndarray:
+        act = controller(t, State(q=x[13 : 13 + n], qdot=x[13 + n :]))
+        return np.concatenate([act.joint_torque, act.spacecraft_force, act.spacecraft_torque])
+
+    ref = reference_rk4(model, flat(model, state), u_of, 1e-3, 40, 2, ext)
+    np.testing.assert_allclose(ours.q, ref[:, 13 : 13 + n], rtol=1e-10, atol=1e-10)
+    np.testing.assert_allclose(ours.qdot, ref[:, 13 + n :], rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(ours.attitude, ref[:, 6:10], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(ours.v_cm, ref[:, 3:6], rtol=0, atol=1e-12)
+
+
+def batch_setup(model: ff.Model, batch: int) -> tuple[State, JointPD]:
+    n = model.n_joints
+    rng = np.random.default_rng(11)
+    states = State(q=rng.uniform(-1.0, 1.0, size=(batch, n)), qdot=rng.normal(scale=0.2, size=(batch, n)), omega=[0.0, 0.0, 0.01])
+    feed = rng.normal(scale=2.0, size=(6, batch, n))  # an open-loop profile: 6 samples of 5 ms, the last held
+    pd = JointPD(
+        kp=rng.uniform(5.0, 40.0, size=(batch, n)),
+        kd=rng.uniform(1.0, 6.0, size=(batch, 1)),
+        q_ref=0.3,
+        feedforward=feed,
+        feedforward_period=5e-3,
+    )
+    return states, pd
+
+
+@pytest.mark.parametrize("batch", [1, 3])
+def test_compiled_rollout_matches_single_simulations(batch: int) -> None:
+    model = ff.models.papadopoulos1992(arms=2)
+    states, pd = batch_setup(model, batch)
+    limits = ActuatorLimits(joint_torque=[6.0, 6.0, 9.0, 9.0])
+    ours = rollout(model, states, 0.04, dt=1e-3, controller=pd, sample_period=5e-3, output_period=1e-2, limits=limits)
+    assert ours.q.shape == (5, batch, model.n_joints)
+    for b in range(batch):
+        one = State(q=states.q[b], qdot=states.qdot[b], omega=[0.0, 0.0, 0.01])
+        pd_b = JointPD(kp=pd.kp[b], kd=pd.kd[b], q_ref=0.3, feedforward=pd.feedforward[:, b], feedforward_period=5e-3)
+        ref = simulate(model, one, 0.04, pd_b, fixed_step=1e-3, sample_period=5e-3, output_period=1e-2, limits=limits)
+        for field in ("q", "qdot", "omega", "attitude", "r_cm", "v_cm", "joint_torque"):
+            np.testing.assert_allclose(getattr(ours, field)[:, b], getattr(ref, field), rtol=0, atol=1e-9, err_msg=field)
+        np.testing.assert_array_equal(ours.saturated[:, b], ref.saturated)
+    assert ours.saturated.any()
+
+
+def test_rollout_with_python_controller_matches_compiled_pd_and_reference() -> None:
+    model = ff.models.papadopoulos1992(arms=2)
+    n = model.n_joints
+    states, pd = batch_setup(model, 11)
+
+    def controller(t: float, s: State) -> np.ndarray:  # not a JointPD: Python per sample, compiled steps
+        return pd(t, s)
+
+    ours = rollout(model, states, 0.01, dt=1e-3, controller=controller, sample_period=5e-3)
+    compiled_pd = rollout(model, states, 0.01, dt=1e-3, controller=pd, sample_period=5e-3)
+    trajectories_close(compiled_pd, ours)
+    x0 = flat(model, State(q=states.q[4], qdot=states.qdot[4], omega=[0.0, 0.0, 0.01]))
+    pd_4 = JointPD(kp=pd.kp[4], kd=pd.kd[4], q_ref=0.3, feedforward=pd.feedforward[:, 4], feedforward_period=5e-3)
+
+    def u_of(t: float, x: np.ndarray) -> np.ndarray:
+        return np.concatenate([pd_4(t, State(q=x[13 : 13 + n], qdot=x[13 + n :])), np.zeros(6)])
+
+    ref = reference_rk4(model, x0, u_of, 1e-3, 10, 5)
+    np.testing.assert_allclose(ours.q[:, 4], ref[:, 13 : 13 + n], rtol=0, atol=1e-10)
+
+
+def test_rollout_failure_names_the_trajectory_and_keeps_the_others() -> None:
+    model = ff.models.papadopoulos1992(arms=2)
+    n = model.n_joints
+    states = State(q=np.zeros((3, n)), qdot=np.zeros((3, n)))
+    kp = np.array([[1.0] * n, [1e12] * n, [1.0] * n])  # trajectory 1 blows up
+    with pytest.raises(ff.SimulationError, match="trajectory 1") as info:
+        rollout(model, states, 0.5, dt=0.01, controller=JointPD(kp=kp, kd=0.0, q_ref=1.0))
+    traj = info.value.trajectory
+    assert traj is not None and np.isfinite(traj.q[:, 0]).all() and np.isnan(traj.q[-1, 1]).all()
+
+
+def test_joint_pd_checks_its_inputs() -> None:
+    with pytest.raises(ShapeError, match="feedforward"):
+        JointPD(kp=1.0, kd=1.0, feedforward=[1.0, 2.0])
+    with pytest.raises(ValueError, match="feedforward_period"):
+        JointPD(kp=1.0, kd=1.0, feedforward=np.zeros((3, 2)))
+    with pytest.raises(ValueError, match="kp"):
+        JointPD(kp=np.nan, kd=1.0)
+    pd = JointPD(kp=2.0, kd=0.5, q_ref=[1.0, 0.0], feedforward=[[1.0, 1.0], [3.0, 3.0]], feedforward_period=0.1)
+    tau = pd(0.15, State(q=[0.5, 0.5], qdot=[1.0, -1.0]))
+    np.testing.assert_allclose(tau, [3.0 + 1.0 - 0.5, 3.0 - 1.0 + 0.5])

@@ -1,0 +1,85 @@
+"""The engine's on-disk kernel cache: under the user's cache folder, safe for two processes at once,
+rebuilt with a warning (never a traceback) when broken.
+
+Each test runs fresh Python processes against an empty ``FREEFLYER_CACHE_DIR`` (a temporary folder),
+so the kernels really compile, are written, and are loaded; numba's own counters say which.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from freeflyer.mechanics import _numba_cache
+
+PROBE = """
+import json, warnings
+import numpy as np
+warnings.simplefilter("default")
+import freeflyer as ff
+from freeflyer.mechanics import _drivers, _numba_cache
+m = ff.models.papadopoulos1991()
+j = ff.generalized_jacobian(m, np.linspace(-1.0, 1.0, m.n_joints))
+stats = _drivers._jstar_range.stats
+print(json.dumps({"hits": sum(stats.cache_hits.values()), "misses": sum(stats.cache_misses.values()),
+                  "jstar": j.tolist(), "folder": str(_numba_cache.cache_dir())}))
+"""
+
+
+def run_probes(cache: Path, count: int) -> list[tuple[dict[str, object], str]]:
+    """Start ``count`` probe processes at once; their results and stderr."""
+    env = {**os.environ, "FREEFLYER_CACHE_DIR": str(cache)}
+    procs = [
+        subprocess.Popen([sys.executable, "-c", PROBE], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        for _ in range(count)
+    ]
+    out = []
+    for p in procs:
+        stdout, stderr = p.communicate(timeout=600)
+        assert p.returncode == 0, stderr
+        assert "Traceback" not in stderr, stderr
+        out.append((json.loads(stdout.strip().splitlines()[-1]), stderr))
+    return out
+
+
+def test_cache_folder_is_under_the_chosen_cache_dir_and_keyed_by_versions(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("FREEFLYER_CACHE_DIR", str(tmp_path))
+    folder = _numba_cache.cache_dir()
+    assert folder.parent == tmp_path / "numba"
+    import numba
+
+    assert folder.name.startswith(numba.__version__ + "-")
+    monkeypatch.delenv("FREEFLYER_CACHE_DIR")
+    import platformdirs
+
+    assert Path(platformdirs.user_cache_dir("freeflyer")) in _numba_cache.cache_dir().parents
+
+
+def test_two_processes_at_once_then_a_third_loads_from_the_cache(tmp_path: Path) -> None:
+    first = run_probes(tmp_path, 2)  # both start with an empty folder and compile at the same time
+    assert all(r["misses"] == 1 and r["hits"] == 0 for r, _ in first)
+    assert first[0][0]["jstar"] == first[1][0]["jstar"]
+    assert all("CacheWarning" not in err for _, err in first)
+    folder = Path(str(first[0][0]["folder"]))
+    assert folder.is_relative_to(tmp_path) and any(folder.rglob("*.nbi"))
+    ((third, err),) = run_probes(tmp_path, 1)
+    assert third["hits"] == 1 and third["misses"] == 0, third  # loaded, not compiled
+    assert third["jstar"] == first[0][0]["jstar"] and "CacheWarning" not in err
+
+
+def test_a_broken_cache_warns_recompiles_and_is_rewritten(tmp_path: Path) -> None:
+    ((good, _),) = run_probes(tmp_path, 1)
+    files = [f for f in tmp_path.rglob("*") if f.is_file()]
+    assert files
+    for f in files:  # truncate / overwrite every cache file
+        f.write_bytes(b"not a numba cache file")
+    ((broken, err),) = run_probes(tmp_path, 1)
+    assert "CacheWarning" in err and "_jstar_range" in err, err
+    assert broken["jstar"] == good["jstar"] and broken["misses"] == 1
+    ((healed, err),) = run_probes(tmp_path, 1)
+    assert healed["hits"] == 1 and "CacheWarning" not in err  # the cache was rewritten
