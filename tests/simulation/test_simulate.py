@@ -62,6 +62,7 @@ def test_ten_seconds_of_torque_driven_motion_agree_with_mujoco(make) -> None:
     MuJoCo's system CM moves in a straight line at v_cm, as freeflyer's does.
     """
     import mujoco  # an oracle: a missing one fails the test
+
     from freeflyer.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
 
     model = make()
