@@ -7,7 +7,9 @@ file read by both freeflyer and Pinocchio's own URDF parser, these agree to a
 relative 1e-10: total mass and system CM, end-effector positions relative to
 the CM, linear and angular momentum, kinetic energy and the whole H+,
 the generalized Jacobian J*, the point Jacobian of a random body point, and
-end-effector velocities with nonzero momentum (J* plus the drift term).
+end-effector velocities with nonzero momentum (J* plus the drift term). Both
+algorithms of each quantity are checked: the engine (the default) and the
+barycentric closed forms (``method="barycentric"``).
 
 Nothing on the Pinocchio side goes through freeflyer's formulas: freeflyer's
 zdot0 = [rdot_cm, omega0, qdot] is related to Pinocchio's v = [v_local,
@@ -176,6 +178,13 @@ def compare(model: ff.Model, system: PinocchioSystem, rng: np.random.Generator) 
         check("end-effector Jacobian J+", ff.end_effector_jacobian(model, q, e, attitude=quat), ref["ee_jacobians"][e])
     check("point position", t0 @ ff.point_positions(model, q, body, point), ref["point_position"])
     check("point Jacobian", ff.point_jacobian(model, q, body, point, attitude=quat), ref["point_jacobian"])
+    # the second algorithm of each quantity, the barycentric closed forms, against the same oracle
+    bary = {"method": "barycentric"}
+    check("end-effector positions (barycentric)", ff.end_effector_positions(model, q, attitude=quat, **bary), ref["ee_positions"])
+    check("H+ (barycentric, 1991 eq. 16)", ff.system_inertia_matrix(model, q, **bary), ref["H+"])
+    check("J* (barycentric)", block_diag(*([t0] * (2 * n_e))) @ ff.generalized_jacobian(model, q, **bary), ref["J*"])
+    check("point position (barycentric)", t0 @ ff.point_positions(model, q, body, point, **bary), ref["point_position"])
+    check("point Jacobian (barycentric)", ff.point_jacobian(model, q, body, point, attitude=quat, **bary), ref["point_jacobian"])
     return {"q": q, "quat": quat, "base": base, "zdot0": zdot0, **ref}
 
 
