@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from bench_core import machine_line
 from freeflyer.control import OperationalSpaceController, TransposedJacobianController
 from freeflyer.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
 from freeflyer.papers.paper1991 import run_controller, section5_setup
@@ -106,4 +107,5 @@ def table(report: dict[str, Any]) -> str:
             f"  {name:4s} {r['freeflyer_steps_per_s']:18.0f} {r['mujoco_steps_per_s']:15.0f} "
             f"{r['ratio_freeflyer_over_mujoco']:6.2f} {r['end_state_max_dq_rad']:15.1e}"
         )
+    lines.append(machine_line(report["machine"]))
     return "\n".join(lines)

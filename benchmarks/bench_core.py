@@ -10,9 +10,8 @@ For each system, in the same process and run:
   ``getFrameJacobian(..., LOCAL_WORLD_ALIGNED)`` per end effector, then
   J* = J_q - J_b A_b^-1 A_q with numpy and ``np.linalg.det`` (sqrt det(J* J*ᵀ) for the redundant
   arm); best of ``repeats`` as well;
-* both of freeflyer's back ends: numpy (always) and, when the ``fast`` extra is installed, the same
-  traced programs compiled by numba (``freeflyer.mechanics._numba_programs``, used automatically for batches
-  of 65,536 configurations or more); the headline ratio uses what the library runs by default.
+* freeflyer's one engine (generic numba kernels, compiled once per machine and cached on disk),
+  on 2 numba threads and on 1 (``numba.set_num_threads``).
 
 Before timing, J* and the determinant of both agree on a sample of configurations to 1e-10
 (relative to the largest entry), else the benchmark stops. Results: configurations per second,
@@ -24,8 +23,7 @@ from __future__ import annotations
 import os
 import platform
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -191,14 +189,24 @@ def machine_info() -> dict[str, Any]:
     return info
 
 
-def bench_system(
-    system: System,
-    configs: int,
-    pinocchio_configs: int,
-    repeats: int,
-    numba: bool,
-    log: Callable[[str], None],
-) -> dict[str, Any]:
+def set_threads(threads: int) -> int:
+    """numba's thread count for the calls that follow (capped at numba's maximum); returns the previous one."""
+    import numba
+
+    old = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+    return old
+
+
+def thread_counts() -> list[int]:
+    """The thread counts every multi-threaded figure is measured at: 2 (or all cores, if fewer) and 1."""
+    import numba
+
+    most = min(2, numba.config.NUMBA_NUM_THREADS)
+    return sorted({most, 1}, reverse=True)
+
+
+def bench_system(system: System, configs: int, pinocchio_configs: int, repeats: int, log: Callable[[str], None]) -> dict[str, Any]:
     model = system.model
     rng = np.random.default_rng(2024)
     lower = np.where(np.isfinite(model.joint_lower), model.joint_lower, -np.pi)
@@ -213,22 +221,15 @@ def bench_system(
         "jstar_shape": [6 * model.n_end_effectors, model.n_joints],
         "det": system.det_name,
     }
-    # first large calls: trace and compile this model's kernels (once per model; reported, not in the timings)
+    # first calls of this model in this process (loads the engine's cached kernels; compiles them if the cache is empty)
     t0 = time.perf_counter()
-    ff.generalized_jacobian(model, q[:4096])
-    system.freeflyer_det(q[:4096])
-    result["freeflyer_warmup_s"] = time.perf_counter() - t0
+    ff.generalized_jacobian(model, q)
+    system.freeflyer_det(q)
+    result["freeflyer_first_call_s"] = time.perf_counter() - t0
     log(f"[{system.key}] verifying against Pinocchio")
-    result["verification"] = verify(system, loop, q, min(configs, 4096))
+    result["verification"] = verify(system, loop, q, configs)
 
-    numpy_ = bench_backend(system, q, repeats, False, log)
-    result["freeflyer_numpy"] = numpy_
-    if numba:
-        result["freeflyer_numba"] = bench_backend(system, q, repeats, True, log)
-    ours = result["freeflyer_numba"] if numba else numpy_
-    result["freeflyer"] = ours
-    result["backend"] = "numba" if numba else "numpy"
-
+    calls = {"jstar": lambda: ff.generalized_jacobian(model, q), "det": lambda: system.freeflyer_det(q)}
     sub = q[:pinocchio_configs]
     log(f"[{system.key}] Pinocchio loop, {len(sub):,} configurations, best of {repeats}")
     theirs = {
@@ -236,63 +237,42 @@ def bench_system(
         "det": rate(best_of(lambda: loop.loop("det", sub), repeats), len(sub)),
     }
     result["pinocchio_loop"] = theirs
-    result["ratio"] = {k: ours[k]["configs_per_s"] / theirs[k]["configs_per_s"] for k in ours}
-    result["ratio_cpu"] = {k: ours[k]["cpu_configs_per_s"] / theirs[k]["cpu_configs_per_s"] for k in ours}
-    result["ratio_numpy"] = {k: numpy_[k]["configs_per_s"] / theirs[k]["configs_per_s"] for k in ours}
+    for threads in thread_counts():
+        old = set_threads(threads)
+        try:
+            log(f"[{system.key}] freeflyer, {len(q):,} configurations, {threads} thread(s), best of {repeats}")
+            ours = {key: rate(best_of(fn, repeats), len(q)) for key, fn in calls.items()}
+        finally:
+            set_threads(old)
+        result[f"threads_{threads}"] = {
+            "freeflyer": ours,
+            "ratio": {k: ours[k]["configs_per_s"] / theirs[k]["configs_per_s"] for k in ours},
+            "ratio_cpu": {k: ours[k]["cpu_configs_per_s"] / theirs[k]["cpu_configs_per_s"] for k in ours},
+        }
     return result
 
 
-@contextmanager
-def numba_switch(on: bool) -> Iterator[None]:
-    """Run freeflyer with its numba back end on or off (``FREEFLYER_NUMBA``)."""
-    old = os.environ.get("FREEFLYER_NUMBA")
-    os.environ["FREEFLYER_NUMBA"] = "1" if on else "0"
-    try:
-        yield
-    finally:
-        if old is None:
-            del os.environ["FREEFLYER_NUMBA"]
-        else:
-            os.environ["FREEFLYER_NUMBA"] = old
-
-
-def bench_backend(system: System, q: np.ndarray, repeats: int, numba: bool, log: Callable[[str], None]) -> dict[str, Any]:
-    """freeflyer's batched J* and det on all of q with one back end; the first call (trace, compile) timed apart."""
-    model = system.model
-    name = "numba" if numba else "numpy"
-    out: dict[str, Any] = {}
-    with numba_switch(numba):
-        for key, fn in (("jstar", lambda: ff.generalized_jacobian(model, q)), ("det", lambda: system.freeflyer_det(q))):
-            t0 = time.perf_counter()
-            fn()
-            first = time.perf_counter() - t0
-            log(f"[{system.key}] freeflyer ({name}) {key}, {len(q):,} configurations, best of {repeats}")
-            out[key] = rate(best_of(fn, repeats), len(q))
-            out[key]["first_call_s"] = first
-    return out
-
-
-def run_core(configs: int, pinocchio_configs: int, repeats: int, numba: bool, log: Callable[[str], None] = print) -> dict[str, Any]:
+def run_core(configs: int, pinocchio_configs: int, repeats: int, log: Callable[[str], None] = print) -> dict[str, Any]:
     report: dict[str, Any] = {
         "benchmark": "core: J* and det J* over random configurations, freeflyer (one batched call) vs a Python loop over Pinocchio",
         "machine": machine_info(),
-        "settings": {"configs": configs, "pinocchio_configs": pinocchio_configs, "repeats": repeats, "numba": numba},
+        "settings": {"configs": configs, "pinocchio_configs": pinocchio_configs, "repeats": repeats, "threads": thread_counts()},
         "targets": {"min_ratio": TARGET_RATIO, "goal_ratio": GOAL_RATIO},
         "notes": [
             "configs_per_s: configurations / best wall-clock time of one call over the whole batch (freeflyer) "
-            "or of the loop over the subsample (Pinocchio); cpu_configs_per_s uses process CPU time instead, "
-            "which is steadier on a shared machine (the numpy path is single-threaded).",
-            "ratio = freeflyer configs/s / Pinocchio-loop configs/s, both measured in this run.",
-            "freeflyer's batched J* is returned with the batch axis innermost in memory (a transposed view), "
-            "which is what makes it cheap to write; values and shape are the documented ones.",
-            "freeflyer = the library as installed with the fast extra (numba: the traced programs compiled with prange over all "
-            "cores, used for batches >= 65,536); freeflyer_numpy = the same calls with FREEFLYER_NUMBA=0 (numpy only, "
-            "single-threaded). ratio uses the former, ratio_numpy the latter.",
+            "or of the loop over the subsample (Pinocchio); cpu_configs_per_s uses process CPU time instead "
+            "(with 2 threads it adds both threads' time).",
+            "ratio = freeflyer configs/s / Pinocchio-loop configs/s, both measured in this run; threads_<k>: freeflyer's "
+            "engine on k numba threads (numba.set_num_threads); the Pinocchio loop is one Python thread, as a user writes it.",
+            "freeflyer has one engine: generic numba kernels taking the model as arrays, compiled once per machine and cached on "
+            "disk; freeflyer_first_call_s is this model's first call in the process (loading the cached kernels).",
+            "freeflyer's batched J* is returned with the batch axis innermost in memory (a transposed view) when the "
+            "engine produces it so; values and shape are the documented ones.",
         ],
         "systems": {},
     }
     for system in systems():
-        report["systems"][system.key] = bench_system(system, configs, pinocchio_configs, repeats, numba, log)
+        report["systems"][system.key] = bench_system(system, configs, pinocchio_configs, repeats, log)
     if hasattr(os, "getloadavg"):
         report["machine"]["load_average_at_end"] = list(os.getloadavg())
     return report
@@ -301,42 +281,45 @@ def run_core(configs: int, pinocchio_configs: int, repeats: int, numba: bool, lo
 def table(report: dict[str, Any]) -> str:
     """A readable table of the report."""
     lines = []
-    head = f"{'system':18s} {'quantity':36s} {'freeflyer cfg/s':>16s} {'Pinocchio cfg/s':>16s} {'ratio':>8s} {'ratio (cpu)':>12s}"
+    head = (
+        f"{'system':18s} {'quantity':36s} {'thr':>3s} {'freeflyer cfg/s':>16s} {'Pinocchio cfg/s':>16s} {'ratio':>8s} "
+        f"{'ratio (cpu)':>12s} {'max rel err':>12s}"
+    )
     lines.append(head)
     lines.append("-" * len(head))
     for key, res in report["systems"].items():
         for name in ("jstar", "det"):
             label = "J*" if name == "jstar" else res["det"]
-            ours, theirs = res["freeflyer"][name], res["pinocchio_loop"][name]
-            lines.append(
-                f"{key:18s} {label:36s} {ours['configs_per_s']:16,.0f} {theirs['configs_per_s']:16,.0f} "
-                f"{res['ratio'][name]:7.0f}x {res['ratio_cpu'][name]:11.0f}x"
-            )
+            err = res["verification"]["max_rel_err_jstar" if name == "jstar" else "max_rel_err_det"]
+            for sub_key, sub in res.items():
+                if not sub_key.startswith("threads_"):
+                    continue
+                ours, theirs = sub["freeflyer"][name], res["pinocchio_loop"][name]
+                lines.append(
+                    f"{key:18s} {label[:36]:36s} {sub_key[8:]:>3s} {ours['configs_per_s']:16,.0f} {theirs['configs_per_s']:16,.0f} "
+                    f"{sub['ratio'][name]:7.0f}x {sub['ratio_cpu'][name]:11.0f}x {err:12.1e}"
+                )
     lines.append("")
-    lines.append("numpy back end only (FREEFLYER_NUMBA=0):")
-    for key, res in report["systems"].items():
-        for name in ("jstar", "det"):
-            label = "J*" if name == "jstar" else res["det"]
-            lines.append(
-                f"{key:18s} {label:36s} {res['freeflyer_numpy'][name]['configs_per_s']:16,.0f} "
-                f"{res['pinocchio_loop'][name]['configs_per_s']:16,.0f} {res['ratio_numpy'][name]:7.0f}x"
-            )
-    lines.append("")
+    settings = report["settings"]
+    lines.append(
+        f"batch {settings['configs']:,} configurations (Pinocchio loop: {settings['pinocchio_configs']:,}); "
+        f"best of {settings['repeats']}; max rel err = largest difference from Pinocchio (J* / det), must be <= {VERIFY_RTOL:g}"
+    )
     lines.append(f"target: >= {report['targets']['min_ratio']:.0f}x on both systems (goal {report['targets']['goal_ratio']:.0f}x)")
-    machine = report["machine"]
-    lines.append(f"machine: {machine.get('cpu')}, {machine['cpu_count']} cpus, load average {machine.get('load_average_at_start')}")
+    lines.append(machine_line(report["machine"]))
     return "\n".join(lines)
 
 
-def _has_numba() -> bool:
-    try:
-        import numba  # noqa: F401
-    except ImportError:
-        return False
-    return True
+def machine_line(machine: dict[str, Any]) -> str:
+    """One line: CPU, cores, load average before and after."""
+    return (
+        f"machine: {machine.get('cpu')}, {machine.get('cpu_count')} cpus, numba threads {machine.get('numba_threads')}, "
+        f"load average at start {machine.get('load_average_at_start')}, at end {machine.get('load_average_at_end')}"
+    )
 
 
 def run(quick: bool, log: Callable[[str], None]) -> dict[str, Any]:
-    """``run.py`` entry: 10^6 configurations (10^5 with quick), a 20,000 (5,000) configuration Pinocchio loop."""
-    configs = 100_000 if quick else 1_000_000
-    return run_core(configs, 5_000 if quick else 20_000, 5, _has_numba(), log)
+    """``run.py`` entry: 10^5 configurations (2 x 10^4 with quick), a 20,000 (2,000) configuration Pinocchio loop."""
+    if quick:
+        return run_core(20_000, 2_000, 3, log)
+    return run_core(100_000, 20_000, 5, log)

@@ -3,46 +3,38 @@
 For the 1992 two-arm system and the 7-DOF spacecraft (``ff.models.spacecraft_7dof``):
 
 1. **Per configuration** (batched): H+ (1991 eq. 15), C+ (eq. 19) and forward dynamics for
-   ``configs`` random states, one batched call, against the same quantities from Pinocchio in a
-   Python loop (``pin.crba``, ``pin.nonLinearEffects``, ``pin.aba`` with a free-flyer root, one
-   ``Data`` reused). freeflyer's compiled kernels (numba, ``freeflyer.mechanics._compiled``) and its numpy
-   reference (``ff.system_inertia_matrix``, ``ff.nonlinear_forces``, ``ff.forward_dynamics``).
-2. **One simulation**, fixed-step RK4 at 1 ms with a joint PD controller written in Python in the
-   loop (the same function for both): MuJoCo (``mj_step``, integrator RK4, timestep 1 ms, the
-   controller writing ``data.ctrl`` before each step) against freeflyer's compiled RK4 loop
-   (``Kernels.simulate``: the controller at every step, the steps compiled), against the public
-   ``simulate(..., fixed_step=1e-3)`` (which adds input validation, saturation bookkeeping and a
-   ``State`` per call), with the compiled and the numpy back ends.
-3. **Batched rollouts** of 1024 trajectories under open-loop joint-torque profiles (the same
-   torques for both), every state recorded (as ``mujoco.rollout`` does): ``mujoco.rollout`` with
-   one ``MjData`` per thread against the public ``freeflyer.rollout`` (``JointPD`` with zero gains
-   and the profile as feed-forward, compiled) and its kernel ``Kernels.rollout_pd``; both with
-   the same number of threads (all cores), and single-threaded.
+   ``configs`` random states, one batched public call each (``ff.system_inertia_matrix``,
+   ``ff.nonlinear_forces``, ``ff.forward_dynamics``: freeflyer's one engine), against the same
+   quantities from Pinocchio in a Python loop (``pin.crba``, ``pin.nonLinearEffects``,
+   ``pin.aba`` with a free-flyer root, one ``Data`` reused).
+2. **One simulation**, fixed-step RK4 at 1 ms with a joint PD controller written in numpy and
+   called every step (the same function for both): MuJoCo (``mj_step``, integrator RK4, timestep
+   1 ms, the controller writing ``data.ctrl`` before each step) against the public
+   ``ff.simulate(..., fixed_step=1e-3)`` (the controller in Python, the RK4 steps compiled).
+3. **Batched rollouts** of 1024 trajectories with ``ff.JointPD`` in the loop (zero gains and an
+   open-loop joint-torque profile as feed-forward, so that both engines get the same torques),
+   every state recorded (as ``mujoco.rollout`` does): ``mujoco.rollout`` with one ``MjData`` per
+   thread against ``ff.rollout`` (the whole batch compiled, trajectories on numba threads); both
+   on 2 threads and on 1.
 
-Everything is verified before it is timed (freeflyer compiled == numpy to 1e-10, forward dynamics
-== Pinocchio's ABA to 1e-9, the simulations and rollouts == MuJoCo's to 1e-6). Throughputs are
-best-of-``repeats`` wall-clock rates; ratios are freeflyer / reference, both measured in this run.
+Everything is verified before it is timed (forward dynamics == Pinocchio's ABA to 1e-9, the
+simulations and rollouts == MuJoCo's to 1e-6). Throughputs are best-of-``repeats`` wall-clock
+rates; ratios are freeflyer / reference, both measured in this run.
 """
 
 from __future__ import annotations
 
-import json
 import os
-import subprocess
-import sys
-import tempfile
-import time
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 import freeflyer as ff
-from bench_core import best_of, machine_info
+from bench_core import best_of, machine_info, machine_line, set_threads, thread_counts
 from freeflyer.core.state import State
 from freeflyer.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
 from freeflyer.io.oracles import acceleration_from_pinocchio, pinocchio_configuration, pinocchio_velocity, to_pinocchio
-from freeflyer.mechanics import _compiled
 from freeflyer.simulation.pd import JointPD
 from freeflyer.simulation.simulate import rollout, simulate
 
@@ -111,31 +103,7 @@ class PinocchioLoop:
         return [pin.aba(pm, data, q, v, t).copy() for q, v, t in items]
 
 
-def compiled_calls(model: ff.Model, x: np.ndarray, tau: np.ndarray) -> dict[str, Callable[[], Any]]:
-    kernels = _compiled.kernels(model)
-    n = model.n_joints
-    u = np.zeros((x.shape[0], n + 6))
-    u[:, :n] = tau
-
-    def hplus() -> np.ndarray:
-        out = np.zeros((x.shape[0], 6 + n, 6 + n))
-        out[:, 0, 0] = out[:, 1, 1] = out[:, 2, 2] = model.total_mass
-        out[:, 3:, 3:] = kernels.mass_matrix(x)
-        return out
-
-    def cplus() -> np.ndarray:
-        out = np.zeros((x.shape[0], 6 + n))
-        out[:, 3:] = kernels.bias(x)
-        return out
-
-    def fd() -> np.ndarray:
-        d = kernels.derivative(x, u)
-        return np.concatenate([d[:, 3:6], d[:, 10:13], d[:, 13 + n :]], axis=1)
-
-    return {"hplus": hplus, "cplus": cplus, "fd": fd}
-
-
-def numpy_calls(model: ff.Model, x: np.ndarray, tau: np.ndarray) -> dict[str, Callable[[], Any]]:
+def public_calls(model: ff.Model, x: np.ndarray, tau: np.ndarray) -> dict[str, Callable[[], Any]]:
     n = model.n_joints
     q = x[:, 13 : 13 + n]
     velocity = np.concatenate([x[:, 3:6], x[:, 10:13], x[:, 13 + n :]], axis=1)
@@ -146,21 +114,12 @@ def numpy_calls(model: ff.Model, x: np.ndarray, tau: np.ndarray) -> dict[str, Ca
     }
 
 
-def per_configuration(
-    model: ff.Model, configs: int, numpy_configs: int, pin_configs: int, repeats: int, log: Callable[[str], None]
-) -> dict[str, Any]:
+def per_configuration(model: ff.Model, configs: int, pin_configs: int, repeats: int, log: Callable[[str], None]) -> dict[str, Any]:
     x, tau = random_states(model, configs, 2024)
-    ours = compiled_calls(model, x, tau)
-    ref = numpy_calls(model, x[:numpy_configs], tau[:numpy_configs])
-    # verification: compiled == numpy (1e-10 of each row's scale), forward dynamics == Pinocchio's ABA (1e-9)
-    check: dict[str, float] = {}
-    for key in ours:
-        a = ours[key]()[:numpy_configs].reshape(numpy_configs, -1)
-        b = ref[key]().reshape(numpy_configs, -1)
-        err = float(np.max(np.abs(a - b) / np.max(np.abs(b), axis=1, keepdims=True)))
-        check[f"{key}_compiled_vs_numpy"] = err
-        if err > 1e-10:
-            raise AssertionError(f"{model.name}: compiled {key} differs from numpy by {err:.1e}")
+    ours = public_calls(model, x, tau)
+    for fn in ours.values():  # first calls: load the engine's kernels
+        fn()
+    # verification: forward dynamics == Pinocchio's ABA (1e-9 of the largest entry)
     pin_loop = PinocchioLoop(model)
     items = pin_loop.inputs(x[:pin_configs], tau[:pin_configs])
     fd_ours = ours["fd"]()
@@ -170,22 +129,14 @@ def per_configuration(
         pin_acc = pin_loop.loop("fd", [items[i]])[0]
         ref_acc = acceleration_from_pinocchio(model, pin_loop.pm, q, items[i][1], pin_acc)
         worst = max(worst, float(np.max(np.abs(fd_ours[i] - ref_acc)) / np.max(np.abs(ref_acc))))
-    check["fd_compiled_vs_pinocchio_aba"] = worst
     if worst > 1e-9:
         raise AssertionError(f"{model.name}: forward dynamics differs from Pinocchio's ABA by {worst:.1e}")
-    out: dict[str, Any] = {"verification": check, "configs": configs, "numpy_configs": numpy_configs, "pinocchio_configs": pin_configs}
+    out: dict[str, Any] = {"verification": {"fd_vs_pinocchio_aba": worst}, "configs": configs, "pinocchio_configs": pin_configs}
     for key in ("hplus", "cplus", "fd"):
-        log(f"[{model.name}] {key}: compiled ({configs:,}), numpy ({numpy_configs:,}), Pinocchio loop ({pin_configs:,})")
+        log(f"[{model.name}] {key}: freeflyer ({configs:,}), Pinocchio loop ({pin_configs:,})")
         a = rate(best_of(ours[key], repeats), configs, "configs")
-        b = rate(best_of(ref[key], max(1, repeats // 2)), numpy_configs, "configs")
         c = rate(best_of(lambda key=key: pin_loop.loop(key, items), repeats), pin_configs, "configs")
-        out[key] = {
-            "freeflyer_numba": a,
-            "freeflyer_numpy": b,
-            "pinocchio_loop": c,
-            "ratio": a["configs_per_s"] / c["configs_per_s"],
-            "ratio_numpy": b["configs_per_s"] / c["configs_per_s"],
-        }
+        out[key] = {"freeflyer": a, "pinocchio_loop": c, "ratio": a["configs_per_s"] / c["configs_per_s"]}
     return out
 
 
@@ -197,7 +148,7 @@ def pd_gains(model: ff.Model, q0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return wn**2 * inertia, 2.0 * zeta * wn * inertia
 
 
-def single_simulation(model: ff.Model, steps: int, numpy_steps: int, repeats: int, log: Callable[[str], None]) -> dict[str, Any]:
+def single_simulation(model: ff.Model, steps: int, repeats: int, log: Callable[[str], None]) -> dict[str, Any]:
     import mujoco
 
     n = model.n_joints
@@ -226,52 +177,29 @@ def single_simulation(model: ff.Model, steps: int, numpy_steps: int, repeats: in
                 kept.append(np.concatenate([d.qpos, d.qvel]))
         return kept
 
-    kernels = _compiled.kernels(model)
-    x0 = np.concatenate([state.resolve(model).r_cm, np.zeros(3), [0.0, 0.0, 0.0, 1.0], [0.0, 0.0, 0.01], q0, np.zeros(n)])
-
-    def loop_controller(t: float, x: np.ndarray) -> np.ndarray:
-        return pd(x[13 : 13 + n], x[13 + n :])
-
-    def run_compiled_loop() -> Any:
-        return kernels.simulate(x0, DT, steps, loop_controller, hold=1, stride=stride)
-
     def controller(t: float, s: State) -> np.ndarray:
         return pd(s.q, s.qdot)
 
-    def run_public(backend: str, count: int) -> ff.Trajectory:
-        return simulate(model, state, count * DT, controller, fixed_step=DT, output_period=stride * DT, backend=backend)
+    def run_freeflyer() -> ff.Trajectory:
+        return simulate(model, state, steps * DT, controller, fixed_step=DT, output_period=stride * DT)
 
-    # verification: the three agree with each other (q at the end)
+    # verification: the final joint angles of both engines
     kept = run_mujoco()
-    _, xs, _ = run_compiled_loop()
     final = from_mujoco_state(model, kept[-1][: m.nq], kept[-1][m.nq :])
-    err_mj = float(np.max(np.abs(xs[-1, 13 : 13 + n] - final.q)))
-    traj = run_public("numba", steps)
-    err_pub = float(np.max(np.abs(traj.q[-1] - xs[-1, 13 : 13 + n])))
-    short = run_public("numpy", numpy_steps)
-    err_np = float(np.max(np.abs(short.q - traj.q[: short.q.shape[0]])))
-    if max(err_mj, err_pub, err_np) > 1e-6:
-        raise AssertionError(f"{model.name}: simulations disagree (MuJoCo {err_mj:.1e}, public {err_pub:.1e}, numpy {err_np:.1e})")
-    log(f"[{model.name}] one simulation, {steps} steps of 1 ms, PD controller in Python")
+    traj = run_freeflyer()
+    err_mj = float(np.max(np.abs(traj.q[-1] - final.q)))
+    if err_mj > 1e-6:
+        raise AssertionError(f"{model.name}: ff.simulate and MuJoCo disagree by {err_mj:.1e} rad")
+    log(f"[{model.name}] one simulation, {steps} steps of 1 ms, PD controller in Python, best of {repeats}")
     mj = rate(best_of(run_mujoco, repeats), steps, "steps")
-    loop = rate(best_of(run_compiled_loop, repeats), steps, "steps")
-    public = rate(best_of(lambda: run_public("numba", steps), repeats), steps, "steps")
-    public_np = rate(best_of(lambda: run_public("numpy", numpy_steps), 1), numpy_steps, "steps")
+    ours = rate(best_of(run_freeflyer, repeats), steps, "steps")
     return {
         "steps": steps,
         "controller": "tau = kp (q_ref - q) - kd qdot, numpy, every step (kp = 400 I_jj, kd = 28 I_jj: wn = 20 rad/s, zeta = 0.7)",
-        "verification": {
-            "max_abs_q_compiled_loop_vs_mujoco": err_mj,
-            "max_abs_q_public_vs_loop": err_pub,
-            "max_abs_q_numpy_vs_numba": err_np,
-        },
+        "verification": {"max_abs_q_final_vs_mujoco": err_mj},
         "mujoco_python_controller": mj,
-        "freeflyer_compiled_loop": loop,
-        "freeflyer_simulate_numba": public,
-        "freeflyer_simulate_numpy": public_np,
-        "ratio_compiled_loop": loop["steps_per_s"] / mj["steps_per_s"],
-        "ratio_simulate": public["steps_per_s"] / mj["steps_per_s"],
-        "ratio_simulate_numpy": public_np["steps_per_s"] / mj["steps_per_s"],
+        "freeflyer_simulate": ours,
+        "ratio": ours["steps_per_s"] / mj["steps_per_s"],
     }
 
 
@@ -298,35 +226,26 @@ def batched_rollouts(model: ff.Model, batch: int, steps: int, repeats: int, log:
         mujoco.mj_resetData(m, d)
         d.qpos[:], d.qvel[:] = qpos, qvel
         mujoco.mj_getState(m, d, init[b], spec)
-    cores = _compiled.threads()
     pd = JointPD(kp=0.0, kd=0.0, feedforward=np.swapaxes(torque, 0, 1), feedforward_period=DT)
-    kernels = _compiled.kernels(model)
-    x0 = np.concatenate([np.zeros((batch, 9)), np.ones((batch, 1)), np.zeros((batch, 3)), q0, qd0], axis=1)
-    x0[:, 0:3] = states.resolve(model).r_cm
-    feed = np.zeros((steps, batch, n + 6))
-    feed[:, :, :n] = np.swapaxes(torque, 0, 1)
-    zeros = np.zeros((batch, n))
+    counts = thread_counts()
 
     def run_mujoco(threads: int) -> Any:
         datas = [mujoco.MjData(m) for _ in range(threads)]
         return lambda: mj_rollout.rollout(m, datas, init, torque, persistent_pool=threads > 1)
 
-    def run_public(threads: int) -> Callable[[], ff.Trajectory]:
+    def run_freeflyer(threads: int) -> Callable[[], ff.Trajectory]:
         def go() -> ff.Trajectory:
-            os.environ["FREEFLYER_THREADS"] = str(threads)
+            old = set_threads(threads)
             try:
                 return rollout(model, states, steps * DT, dt=DT, controller=pd, output_period=DT)
             finally:
-                del os.environ["FREEFLYER_THREADS"]
+                set_threads(old)
 
         return go
 
-    def run_kernel(threads: int) -> Callable[[], Any]:
-        return lambda: kernels.rollout_pd(x0, DT, steps, 1, 1, zeros, zeros, zeros, None, feed, None, n_threads=threads)
-
     # verification: final joint angles of the two engines
-    mj_state, _ = run_mujoco(cores)()
-    ours = run_public(cores)()
+    mj_state, _ = run_mujoco(counts[0])()
+    ours = run_freeflyer(counts[0])()
     nq = m.nq
     err = float(np.max(np.abs(mj_state[:, -1, 1 + 7 : 1 + nq] - ours.q[-1])))
     if err > 1e-6:
@@ -334,121 +253,64 @@ def batched_rollouts(model: ff.Model, batch: int, steps: int, repeats: int, log:
     out: dict[str, Any] = {
         "batch": batch,
         "steps": steps,
-        "threads": cores,
-        "controls": "open-loop joint torques I_jj sin(pi t + phase_bj), the same array for both engines",
+        "threads": counts,
+        "controls": "ff.JointPD in the loop with zero gains and the open-loop joint torques I_jj sin(pi t + phase_bj) as "
+        "feed-forward; the same torque array goes to mujoco.rollout",
         "verification": {"max_abs_q_final_vs_mujoco_rollout": err},
     }
     items = batch * steps
-    for threads in sorted({1, cores}):
-        log(f"[{model.name}] rollouts, {batch} x {steps} steps, {threads} thread(s)")
+    for threads in counts:
+        log(f"[{model.name}] rollouts, {batch} x {steps} steps, {threads} thread(s), best of {repeats}")
         mj = rate(best_of(run_mujoco(threads), repeats), items, "trajectory_steps")
-        pub = rate(best_of(run_public(threads), repeats), items, "trajectory_steps")
-        ker = rate(best_of(run_kernel(threads), repeats), items, "trajectory_steps")
+        pub = rate(best_of(run_freeflyer(threads), repeats), items, "trajectory_steps")
         out[f"threads_{threads}"] = {
             "mujoco_rollout": mj,
             "freeflyer_rollout": pub,
-            "freeflyer_kernel": ker,
             "ratio": pub["trajectory_steps_per_s"] / mj["trajectory_steps_per_s"],
-            "ratio_kernel": ker["trajectory_steps_per_s"] / mj["trajectory_steps_per_s"],
         }
-    numpy_steps = 20
-    log(f"[{model.name}] rollouts, numpy back end ({batch} x {numpy_steps} steps)")
-    np_rate = rate(
-        best_of(lambda: rollout(model, states, numpy_steps * DT, dt=DT, controller=pd, output_period=DT, backend="numpy"), 1),
-        batch * numpy_steps,
-        "trajectory_steps",
-    )
-    out["freeflyer_rollout_numpy"] = np_rate
-    out["ratio_numpy"] = np_rate["trajectory_steps_per_s"] / out[f"threads_{cores}"]["mujoco_rollout"]["trajectory_steps_per_s"]
-    out["ratio"] = out[f"threads_{cores}"]["ratio"]
+    out["ratio"] = out[f"threads_{counts[0]}"]["ratio"]
     return out
-
-
-# ----------------------------------------------------------------- compile time
-_COLD = """
-import json, sys, time
-import freeflyer as ff
-from freeflyer.mechanics import _compiled
-out = {}
-for key, make in (("papadopoulos1992", lambda: ff.models.papadopoulos1992(arms=2)), ("spacecraft_7dof", ff.models.spacecraft_7dof)):
-    t0 = time.perf_counter()
-    k = _compiled.kernels(make())
-    trace = time.perf_counter() - t0
-    drivers = k.warm()
-    out[key] = {"trace_and_generate_s": trace, "drivers_s": drivers, "total_s": time.perf_counter() - t0, "n_ops": k.n_ops}
-print(json.dumps(out))
-"""
-
-
-def cold_compile() -> dict[str, Any]:
-    """Compile every kernel of both systems in a fresh process with an empty cache folder."""
-    with tempfile.TemporaryDirectory() as tmp:
-        env = dict(os.environ, FREEFLYER_CACHE_DIR=tmp)
-        t0 = time.perf_counter()
-        done = subprocess.run([sys.executable, "-c", _COLD], env=env, capture_output=True, text=True, check=True)
-        result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
-        result["process_s"] = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        again = subprocess.run([sys.executable, "-c", _COLD], env=env, capture_output=True, text=True, check=True)
-        result["cached"] = json.loads(again.stdout.strip().splitlines()[-1])
-        result["cached_process_s"] = time.perf_counter() - t0
-    return result
 
 
 # ----------------------------------------------------------------- driver
 def run(quick: bool, log: Callable[[str], None]) -> dict[str, Any]:
     """``run.py`` entry."""
-    if not _compiled.available():
-        raise RuntimeError("bench_dynamics needs numba (pip install freeflyer[fast])")
-    configs, numpy_configs, pin_configs = (20_000, 2_000, 2_000) if quick else (200_000, 10_000, 20_000)
-    steps, numpy_steps = (500, 20) if quick else (3000, 50)
+    configs, pin_configs = (20_000, 2_000) if quick else (100_000, 20_000)
+    steps = 500 if quick else 3000
     batch, rollout_steps = 1024, (100 if quick else 500)
-    repeats = 3 if quick else 7  # best of 7: this 2-core VM is noisy (single runs vary by 30%)
+    repeats = 3 if quick else 5  # best of 5: this 2-core VM is noisy (single runs vary by 30%)
     report: dict[str, Any] = {
         "benchmark": "dynamics: H+, C+, forward dynamics vs a Pinocchio loop; RK4 simulation vs MuJoCo; batched rollouts vs mujoco.rollout",
         "machine": machine_info(),
         "settings": {
             "configs": configs,
-            "numpy_configs": numpy_configs,
             "pinocchio_configs": pin_configs,
             "simulation_steps": steps,
             "rollout_batch": batch,
             "rollout_steps": rollout_steps,
             "repeats": repeats,
             "dt": DT,
-            "threads": _compiled.threads(),
-            "lanes": _compiled.LANES,
+            "threads": thread_counts(),
         },
         "targets": {"simulation_ratio": TARGET_SIMULATION, "rollout_ratio": TARGET_ROLLOUT},
         "notes": [
             "*_per_s: items / best wall-clock time of `repeats` calls; ratios = freeflyer / reference, both measured in this run.",
-            "freeflyer_numba: the compiled kernels of freeflyer.mechanics._compiled; "
-            "freeflyer_numpy: the numpy reference path (single-threaded).",
-            "Per configuration: freeflyer's batched calls use all threads; the Pinocchio loop is one Python thread (as a user writes it).",
-            "One simulation: single-threaded everywhere. ratio_compiled_loop: Kernels.simulate (controller every step, RK4 compiled) vs "
-            "MuJoCo mj_step with the same Python controller; ratio_simulate: the public freeflyer.simulate (validation, bookkeeping).",
-            "Rollouts: mujoco.rollout with one MjData per thread (persistent pool when > 1 thread) vs freeflyer.rollout "
-            "(JointPD feed-forward, compiled, blocks of trajectories on a thread pool), both recording every state.",
+            "freeflyer: the public calls, which all run one engine (generic numba kernels taking the model as arrays, "
+            "compiled once per machine and cached on disk).",
+            "Per configuration: freeflyer's batched calls on numba's threads (all of them); the Pinocchio loop is one Python thread.",
+            "One simulation: ff.simulate(..., fixed_step=1e-3) with the controller in Python every step (the RK4 steps compiled) vs "
+            "MuJoCo mj_step with the same Python controller; single-threaded on both sides.",
+            "Rollouts: mujoco.rollout with one MjData per thread (persistent pool when > 1 thread) vs ff.rollout "
+            "(JointPD compiled in the loop, trajectories on numba threads), both recording every state; threads_<k>: k threads each.",
         ],
         "systems": {},
     }
     for key, (description, model) in systems().items():
-        t0 = time.perf_counter()
-        kernels = _compiled.kernels(model)
-        first = kernels.warm()
-        entry: dict[str, Any] = {
-            "description": description,
-            "n_joints": model.n_joints,
-            "n_ops": kernels.n_ops,
-            "first_use_s": {"trace_and_generate": kernels.trace_seconds, **first, "total": time.perf_counter() - t0},
-        }
-        entry["per_configuration"] = per_configuration(model, configs, numpy_configs, pin_configs, repeats, log)
-        entry["simulation"] = single_simulation(model, steps, numpy_steps, repeats, log)
+        entry: dict[str, Any] = {"description": description, "n_joints": model.n_joints}
+        entry["per_configuration"] = per_configuration(model, configs, pin_configs, repeats, log)
+        entry["simulation"] = single_simulation(model, steps, repeats, log)
         entry["rollout"] = batched_rollouts(model, batch, rollout_steps, repeats, log)
         report["systems"][key] = entry
-    if not quick:
-        log("cold compile (fresh process, empty cache) of both systems' kernels")
-        report["compile"] = cold_compile()
     if hasattr(os, "getloadavg"):
         report["machine"]["load_average_at_end"] = list(os.getloadavg())
     return report
@@ -456,7 +318,7 @@ def run(quick: bool, log: Callable[[str], None]) -> dict[str, Any]:
 
 def table(report: dict[str, Any]) -> str:
     lines = []
-    head = f"{'system':18s} {'item':34s} {'freeflyer /s':>14s} {'reference /s':>14s} {'ratio':>8s} {'numpy ratio':>12s}"
+    head = f"{'system':18s} {'item':40s} {'freeflyer /s':>14s} {'reference /s':>14s} {'ratio':>8s} {'check':>9s}"
     lines += [head, "-" * len(head)]
     for key, res in report["systems"].items():
         pc = res["per_configuration"]
@@ -466,40 +328,32 @@ def table(report: dict[str, Any]) -> str:
             ("fd", "FD (configs) vs pin.aba loop"),
         ):
             r = pc[item]
+            check = f"{pc['verification']['fd_vs_pinocchio_aba']:9.1e}" if item == "fd" else ""
             lines.append(
-                f"{key:18s} {label:34s} {r['freeflyer_numba']['configs_per_s']:14,.0f} {r['pinocchio_loop']['configs_per_s']:14,.0f} "
-                f"{r['ratio']:7.1f}x {r['ratio_numpy']:11.2f}x"
+                f"{key:18s} {label:40s} {r['freeflyer']['configs_per_s']:14,.0f} {r['pinocchio_loop']['configs_per_s']:14,.0f} "
+                f"{r['ratio']:7.1f}x {check:>9s}"
             )
         s = res["simulation"]
-        mj = s["mujoco_python_controller"]["steps_per_s"]
-        loop = s["freeflyer_compiled_loop"]["steps_per_s"]
-        lines.append(f"{key:18s} {'RK4 loop + Py PD (steps) vs MuJoCo':34s} {loop:14,.0f} {mj:14,.0f} {s['ratio_compiled_loop']:7.2f}x")
         lines.append(
-            f"{key:18s} {'ff.simulate + Py PD (steps)':34s} {s['freeflyer_simulate_numba']['steps_per_s']:14,.0f} {mj:14,.0f} "
-            f"{s['ratio_simulate']:7.2f}x {s['ratio_simulate_numpy']:11.4f}x"
+            f"{key:18s} {'ff.simulate + Py PD (steps) vs MuJoCo':40s} {s['freeflyer_simulate']['steps_per_s']:14,.0f} "
+            f"{s['mujoco_python_controller']['steps_per_s']:14,.0f} {s['ratio']:7.2f}x "
+            f"{s['verification']['max_abs_q_final_vs_mujoco']:9.1e}"
         )
         ro = res["rollout"]
         for name, sub in ro.items():
             if not name.startswith("threads_"):
                 continue
-            label = "rollout 1024 (traj-steps) " + name.replace("_", "=")
+            label = f"rollout {ro['batch']}x{ro['steps']} (traj-steps) {name.replace('_', '=')}"
             ours = sub["freeflyer_rollout"]["trajectory_steps_per_s"]
             theirs = sub["mujoco_rollout"]["trajectory_steps_per_s"]
-            lines.append(f"{key:18s} {label:34s} {ours:14,.0f} {theirs:14,.0f} {sub['ratio']:7.1f}x")
-        slow = ro["freeflyer_rollout_numpy"]["trajectory_steps_per_s"]
-        lines.append(f"{key:18s} {'  (numpy back end rollout)':34s} {slow:14,.0f} {'':14s} {'':8s} {ro['ratio_numpy']:11.4f}x")
+            lines.append(
+                f"{key:18s} {label:40s} {ours:14,.0f} {theirs:14,.0f} {sub['ratio']:7.1f}x "
+                f"{ro['verification']['max_abs_q_final_vs_mujoco_rollout']:9.1e}"
+            )
     lines.append("")
-    targets = (
-        f"one simulation >= {TARGET_SIMULATION:.0f}x MuJoCo with a Python controller; rollouts >= {TARGET_ROLLOUT:.0f}x mujoco.rollout"
+    lines.append(
+        f"targets: one simulation >= {TARGET_SIMULATION:.0f}x MuJoCo with a Python controller; "
+        f"rollouts >= {TARGET_ROLLOUT:.0f}x mujoco.rollout; check = max error vs the reference (FD relative, q in rad)"
     )
-    lines.append("targets: " + targets)
-    if "compile" in report:
-        c = report["compile"]
-        lines.append(
-            "cold compile (all kernels, fresh cache): "
-            + ", ".join(f"{k} {v['total_s']:.1f} s" for k, v in c.items() if isinstance(v, dict) and "total_s" in v)
-            + f"; cached: {c['cached_process_s']:.1f} s for the whole process"
-        )
-    machine = report["machine"]
-    lines.append(f"machine: {machine.get('cpu')}, {machine['cpu_count']} cpus, load average {machine.get('load_average_at_start')}")
+    lines.append(machine_line(report["machine"]))
     return "\n".join(lines)

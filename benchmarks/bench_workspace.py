@@ -9,14 +9,13 @@
   square, else its smallest singular value) and the plain ``ff.jacobian_determinant`` /
   ``ff.manipulability`` over Q of shape (configs, N), uniform within the joint limits, for
   the two-arm 1992 system (N = 4, planar J* 4 x 4) and ``ff.models.spacecraft_7dof()``
-  (3D, N = 7, J* 6 x 7: smallest singular value / manipulability). Both back ends: numpy
-  (``FREEFLYER_NUMBA=0``) and numba (the library default when installed, batches >= 65,536).
+  (3D, N = 7, J* 6 x 7: smallest singular value / manipulability); the library calls as they
+  are (one engine), the first call in the process timed apart.
 """
 
 from __future__ import annotations
 
 import os
-import platform
 import time
 from collections.abc import Callable
 from typing import Any
@@ -24,7 +23,7 @@ from typing import Any
 import numpy as np
 
 import freeflyer as ff
-from bench_core import numba_switch
+from bench_core import machine_info, machine_line
 from freeflyer.analysis._workspace_search import joint_box
 from freeflyer.analysis.workspace import path_independent_workspace, reachable_workspace
 
@@ -38,14 +37,6 @@ def best_of(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:
         value = fn()
         best = min(best, time.perf_counter() - t0)
     return best, value
-
-
-def numba_available() -> bool:
-    try:
-        import numba  # noqa: F401
-    except ImportError:
-        return False
-    return True
 
 
 def bench_piw(budgets: list[int], reference: int, repeats: int, log: Callable[[str], None]) -> dict[str, Any]:
@@ -85,32 +76,29 @@ def bench_piw(budgets: list[int], reference: int, repeats: int, log: Callable[[s
     }
 
 
-def bench_maps(configs: int, repeats: int, numba: bool, log: Callable[[str], None]) -> dict[str, Any]:
+def bench_maps(configs: int, repeats: int, log: Callable[[str], None]) -> dict[str, Any]:
     systems = {
         "papadopoulos1992": (ff.models.papadopoulos1992(arms=2), ff.jacobian_determinant, "det J* (4 x 4 planar rows)"),
         "spacecraft_7dof": (ff.models.spacecraft_7dof(), ff.manipulability, "J* 6 x 7: smallest singular value / manipulability"),
     }
-    backends = [("numpy", False)] + ([("numba", True)] if numba and numba_available() else [])
     out: dict[str, Any] = {}
     for key, (model, plain, what) in systems.items():
         box = joint_box(model.joint_lower, model.joint_upper)
         q = np.random.default_rng(0).uniform(box.lo, box.hi, size=(configs, model.n_joints))
         entry: dict[str, Any] = {"what": what, "configs": configs, "n_joints": model.n_joints}
-        for name, on in backends:
-            with numba_switch(on):
-                for label, fn in (
-                    ("singularity_measure", lambda m=model, qq=q: ff.workspace.singularity_measure(m, qq)),
-                    (
-                        "jacobian_determinant" if plain is ff.jacobian_determinant else "manipulability",
-                        lambda m=model, f=plain, qq=q: f(m, qq),
-                    ),
-                ):
-                    t0 = time.perf_counter()
-                    fn()
-                    first = time.perf_counter() - t0
-                    log(f"[map] {key} {label} ({name}), {configs:,} configurations, best of {repeats}")
-                    seconds, _ = best_of(fn, repeats)
-                    entry[f"{label}_{name}"] = {"seconds": seconds, "configs_per_s": configs / seconds, "first_call_s": first}
+        for label, fn in (
+            ("singularity_measure", lambda m=model, qq=q: ff.workspace.singularity_measure(m, qq)),
+            (
+                "jacobian_determinant" if plain is ff.jacobian_determinant else "manipulability",
+                lambda m=model, f=plain, qq=q: f(m, qq),
+            ),
+        ):
+            t0 = time.perf_counter()
+            fn()
+            first = time.perf_counter() - t0
+            log(f"[map] {key} {label}, {configs:,} configurations, best of {repeats}")
+            seconds, _ = best_of(fn, repeats)
+            entry[label] = {"seconds": seconds, "configs_per_s": configs / seconds, "first_call_s": first}
         out[key] = entry
     return out
 
@@ -121,21 +109,17 @@ def run(quick: bool, log: Callable[[str], None]) -> dict[str, Any]:
     repeats = 2 if quick else 3
     report: dict[str, Any] = {
         "benchmark": "workspace: PIW of the 1992 §V system to 1 mm; det J* map throughput",
-        "machine": {
-            "platform": platform.platform(),
-            "python": platform.python_version(),
-            "cpu_count": os.cpu_count(),
-            "load_average_at_start": list(os.getloadavg()) if hasattr(os, "getloadavg") else None,
-        },
+        "machine": machine_info(),
         "settings": {"budgets": budgets, "configs": configs, "repeats": repeats},
         "notes": [
             "seconds: best wall-clock time of `repeats` calls; configs_per_s = configs / seconds.",
             "PIW: within_1mm = reported accuracy <= 1 mm and PIW limits within 1 mm of the 16x reference run.",
-            "numba: the library's compiled back end (FREEFLYER_NUMBA=1, used for batches >= 65,536); numpy: FREEFLYER_NUMBA=0.",
+            "det J* map: the library calls as they are (one engine: numba kernels, cached on disk, on numba's threads); "
+            "first_call_s: the first call in this process.",
         ],
     }
     report["piw"] = bench_piw(budgets, 16 * budgets[-1] if quick else 1 << 20, repeats, log)
-    report["det_map"] = bench_maps(configs, repeats, True, log)
+    report["det_map"] = bench_maps(configs, repeats, log)
     if hasattr(os, "getloadavg"):
         report["machine"]["load_average_at_end"] = list(os.getloadavg())
     return report
@@ -157,4 +141,5 @@ def table(report: dict[str, Any]) -> str:
         for label, value in entry.items():
             if isinstance(value, dict):
                 lines.append(f"{key:18s} {label:34s} {value['configs_per_s']:>14,.0f}")
+    lines.append(machine_line(report["machine"]))
     return "\n".join(lines)

@@ -14,19 +14,29 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import os
 import sys
 import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from bench_core import machine_info
+
 #: name -> module (in this folder). Register a new benchmark by adding one line.
 BENCHMARKS: dict[str, str] = {
     "control": "bench_control",
     "core": "bench_core",
     "dynamics": "bench_dynamics",
+    "startup": "bench_startup",
     "workspace": "bench_workspace",
 }
+
+#: Added to every report's notes.
+NOISE_NOTE = (
+    "Timings are best of N runs on a noisy shared machine (2 cores); compare ratios measured in the same run, "
+    "and the load average before and after (machine.load_average_at_start / _at_end)."
+)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -40,7 +50,15 @@ def main(argv: list[str] | None = None) -> int:
         module = importlib.import_module(BENCHMARKS[name])
         print(f"== {name} ==", flush=True)
         t0 = time.perf_counter()
+        before = machine_info()
         report = module.run(args.quick, lambda msg: print(msg, flush=True))
+        # every report: machine information (cores, load average before and after) and the noise note
+        machine = report.setdefault("machine", {})
+        for key, value in before.items():
+            machine.setdefault(key, value)
+        if hasattr(os, "getloadavg"):
+            machine["load_average_at_end"] = list(os.getloadavg())
+        report.setdefault("notes", []).append(NOISE_NOTE)
         report.setdefault("settings", {})["quick"] = args.quick
         report["settings"]["total_s"] = time.perf_counter() - t0
         path = args.out / f"{name}.json"
