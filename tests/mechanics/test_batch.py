@@ -24,10 +24,10 @@ Case = Callable[[ff.Model, Inputs], Any]
 CASES: dict[str, Case] = {
     "end_effector_positions": lambda m, x: ff.end_effector_positions(m, x["q"]),
     "end_effector_positions(attitude)": lambda m, x: ff.end_effector_positions(m, x["q"], attitude=x["attitude"]),
-    "end_effector_positions(recursive)": lambda m, x: ff.end_effector_positions(m, x["q"], method="recursive"),
+    "end_effector_positions(barycentric)": lambda m, x: ff.end_effector_positions(m, x["q"], method="barycentric"),
     "end_effector_rotations": lambda m, x: ff.mechanics.end_effector_rotations(m, x["q"]),
     "body_cm_positions": lambda m, x: ff.body_cm_positions(m, x["q"]),
-    "body_cm_positions(recursive)": lambda m, x: ff.body_cm_positions(m, x["q"], method="recursive"),
+    "body_cm_positions(barycentric)": lambda m, x: ff.body_cm_positions(m, x["q"], method="barycentric"),
     "body_rotations": lambda m, x: ff.body_rotations(m, x["q"]),
     "point_positions": lambda m, x: ff.point_positions(m, x["q"], 2, [0.1, -0.2, 0.3]),
     "forward_kinematics": lambda m, x: ff.forward_kinematics(m, x["q"]),

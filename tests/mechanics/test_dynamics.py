@@ -117,7 +117,7 @@ def test_nonlinear_forces_are_inverse_dynamics_at_zero_acceleration(model: ff.Mo
         for method, other in (("recursive", "barycentric"), ("barycentric", "recursive")):
             f, t, tau = ff.inverse_dynamics(model, q, v, np.zeros_like(v), att, method=method)
             close(ff.generalized_forces(model, q, tau, f, t, attitude=att), ff.nonlinear_forces(model, q, v, method=other))
-        close(ff.nonlinear_forces(model, q, v), ff.nonlinear_forces(model, q, v, method="recursive"), rtol=1e-10)
+        close(ff.nonlinear_forces(model, q, v, method="barycentric"), ff.nonlinear_forces(model, q, v, method="recursive"), rtol=1e-10)
         assert np.all(ff.nonlinear_forces(model, q, v)[0:3] == 0.0)  # the CM moves as a particle
 
 

@@ -1,9 +1,9 @@
 """Barycentric kinematics (1992 eqs. 4-10, 1991 eqs. 1-3) against plain recursive forward kinematics.
 
 Three routes to the same positions, all relative to the system CM in the
-spacecraft frame: the barycentric sums used everywhere in freeflyer, the
-library's ``method="recursive"`` check, and a reference forward kinematics
-written here from the model arrays with scipy rotations (no library kernel).
+spacecraft frame: the barycentric sums (``method="barycentric"``), the engine's
+recursion (the default), and a reference forward kinematics written here from
+the model arrays with scipy rotations (no library kernel).
 """
 
 from __future__ import annotations
@@ -53,8 +53,8 @@ def test_barycentric_positions_equal_recursive_forward_kinematics(model: ff.Mode
     q = rng.uniform(-np.pi, np.pi, size=(3, model.n_joints))
     tol = 1e-12 * scale_of(model)
 
-    cm_bary = ff.body_cm_positions(model, q)
-    ee_bary = ff.end_effector_positions(model, q)
+    cm_bary = ff.body_cm_positions(model, q, method="barycentric")
+    ee_bary = ff.end_effector_positions(model, q, method="barycentric")
     np.testing.assert_allclose(cm_bary, ff.body_cm_positions(model, q, method="recursive"), rtol=0, atol=tol)
     np.testing.assert_allclose(ee_bary, ff.end_effector_positions(model, q, method="recursive"), rtol=0, atol=tol)
 
@@ -133,7 +133,7 @@ def check_payload_shift(model: ff.Model, q: np.ndarray, end_effector: int, mass:
     tip_new = ff.end_effector_positions(loaded, q) + cm_new
     np.testing.assert_allclose(tip_new, tip_old, rtol=0, atol=tol)
     # And the barycentric route still equals the recursive one on the new model.
-    np.testing.assert_allclose(ff.body_cm_positions(loaded, q), ff.body_cm_positions(loaded, q, method="recursive"), rtol=0, atol=tol)
+    np.testing.assert_allclose(ff.body_cm_positions(loaded, q, method="barycentric"), ff.body_cm_positions(loaded, q), rtol=0, atol=tol)
 
 
 @settings(max_examples=30)

@@ -160,7 +160,7 @@ def run_case(model: ff.Model, rng: np.random.Generator) -> None:
         check(f"inverse_dynamics joint_torque ({method})", tau, tau_pin[6:])
 
     # C+: both routes against each other and against RNEA at zddot0 = 0 mapped by Q = J_q^T [f_S, n_S, tau]
-    c_bary = ff.nonlinear_forces(m, c.q, c.velocity)
+    c_bary = ff.nonlinear_forces(m, c.q, c.velocity, method="barycentric")
     c_rec = ff.nonlinear_forces(m, c.q, c.velocity, method="recursive")
     check("C+ barycentric vs recursive", c_bary, c_rec, rtol=1e-10)
     nu_dot0 = pinocchio_acceleration(m, pm, c.q, c.velocity, np.zeros_like(c.velocity), c.attitude)

@@ -1,14 +1,18 @@
 """Results of one configuration from the recursions of :mod:`._recursions`: J*, J+, H+, forward dynamics, RK4.
 
-Each is a numba kernel with the recursions of :mod:`._recursions` inlined into it, called per
-configuration by the batch drivers (:mod:`._drivers`) and by the stepper that runs one trajectory
-with a Python controller (:class:`~._engine.Stepper`). They are not inlined further: RK4 calls the
-derivative four times, and four inlined copies would multiply the compile time.
+Each is a numba kernel with the recursions of :mod:`._recursions` inlined into it, and is itself
+inlined into its one caller: the serial range kernels of the batch drivers (:mod:`._drivers`),
+:func:`rk4_steps` (the stepper that runs one trajectory with a Python controller,
+:class:`~._engine.Stepper`) and :func:`state_derivative`. Each takes the scratch views ``s``
+(:data:`~._recursions.Scratch`), made once per call of its caller: passing the views into a
+non-inlined kernel per configuration costs more than the arithmetic of a small tree. RK4 runs its
+four stages in a loop so that the derivative is inlined once (compile time).
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -19,12 +23,13 @@ from ._recursions import (
     newton_euler,
     point_from_origin,
     prepare,
+    scratch,
     solve3,
     unit_momenta,
 )
 
 
-@kernel()
+@kernel(inline="always")
 def jstar_one(
     q: np.ndarray,
     parent: np.ndarray,
@@ -33,23 +38,20 @@ def jstar_one(
     total_mass: float,
     ee_body: np.ndarray,
     ee_point: np.ndarray,
-    work: np.ndarray,
+    s: Any,
     out: np.ndarray,
 ) -> None:  # pragma: no cover - compiled
-    """J* (6E, N) at q (1992 eq. 14; the module docstring has the formula)."""
+    """J* (6E, N) at q (1992 eq. 14; the formula is in :mod:`._recursions`)."""
     nb = parent.shape[0]
-    n = nb - 1
-    rot, pos, axis, mom, _own_f, _own_i, cf, ci, g, h, sp, tail = prepare(q, parent, body, work, True)
-    unit_momenta(body, axis, mom, cf, ci, g, h, True)
-    a = tail[0 : (3 + n) * (3 + n)].reshape((3 + n, 3 + n))
-    centroidal_blocks(body, ancestor, total_mass, axis, mom, cf, ci, g, h, a, False)
-    x = tail[(3 + n) * (3 + n) : (3 + n) * (3 + n) + 3 * n].reshape((3, n))
-    solve3(a[0:3, 0:3], a[0:3, 3:], x)
-    re = sp[6, 0]
+    prepare(q, parent, body, s, True)
+    pos, axis, cf, g, x, re = s.pos, s.axis, s.cf, s.g, s.x, s.re
+    unit_momenta(body, axis, s.mom, cf, s.ci, g, s.h, True)
+    centroidal_blocks(body, ancestor, total_mass, axis, s.mom, cf, s.ci, g, s.h, s.a, False)
+    solve3(s.a, x)
     c0, c1, c2 = cf[0, 0] / total_mass, cf[0, 1] / total_mass, cf[0, 2] / total_mass
     for e in range(ee_body.shape[0]):
         k = ee_body[e]
-        point_from_origin(rot, pos, k, ee_point[e], re)
+        point_from_origin(s.rot, pos, k, ee_point, e, re)
         r0, r1, r2 = re[0] - c0, re[1] - c1, re[2] - c2  # rho_E
         for l in range(1, nb):
             x0, x1, x2 = x[0, l - 1], x[1, l - 1], x[2, l - 1]
@@ -74,7 +76,7 @@ def jstar_one(
             out[6 * e + 5, l - 1] = w2
 
 
-@kernel()
+@kernel(inline="always")
 def point_jacobian_one(
     q: np.ndarray,
     parent: np.ndarray,
@@ -83,7 +85,7 @@ def point_jacobian_one(
     total_mass: float,
     pbody: np.ndarray,
     ppoint: np.ndarray,
-    work: np.ndarray,
+    s: Any,
     out: np.ndarray,
 ) -> None:  # pragma: no cover - compiled
     """J+ (P, 6, 6 + N) of points ``ppoint`` (body frames of ``pbody``), spacecraft frame (1991 eqs. 7-10).
@@ -92,24 +94,23 @@ def point_jacobian_one(
     J12[:, l] = [l inboard of P] u_l x (r_P - p_l) - g_l / M and J22[:, l] = [l inboard of P] u_l.
     """
     nb = parent.shape[0]
-    rot, pos, axis, mom, _own_f, _own_i, cf, ci, g, h, sp, _tail = prepare(q, parent, body, work, False)
-    unit_momenta(body, axis, mom, cf, ci, g, h, False)
-    rp = sp[6, 0]
+    prepare(q, parent, body, s, False)
+    pos, axis, cf, g, rp = s.pos, s.axis, s.cf, s.g, s.re
+    unit_momenta(body, axis, s.mom, cf, s.ci, g, s.h, False)
     c0, c1, c2 = cf[0, 0] / total_mass, cf[0, 1] / total_mass, cf[0, 2] / total_mass
     for e in range(pbody.shape[0]):
         k = pbody[e]
-        point_from_origin(rot, pos, k, ppoint[e], rp)
+        point_from_origin(s.rot, pos, k, ppoint, e, rp)
         r0, r1, r2 = rp[0] - c0, rp[1] - c1, rp[2] - c2
-        o = out[e]
         for i in range(6):
             for j in range(6 + nb - 1):
-                o[i, j] = 0.0
+                out[e, i, j] = 0.0
         for i in range(3):
-            o[i, i] = 1.0
-            o[3 + i, 3 + i] = 1.0
-        o[0, 4], o[0, 5] = r2, -r1  # -[rho]x
-        o[1, 3], o[1, 5] = -r2, r0
-        o[2, 3], o[2, 4] = r1, -r0
+            out[e, i, i] = 1.0
+            out[e, 3 + i, 3 + i] = 1.0
+        out[e, 0, 4], out[e, 0, 5] = r2, -r1  # -[rho]x
+        out[e, 1, 3], out[e, 1, 5] = -r2, r0
+        out[e, 2, 3], out[e, 2, 4] = r1, -r0
         for l in range(1, nb):
             v0, v1, v2 = -g[l, 0] / total_mass, -g[l, 1] / total_mass, -g[l, 2] / total_mass
             if ancestor[l, k]:
@@ -118,11 +119,11 @@ def point_jacobian_one(
                 v0 += u1 * d2 - u2 * d1
                 v1 += u2 * d0 - u0 * d2
                 v2 += u0 * d1 - u1 * d0
-                o[3, 5 + l], o[4, 5 + l], o[5, 5 + l] = u0, u1, u2
-            o[0, 5 + l], o[1, 5 + l], o[2, 5 + l] = v0, v1, v2
+                out[e, 3, 5 + l], out[e, 4, 5 + l], out[e, 5, 5 + l] = u0, u1, u2
+            out[e, 0, 5 + l], out[e, 1, 5 + l], out[e, 2, 5 + l] = v0, v1, v2
 
 
-@kernel()
+@kernel(inline="always")
 def points_one(
     q: np.ndarray,
     parent: np.ndarray,
@@ -130,50 +131,56 @@ def points_one(
     total_mass: float,
     pbody: np.ndarray,
     ppoint: np.ndarray,
-    work: np.ndarray,
+    s: Any,
     out: np.ndarray,
 ) -> None:  # pragma: no cover - compiled
     """Positions (P, 3) of points (body frames of ``pbody``) relative to the system CM, spacecraft frame."""
-    rot, pos, _axis, _mom, _own_f, _own_i, cf, _ci, _g, _h, _sp, _tail = prepare(q, parent, body, work, False)
+    prepare(q, parent, body, s, False)
+    rot, pos, cf = s.rot, s.pos, s.cf
     for e in range(pbody.shape[0]):
-        point_from_origin(rot, pos, pbody[e], ppoint[e], out[e])
+        k = pbody[e]
         for i in range(3):
-            out[e, i] -= cf[0, i] / total_mass
+            out[e, i] = (
+                pos[k, i] + rot[k, i, 0] * ppoint[e, 0] + rot[k, i, 1] * ppoint[e, 1] + rot[k, i, 2] * ppoint[e, 2] - cf[0, i] / total_mass
+            )
 
 
-@kernel()
+@kernel(inline="always")
 def hplus_one(
-    q: np.ndarray, parent: np.ndarray, body: np.ndarray, ancestor: np.ndarray, total_mass: float, work: np.ndarray, out: np.ndarray
+    q: np.ndarray, parent: np.ndarray, body: np.ndarray, ancestor: np.ndarray, total_mass: float, s: Any, out: np.ndarray
 ) -> None:  # pragma: no cover - compiled
     """H+ (6 + N, 6 + N) at q, 1991 eq. 15, order [r_cm, omega0, q]."""
     nb = parent.shape[0]
-    _rot, _pos, axis, mom, _own_f, _own_i, cf, ci, g, h, _sp, _tail = prepare(q, parent, body, work, True)
-    unit_momenta(body, axis, mom, cf, ci, g, h, True)
+    prepare(q, parent, body, s, True)
+    unit_momenta(body, s.axis, s.mom, s.cf, s.ci, s.g, s.h, True)
+    centroidal_blocks(body, ancestor, total_mass, s.axis, s.mom, s.cf, s.ci, s.g, s.h, s.a, True)
     for i in range(5 + nb):
         for j in range(5 + nb):
             out[i, j] = 0.0
     for i in range(3):
         out[i, i] = total_mass
-    centroidal_blocks(body, ancestor, total_mass, axis, mom, cf, ci, g, h, out[3:, 3:], True)
+    for i in range(2 + nb):
+        for j in range(2 + nb):
+            out[3 + i, 3 + j] = s.a[i, j]
 
 
 @kernel(inline="always")
-def quaternion_matrix(quat: np.ndarray, t0: np.ndarray) -> None:  # pragma: no cover - compiled
-    """t0 = the rotation of the unit quaternion [x, y, z, w] (normalised here)."""
-    norm = math.sqrt(quat[0] * quat[0] + quat[1] * quat[1] + quat[2] * quat[2] + quat[3] * quat[3])
-    x, y, z, w = quat[0] / norm, quat[1] / norm, quat[2] / norm, quat[3] / norm
-    t0[0, 0] = 1.0 - 2.0 * (y * y + z * z)
-    t0[0, 1] = 2.0 * (x * y - z * w)
-    t0[0, 2] = 2.0 * (x * z + y * w)
-    t0[1, 0] = 2.0 * (x * y + z * w)
-    t0[1, 1] = 1.0 - 2.0 * (x * x + z * z)
-    t0[1, 2] = 2.0 * (y * z - x * w)
-    t0[2, 0] = 2.0 * (x * z - y * w)
-    t0[2, 1] = 2.0 * (y * z + x * w)
-    t0[2, 2] = 1.0 - 2.0 * (x * x + y * y)
+def quaternion_matrix(x: np.ndarray, o: int, t0: np.ndarray) -> None:  # pragma: no cover - compiled
+    """t0 = the rotation of the unit quaternion [x, y, z, w] = x[o : o + 4] (normalised here)."""
+    norm = math.sqrt(x[o] * x[o] + x[o + 1] * x[o + 1] + x[o + 2] * x[o + 2] + x[o + 3] * x[o + 3])
+    qx, qy, qz, qw = x[o] / norm, x[o + 1] / norm, x[o + 2] / norm, x[o + 3] / norm
+    t0[0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
+    t0[0, 1] = 2.0 * (qx * qy - qz * qw)
+    t0[0, 2] = 2.0 * (qx * qz + qy * qw)
+    t0[1, 0] = 2.0 * (qx * qy + qz * qw)
+    t0[1, 1] = 1.0 - 2.0 * (qx * qx + qz * qz)
+    t0[1, 2] = 2.0 * (qy * qz - qx * qw)
+    t0[2, 0] = 2.0 * (qx * qz - qy * qw)
+    t0[2, 1] = 2.0 * (qy * qz + qx * qw)
+    t0[2, 2] = 1.0 - 2.0 * (qx * qx + qy * qy)
 
 
-@kernel()
+@kernel(inline="always")
 def accelerations_one(
     q: np.ndarray,
     velocity: np.ndarray,
@@ -185,49 +192,24 @@ def accelerations_one(
     total_mass: float,
     ext_i: np.ndarray,
     ext_f: np.ndarray,
-    work: np.ndarray,
+    s: Any,
     out: np.ndarray,
 ) -> bool:  # pragma: no cover - compiled
     """Forward dynamics: zddot0 (6 + N) = [rddot_cm (inertial), d/dt omega0, qddot]; False if H+ is not positive definite.
 
     velocity = zdot0 (6 + N); u = [tau, f_S, n_S]; t0 the attitude (inertial <- spacecraft).
     """
-    nb = parent.shape[0]
-    n = nb - 1
-    rot, pos, axis, mom, own_f, own_i, cf, ci, g, h, sp, tail = prepare(q, parent, body, work, True)
-    unit_momenta(body, axis, mom, cf, ci, g, h, True)
+    n = parent.shape[0] - 1
     m = 3 + n
-    a = tail[0 : m * m].reshape((m, m))
-    low = tail[m * m : 2 * m * m].reshape((m, m))
-    b = tail[2 * m * m : 2 * m * m + m]
-    centroidal_blocks(body, ancestor, total_mass, axis, mom, cf, ci, g, h, a, True)
-    newton_euler(
-        body,
-        parent,
-        total_mass,
-        rot,
-        pos,
-        axis,
-        mom,
-        own_f,
-        own_i,
-        cf,
-        sp,
-        velocity[3:6],
-        velocity[6:],
-        velocity[3:6],
-        velocity[6:],
-        False,
-        u,
-        t0,
-        ext_i,
-        ext_f,
-        b,
-    )
+    prepare(q, parent, body, s, True)
+    unit_momenta(body, s.axis, s.mom, s.cf, s.ci, s.g, s.h, True)
+    centroidal_blocks(body, ancestor, total_mass, s.axis, s.mom, s.cf, s.ci, s.g, s.h, s.a, True)
+    b = s.b
+    newton_euler(body, parent, total_mass, s, velocity, velocity, False, u, t0, ext_i, ext_f, b)
     for i in range(m):
         b[i] = -b[i]
-    ok = cholesky_solve(a, b, low)
-    f = sp[7, 1]  # the external forces, summed by newton_euler
+    ok = cholesky_solve(s.a, b, s.low)
+    f = s.total  # the external forces, summed by newton_euler
     for i in range(3):
         f[i] += u[n + i]
     for i in range(3):
@@ -237,8 +219,128 @@ def accelerations_one(
     return ok
 
 
-@kernel()
+@kernel(inline="always")
 def state_derivative_one(
+    x: np.ndarray,
+    u: np.ndarray,
+    parent: np.ndarray,
+    body: np.ndarray,
+    ancestor: np.ndarray,
+    total_mass: float,
+    ext_i: np.ndarray,
+    ext_f: np.ndarray,
+    s: Any,
+    q: np.ndarray,
+    dx: np.ndarray,
+    row: int,
+) -> bool:  # pragma: no cover - compiled
+    """dx[row] = d/dt of the flat state x = [r_cm, v_cm, quat [x, y, z, w], omega0, q, qdot] (13 + 2N) under u = [tau, f_S, n_S].
+
+    dquat/dt = 1/2 quat ⊗ [omega0, 0] (omega0 in the spacecraft frame). ``q`` (N) is scratch for the
+    joint angles. False if H+ is not positive definite.
+    """
+    n = parent.shape[0] - 1
+    t0, vel, acc = s.t0, s.vel, s.acc
+    quaternion_matrix(x, 6, t0)
+    for i in range(3):
+        vel[i] = x[3 + i]
+        vel[3 + i] = x[10 + i]
+    for j in range(n):
+        q[j] = x[13 + j]
+        vel[6 + j] = x[13 + n + j]
+    ok = accelerations_one(q, vel, u, t0, parent, body, ancestor, total_mass, ext_i, ext_f, s, acc)
+    norm = math.sqrt(x[6] * x[6] + x[7] * x[7] + x[8] * x[8] + x[9] * x[9])
+    qx, qy, qz, qw = x[6] / norm, x[7] / norm, x[8] / norm, x[9] / norm
+    o0, o1, o2 = x[10], x[11], x[12]
+    for i in range(3):
+        dx[row, i] = x[3 + i]
+        dx[row, 3 + i] = acc[i]
+        dx[row, 10 + i] = acc[3 + i]
+    dx[row, 6] = 0.5 * (qw * o0 + (qy * o2 - qz * o1))
+    dx[row, 7] = 0.5 * (qw * o1 + (qz * o0 - qx * o2))
+    dx[row, 8] = 0.5 * (qw * o2 + (qx * o1 - qy * o0))
+    dx[row, 9] = -0.5 * (qx * o0 + qy * o1 + qz * o2)
+    for j in range(n):
+        dx[row, 13 + j] = x[13 + n + j]
+        dx[row, 13 + n + j] = acc[6 + j]
+    return ok
+
+
+@kernel(inline="always")
+def rk4_step(
+    x: np.ndarray,
+    u: np.ndarray,
+    dt: float,
+    parent: np.ndarray,
+    body: np.ndarray,
+    ancestor: np.ndarray,
+    total_mass: float,
+    ext_i: np.ndarray,
+    ext_f: np.ndarray,
+    s: Any,
+    q: np.ndarray,
+) -> bool:  # pragma: no cover - compiled
+    """One classical RK4 step of x in place (u held), then the quaternion renormalised; False if H+ failed.
+
+    The four stages run in one loop so that the derivative is compiled (inlined) once.
+    """
+    size = x.shape[0]
+    k, y = s.k, s.y
+    ok = True
+    for i in range(size):
+        y[i] = x[i]
+    for stage in range(4):
+        ok &= state_derivative_one(y, u, parent, body, ancestor, total_mass, ext_i, ext_f, s, q, k, stage)
+        if stage < 3:
+            c = dt if stage == 2 else 0.5 * dt
+            for i in range(size):
+                y[i] = x[i] + c * k[stage, i]
+    c = dt / 6.0
+    for i in range(size):
+        x[i] = x[i] + c * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
+    norm = math.sqrt(x[6] * x[6] + x[7] * x[7] + x[8] * x[8] + x[9] * x[9])
+    for i in range(6, 10):
+        x[i] = x[i] / norm
+    return ok
+
+
+@kernel()
+def rk4_steps(
+    parent: np.ndarray,
+    body: np.ndarray,
+    ancestor: np.ndarray,
+    total_mass: float,
+    ext_i: np.ndarray,
+    ext_f: np.ndarray,
+    work: np.ndarray,
+    x: np.ndarray,
+    u: np.ndarray,
+    dt: float,
+    nsteps: int,
+) -> int:  # pragma: no cover - compiled
+    """``nsteps`` RK4 steps of one state x in place under the held u.
+
+    Returns ``nsteps``; or k < nsteps when H+ was not positive definite in step k (k steps done);
+    or -(k + 1) when x became non-finite in step k (k + 1 steps done).
+
+    ``work``: scratch of length :func:`~._tree.work_size` + N.
+    """
+    nb = parent.shape[0]
+    s = scratch(work, nb)
+    q = work[work.shape[0] - (nb - 1) :]
+    for step in range(nsteps):
+        if not rk4_step(x, u, dt, parent, body, ancestor, total_mass, ext_i, ext_f, s, q):
+            return step
+        total = 0.0
+        for i in range(x.shape[0]):
+            total += x[i]
+        if not math.isfinite(total):
+            return -(step + 1)
+    return nsteps
+
+
+@kernel()
+def state_derivative(
     x: np.ndarray,
     u: np.ndarray,
     parent: np.ndarray,
@@ -250,97 +352,8 @@ def state_derivative_one(
     work: np.ndarray,
     dx: np.ndarray,
 ) -> bool:  # pragma: no cover - compiled
-    """d/dt of the flat state x = [r_cm, v_cm, quat [x, y, z, w], omega0, q, qdot] (13 + 2N) under u = [tau, f_S, n_S].
-
-    dquat/dt = 1/2 quat ⊗ [omega0, 0] (omega0 in the spacecraft frame). False if H+ is not positive definite.
-    """
-    n = parent.shape[0] - 1
-    top = work.shape[0] - 9 - 2 * (6 + n)
-    t0 = work[top : top + 9].reshape((3, 3))
-    vel = work[top + 9 : top + 15 + n]
-    acc = work[top + 15 + n : top + 21 + 2 * n]
-    quaternion_matrix(x[6:10], t0)
-    for i in range(3):
-        vel[i] = x[3 + i]
-        vel[3 + i] = x[10 + i]
-    for j in range(n):
-        vel[6 + j] = x[13 + n + j]
-    ok = accelerations_one(x[13 : 13 + n], vel, u, t0, parent, body, ancestor, total_mass, ext_i, ext_f, work[:top], acc)
-    norm = math.sqrt(x[6] * x[6] + x[7] * x[7] + x[8] * x[8] + x[9] * x[9])
-    qx, qy, qz, qw = x[6] / norm, x[7] / norm, x[8] / norm, x[9] / norm
-    o0, o1, o2 = x[10], x[11], x[12]
-    for i in range(3):
-        dx[i] = x[3 + i]
-        dx[3 + i] = acc[i]
-        dx[10 + i] = acc[3 + i]
-    dx[6] = 0.5 * (qw * o0 + (qy * o2 - qz * o1))
-    dx[7] = 0.5 * (qw * o1 + (qz * o0 - qx * o2))
-    dx[8] = 0.5 * (qw * o2 + (qx * o1 - qy * o0))
-    dx[9] = -0.5 * (qx * o0 + qy * o1 + qz * o2)
-    for j in range(n):
-        dx[13 + j] = x[13 + n + j]
-        dx[13 + n + j] = acc[6 + j]
-    return ok
-
-
-@kernel()
-def rk4_step(
-    x: np.ndarray,
-    u: np.ndarray,
-    dt: float,
-    parent: np.ndarray,
-    body: np.ndarray,
-    ancestor: np.ndarray,
-    total_mass: float,
-    ext_i: np.ndarray,
-    ext_f: np.ndarray,
-    work: np.ndarray,
-    stages: np.ndarray,
-) -> bool:  # pragma: no cover - compiled
-    """One classical RK4 step of x in place (u held), then the quaternion renormalised; False if H+ failed."""
-    size = x.shape[0]
-    k1, k2, k3, k4, y = stages[0], stages[1], stages[2], stages[3], stages[4]
-    ok = state_derivative_one(x, u, parent, body, ancestor, total_mass, ext_i, ext_f, work, k1)
-    for i in range(size):
-        y[i] = x[i] + 0.5 * dt * k1[i]
-    ok &= state_derivative_one(y, u, parent, body, ancestor, total_mass, ext_i, ext_f, work, k2)
-    for i in range(size):
-        y[i] = x[i] + 0.5 * dt * k2[i]
-    ok &= state_derivative_one(y, u, parent, body, ancestor, total_mass, ext_i, ext_f, work, k3)
-    for i in range(size):
-        y[i] = x[i] + dt * k3[i]
-    ok &= state_derivative_one(y, u, parent, body, ancestor, total_mass, ext_i, ext_f, work, k4)
-    c = dt / 6.0
-    for i in range(size):
-        x[i] = x[i] + c * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i])
-    norm = math.sqrt(x[6] * x[6] + x[7] * x[7] + x[8] * x[8] + x[9] * x[9])
-    for i in range(6, 10):
-        x[i] = x[i] / norm
-    return ok
-
-
-@kernel()
-def rk4_steps(
-    x: np.ndarray,
-    u: np.ndarray,
-    dt: float,
-    nsteps: int,
-    parent: np.ndarray,
-    body: np.ndarray,
-    ancestor: np.ndarray,
-    total_mass: float,
-    ext_i: np.ndarray,
-    ext_f: np.ndarray,
-    work: np.ndarray,
-    stages: np.ndarray,
-) -> int:  # pragma: no cover - compiled
-    """``nsteps`` RK4 steps of one state x in place under the held u; returns the steps done (fewer: H+ failed or x not finite)."""
-    for step in range(nsteps):
-        if not rk4_step(x, u, dt, parent, body, ancestor, total_mass, ext_i, ext_f, work, stages):
-            return step
-        total = 0.0
-        for i in range(x.shape[0]):
-            total += x[i]
-        if not math.isfinite(total):
-            return step + 1
-    return nsteps
+    """:func:`state_derivative_one` from Python (``work`` as in :func:`rk4_steps`)."""
+    nb = parent.shape[0]
+    s = scratch(work, nb)
+    q = work[work.shape[0] - (nb - 1) :]
+    return state_derivative_one(x, u, parent, body, ancestor, total_mass, ext_i, ext_f, s, q, dx.reshape((1, dx.shape[0])), 0)

@@ -19,7 +19,7 @@ from numba import prange
 
 from ._configuration import accelerations_one, hplus_one, jstar_one, point_jacobian_one, points_one, rk4_step, state_derivative_one
 from ._numba_cache import kernel
-from ._recursions import _views, kinematics, newton_euler, prepare, work_size_jit
+from ._recursions import kinematics, newton_euler, prepare, scratch, work_size_jit
 
 __all__ = [
     "BLOCK",
@@ -62,10 +62,9 @@ def _frames_range(
 ) -> None:  # pragma: no cover
     """⁰T_k and the body frame origins (from O) of rows start..stop."""
     nb = parent.shape[0]
-    work = np.empty(work_size_jit(nb))
-    _rot, _pos, axis, mom, _own_f, _own_i, _cf, _ci, _g, _h, _sp, _tail = _views(work, nb)
+    s = scratch(np.empty(work_size_jit(nb)), nb)
     for i in range(start, stop):
-        kinematics(Q[i], parent, body, ROT[i], POS[i], axis, mom)
+        kinematics(Q[i], parent, body, ROT[i], POS[i], s.axis, s.mom)
 
 
 @kernel(parallel=True)
@@ -88,9 +87,9 @@ def _points_range(
     OUT: np.ndarray,
 ) -> None:  # pragma: no cover
     """Points relative to the system CM of rows start..stop."""
-    work = np.empty(work_size_jit(parent.shape[0]))
+    s = scratch(np.empty(work_size_jit(parent.shape[0])), parent.shape[0])
     for i in range(start, stop):
-        points_one(Q[i], parent, body, total_mass, pbody, ppoint, work, OUT[i])
+        points_one(Q[i], parent, body, total_mass, pbody, ppoint, s, OUT[i])
 
 
 @kernel(parallel=True)
@@ -117,9 +116,9 @@ def _point_jacobian_range(
     OUT: np.ndarray,
 ) -> None:  # pragma: no cover
     """J+ of points of rows start..stop."""
-    work = np.empty(work_size_jit(parent.shape[0]))
+    s = scratch(np.empty(work_size_jit(parent.shape[0])), parent.shape[0])
     for i in range(start, stop):
-        point_jacobian_one(Q[i], parent, body, ancestor, total_mass, pbody, ppoint, work, OUT[i])
+        point_jacobian_one(Q[i], parent, body, ancestor, total_mass, pbody, ppoint, s, OUT[i])
 
 
 @kernel(parallel=True)
@@ -152,9 +151,9 @@ def _jstar_range(
     OUT: np.ndarray,
 ) -> None:  # pragma: no cover
     """J* of rows start..stop."""
-    work = np.empty(work_size_jit(parent.shape[0]))
+    s = scratch(np.empty(work_size_jit(parent.shape[0])), parent.shape[0])
     for i in range(start, stop):
-        jstar_one(Q[i], parent, body, ancestor, total_mass, ee_body, ee_point, work, OUT[i])
+        jstar_one(Q[i], parent, body, ancestor, total_mass, ee_body, ee_point, s, OUT[i])
 
 
 @kernel(parallel=True)
@@ -178,9 +177,9 @@ def _hplus_range(
     start: int, stop: int, Q: np.ndarray, parent: np.ndarray, body: np.ndarray, ancestor: np.ndarray, total_mass: float, OUT: np.ndarray
 ) -> None:  # pragma: no cover
     """H+ of rows start..stop."""
-    work = np.empty(work_size_jit(parent.shape[0]))
+    s = scratch(np.empty(work_size_jit(parent.shape[0])), parent.shape[0])
     for i in range(start, stop):
-        hplus_one(Q[i], parent, body, ancestor, total_mass, work, OUT[i])
+        hplus_one(Q[i], parent, body, ancestor, total_mass, s, OUT[i])
 
 
 @kernel(parallel=True)
@@ -211,34 +210,10 @@ def _inverse_range(
     OUT: np.ndarray,
 ) -> None:  # pragma: no cover
     """Rows [omega0, q] of H+ zddot0 + C+ - Q_u - Q_ext of rows start..stop (accelerate False: zddot0 = 0)."""
-    work = np.empty(work_size_jit(parent.shape[0]))
+    s = scratch(np.empty(work_size_jit(parent.shape[0])), parent.shape[0])
     for i in range(start, stop):
-        rot, pos, axis, mom, own_f, own_i, cf, _ci, _g, _h, sp, _tail = prepare(Q[i], parent, body, work, True)
-        v = V[i]
-        a = A[i]
-        newton_euler(
-            body,
-            parent,
-            total_mass,
-            rot,
-            pos,
-            axis,
-            mom,
-            own_f,
-            own_i,
-            cf,
-            sp,
-            v[3:6],
-            v[6:],
-            a[3:6],
-            a[6:],
-            accelerate,
-            U[i],
-            T0[i],
-            ext_i,
-            EXT[i],
-            OUT[i],
-        )
+        prepare(Q[i], parent, body, s, True)
+        newton_euler(body, parent, total_mass, s, V[i], A[i], accelerate, U[i], T0[i], ext_i, EXT[i], OUT[i])
 
 
 @kernel(parallel=True)
@@ -279,9 +254,9 @@ def _forward_range(
     OK: np.ndarray,
 ) -> None:  # pragma: no cover
     """zddot0 of rows start..stop; OK[i] False where H+ is not positive definite."""
-    work = np.empty(work_size_jit(parent.shape[0]))
+    s = scratch(np.empty(work_size_jit(parent.shape[0])), parent.shape[0])
     for i in range(start, stop):
-        OK[i] = accelerations_one(Q[i], V[i], U[i], T0[i], parent, body, ancestor, total_mass, ext_i, EXT[i], work, OUT[i])
+        OK[i] = accelerations_one(Q[i], V[i], U[i], T0[i], parent, body, ancestor, total_mass, ext_i, EXT[i], s, OUT[i])
 
 
 @kernel(parallel=True)
@@ -320,9 +295,10 @@ def _derivative_range(
     OK: np.ndarray,
 ) -> None:  # pragma: no cover
     """d/dt of the flat states of rows start..stop."""
-    work = np.empty(work_size_jit(parent.shape[0]))
+    s = scratch(np.empty(work_size_jit(parent.shape[0])), parent.shape[0])
+    q = np.empty(parent.shape[0] - 1)
     for i in range(start, stop):
-        OK[i] = state_derivative_one(X[i], U[i], parent, body, ancestor, total_mass, ext_i, EXT[i], work, OUT[i])
+        OK[i] = state_derivative_one(X[i], U[i], parent, body, ancestor, total_mass, ext_i, EXT[i], s, q, OUT, i)
 
 
 @kernel(parallel=True)
@@ -381,8 +357,8 @@ def _rollout_range(
     n = nb - 1
     size = X0.shape[1]
     width = ff.shape[2]
-    work = np.empty(work_size_jit(nb))
-    stages = np.empty((5, size))
+    s = scratch(np.empty(work_size_jit(nb)), nb)
+    q = np.empty(n)
     x = np.empty(size)
     u = np.zeros(n + 6)
     for b in range(start, stop):
@@ -394,7 +370,7 @@ def _rollout_range(
         DONE[b] = steps
         for step in range(steps + 1):
             if step > 0:
-                ok = rk4_step(x, u, dt, parent, body, ancestor, total_mass, ext_i, EXT[b], work, stages)
+                ok = rk4_step(x, u, dt, parent, body, ancestor, total_mass, ext_i, EXT[b], s, q)
                 total = 0.0
                 for i in range(size):
                     total += x[i]

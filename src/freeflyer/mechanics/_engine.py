@@ -8,6 +8,8 @@ checked by the public functions that call these; here they are only made contigu
 
 from __future__ import annotations
 
+import functools
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -280,8 +282,11 @@ def rk4_batch(
 class Stepper:
     """One trajectory stepped from Python (a controller in the loop): scratch space kept between calls.
 
-    :meth:`rk4` advances the flat state x in place by ``steps`` RK4 steps with u held (one
-    compiled call); :meth:`derivative` is d/dt x for adaptive integrators.
+    ``rk4(x, u, dt, steps)`` advances the flat state x (13 + 2N, float64, contiguous) in place by
+    ``steps`` RK4 steps with u held, in one compiled call, and returns ``steps``; or k < steps when
+    H+ was not positive definite in step k; or -(k + 1) when x became non-finite in step k. (A
+    partial of the kernel: a controller every step makes this call the hot path.)
+    :meth:`derivative` is d/dt x for adaptive integrators.
     """
 
     def __init__(self, model: Any, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES) -> None:
@@ -289,22 +294,14 @@ class Stepper:
         self.size = 13 + 2 * t.n_joints
         self.ext_i = np.ascontiguousarray(ext[0], dtype=np.int64)
         self.ext_f = np.ascontiguousarray(ext[1], dtype=np.float64).reshape(-1, 9)
-        self.work = np.empty(work_size(t.parent.shape[0]))
-        self.stages = np.empty((5, self.size))
-        self.u = np.zeros(t.n_joints + 6)
-
-    def rk4(self, x: np.ndarray, u: np.ndarray, dt: float, steps: int) -> int:
-        """Advance x (13 + 2N, float64, contiguous) in place; returns the steps done (fewer: H+ failed or x not finite)."""
-        t = self.tree
-        return int(
-            _configuration.rk4_steps(
-                x, u, dt, steps, t.parent, t.body, t.ancestor, t.total_mass, self.ext_i, self.ext_f, self.work, self.stages
-            )
+        self.work = np.empty(work_size(t.parent.shape[0]) + t.n_joints)
+        self.rk4: Callable[[np.ndarray, np.ndarray, float, int], int] = functools.partial(
+            _configuration.rk4_steps, t.parent, t.body, t.ancestor, t.total_mass, self.ext_i, self.ext_f, self.work
         )
 
     def derivative(self, x: np.ndarray, u: np.ndarray, out: np.ndarray) -> bool:
         """out = d/dt x under u; False if H+ is not positive definite."""
         t = self.tree
         return bool(
-            _configuration.state_derivative_one(x, u, t.parent, t.body, t.ancestor, t.total_mass, self.ext_i, self.ext_f, self.work, out)
+            _configuration.state_derivative(x, u, t.parent, t.body, t.ancestor, t.total_mass, self.ext_i, self.ext_f, self.work, out)
         )

@@ -44,6 +44,7 @@ kernel of :mod:`._configuration`: measured 1.4x faster than calls that pass arra
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 from typing import Any
 
 import numpy as np
@@ -51,9 +52,51 @@ import numpy as np
 from ._numba_cache import kernel
 from ._tree import _AX, _C, _I, _M, _P0, _P1, _P2, _S, _T
 
+#: Scratch space of one configuration: views of one flat buffer, made once per batch range (or per
+#: stepper call) and passed down, so no kernel makes a view per configuration (each costs ~25 ns).
+Scratch = namedtuple(
+    "Scratch",
+    [
+        "rot",
+        "pos",
+        "axis",
+        "mom",  # kinematics: ⁰T_k, joint positions p_k, axes u_k, p_k x u_k
+        "own_f",
+        "own_i",
+        "cf",
+        "ci",  # first moments m_k c_k and inertias about O: own and composite
+        "g",
+        "h",  # linear and angular momentum (about O) of the subtree of joint l at unit rate
+        "w",
+        "v",
+        "al",
+        "be",
+        "nf",
+        "ff",  # Newton-Euler: spatial velocity, acceleration, force
+        "pt",
+        "fo",
+        "no",
+        "total",
+        "re",  # 3-vectors
+        "a",
+        "low",
+        "b",
+        "x",  # the [omega0, q] block of H+, its Cholesky factor, a right-hand side, D^-1 D_q
+        "t0",
+        "vel",
+        "acc",  # attitude, zdot0, zddot0
+        "k",
+        "y",  # RK4: the four stage derivatives (4, S), the stage state
+    ],
+)
+
 
 @kernel(inline="always")
-def _views(work: np.ndarray, nb: int) -> Any:  # pragma: no cover - compiled
+def scratch(work: np.ndarray, nb: int) -> Any:  # pragma: no cover - compiled
+    """The :data:`Scratch` views of ``work`` (length :func:`work_size_jit`) for a tree of ``nb`` bodies."""
+    n = nb - 1
+    m = 3 + n
+    size = 13 + 2 * n
     o = 0
     rot = work[o : o + 9 * nb].reshape((nb, 3, 3))
     o += 9 * nb
@@ -61,23 +104,75 @@ def _views(work: np.ndarray, nb: int) -> Any:  # pragma: no cover - compiled
     o += 3 * nb
     axis = work[o : o + 3 * nb].reshape((nb, 3))
     o += 3 * nb
-    mom = work[o : o + 3 * nb].reshape((nb, 3))  # p_k x u_k
+    mom = work[o : o + 3 * nb].reshape((nb, 3))
     o += 3 * nb
-    own_f = work[o : o + 3 * nb].reshape((nb, 3))  # m_k c_k
+    own_f = work[o : o + 3 * nb].reshape((nb, 3))
     o += 3 * nb
-    own_i = work[o : o + 9 * nb].reshape((nb, 3, 3))  # inertia of body k about O
+    own_i = work[o : o + 9 * nb].reshape((nb, 3, 3))
     o += 9 * nb
-    cf = work[o : o + 3 * nb].reshape((nb, 3))  # composite first moment about O
+    cf = work[o : o + 3 * nb].reshape((nb, 3))
     o += 3 * nb
-    ci = work[o : o + 9 * nb].reshape((nb, 3, 3))  # composite inertia about O
+    ci = work[o : o + 9 * nb].reshape((nb, 3, 3))
     o += 9 * nb
-    g = work[o : o + 3 * nb].reshape((nb, 3))  # linear momentum of a unit joint rate
-    o += 3 * nb
-    h = work[o : o + 3 * nb].reshape((nb, 3))  # angular momentum about O of a unit joint rate
-    o += 3 * nb
-    sp = work[o : o + 24 * (nb + 1)].reshape((8, nb + 1, 3))  # Newton-Euler: w, v, alpha, beta, n, f, spare x2
-    o += 24 * (nb + 1)
-    return rot, pos, axis, mom, own_f, own_i, cf, ci, g, h, sp, work[o:]
+    six = work[o : o + 24 * nb].reshape((8, nb, 3))  # g, h, w, v, al, be, nf, ff
+    o += 24 * nb
+    vec = work[o : o + 15].reshape((5, 3))
+    o += 15
+    a = work[o : o + m * m].reshape((m, m))
+    o += m * m
+    low = work[o : o + m * m].reshape((m, m))
+    o += m * m
+    b = work[o : o + m]
+    o += m
+    x = work[o : o + 3 * n].reshape((3, n))
+    o += 3 * n
+    t0 = work[o : o + 9].reshape((3, 3))
+    o += 9
+    vel = work[o : o + 6 + n]
+    o += 6 + n
+    acc = work[o : o + 6 + n]
+    o += 6 + n
+    stages = work[o : o + 5 * size].reshape((5, size))
+    return Scratch(
+        rot,
+        pos,
+        axis,
+        mom,
+        own_f,
+        own_i,
+        cf,
+        ci,
+        six[0],
+        six[1],
+        six[2],
+        six[3],
+        six[4],
+        six[5],
+        six[6],
+        six[7],
+        vec[0],
+        vec[1],
+        vec[2],
+        vec[3],
+        vec[4],
+        a,
+        low,
+        b,
+        x,
+        t0,
+        vel,
+        acc,
+        stages[0:4],
+        stages[4],
+    )
+
+
+@kernel(inline="always")
+def work_size_jit(n_bodies: int) -> int:  # pragma: no cover - compiled
+    """:func:`~._tree.work_size` inside kernels."""
+    n = n_bodies - 1
+    m = 3 + n
+    return 66 * n_bodies + 15 + 2 * m * m + m + 3 * n + 9 + 2 * (6 + n) + 5 * (13 + 2 * n)
 
 
 # ----------------------------------------------------------------- kinematics
@@ -121,10 +216,12 @@ def kinematics(
 
 
 @kernel(inline="always")
-def point_from_origin(rot: np.ndarray, pos: np.ndarray, k: int, point: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover - compiled
-    """out = p_k + ⁰T_k point: a point of body k (body frame) measured from O, spacecraft frame."""
+def point_from_origin(
+    rot: np.ndarray, pos: np.ndarray, k: int, points: np.ndarray, e: int, out: np.ndarray
+) -> None:  # pragma: no cover - compiled
+    """out = p_k + ⁰T_k points[e]: a point of body k (body frame) measured from O, spacecraft frame."""
     for i in range(3):
-        out[i] = pos[k, i] + rot[k, i, 0] * point[0] + rot[k, i, 1] * point[1] + rot[k, i, 2] * point[2]
+        out[i] = pos[k, i] + rot[k, i, 0] * points[e, 0] + rot[k, i, 1] * points[e, 1] + rot[k, i, 2] * points[e, 2]
 
 
 @kernel(inline="always")
@@ -239,8 +336,8 @@ def centroidal_blocks(
 
 
 @kernel(inline="always")
-def solve3(d: np.ndarray, rhs: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover - compiled
-    """out = d^-1 rhs for a symmetric positive definite 3x3 d and rhs (3, n) (adjugate)."""
+def solve3(d: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """out (3, n) = D^-1 D_q for D = d[0:3, 0:3] (symmetric positive definite) and D_q = d[0:3, 3:] (adjugate)."""
     a00 = d[1, 1] * d[2, 2] - d[1, 2] * d[1, 2]
     a01 = d[0, 2] * d[1, 2] - d[0, 1] * d[2, 2]
     a02 = d[0, 1] * d[1, 2] - d[0, 2] * d[1, 1]
@@ -248,8 +345,8 @@ def solve3(d: np.ndarray, rhs: np.ndarray, out: np.ndarray) -> None:  # pragma: 
     a12 = d[0, 1] * d[0, 2] - d[0, 0] * d[1, 2]
     a22 = d[0, 0] * d[1, 1] - d[0, 1] * d[0, 1]
     inv = 1.0 / (d[0, 0] * a00 + d[0, 1] * a01 + d[0, 2] * a02)
-    for l in range(rhs.shape[1]):
-        x, y, z = rhs[0, l], rhs[1, l], rhs[2, l]
+    for l in range(out.shape[1]):
+        x, y, z = d[0, 3 + l], d[1, 3 + l], d[2, 3 + l]
         out[0, l] = (a00 * x + a01 * y + a02 * z) * inv
         out[1, l] = (a01 * x + a11 * y + a12 * z) * inv
         out[2, l] = (a02 * x + a12 * y + a22 * z) * inv
@@ -291,18 +388,9 @@ def newton_euler(
     body: np.ndarray,
     parent: np.ndarray,
     total_mass: float,
-    rot: np.ndarray,
-    pos: np.ndarray,
-    axis: np.ndarray,
-    mom: np.ndarray,
-    own_f: np.ndarray,
-    own_i: np.ndarray,
-    cf: np.ndarray,
-    sp: np.ndarray,
-    omega0: np.ndarray,
-    qdot: np.ndarray,
-    omega0_dot: np.ndarray,
-    qddot: np.ndarray,
+    s: Any,
+    vel: np.ndarray,
+    acc: np.ndarray,
     accelerate: bool,
     u: np.ndarray,
     t0: np.ndarray,
@@ -315,26 +403,23 @@ def newton_euler(
     ``accelerate`` False: zddot0 = 0 (then this is C+ - Q). u = [tau (N), f_S (3), n_S (3)]
     (thrusters at the spacecraft CM, spacecraft frame); external wrenches ext_i (W, 2) = [body,
     frame (0 inertial, 1 spacecraft, 2 body)], ext_f (W, 9) = [point (body frame), force, couple];
-    t0 = the attitude T0 (3x3, inertial <- spacecraft; used for inertial-frame wrenches). Leaves the
-    sum of the external forces (spacecraft frame) in sp[7, 1].
+    t0 = the attitude T0 (3x3, inertial <- spacecraft; used for inertial-frame wrenches); vel =
+    zdot0 and acc = zddot0 (6 + N; rdot_cm and rddot_cm are not used). Needs :func:`prepare` with
+    inertias in ``s``; leaves the sum of the external forces (spacecraft frame) in ``s.total``.
     """
     nb = parent.shape[0]
     n = nb - 1
-    w = sp[0]
-    v = sp[1]
-    al = sp[2]
-    be = sp[3]
-    nf = sp[4]
-    ff = sp[5]
+    rot, pos, axis, mom, own_f, own_i, cf = s.rot, s.pos, s.axis, s.mom, s.own_f, s.own_i, s.cf
+    w, v, al, be, nf, ff = s.w, s.v, s.al, s.be, s.nf, s.ff
     for i in range(3):
-        w[0, i] = omega0[i]
+        w[0, i] = vel[3 + i]
         v[0, i] = 0.0
-        al[0, i] = omega0_dot[i] if accelerate else 0.0
+        al[0, i] = acc[3 + i] if accelerate else 0.0
         be[0, i] = 0.0
     for k in range(1, nb):
         p = parent[k]
-        qd = qdot[k - 1]
-        qdd = qddot[k - 1] if accelerate else 0.0
+        qd = vel[5 + k]
+        qdd = acc[5 + k] if accelerate else 0.0
         su0, su1, su2 = axis[k, 0] * qd, axis[k, 1] * qd, axis[k, 2] * qd
         sw0, sw1, sw2 = mom[k, 0] * qd, mom[k, 1] * qd, mom[k, 2] * qd
         w[k, 0] = w[p, 0] + su0
@@ -381,16 +466,15 @@ def newton_euler(
     ff[0, 0] -= fs0
     ff[0, 1] -= fs1
     ff[0, 2] -= fs2
-    pt = sp[6, 0]
-    fo = sp[6, 1]
-    no = sp[7, 0]
-    total = sp[7, 1]  # the sum of the external forces, spacecraft frame (for the CM row)
+    pt, fo, no = s.pt, s.fo, s.no
+    total = s.total  # the sum of the external forces, spacecraft frame (for the CM row)
     for i in range(3):
         total[i] = 0.0
     for e in range(ext_i.shape[0]):
         k = ext_i[e, 0]
         frame = ext_i[e, 1]
-        point_from_origin(rot, pos, k, ext_f[e, 0:3], pt)
+        for i in range(3):
+            pt[i] = pos[k, i] + rot[k, i, 0] * ext_f[e, 0] + rot[k, i, 1] * ext_f[e, 1] + rot[k, i, 2] * ext_f[e, 2]
         for i in range(3):
             if frame == 0:  # inertial: T0^T x
                 fo[i] = t0[0, i] * ext_f[e, 3] + t0[1, i] * ext_f[e, 4] + t0[2, i] * ext_f[e, 5]
@@ -428,17 +512,7 @@ def newton_euler(
 
 # ----------------------------------------------------------------- one configuration
 @kernel(inline="always")
-def prepare(q: np.ndarray, parent: np.ndarray, body: np.ndarray, work: np.ndarray, inertia: bool) -> Any:  # pragma: no cover - compiled
-    """Kinematics and mass properties at q; returns the views of ``work`` (see _views)."""
-    nb = parent.shape[0]
-    rot, pos, axis, mom, own_f, own_i, cf, ci, g, h, sp, tail = _views(work, nb)
-    kinematics(q, parent, body, rot, pos, axis, mom)
-    mass_properties(body, parent, rot, pos, own_f, own_i, cf, ci, inertia)
-    return rot, pos, axis, mom, own_f, own_i, cf, ci, g, h, sp, tail
-
-
-@kernel(inline="always")
-def work_size_jit(n_bodies: int) -> int:  # pragma: no cover - compiled
-    """:func:`~._tree.work_size` inside kernels."""
-    n = n_bodies - 1
-    return n_bodies * 48 + 24 * (n_bodies + 1) + 3 * (3 + n) * (3 + n) + 8 * (3 + n) + 64
+def prepare(q: np.ndarray, parent: np.ndarray, body: np.ndarray, s: Any, inertia: bool) -> None:  # pragma: no cover - compiled
+    """Kinematics and mass properties at q into the scratch ``s``."""
+    kinematics(q, parent, body, s.rot, s.pos, s.axis, s.mom)
+    mass_properties(body, parent, s.rot, s.pos, s.own_f, s.own_i, s.cf, s.ci, inertia)

@@ -90,6 +90,7 @@ def tree(model: Any) -> Tree:
 
 # One flat float64 buffer, sliced into views by _views (no allocation per configuration).
 def work_size(n_bodies: int) -> int:
-    """Length of the scratch buffer of one configuration of a model with ``n_bodies`` bodies."""
+    """Length of the scratch buffer of one configuration (the views of ``_recursions.Scratch``) for ``n_bodies`` bodies."""
     n = n_bodies - 1
-    return n_bodies * 48 + 24 * (n_bodies + 1) + 3 * (3 + n) * (3 + n) + 8 * (3 + n) + 64
+    m = 3 + n
+    return 66 * n_bodies + 15 + 2 * m * m + m + 3 * n + 9 + 2 * (6 + n) + 5 * (13 + 2 * n)

@@ -34,6 +34,7 @@ def _engine_inputs(model: Model, external: Any) -> tuple[np.ndarray, np.ndarray]
 
 
 def _u(model: Model, tau: np.ndarray, force: np.ndarray, torque: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """out = [tau, f_S, n_S] (..., N + 6)."""
     n = model.n_joints
     out[..., :n], out[..., n : n + 3], out[..., n + 3 :] = tau, force, torque
     return out
@@ -179,13 +180,14 @@ def _run_rk4(
         else:
             to_sample = max(1, round(next_sample_time / dt) - i)
             todo = min(to_sample, stride - i % stride, steps - i)
-        done = stepper.rk4(x, u, dt, todo)
-        i += done
-        t = i * dt
-        if done < todo:
+        done = stepper.rk4(x, u, dt, todo)  # the kernel checks that x stays finite
+        if done != todo:
+            i += abs(done)
+            t = i * dt
             _check_finite(t, x)
             raise SimulationError(f"H+ (1991 eq. 15) is not positive definite at t = {t:.6g} s: the mass properties are not physical")
-        _check_finite(t, x)
+        i += done
+        t = i * dt
         if i < steps and (sample_period is None or t >= next_sample_time - 1e-9 * dt):
             act = command(t, x.copy())  # a copy: x is advanced in place, the controller may keep its state
             _u(model, act[0], act[1], act[2], u)
