@@ -56,3 +56,14 @@ def _rotate(t0: np.ndarray | None, vec: np.ndarray, inverse: bool = False) -> np
     if t0 is None:
         return vec
     return np.einsum("...ji,...j->...i" if inverse else "...ij,...j->...i", t0, vec)
+
+
+#: The two algorithms of every mechanics quantity: the engine (default) and the papers' barycentric closed forms.
+METHODS = ("recursive", "barycentric")
+
+
+def check_method(method: str, reference: str) -> str:
+    """``method`` if it is one of :data:`METHODS`, else a ValueError that names both and the reference equations."""
+    if method not in METHODS:
+        raise ValueError(f"method: expected 'recursive' (the engine) or 'barycentric' ({reference}), got {method!r}")
+    return method

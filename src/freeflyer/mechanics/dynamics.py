@@ -59,7 +59,7 @@ from ..core.errors import ShapeError, SingularConfigurationError
 from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, pieces
-from ._inputs import _attitude, _joints, _rotate, _vector, _velocity
+from ._inputs import _attitude, _joints, _rotate, _vector, _velocity, check_method
 from .forces import _actuation_0, _actuation_vector, _engine_wrenches, _generalized_forces_0, _wrenches
 from .jacobians import actuation_jacobian
 from .kinematics import _rotations
@@ -74,13 +74,9 @@ __all__ = [
     "system_inertia_matrix_rate",
 ]
 
-_METHODS = ("recursive", "barycentric")
-
 
 def _method(method: str) -> str:
-    if method not in _METHODS:
-        raise ValueError(f"method: expected 'recursive' (the engine) or 'barycentric' (the closed form of 1991 eq. 19), got {method!r}")
-    return method
+    return check_method(method, "the closed form of 1991 eq. 19")
 
 
 # ----------------------------------------------------------------- tree motion (spacecraft frame)

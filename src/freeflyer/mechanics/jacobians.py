@@ -30,6 +30,7 @@ from ..core.errors import ShapeError
 from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, joint_array, pieces
+from ._inputs import check_method
 from .kinematics import _rotations, body_rotations
 from .momentum import _hplus_barycentric
 
@@ -45,13 +46,8 @@ __all__ = [
 ]
 
 
-_METHODS = ("recursive", "barycentric")
-
-
 def _method(method: str) -> str:
-    if method not in _METHODS:
-        raise ValueError(f"method: expected 'recursive' (the engine) or 'barycentric' (1991 eq. 10, 1992 eq. 14), got {method!r}")
-    return method
+    return check_method(method, "1991 eq. 10, 1992 eq. 14")
 
 
 def _point_terms(model: Model, rot: np.ndarray, tables: np.ndarray, bodies: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -18,6 +18,7 @@ from ..core.conventions import attitude_matrix
 from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, joint_array
+from ._inputs import check_method
 
 __all__ = [
     "body_cm_positions",
@@ -76,13 +77,8 @@ def system_cm(model: Model, q: Any) -> np.ndarray:
     return -_engine.points(model, joint_array(model, q), 0, (0.0, 0.0, 0.0))[..., 0, :]
 
 
-_METHODS = ("recursive", "barycentric")
-
-
 def _method(method: str) -> str:
-    if method not in _METHODS:
-        raise ValueError(f"method: expected 'recursive' (the engine) or 'barycentric' (1992 eq. 4), got {method!r}")
-    return method
+    return check_method(method, "1992 eq. 4")
 
 
 def body_cm_positions(model: Model, q: Any, *, method: str = "recursive") -> np.ndarray:

@@ -35,6 +35,7 @@ from ..core.conventions import attitude_matrix
 from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, joint_array, pieces, vector_array
+from ._inputs import check_method
 from .kinematics import _rotations, joint_axes
 
 __all__ = [
@@ -45,8 +46,6 @@ __all__ = [
     "linear_momentum",
     "system_inertia_matrix",
 ]
-
-_METHODS = ("recursive", "barycentric")
 
 
 @dataclass(frozen=True)
@@ -107,9 +106,7 @@ def _hplus_barycentric(model: Model, q: np.ndarray) -> np.ndarray:
 
 
 def _method(method: str) -> str:
-    if method not in _METHODS:
-        raise ValueError(f"method: expected 'recursive' (the engine) or 'barycentric' (1991 eq. 16), got {method!r}")
-    return method
+    return check_method(method, "1991 eq. 16")
 
 
 def system_inertia_matrix(model: Model, q: Any, *, method: str = "recursive") -> np.ndarray:
