@@ -36,10 +36,22 @@ __all__ = [
 NO_WRENCHES: tuple[np.ndarray, np.ndarray] = (np.zeros((0, 2), dtype=np.int64), np.zeros((0, 9)))
 
 
+def _own(arr: Any, dtype: Any = np.float64) -> np.ndarray:
+    """arr as a C-contiguous, writable array of ``dtype``.
+
+    numba types read-only arrays apart from writable ones, so a kernel called with both would be
+    compiled twice: every array passed to a kernel goes through here (a copy only when needed).
+    """
+    out = np.ascontiguousarray(arr, dtype=dtype)
+    return out if out.flags.writeable else out.copy()
+
+
 def _flat(arr: np.ndarray, batch: tuple[int, ...], core: tuple[int, ...]) -> np.ndarray:
-    """arr broadcast to batch + core, as a C-contiguous float64 (C, *core) array."""
+    """arr broadcast to batch + core, as a C-contiguous, writable float64 (C, *core) array."""
     size = int(np.prod(batch, dtype=np.int64))
-    return np.ascontiguousarray(np.broadcast_to(arr, batch + core), dtype=np.float64).reshape((size, *core))
+    target = batch + core
+    arr = np.asarray(arr)
+    return _own(arr if arr.shape == target else np.broadcast_to(arr, target)).reshape((size, *core))
 
 
 def _batch(*arrays: tuple[np.ndarray, int]) -> tuple[int, ...]:
@@ -49,7 +61,7 @@ def _batch(*arrays: tuple[np.ndarray, int]) -> tuple[int, ...]:
 
 def _wrench_data(ext: tuple[np.ndarray, np.ndarray], batch: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
     ext_i, ext_f = ext
-    return np.ascontiguousarray(ext_i, dtype=np.int64), _flat(ext_f, batch, ext_f.shape[-2:])
+    return _own(ext_i, np.int64), _flat(ext_f, batch, ext_f.shape[-2:])
 
 
 def frames(model: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -65,8 +77,8 @@ def frames(model: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _point_data(bodies: Any, pts: Any) -> tuple[np.ndarray, np.ndarray]:
-    b = np.ascontiguousarray(np.atleast_1d(np.asarray(bodies, dtype=np.int64)))
-    p = np.ascontiguousarray(np.asarray(pts, dtype=np.float64).reshape(-1, 3))
+    b = _own(np.atleast_1d(np.asarray(bodies, dtype=np.int64)), np.int64)
+    p = _own(np.asarray(pts, dtype=np.float64).reshape(-1, 3))
     return b, p
 
 
@@ -240,11 +252,11 @@ def rollout(
     us = np.empty((rows, k, n + 6))
     sat = np.empty((rows, k), dtype=np.bool_)
     done = np.empty(k, dtype=np.int64)
-    kp, kd, qref, vref = (np.ascontiguousarray(np.broadcast_to(g, (k, n)), dtype=np.float64) for g in gains)
+    kp, kd, qref, vref = (_own(np.broadcast_to(g, (k, n))) for g in gains)
     ext_i, ext_f = _wrench_data(ext, (k,))
     _drivers.rollout_batch(
         k,
-        np.ascontiguousarray(x0, dtype=np.float64),
+        _own(x0),
         float(dt),
         int(steps),
         int(hold),
@@ -253,8 +265,8 @@ def rollout(
         kd,
         qref,
         vref,
-        np.ascontiguousarray(feedforward, dtype=np.float64),
-        np.ascontiguousarray(limit, dtype=np.float64),
+        _own(feedforward),
+        _own(limit),
         t.parent,
         t.body,
         t.ancestor,
@@ -292,8 +304,8 @@ class Stepper:
     def __init__(self, model: Any, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES) -> None:
         self.tree = t = tree(model)
         self.size = 13 + 2 * t.n_joints
-        self.ext_i = np.ascontiguousarray(ext[0], dtype=np.int64)
-        self.ext_f = np.ascontiguousarray(ext[1], dtype=np.float64).reshape(-1, 9)
+        self.ext_i = _own(ext[0], np.int64)
+        self.ext_f = _own(np.asarray(ext[1], dtype=np.float64).reshape(-1, 9))
         self.work = np.empty(work_size(t.parent.shape[0]) + t.n_joints)
         self.rk4: Callable[[np.ndarray, np.ndarray, float, int], int] = functools.partial(
             _configuration.rk4_steps, t.parent, t.body, t.ancestor, t.total_mass, self.ext_i, self.ext_f, self.work
