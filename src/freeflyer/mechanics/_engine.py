@@ -137,6 +137,24 @@ def _attitudes(t0: np.ndarray | None, batch: tuple[int, ...]) -> np.ndarray:
     return _flat(np.eye(3) if t0 is None else t0, batch, (3, 3))
 
 
+def _dynamics_inputs(
+    t: Tree,
+    q: np.ndarray,
+    velocity: np.ndarray,
+    u: np.ndarray | None,
+    t0: np.ndarray | None,
+    ext: tuple[np.ndarray, np.ndarray],
+    *extra: np.ndarray,
+) -> tuple[tuple[int, ...], list[np.ndarray]]:
+    """The broadcast batch shape and the flat inputs [q, velocity, *extra (6 + N each), u, t0, ext_i, ext_f] of a dynamics driver."""
+    n = t.n_joints
+    batch = _batch(
+        (q, 1), (velocity, 1), (ext[1], 2), *((e, 1) for e in extra), *(() if u is None else ((u, 1),)), *(() if t0 is None else ((t0, 2),))
+    )
+    flat = [_flat(q, batch, (n,)), _flat(velocity, batch, (6 + n,)), *(_flat(e, batch, (6 + n,)) for e in extra)]
+    return batch, [*flat, _actuation(u, t, batch), _attitudes(t0, batch), *_wrench_data(ext, batch)]
+
+
 def residual_rows(
     model: Any,
     q: np.ndarray,
@@ -154,25 +172,9 @@ def residual_rows(
     t = tree(model)
     n = t.n_joints
     acc_in = np.zeros(6 + n) if acceleration is None else acceleration
-    batch = _batch((q, 1), (velocity, 1), (acc_in, 1), (ext[1], 2), *(() if u is None else ((u, 1),)), *(() if t0 is None else ((t0, 2),)))
-    qf, vf, af = _flat(q, batch, (n,)), _flat(velocity, batch, (6 + n,)), _flat(acc_in, batch, (6 + n,))
-    ext_i, ext_f = _wrench_data(ext, batch)
+    batch, (qf, vf, af, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext, acc_in)
     out = np.empty((qf.shape[0], 3 + n))
-    _drivers.inverse_batch(
-        qf.shape[0],
-        qf,
-        vf,
-        af,
-        _actuation(u, t, batch),
-        _attitudes(t0, batch),
-        t.parent,
-        t.body,
-        t.total_mass,
-        ext_i,
-        ext_f,
-        acceleration is not None,
-        out,
-    )
+    _drivers.inverse_batch(qf.shape[0], qf, vf, af, uf, t0f, t.parent, t.body, t.total_mass, ext_i, ext_f, acceleration is not None, out)
     return out.reshape((*batch, 3 + n))
 
 
@@ -187,26 +189,10 @@ def accelerations(
     """Forward dynamics: (zddot0 (..., 6 + N) = [rddot_cm inertial, d/dt omega0, qddot], ok (...) False where H+ failed)."""
     t = tree(model)
     n = t.n_joints
-    batch = _batch((q, 1), (velocity, 1), (ext[1], 2), *(() if u is None else ((u, 1),)), *(() if t0 is None else ((t0, 2),)))
-    qf, vf = _flat(q, batch, (n,)), _flat(velocity, batch, (6 + n,))
-    ext_i, ext_f = _wrench_data(ext, batch)
+    batch, (qf, vf, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext)
     out = np.empty((qf.shape[0], 6 + n))
     ok = np.empty(qf.shape[0], dtype=np.bool_)
-    _drivers.forward_batch(
-        qf.shape[0],
-        qf,
-        vf,
-        _actuation(u, t, batch),
-        _attitudes(t0, batch),
-        t.parent,
-        t.body,
-        t.ancestor,
-        t.total_mass,
-        ext_i,
-        ext_f,
-        out,
-        ok,
-    )
+    _drivers.forward_batch(qf.shape[0], qf, vf, uf, t0f, t.parent, t.body, t.ancestor, t.total_mass, ext_i, ext_f, out, ok)
     return out.reshape((*batch, 6 + n)), ok.reshape(batch)
 
 
