@@ -38,6 +38,7 @@ from ..core.conventions import attitude_matrix, euler321_from_matrix, euler321_r
 from ..core.errors import ShapeError
 from ..core.model import Model
 from ..core.state import State
+from ..mechanics._inputs import revolute_only
 from ..mechanics.dynamics import _motion
 from ..mechanics.jacobians import _assemble, _point_terms
 from ..mechanics.kinematics import _rotations
@@ -111,6 +112,7 @@ class TaskSpace:
             raise ValueError(f"orientation: expected 'euler321' or 'quaternion', got {self.orientation!r}")
         if not self.items:
             raise ValueError("items: a task needs at least one item (a position or an orientation)")
+        revolute_only(self.model, "TaskSpace (the task kinematics of 1991 eqs. 22-27)")
         if self.planar and not self.model.is_planar:
             raise ValueError(
                 f"planar: model {self.model.name!r} is not planar (joint axes not all along the spacecraft z axis); use planar=False"

@@ -1,7 +1,7 @@
 """The immutable :class:`Model` of a space robot (:class:`~freeflyer.core.builder.ModelBuilder` makes it).
 
 A model is a tree of rigid bodies rooted at the spacecraft (body 0), joined by
-revolute joints (fixed joints are merged into the parent at build time). It is
+revolute or prismatic joints (fixed joints are merged into the parent at build time). It is
 validated once, when built, and never changes: ``with_payload`` returns a new
 model. Everything that depends only on the mass distribution (outboard mass
 fractions, barycenters, barycentric vectors, 1992 eqs. 5-9) is computed at
@@ -19,7 +19,11 @@ import numpy as np
 from . import barycentric
 from .errors import ModelError, UnknownNameError
 
-__all__ = ["Model", "check_inertia", "inertia_matrix"]
+__all__ = ["JOINT_TYPES", "Model", "check_inertia", "inertia_matrix"]
+
+#: The joint types a model holds after fixed joints are merged: a revolute joint turns its body
+#: about the axis by q (rad); a prismatic joint slides it along the axis by q (m).
+JOINT_TYPES = ("revolute", "prismatic")
 
 _INERTIA_RTOL = 1e-9
 
@@ -95,7 +99,11 @@ class Model:
         joint_origin      (B, 3) joint position in the parent frame (row 0 unused)
         joint_rotation    (B, 3, 3) joint frame relative to the parent frame
         joint_axis        (B, 3) unit joint axis in the joint (= child) frame
-        joint_lower/upper (N,) joint limits in rad (±inf when none)
+        joint_type        (N,) "revolute" (q in rad) or "prismatic" (q in m, the body slides
+                          along the axis; its frame origin is joint_origin + q axis)
+        joint_lower/upper (N,) joint limits in rad or m (±inf when none)
+        end_effector_rule "named" (the model file or builder named them) or "leaves" (every leaf)
+        corrections       every change made to the given data when loading (see ``ff.load``)
         mass, com, inertia  per body; inertia about the CM
         end_effector_body, end_effector_point  (E,), (E, 3)
     """
@@ -117,6 +125,9 @@ class Model:
     end_effector_point: np.ndarray
     source: str = ""
     payloads: tuple[dict[str, Any], ...] = ()
+    joint_type: tuple[str, ...] = ()
+    end_effector_rule: str = "leaves"
+    corrections: tuple[dict[str, Any], ...] = ()
     # derived at build time
     total_mass: float = field(init=False)
     subtree: np.ndarray = field(init=False, repr=False)
@@ -138,6 +149,18 @@ class Model:
             object.__setattr__(self, name, _frozen(getattr(self, name)))
         for name in ("parent", "end_effector_body"):
             object.__setattr__(self, name, _frozen(getattr(self, name), int))
+        if not self.joint_type:
+            object.__setattr__(self, "joint_type", ("revolute",) * len(self.joint_names))
+        object.__setattr__(self, "joint_type", tuple(str(t) for t in self.joint_type))
+        if len(self.joint_type) != len(self.joint_names):
+            raise ModelError(
+                "joint_type", f"has {len(self.joint_type)} entries for {len(self.joint_names)} joints", "give one type per joint"
+            )
+        for j, kind in enumerate(self.joint_type):
+            if kind not in JOINT_TYPES:
+                raise ModelError(
+                    f"joints[{j}] ({self.joint_names[j]}).type", f"unknown joint type {kind!r}", f"use one of {', '.join(JOINT_TYPES)}"
+                )
         n = len(self.body_names)
         subtree = np.zeros((n, n), dtype=bool)
         for k in range(n):
@@ -150,7 +173,8 @@ class Model:
         object.__setattr__(self, "bary", barycentric.compute(self))
         # (P, P K, P K^2) per joint: placement P, axis cross matrix K; the joint's
         # rotation relative to its parent is P (1 + sin q K + (1 - cos q) K^2).
-        axis = self.joint_axis[1:]
+        # A prismatic joint does not turn: K = 0, so its rotation is P at every q.
+        axis = self.joint_axis[1:] * ~self.prismatic[:, None]
         kx = np.zeros((self.n_joints, 3, 3))
         kx[:, 0, 1], kx[:, 0, 2], kx[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
         kx -= np.swapaxes(kx, 1, 2)
@@ -170,7 +194,18 @@ class Model:
 
     @property
     def n_end_effectors(self) -> int:
+        """Number of end effectors E."""
         return len(self.end_effector_names)
+
+    @property
+    def prismatic(self) -> np.ndarray:
+        """(N,) bool: True where joint j is prismatic (q_j in m), False where it is revolute (rad)."""
+        return np.array([t == "prismatic" for t in self.joint_type], dtype=bool)
+
+    @property
+    def has_prismatic(self) -> bool:
+        """True when any joint is prismatic."""
+        return "prismatic" in self.joint_type
 
     @property
     def is_planar(self) -> bool:
@@ -259,6 +294,9 @@ class Model:
             end_effector_point=self.end_effector_point,
             source=self.source,
             payloads=(*self.payloads, record),
+            joint_type=self.joint_type,
+            end_effector_rule=self.end_effector_rule,
+            corrections=self.corrections,
         )
 
     def __repr__(self) -> str:

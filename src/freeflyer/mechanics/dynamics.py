@@ -59,7 +59,7 @@ from ..core.errors import ShapeError, SingularConfigurationError
 from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, pieces
-from ._inputs import _attitude, _joints, _rotate, _vector, _velocity, check_method
+from ._inputs import _attitude, _joints, _rotate, _vector, _velocity, check_method, revolute_only
 from .forces import _actuation_0, _actuation_vector, _engine_wrenches, _generalized_forces_0, _wrenches
 from .jacobians import actuation_jacobian
 from .kinematics import _rotations
@@ -185,6 +185,7 @@ def nonlinear_forces(model: Model, q: Any, velocity: Any, *, method: str = "recu
         out = np.zeros((*rows.shape[:-1], 6 + model.n_joints))
         out[..., 3:] = rows
         return out
+    revolute_only(model, "nonlinear_forces(method='barycentric') (1991 eqs. 18-21)")
     kernel = _c_plus_barycentric
     return chunked(pieces(lambda qq, vv: kernel(model, qq, vv), model.n_bodies), q, v, core_ndims=(1, 1))
 
@@ -233,6 +234,7 @@ def system_inertia_matrix_rate(model: Model, q: Any, qdot: Any) -> np.ndarray:
     body-fixed vector v_i is (F_i qdot) x v_i. Used by the closed form of C+
     and by momentum checks: d/dt h = Ddot omega0 + D omega0dot + D_q,dot qdot + D_q qddot.
     """
+    revolute_only(model, "system_inertia_matrix_rate")
     q = _joints(model, q, "q")
     qd = _joints(model, qdot, "qdot")
     return chunked(pieces(lambda qq, vv: _hplus_rate(model, qq, vv), model.n_bodies), q, qd, core_ndims=(1, 1))
@@ -258,6 +260,7 @@ def point_bias_acceleration(model: Model, q: Any, velocity: Any, body: str | int
     rho_P = sum_i T_i v_iP (eqs. 1-4) and omega_i = omega0 + F_i qdot (eq. 5):
     Rdot_P = rdot_cm + T0 sum_i omega_i x T_i v_iP, differentiated at constant zdot0.
     """
+    revolute_only(model, "point_bias_acceleration")
     q = _joints(model, q, "q")
     v = _velocity(model, velocity)
     k = model.body_index(body)

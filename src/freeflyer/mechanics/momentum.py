@@ -36,7 +36,7 @@ from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, joint_array, pieces, vector_array
 from ._inputs import check_method
-from .kinematics import _rotations, joint_axes
+from .kinematics import _rotations, _slides, joint_axes
 
 __all__ = [
     "InertiaBlocks",
@@ -85,16 +85,54 @@ def _rotate_table(rot: np.ndarray, table: np.ndarray) -> np.ndarray:
     return r[..., 0] * table[None, :, :, None, 0] + r[..., 1] * table[None, :, :, None, 1] + r[..., 2] * table[None, :, :, None, 2]
 
 
+def _sliding_pair_inertias(model: Model, rot: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Pair inertias D_ij (C, B, B, 3, 3) at q with prismatic joints, and w[c, k, i] = T_i v_ik(q) (C, B, B, 3).
+
+    The barycentric vectors of the parent of a prismatic joint are affine in its q
+    (:mod:`freeflyer.core.barycentric`), so the diagonal blocks are summed at q rather than read
+    from the table made at build time.
+    """
+    w = _rotate_table(rot, model.bary.point_table)[:, :, :]  # (C, K, B, 3)
+    slides = _slides(model, rot, q)  # (C, N, 3)
+    parents = model.parent[1:]
+    for j in np.flatnonzero(model.prismatic):
+        w[:, :, parents[j]] += slides[:, j, None, :] * model.bary.slide_coefficient[j][None, :, None]
+    b = w
+    a = np.swapaxes(w, 1, 2)
+    dot = np.sum(a * b, axis=-1)
+    out = b[..., :, None] * a[..., None, :]
+    idx = np.arange(3)
+    out[..., idx, idx] -= dot[..., None]
+    out *= model.total_mass
+    mass = model.mass
+    own = np.matmul(np.matmul(rot, model.inertia), np.swapaxes(rot, -1, -2))
+    sq = np.einsum("k,ckix,ckix->ci", mass, w, w)
+    diag = own + sq[..., None, None] * np.eye(3) - np.einsum("k,ckix,ckiy->cixy", mass, w, w)
+    bodies = np.arange(model.n_bodies)
+    out[:, bodies, bodies] = diag
+    return out, w
+
+
 def _hplus_barycentric(model: Model, q: np.ndarray) -> np.ndarray:
     """Kernel: H+ (C, 6 + N, 6 + N) from the pair inertias, 1991 eq. 16 as printed (D_qq symmetrised, docs/paper-notes.md).
 
     D = sum_ij D_ij, D_q = sum_ij D_ij F_j, D_qq = sum_ij F_i^T D_ij F_j with F_j (3, N) the axes
     (spacecraft frame) of the joints between the spacecraft and body j, zero elsewhere (1991 eq. 5).
+
+    Prismatic joints (docs/theory.md): they turn nothing (zero columns of F_j), and the sliding
+    rate of joint l moves the CM of body k, relative to the system CM, by (chi_l(k) - mu*_l) u_l.
+    That adds to the kinetic energy the cross terms omega_i . (Y_il x u_l) qdot_l with
+    Y_il = sum_k m_k (chi_l(k) - mu*_l) T_i v_ik, and (sum_k m_k c_jk c_lk) u_j . u_l qdot_j qdot_l.
     """
     rot = _rotations(model, q)
-    pair = _pair_inertias(model, rot)  # (C, B, B, 3, 3)
+    sliding = model.prismatic
+    if sliding.any():
+        pair, w = _sliding_pair_inertias(model, rot, q)
+    else:
+        pair = _pair_inertias(model, rot)  # (C, B, B, 3, 3)
     n = model.n_joints
-    f = np.einsum("lj,clx->cjxl", model.subtree[1:].astype(float), joint_axes(model, rot))  # F_j (C, B, 3, N)
+    axes = joint_axes(model, rot)  # (C, N, 3), turning or sliding
+    f = np.einsum("lj,clx->cjxl", model.subtree[1:].astype(float) * ~sliding[:, None], axes)  # F_j (C, B, 3, N)
     out = np.zeros((q.shape[0], 6 + n, 6 + n))
     out[:, 0, 0] = out[:, 1, 1] = out[:, 2, 2] = model.total_mass
     out[:, 3:6, 3:6] = pair.sum(axis=(1, 2))
@@ -102,6 +140,17 @@ def _hplus_barycentric(model: Model, q: np.ndarray) -> np.ndarray:
     out[:, 3:6, 6:] = d_q
     out[:, 6:, 3:6] = np.swapaxes(d_q, 1, 2)
     out[:, 6:, 6:] = np.einsum("cixk,cijxy,cjyl->ckl", f, pair, f)
+    if sliding.any():
+        coef = model.bary.slide_coefficient  # (N, K): chi_l(k) - mu*_l, zero rows for revolute joints
+        y = np.einsum("k,lk,ckix->cilx", model.mass, coef, w)  # Y_il (C, B, N, 3)
+        cross = np.cross(y, axes[:, None, :, :])  # Y_il x u_l (C, B, N, 3)
+        g = np.concatenate([np.broadcast_to(np.eye(3), (*f.shape[:2], 3, 3)), f], axis=-1)  # G_i = [1, F_i]
+        col = np.einsum("cixk,cilx->ckl", g, cross)  # (C, 3 + N, N): d T / d(omega-part) d qdot_l
+        block = out[:, 3:, 3:]
+        block[:, :, 3:] += col
+        block[:, 3:, :] += np.swapaxes(col, 1, 2)
+        energy = np.einsum("k,jk,lk->jl", model.mass, coef, coef)
+        block[:, 3:, 3:] += energy[None] * np.einsum("cjx,clx->cjl", axes, axes)
     return out
 
 
