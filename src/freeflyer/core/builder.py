@@ -108,11 +108,15 @@ class ModelBuilder:
         end_effector: Any = None,
         end_effector_name: str | None = None,
         frame: bool = False,
+        degenerate_ok: bool = False,
     ) -> ModelBuilder:
         """Add a body. ``inertia`` is about the CM: 3x3, [Ixx, Iyy, Izz] or a scalar.
 
         ``frame=True`` allows a massless frame (mass 0, as a URDF link without
         ``<inertial>``); it must be attached by a fixed joint to a body with mass.
+        ``degenerate_ok=True`` accepts a zero or semi-definite inertia (a point mass, a thin rod,
+        as small links in real files have): the model is then checked as a whole (every merged
+        body, and H+ positive definite when loaded from a file).
         """
         path = f"bodies[{len(self._bodies)}]"
         if not isinstance(name, str) or not name:
@@ -130,7 +134,7 @@ class ModelBuilder:
         spec = BodySpec(
             name=name,
             mass=mass_value,
-            inertia=np.zeros((3, 3)) if massless else inertia_matrix(inertia, f"{path}.inertia"),
+            inertia=np.zeros((3, 3)) if massless else inertia_matrix(inertia, f"{path}.inertia", degenerate_ok=degenerate_ok),
             com=_vector(com, f"{path}.com", "give the CM [x, y, z] in the body frame, in m"),
             end_effector=None
             if end_effector is None

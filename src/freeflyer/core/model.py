@@ -19,7 +19,7 @@ import numpy as np
 from . import barycentric
 from .errors import ModelError, UnknownNameError
 
-__all__ = ["JOINT_TYPES", "Model", "check_inertia", "inertia_matrix"]
+__all__ = ["JOINT_TYPES", "Model", "check_inertia", "inertia_defect", "inertia_matrix", "nearest_physical_inertia"]
 
 #: The joint types a model holds after fixed joints are merged: a revolute joint turns its body
 #: about the axis by q (rad); a prismatic joint slides it along the axis by q (m).
@@ -40,7 +40,7 @@ def _vector(value: Any, path: str, fix: str) -> np.ndarray:
     return arr
 
 
-def inertia_matrix(value: Any, path: str) -> np.ndarray:
+def inertia_matrix(value: Any, path: str, *, degenerate_ok: bool = False) -> np.ndarray:
     """Read an inertia given as a 3x3 matrix, three principal moments, or one isotropic moment."""
     fix = "give a 3x3 symmetric matrix, [Ixx, Iyy, Izz], or one number (isotropic), in kg m^2 about the CM"
     try:
@@ -53,31 +53,68 @@ def inertia_matrix(value: Any, path: str) -> np.ndarray:
         arr = np.diag(arr)
     elif arr.shape != (3, 3):
         raise ModelError(path, f"expected shape (3, 3), (3,) or a scalar, got {arr.shape}", fix)
-    check_inertia(arr, path)
+    check_inertia(arr, path, degenerate_ok=degenerate_ok)
     return arr
 
 
-def check_inertia(inertia: np.ndarray, path: str) -> None:
+def check_inertia(inertia: np.ndarray, path: str, *, degenerate_ok: bool = False) -> None:
     """Raise :class:`ModelError` unless ``inertia`` is a physical inertia matrix about a CM.
 
-    Physical means finite, symmetric, positive definite, and principal moments
-    that satisfy the triangle inequality ``I1 <= I2 + I3``.
+    Physical means finite, symmetric, positive definite (``degenerate_ok``: semi-definite, as a
+    point mass), and principal moments that satisfy the triangle inequality ``I1 <= I2 + I3``.
     """
     fix = "use the inertia of a real body about its CM (symmetric, positive definite, each principal moment <= the sum of the other two)"
+    defect = inertia_defect(inertia, degenerate_ok=degenerate_ok)
+    if defect is not None:
+        raise ModelError(path, defect, fix)
+
+
+def inertia_defect(inertia: np.ndarray, *, degenerate_ok: bool = False) -> str | None:
+    """What makes ``inertia`` (3x3, about a CM) non-physical, or None when it is physical.
+
+    Physical: finite, symmetric, principal moments positive (``degenerate_ok``: zero allowed, as a
+    point mass or a thin rod) and each at most the sum of the other two (triangle inequality), with
+    a relative tolerance of 1e-9 of the largest moment.
+    """
     if not np.all(np.isfinite(inertia)):
-        raise ModelError(path, "has NaN or infinite entries", fix)
+        return "has NaN or infinite entries"
     scale = max(float(np.max(np.abs(inertia))), 1e-300)
     if np.max(np.abs(inertia - inertia.T)) > 1e-9 * scale:
-        raise ModelError(path, "is not symmetric", fix)
+        return "is not symmetric"
     moments = np.linalg.eigvalsh(0.5 * (inertia + inertia.T))
-    if moments[0] <= 0.0:
-        raise ModelError(path, f"is not positive definite (principal moments {moments.tolist()})", fix)
-    if moments[2] > (moments[0] + moments[1]) * (1.0 + _INERTIA_RTOL):
-        raise ModelError(
-            path,
-            f"violates the triangle inequality: principal moment {moments[2]:.6g} > {moments[0]:.6g} + {moments[1]:.6g}",
-            fix,
-        )
+    floor = -_INERTIA_RTOL * scale if degenerate_ok else 0.0
+    if moments[0] < floor or (not degenerate_ok and moments[0] == 0.0):
+        return f"is not positive definite (principal moments {moments.tolist()})"
+    if moments[2] > (moments[0] + moments[1]) * (1.0 + _INERTIA_RTOL) + (_INERTIA_RTOL * scale if degenerate_ok else 0.0):
+        return f"violates the triangle inequality: principal moment {moments[2]:.6g} > {moments[0]:.6g} + {moments[1]:.6g}"
+    return None
+
+
+def nearest_physical_inertia(inertia: np.ndarray) -> np.ndarray:
+    """The physical inertia nearest to ``inertia`` in the Frobenius norm.
+
+    The set of physical inertias depends on the principal moments only, so the nearest one keeps
+    the principal axes of the symmetric part and moves the moments to the nearest point of the
+    cone {I_k >= 0, I_a <= I_b + I_c}: a small quadratic programme (scipy.optimize, SLSQP).
+    Asymmetry is removed first (the symmetric part is the nearest symmetric matrix).
+    """
+    from scipy.optimize import minimize
+
+    sym = 0.5 * (inertia + inertia.T)
+    moments, axes = np.linalg.eigh(sym)
+    cone = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0], [-1.0, 1, 1], [1, -1.0, 1], [1, 1, -1.0]])
+    result = minimize(
+        lambda x: float(np.sum((x - moments) ** 2)),
+        np.clip(moments, 0.0, None),
+        jac=lambda x: 2.0 * (x - moments),
+        constraints=[{"type": "ineq", "fun": lambda x: cone @ x, "jac": lambda x: cone}],
+        method="SLSQP",
+        options={"ftol": 1e-30, "maxiter": 200},
+    )
+    fixed = np.clip(result.x, 0.0, None)
+    # tiny round-off of the QP may leave the triangle inequality violated by ~1e-16: close it exactly
+    fixed[np.argmax(fixed)] = min(float(fixed.max()), float(np.sum(fixed) - fixed.max()))
+    return (axes * fixed) @ axes.T
 
 
 def _frozen(arr: Any, dtype: Any = float) -> np.ndarray:
