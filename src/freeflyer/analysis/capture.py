@@ -273,7 +273,7 @@ def optimal_capture_posture(
         raise ValueError(
             f"R_plus = {R_plus!r} m is outside the reachable workspace [{reach.R_min:.6g}, {reach.R_max:.6g}] m of {reach.end_effector!r}"
         )
-    box = search.joint_box(model.joint_lower, model.joint_upper)
+    box = search.model_box(model)
     bounds = [(None, None) if f else (lo, hi) for lo, hi, f in zip(box.lo, box.hi, box.free, strict=True)]
 
     def constraint(q: np.ndarray) -> np.ndarray:
