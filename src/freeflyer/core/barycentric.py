@@ -170,7 +170,7 @@ def compute(model: MassTree) -> BarycentricVectors:
     slide = np.zeros((n_j, n))
     slide_axis = np.zeros((n_j, 3))
     for j in np.flatnonzero(prismatic):
-        c = j + 1
+        c = int(j) + 1
         slide[j] = model.subtree[c].astype(float) - subtree_mass[c] / total
         slide_axis[j] = model.joint_rotation[c] @ model.joint_axis[c]
     out = BarycentricVectors(
