@@ -177,10 +177,6 @@ def run_case(model: ff.Model, rng: np.random.Generator) -> None:
     check("C+ vs pin.rnea", c_bary, c_pin)
 
     # spacecraft held fixed: the returned wrench keeps the spacecraft at rest in Pinocchio
-    if model.has_prismatic:  # its bias acceleration is the barycentric closed form, revolute joints only
-        with pytest.raises(ff.ModelError, match="prismatic"):
-            ff.mechanics.spacecraft_fixed_dynamics(m, c.q, c.velocity[6:], c.tau, c.attitude, external=ext)
-        return
     qdd, f_s, n_s = ff.mechanics.spacecraft_fixed_dynamics(m, c.q, c.velocity[6:], c.tau, c.attitude, external=ext)
     nu_fixed = np.concatenate([np.zeros(6), c.velocity[6:]])
     nu_dot_fixed = pin.aba(pm, data, c.q_pin, nu_fixed, c.base_wrench(f_s, n_s, c.tau), c.fext(c.wrench))
