@@ -62,10 +62,14 @@ class InertiaBlocks:
 
 
 # ------------------------------------------------------------------ the barycentric reference (1991 eqs. 16-17)
-def _pair_inertias(model: Model, rot: np.ndarray) -> np.ndarray:
-    """Kernel: the pair inertias D_ij (C, B, B, 3, 3) of 1991 eq. 17, spacecraft frame."""
+def _pair_inertias(model: Model, rot: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
+    """Kernel: the pair inertias D_ij (C, B, B, 3, 3) of 1991 eq. 17, spacecraft frame.
+
+    With prismatic joints the barycentric vectors are taken at ``q`` (docs/theory.md) and the
+    diagonal blocks are summed there instead of read from the table made at build time.
+    """
     # w[c, k, i] = T_i v_ik; a_ij = T_i v_(i->j) = w[:, j, i]; b_ij = T_j v_(j->i) = w[:, i, j]
-    w = _rotate_table(rot, model.bary.point_table)
+    w = _rotated_tables(model, rot, q)
     b = w
     a = np.swapaxes(w, 1, 2)
     dot = np.sum(a * b, axis=-1)
@@ -73,44 +77,35 @@ def _pair_inertias(model: Model, rot: np.ndarray) -> np.ndarray:
     idx = np.arange(3)
     out[..., idx, idx] -= dot[..., None]
     out *= model.total_mass
-    diag = np.matmul(np.matmul(rot, model.bary.diagonal_inertia), np.swapaxes(rot, -1, -2))
+    if model.has_prismatic:
+        mass = model.mass
+        sq = np.einsum("k,ckix,ckix->ci", mass, w, w)
+        own = np.matmul(np.matmul(rot, model.inertia), np.swapaxes(rot, -1, -2))
+        diag = own + sq[..., None, None] * np.eye(3) - np.einsum("k,ckix,ckiy->cixy", mass, w, w)
+    else:
+        diag = np.matmul(np.matmul(rot, model.bary.diagonal_inertia), np.swapaxes(rot, -1, -2))
     bodies = np.arange(model.n_bodies)
     out[:, bodies, bodies] = diag
     return out
+
+
+def _rotated_tables(model: Model, rot: np.ndarray, q: np.ndarray | None) -> np.ndarray:
+    """w[c, k, i] = T_i v_ik(q) (C, B, B, 3): the barycentric vectors of the body CMs, spacecraft frame, at q."""
+    w = _rotate_table(rot, model.bary.point_table)
+    if model.has_prismatic:
+        if q is None:
+            raise TypeError("_rotated_tables: q is needed for a model with prismatic joints")
+        slides = _slides(model, rot, q)  # (C, N, 3)
+        parents = model.parent[1:]
+        for j in np.flatnonzero(model.prismatic):
+            w[:, :, parents[j]] += slides[:, j, None, :] * model.bary.slide_coefficient[j][None, :, None]
+    return w
 
 
 def _rotate_table(rot: np.ndarray, table: np.ndarray) -> np.ndarray:
     """w[c, p, b] = T_b table[p, b] for rot (C, B, 3, 3) and a barycentric table (P, B, 3): (C, P, B, 3)."""
     r = rot[:, None]
     return r[..., 0] * table[None, :, :, None, 0] + r[..., 1] * table[None, :, :, None, 1] + r[..., 2] * table[None, :, :, None, 2]
-
-
-def _sliding_pair_inertias(model: Model, rot: np.ndarray, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Pair inertias D_ij (C, B, B, 3, 3) at q with prismatic joints, and w[c, k, i] = T_i v_ik(q) (C, B, B, 3).
-
-    The barycentric vectors of the parent of a prismatic joint are affine in its q
-    (:mod:`freeflyer.core.barycentric`), so the diagonal blocks are summed at q rather than read
-    from the table made at build time.
-    """
-    w = _rotate_table(rot, model.bary.point_table)[:, :, :]  # (C, K, B, 3)
-    slides = _slides(model, rot, q)  # (C, N, 3)
-    parents = model.parent[1:]
-    for j in np.flatnonzero(model.prismatic):
-        w[:, :, parents[j]] += slides[:, j, None, :] * model.bary.slide_coefficient[j][None, :, None]
-    b = w
-    a = np.swapaxes(w, 1, 2)
-    dot = np.sum(a * b, axis=-1)
-    out = b[..., :, None] * a[..., None, :]
-    idx = np.arange(3)
-    out[..., idx, idx] -= dot[..., None]
-    out *= model.total_mass
-    mass = model.mass
-    own = np.matmul(np.matmul(rot, model.inertia), np.swapaxes(rot, -1, -2))
-    sq = np.einsum("k,ckix,ckix->ci", mass, w, w)
-    diag = own + sq[..., None, None] * np.eye(3) - np.einsum("k,ckix,ckiy->cixy", mass, w, w)
-    bodies = np.arange(model.n_bodies)
-    out[:, bodies, bodies] = diag
-    return out, w
 
 
 def _hplus_barycentric(model: Model, q: np.ndarray) -> np.ndarray:
@@ -126,10 +121,7 @@ def _hplus_barycentric(model: Model, q: np.ndarray) -> np.ndarray:
     """
     rot = _rotations(model, q)
     sliding = model.prismatic
-    if sliding.any():
-        pair, w = _sliding_pair_inertias(model, rot, q)
-    else:
-        pair = _pair_inertias(model, rot)  # (C, B, B, 3, 3)
+    pair = _pair_inertias(model, rot, q)  # (C, B, B, 3, 3)
     n = model.n_joints
     axes = joint_axes(model, rot)  # (C, N, 3), turning or sliding
     f = np.einsum("lj,clx->cjxl", model.subtree[1:].astype(float) * ~sliding[:, None], axes)  # F_j (C, B, 3, N)
@@ -142,7 +134,7 @@ def _hplus_barycentric(model: Model, q: np.ndarray) -> np.ndarray:
     out[:, 6:, 6:] = np.einsum("cixk,cijxy,cjyl->ckl", f, pair, f)
     if sliding.any():
         coef = model.bary.slide_coefficient  # (N, K): chi_l(k) - mu*_l, zero rows for revolute joints
-        y = np.einsum("k,lk,ckix->cilx", model.mass, coef, w)  # Y_il (C, B, N, 3)
+        y = np.einsum("k,lk,ckix->cilx", model.mass, coef, _rotated_tables(model, rot, q))  # Y_il (C, B, N, 3)
         cross = np.cross(y, axes[:, None, :, :])  # Y_il x u_l (C, B, N, 3)
         g = np.concatenate([np.broadcast_to(np.eye(3), (*f.shape[:2], 3, 3)), f], axis=-1)  # G_i = [1, F_i]
         col = np.einsum("cixk,cilx->ckl", g, cross)  # (C, 3 + N, N): d T / d(omega-part) d qdot_l
