@@ -33,7 +33,8 @@ __all__ = ["load", "load_toml", "load_urdf", "save", "to_toml_dict", "to_urdf_st
 
 _BODY_KEYS = {"name", "mass", "inertia", "com", "end_effector", "end_effector_name", "frame"}
 _JOINT_KEYS = {"name", "type", "parent", "child", "origin", "rpy", "axis", "limits"}
-_TOP_KEYS = {"name", "description", "bodies", "joints", "end_effectors"}
+_TOP_KEYS = {"name", "description", "bodies", "joints", "end_effectors", "corrections"}
+_CORRECTION_KEYS = {"body", "field", "given", "why"}
 _EE_KEYS = {"name", "body", "point"}
 
 #: What a user may pass as ``end_effectors=``: link (body) names, or (name, link, point) triples.
@@ -151,14 +152,24 @@ def from_dict(data: dict[str, Any], source: str = "", *, end_effectors: EndEffec
     if not isinstance(bodies, list) or not bodies:
         raise ModelError("bodies", "is missing or empty", "add [[bodies]] tables, the first being the spacecraft")
     builder = ModelBuilder(str(data.get("name", Path(source).stem or "model")))
+    declared, records = _declared_corrections(data, source)
     for i, body in enumerate(bodies):
         path = f"bodies[{i}]"
         _check_keys(body, _BODY_KEYS, path)
         frame = bool(body.get("frame", False))
+        name = _require(body, "name", path, "name every body")
+        if name in declared:
+            if "inertia" in body:
+                raise ModelError(f"{path} ({name}).inertia", "is given twice: here and in [[corrections]]", "keep one of them")
+            inertia: Any = declared.pop(name)
+        elif frame:
+            inertia = 0.0
+        else:
+            inertia = _require(body, "inertia", path, "give the inertia about the CM (3x3, [Ixx, Iyy, Izz] or a number)")
         builder.add_body(
-            _require(body, "name", path, "name every body"),
+            name,
             mass=0.0 if frame else _require(body, "mass", path, "give the mass in kg"),
-            inertia=0.0 if frame else _require(body, "inertia", path, "give the inertia about the CM (3x3, [Ixx, Iyy, Izz] or a number)"),
+            inertia=inertia,
             com=body.get("com", (0.0, 0.0, 0.0)),
             end_effector=body.get("end_effector"),
             end_effector_name=body.get("end_effector_name"),
@@ -197,7 +208,42 @@ def from_dict(data: dict[str, Any], source: str = "", *, end_effectors: EndEffec
             )
     for name, body, point in named:
         builder.add_end_effector(name, body=body, point=point)
-    return builder.build(source=source)
+    if declared:
+        unknown = sorted(declared)[0]
+        raise ModelError("corrections", f"names body {unknown!r}, which is not in [[bodies]]", "name a body of the model")
+    return builder.build(source=source, corrections=records)
+
+
+def _declared_corrections(data: dict[str, Any], source: str) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
+    """``[[corrections]]`` of a TOML file: published inertias that are not physical, corrected on loading.
+
+    Each entry gives a body, ``field = "inertia"``, the published value (``given``) and ``why``; the
+    body's inertia is the nearest physical one to ``given`` (:func:`~freeflyer.core.model.nearest_physical_inertia`),
+    recorded in ``Model.corrections``. A ``given`` that is physical is an error (nothing to correct).
+    """
+    listed = data.get("corrections", [])
+    if not isinstance(listed, list):
+        raise ModelError("corrections", "expected an array of tables", "write [[corrections]] tables")
+    used: dict[str, np.ndarray] = {}
+    records: list[dict[str, Any]] = []
+    for i, entry in enumerate(listed):
+        path = f"corrections[{i}]"
+        _check_keys(entry, _CORRECTION_KEYS, path)
+        body = str(_require(entry, "body", path, "name the body whose published inertia is corrected"))
+        if entry.get("field", "inertia") != "inertia":
+            raise ModelError(f"{path}.field", f"cannot correct {entry.get('field')!r}", 'only field = "inertia" is corrected')
+        given = np.asarray(_require(entry, "given", path, "give the published 3x3 inertia"), dtype=float)
+        if given.shape != (3, 3):
+            raise ModelError(f"{path}.given", f"expected a 3x3 matrix, got shape {given.shape}", "give the published 3x3 inertia")
+        where = f"{source or 'model'}: {path} ({body}).inertia"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ModelCorrectionWarning)  # declared in the file: recorded, not warned
+            before = len(records)
+            used[body] = physical_inertia(given, where, False, records)
+        if len(records) == before:
+            raise ModelError(f"{path}.given", "is a physical inertia: there is nothing to correct", "give it as the body's inertia instead")
+        records[-1]["why"] = str(entry.get("why", ""))
+    return used, records
 
 
 def _list(arr: np.ndarray) -> list[Any]:

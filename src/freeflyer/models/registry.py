@@ -15,6 +15,7 @@ from ..core.model import Model
 from ..io.model_files import EndEffectors, load
 from .papers import papadopoulos1991, papadopoulos1992
 from .spacecraft import spacecraft_7dof
+from .zoo import ZOO, astrobee_arm, dual_arm_servicer, ets7, ssrms_station
 
 __all__ = ["BUILTIN_MODELS", "load_model"]
 
@@ -24,6 +25,10 @@ BUILTIN_MODELS: dict[str, tuple[str, Callable[[], Model]]] = {
     "papadopoulos1992": ("Papadopoulos 1992, Table I, two arms", lambda: papadopoulos1992(arms=2)),
     "papadopoulos1992-one-arm": ("Papadopoulos 1992, Table I, manipulator 2 removed", lambda: papadopoulos1992(arms=1)),
     "spacecraft-7dof": ("1500 kg bus with a 7-DOF S-R-S arm (KUKA iiwa kinematics x2), the 3D benchmark system", spacecraft_7dof),
+    "ssrms-station": (f"zoo: {ZOO['ssrms-station'][1]}", ssrms_station),
+    "ets7": (f"zoo: {ZOO['ets7'][1]}", ets7),
+    "dual-arm-servicer": (f"zoo: {ZOO['dual-arm-servicer'][1]}", dual_arm_servicer),
+    "astrobee-arm": (f"zoo: {ZOO['astrobee-arm'][1]}", astrobee_arm),
 }
 
 _MODEL_SUFFIXES = (".toml", ".urdf", ".xml")
