@@ -343,3 +343,17 @@ def test_inspect_shows_joint_types_the_end_effector_rule_and_corrections(tmp_pat
     assert result.exit_code == 1 and result.stdout == ""
     assert result.stderr.splitlines()[0].startswith("warning: ")  # the correction is reported before the error
     assert result.stderr.splitlines()[-1].startswith("error: ") and "'nope' is not a body or frame" in result.stderr
+
+
+def test_inspect_reads_all_three_formats(tmp_path: Path) -> None:
+    from io_files import HAND_WRITTEN
+
+    mjcf = tmp_path / "arm.xml"
+    mjcf.write_text(HAND_WRITTEN, encoding="utf-8")
+    info = inspect_json(str(mjcf))
+    assert info["end_effector_rule"] == "leaf sites" and [j["type"] for j in info["joints"]] == ["revolute", "prismatic", "revolute"]
+    toml = tmp_path / "arm.toml"
+    ff.save(ff.load(mjcf), toml)
+    again = inspect_json(str(toml))
+    assert [j["name"] for j in again["joints"]] == [j["name"] for j in info["joints"]]
+    assert again["total_mass"] == pytest.approx(info["total_mass"], rel=1e-15)

@@ -150,7 +150,9 @@ URDF_SCREW = """<robot name="slider">
 def test_urdf_with_an_unsupported_joint_type(tmp_path: Path) -> None:
     path = tmp_path / "slider.urdf"
     path.write_text(URDF_SCREW, encoding="utf-8")
-    with raises_model_error(f"{path}: joint[0] (slide).type", "unsupported joint type 'screw'", "revolute, continuous, prismatic and fixed"):
+    with raises_model_error(
+        f"{path}: joint[0] (slide).type", "unsupported joint type 'screw'", "revolute, continuous, prismatic and fixed"
+    ):
         ff.load(path)
 
 

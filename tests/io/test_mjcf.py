@@ -23,6 +23,7 @@ from scipy.spatial.transform import Rotation
 
 import freeflyer as ff
 from freeflyer.io.mujoco_bridge import mujoco_state
+from io_files import HAND_WRITTEN
 from robots import REAL_ROBOTS, spacecraft_urdf
 
 RTOL = 1e-10
@@ -84,39 +85,6 @@ def urdf_to_mjcf(path: Path, tool: str) -> str:
         f'<mujoco model="{robot.get("name")}">\n  <compiler angle="radian" autolimits="true" boundmass="0" boundinertia="0"/>\n'
         f'  <option gravity="0 0 0"/>\n  <worldbody>\n{body(root, "    ")}  </worldbody>\n</mujoco>\n'
     )
-
-
-HAND_WRITTEN = """<mujoco model="offset_arm">
-  <compiler angle="radian" autolimits="true"/>
-  <option gravity="0 0 0"/>
-  <worldbody>
-    <body name="bus">
-      <freejoint name="root"/>
-      <inertial pos="0.05 -0.02 0.1" mass="400" diaginertia="60 70 50" quat="0.9 0.1 0.3 0.2"/>
-      <body name="camera_mast" pos="0 -0.8 0.3">
-        <inertial pos="0 0 0.2" mass="4" diaginertia="0.05 0.05 0.01"/>
-        <site name="camera"/>
-      </body>
-      <body name="upper" pos="0.6 0 0.2" quat="0.96 0 0.28 0">
-        <joint name="shoulder" type="hinge" pos="0.1 0.05 -0.05" axis="0 0.6 0.8" range="-2 2"/>
-        <inertial pos="0.4 0 0" mass="12" fullinertia="0.05 0.9 0.9 0.01 0 0.02"/>
-        <body name="slider" pos="0.8 0 0">
-          <joint name="extend" type="slide" axis="1 0.1 0" range="-0.2 0.3"/>
-          <inertial pos="0.3 0.02 0" mass="6" diaginertia="0.02 0.3 0.3"/>
-          <body name="wrist" pos="0.6 0 0" euler="0.3 -0.2 0.1">
-            <joint name="wrist" type="hinge" pos="0.05 0 0" axis="1 0 0"/>
-            <inertial pos="0.1 0 0.01" mass="2" diaginertia="0.01 0.012 0.015"/>
-            <body name="tool_plate" pos="0.2 0 0">
-              <inertial pos="0.02 0 0" mass="0.5" diaginertia="0.001 0.001 0.0015"/>
-              <site name="grip" pos="0.05 0.01 0"/>
-            </body>
-          </body>
-        </body>
-      </body>
-    </body>
-  </worldbody>
-</mujoco>
-"""
 
 
 def write(tmp_path: Path, text: str, name: str = "arm.xml") -> Path:
