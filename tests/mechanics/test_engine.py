@@ -77,12 +77,7 @@ def wrenches(model: ff.Model) -> list[ff.ExternalWrench]:
 def check_all(model: ff.Model, x: dict[str, np.ndarray]) -> None:
     """Every quantity with two algorithms: the engine against the barycentric closed form."""
     q, v, a = x["q"], x["v"], x["a"]
-    assert_rel(ff.end_effector_positions(model, q), ff.end_effector_positions(model, q, method="barycentric"))
-    assert_rel(ff.body_cm_positions(model, q), ff.body_cm_positions(model, q, method="barycentric"))
-    last = model.n_bodies - 1
-    assert_rel(ff.point_jacobian(model, q, last, [0.1, 0.2, 0.3]), ff.point_jacobian(model, q, last, [0.1, 0.2, 0.3], method="barycentric"))
-    assert_rel(ff.generalized_jacobian(model, q), ff.generalized_jacobian(model, q, method="barycentric"))
-    assert_rel(ff.system_inertia_matrix(model, q), ff.system_inertia_matrix(model, q, method="barycentric"))
+    check_kinematics(model, x)
     assert_rel(ff.nonlinear_forces(model, q, v)[:, 3:], ff.nonlinear_forces(model, q, v, method="barycentric")[:, 3:])
     ext = wrenches(model)
     args = (x["tau"], x["f"], x["n"], x["quat"])

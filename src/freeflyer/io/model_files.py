@@ -175,12 +175,7 @@ def from_dict(data: dict[str, Any], source: str = "", *, end_effectors: EndEffec
             end_effector_name=body.get("end_effector_name"),
             frame=frame,
         )
-    joints = data.get("joints", [])
-    if not isinstance(joints, list):
-        raise ModelError("joints", "expected an array of tables", "write joints as [[joints]] tables")
-    for i, joint in enumerate(joints):
-        path = f"joints[{i}]"
-        _check_keys(joint, _JOINT_KEYS, path)
+    for path, joint in _table_array(data, "joints", _JOINT_KEYS):
         builder.add_joint(
             _require(joint, "name", path, "name every joint"),
             parent=_require(joint, "parent", path, "name the parent body"),
@@ -193,12 +188,7 @@ def from_dict(data: dict[str, Any], source: str = "", *, end_effectors: EndEffec
         )
     named = _end_effector_specs(end_effectors, source)
     if not named:
-        listed = data.get("end_effectors", [])
-        if not isinstance(listed, list):
-            raise ModelError("end_effectors", "expected an array of tables", "write end effectors as [[end_effectors]] tables")
-        for i, entry in enumerate(listed):
-            path = f"end_effectors[{i}]"
-            _check_keys(entry, _EE_KEYS, path)
+        for path, entry in _table_array(data, "end_effectors", _EE_KEYS):
             named.append(
                 (
                     _require(entry, "name", path, "name every end effector"),
@@ -214,6 +204,18 @@ def from_dict(data: dict[str, Any], source: str = "", *, end_effectors: EndEffec
     return builder.build(source=source, corrections=records)
 
 
+def _table_array(data: dict[str, Any], key: str, allowed: set[str]) -> list[tuple[str, dict[str, Any]]]:
+    """(path, table) of each ``[[key]]`` table of a TOML file, keys checked; missing means none."""
+    listed = data.get(key, [])
+    if not isinstance(listed, list):
+        raise ModelError(key, "expected an array of tables", f"write them as [[{key}]] tables")
+    out = []
+    for i, entry in enumerate(listed):
+        _check_keys(entry, allowed, f"{key}[{i}]")
+        out.append((f"{key}[{i}]", entry))
+    return out
+
+
 def _declared_corrections(data: dict[str, Any], source: str) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
     """``[[corrections]]`` of a TOML file: published inertias that are not physical, corrected on loading.
 
@@ -221,14 +223,9 @@ def _declared_corrections(data: dict[str, Any], source: str) -> tuple[dict[str, 
     body's inertia is the nearest physical one to ``given`` (:func:`~freeflyer.core.model.nearest_physical_inertia`),
     recorded in ``Model.corrections``. A ``given`` that is physical is an error (nothing to correct).
     """
-    listed = data.get("corrections", [])
-    if not isinstance(listed, list):
-        raise ModelError("corrections", "expected an array of tables", "write [[corrections]] tables")
     used: dict[str, np.ndarray] = {}
     records: list[dict[str, Any]] = []
-    for i, entry in enumerate(listed):
-        path = f"corrections[{i}]"
-        _check_keys(entry, _CORRECTION_KEYS, path)
+    for path, entry in _table_array(data, "corrections", _CORRECTION_KEYS):
         body = str(_require(entry, "body", path, "name the body whose published inertia is corrected"))
         if entry.get("field", "inertia") != "inertia":
             raise ModelError(f"{path}.field", f"cannot correct {entry.get('field')!r}", 'only field = "inertia" is corrected')
