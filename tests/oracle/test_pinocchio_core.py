@@ -213,6 +213,7 @@ def urdf_round_trip(model: ff.Model, directory: str) -> tuple[ff.Model, Pinocchi
 def assert_same_model(loaded: ff.Model, model: ff.Model) -> None:
     assert loaded.body_names == model.body_names
     assert loaded.joint_names == model.joint_names
+    assert loaded.joint_type == model.joint_type
     np.testing.assert_array_equal(loaded.parent, model.parent)
     np.testing.assert_array_equal(loaded.end_effector_body, model.end_effector_body)
     np.testing.assert_array_equal(loaded.joint_lower, model.joint_lower)
@@ -279,6 +280,16 @@ def test_random_tree_with_prismatic_joints_matches_pinocchio(model: ff.Model, se
 @settings(max_examples=200)
 @given(model=random_trees(), seed=SEEDS)
 def test_random_tree_urdf_matches_pinocchio_urdf_parser(model: ff.Model, seed: int) -> None:
+    with tempfile.TemporaryDirectory() as directory:
+        loaded, system = urdf_round_trip(model, directory)
+    assert_same_model(loaded, model)
+    compare(loaded, system, np.random.default_rng(seed))
+
+
+@settings(max_examples=50)
+@given(model=random_trees(prismatic=0.4), seed=SEEDS)
+def test_random_tree_with_prismatic_joints_urdf_matches_pinocchio_urdf_parser(model: ff.Model, seed: int) -> None:
+    """Sliding joints written to URDF (type="prismatic", limits in m) read back by both parsers."""
     with tempfile.TemporaryDirectory() as directory:
         loaded, system = urdf_round_trip(model, directory)
     assert_same_model(loaded, model)

@@ -14,13 +14,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 from typer.testing import CliRunner
 
 import freeflyer as ff
 from freeflyer.cli import app
 from freeflyer.scenarios.scenario import load_scenario, scenario_from_dict
-from trees import build_random_model
+from trees import build_random_model, random_trees
 
 EXAMPLES = Path(__file__).parents[2] / "examples" / "scenarios"
 
@@ -68,15 +70,19 @@ def test_ten_seconds_of_torque_driven_motion_agree_with_mujoco(make) -> None:
     (measured: about 1e-11 on q and qdot, 1e-13 on r_cm and the attitude), and
     MuJoCo's system CM moves in a straight line at v_cm, as freeflyer's does.
     """
+    run_against_mujoco(make(), seed=3, duration=10.0, vigorous=True)
+
+
+def run_against_mujoco(model: ff.Model, seed: int, duration: float, vigorous: bool = False) -> None:
+    """Random piecewise-constant torques (new every 0.1 s) in both engines; states agree to 1e-6 every second."""
     import mujoco  # an oracle: a missing one fails the test
 
     from freeflyer.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
 
-    model = make()
-    rng = np.random.default_rng(3)
+    rng = np.random.default_rng(seed)
     x0 = moving_state(model, rng)
-    torques = rng.uniform(-10.0, 10.0, size=(100, model.n_joints))  # vigorous: joint rates reach 2-3 rad/s
-    dt, hold, duration = 1e-3, 0.1, 10.0
+    torques = rng.uniform(-10.0, 10.0, size=(round(duration / 0.1), model.n_joints))  # vigorous: joint rates reach 2-3 rad/s
+    dt, hold = 1e-3, 0.1
 
     mj_model = to_mujoco(model, timestep=dt, integrator="RK4")
     data = mujoco.MjData(mj_model)
@@ -98,8 +104,8 @@ def test_ten_seconds_of_torque_driven_motion_agree_with_mujoco(make) -> None:
         return torques[round(t / hold)]
 
     traj = ff.simulate(model, x0, duration, controller, sample_period=hold, rtol=1e-12, atol=1e-12, output_period=1.0)
-    assert traj.status == "finished" and np.allclose(traj.t, np.arange(11.0))
-    assert np.abs(traj.qdot).max() > 1.0, "the test motion should be vigorous"
+    assert traj.status == "finished" and np.allclose(traj.t, np.arange(round(duration) + 1.0))
+    assert np.abs(traj.qdot).max() > (1.0 if vigorous else 1e-3), "the test motion should move the joints"
     for k in range(1, len(traj)):
         other = mj_states[round(traj.t[k])]
         for name in ("q", "qdot", "omega", "r_cm", "v_cm"):
@@ -110,6 +116,13 @@ def test_ten_seconds_of_torque_driven_motion_agree_with_mujoco(make) -> None:
     # MuJoCo's own RK4 at 1 ms keeps its CM on the line to about 1e-10 (revolute) and 4.4e-9 (the
     # prismatic tree, whose light sliding links reach higher speeds): its integrator, not ours
     assert cm_error < (1e-8 if model.has_prismatic else 1e-9)
+
+
+@settings(max_examples=5, deadline=None)
+@given(random_trees(max_arms=2, max_joints=4, prismatic=0.4), st.integers(0, 1000))
+def test_random_trees_with_prismatic_joints_agree_with_mujoco(model: ff.Model, seed: int) -> None:
+    """Hypothesis trees with sliding joints: 2 s of random torques, freeflyer against MuJoCo (slide joints)."""
+    run_against_mujoco(model, seed=seed, duration=2.0)
 
 
 # ----------------------------------------------------------------------------- conservation

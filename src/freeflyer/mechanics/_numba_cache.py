@@ -126,7 +126,7 @@ def kernel(*, parallel: bool = False, inline: Literal["never", "always"] = "neve
     """``numba.njit`` with freeflyer's on-disk cache (see the module docstring)."""
 
     def wrap(func: Callable[..., Any]) -> Any:
-        dispatcher = numba.njit(cache=False, nogil=True, error_model="numpy", parallel=parallel, inline=inline)(func)
+        dispatcher = numba.njit(cache=False, nogil=True, error_model="numpy", fastmath={"contract"}, parallel=parallel, inline=inline)(func)
         dispatcher._cache = _Cache(func)  # type: ignore[attr-defined]
         return dispatcher
 
