@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from ._numba_cache import kernel
+from ._numba_cache import kernel, unowned_floats, unowned_ints
 from ._recursions import (
     centroidal_blocks,
     cholesky_solve,
@@ -303,30 +303,43 @@ def rk4_step(
     return ok
 
 
+@kernel(inline="always")
+def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - compiled
+    """The model, its external wrenches and the scratch of one trajectory from the two buffers of
+    :func:`~._engine.Stepper` (fewer arguments: numba unboxes each array argument at ~0.1 us a call).
+
+    ints = [B, W, NF, parent (B), ancestor (B x B), ext_i (W x 2)];
+    floats = [total mass, body (B x NF), ext_f (W x 9), work (work_size(B) + N)].
+    """
+    ints = unowned_ints(ints)  # views without reference counting: the caller holds both buffers
+    floats = unowned_floats(floats)
+    nb, nw, nf = ints[0], ints[1], ints[2]
+    o = 3
+    parent = ints[o : o + nb]
+    o += nb
+    ancestor = ints[o : o + nb * nb].reshape((nb, nb))
+    o += nb * nb
+    ext_i = ints[o : o + 2 * nw].reshape((nw, 2))
+    total_mass = floats[0]
+    f = 1
+    body = floats[f : f + nb * nf].reshape((nb, nf))
+    f += nb * nf
+    ext_f = floats[f : f + 9 * nw].reshape((nw, 9))
+    f += 9 * nw
+    work = floats[f:]
+    return parent, ancestor, ext_i, total_mass, body, ext_f, work, scratch(work, nb), work[work.shape[0] - (nb - 1) :]
+
+
 @kernel()
 def rk4_steps(
-    parent: np.ndarray,
-    body: np.ndarray,
-    ancestor: np.ndarray,
-    total_mass: float,
-    ext_i: np.ndarray,
-    ext_f: np.ndarray,
-    work: np.ndarray,
-    x: np.ndarray,
-    u: np.ndarray,
-    dt: float,
-    nsteps: int,
+    ints: np.ndarray, floats: np.ndarray, x: np.ndarray, u: np.ndarray, dt: float, nsteps: int
 ) -> int:  # pragma: no cover - compiled
-    """``nsteps`` RK4 steps of one state x in place under the held u.
+    """``nsteps`` RK4 steps of one state x in place under the held u (the model in the buffers of :func:`unpack`).
 
     Returns ``nsteps``; or k < nsteps when H+ was not positive definite in step k (k steps done);
     or -(k + 1) when x became non-finite in step k (k + 1 steps done).
-
-    ``work``: scratch of length :func:`~._tree.work_size` + N.
     """
-    nb = parent.shape[0]
-    s = scratch(work, nb)
-    q = work[work.shape[0] - (nb - 1) :]
+    parent, ancestor, ext_i, total_mass, body, ext_f, _, s, q = unpack(ints, floats)
     for step in range(nsteps):
         if not rk4_step(x, u, dt, parent, body, ancestor, total_mass, ext_i, ext_f, s, q):
             return step
@@ -340,19 +353,8 @@ def rk4_steps(
 
 @kernel()
 def state_derivative(
-    x: np.ndarray,
-    u: np.ndarray,
-    parent: np.ndarray,
-    body: np.ndarray,
-    ancestor: np.ndarray,
-    total_mass: float,
-    ext_i: np.ndarray,
-    ext_f: np.ndarray,
-    work: np.ndarray,
-    dx: np.ndarray,
+    ints: np.ndarray, floats: np.ndarray, x: np.ndarray, u: np.ndarray, dx: np.ndarray
 ) -> bool:  # pragma: no cover - compiled
-    """:func:`state_derivative_one` from Python (``work`` as in :func:`rk4_steps`)."""
-    nb = parent.shape[0]
-    s = scratch(work, nb)
-    q = work[work.shape[0] - (nb - 1) :]
+    """:func:`state_derivative_one` from Python (the model in the buffers of :func:`unpack`)."""
+    parent, ancestor, ext_i, total_mass, body, ext_f, _, s, q = unpack(ints, floats)
     return state_derivative_one(x, u, parent, body, ancestor, total_mass, ext_i, ext_f, s, q, dx.reshape((1, dx.shape[0])), 0)

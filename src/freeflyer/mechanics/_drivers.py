@@ -1,7 +1,8 @@
 """Batch drivers of the engine: loops over configurations (or trajectories) of the one-configuration kernels.
 
 Each driver is a serial kernel over a range ``[start, stop)`` of rows (one scratch buffer per
-range) and a parallel kernel that cuts the batch into blocks of :data:`BLOCK` rows and runs the
+range, made by :class:`Batched` and passed in; one row per thread for the parallel kernel) and a
+parallel kernel that cuts the batch into blocks of :data:`BLOCK` rows and runs the
 serial kernel on each block with ``prange``. Small batches call the serial kernel directly (no
 thread start-up); :class:`Batched` chooses. The one-configuration kernels are inlined into the
 serial range kernels only, never into a ``prange`` body.
@@ -19,7 +20,8 @@ from numba import prange
 
 from ._configuration import accelerations_one, hplus_one, jstar_one, point_jacobian_one, points_one, rk4_step, state_derivative_one
 from ._numba_cache import kernel
-from ._recursions import kinematics, newton_euler, prepare, scratch, work_size_jit
+from ._recursions import kinematics, newton_euler, prepare, scratch
+from ._tree import work_size
 
 __all__ = [
     "BLOCK",
@@ -37,6 +39,8 @@ __all__ = [
 
 #: Rows per parallel block (one scratch buffer each).
 BLOCK = 64
+#: The index of the numba thread running a parallel block: its row of the scratch buffers.
+_thread = numba.get_thread_id
 
 
 class Batched:
@@ -49,29 +53,38 @@ class Batched:
         self.serial, self.parallel = serial, parallel
         self.__doc__ = serial.__doc__
 
-    def __call__(self, size: int, *args: Any) -> Any:
+    def __call__(self, size: int, n_bodies: int, *args: Any) -> Any:
+        """Run on ``size`` rows of a tree of ``n_bodies`` bodies; the scratch buffers are made here.
+
+        The kernels make views of their scratch without reference counting (cheaper), so the
+        buffers must outlive the call: they are arguments, held by this frame.
+        """
+        length = work_size(n_bodies)
         if size >= self.PARALLEL_MIN and numba.get_num_threads() > 1:
-            return self.parallel(*args)
-        return self.serial(0, size, *args)
+            threads = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # every thread id is below it
+            return self.parallel(*args, np.empty((threads, length)))
+        return self.serial(0, size, *args, np.empty(length))
 
 
 # ----------------------------------------------------------------- kinematics
 @kernel()
 def _frames_range(
-    start: int, stop: int, Q: np.ndarray, parent: np.ndarray, body: np.ndarray, ROT: np.ndarray, POS: np.ndarray
+    start: int, stop: int, Q: np.ndarray, parent: np.ndarray, body: np.ndarray, ROT: np.ndarray, POS: np.ndarray, work: np.ndarray
 ) -> None:  # pragma: no cover
     """⁰T_k and the body frame origins (from O) of rows start..stop."""
     nb = parent.shape[0]
-    s = scratch(np.empty(work_size_jit(nb)), nb)
+    s = scratch(work, nb)
     for i in range(start, stop):
         kinematics(Q[i], parent, body, ROT[i], POS[i], s.axis, s.mom)
 
 
 @kernel(parallel=True)
-def _frames_parallel(Q: np.ndarray, parent: np.ndarray, body: np.ndarray, ROT: np.ndarray, POS: np.ndarray) -> None:  # pragma: no cover
+def _frames_parallel(
+    Q: np.ndarray, parent: np.ndarray, body: np.ndarray, ROT: np.ndarray, POS: np.ndarray, WORK: np.ndarray
+) -> None:  # pragma: no cover
     size = Q.shape[0]
     for b in prange((size + BLOCK - 1) // BLOCK):
-        _frames_range(b * BLOCK, min(size, (b + 1) * BLOCK), Q, parent, body, ROT, POS)
+        _frames_range(b * BLOCK, min(size, (b + 1) * BLOCK), Q, parent, body, ROT, POS, WORK[_thread()])
 
 
 @kernel()
@@ -85,20 +98,28 @@ def _points_range(
     pbody: np.ndarray,
     ppoint: np.ndarray,
     OUT: np.ndarray,
+    work: np.ndarray,
 ) -> None:  # pragma: no cover
     """Points relative to the system CM of rows start..stop."""
-    s = scratch(np.empty(work_size_jit(parent.shape[0])), parent.shape[0])
+    s = scratch(work, parent.shape[0])
     for i in range(start, stop):
         points_one(Q[i], parent, body, total_mass, pbody, ppoint, s, OUT[i])
 
 
 @kernel(parallel=True)
 def _points_parallel(
-    Q: np.ndarray, parent: np.ndarray, body: np.ndarray, total_mass: float, pbody: np.ndarray, ppoint: np.ndarray, OUT: np.ndarray
+    Q: np.ndarray,
+    parent: np.ndarray,
+    body: np.ndarray,
+    total_mass: float,
+    pbody: np.ndarray,
+    ppoint: np.ndarray,
+    OUT: np.ndarray,
+    WORK: np.ndarray,
 ) -> None:  # pragma: no cover
     size = Q.shape[0]
     for b in prange((size + BLOCK - 1) // BLOCK):
-        _points_range(b * BLOCK, min(size, (b + 1) * BLOCK), Q, parent, body, total_mass, pbody, ppoint, OUT)
+        _points_range(b * BLOCK, min(size, (b + 1) * BLOCK), Q, parent, body, total_mass, pbody, ppoint, OUT, WORK[_thread()])
 
 
 # ----------------------------------------------------------------- Jacobians and H+
@@ -114,9 +135,10 @@ def _point_jacobian_range(
     pbody: np.ndarray,
     ppoint: np.ndarray,
     OUT: np.ndarray,
+    work: np.ndarray,
 ) -> None:  # pragma: no cover
     """J+ of points of rows start..stop."""
-    s = scratch(np.empty(work_size_jit(parent.shape[0])), parent.shape[0])
+    s = scratch(work, parent.shape[0])
     for i in range(start, stop):
         point_jacobian_one(Q[i], parent, body, ancestor, total_mass, pbody, ppoint, s, OUT[i])
 
@@ -131,10 +153,13 @@ def _point_jacobian_parallel(
     pbody: np.ndarray,
     ppoint: np.ndarray,
     OUT: np.ndarray,
+    WORK: np.ndarray,
 ) -> None:  # pragma: no cover
     size = Q.shape[0]
     for b in prange((size + BLOCK - 1) // BLOCK):
-        _point_jacobian_range(b * BLOCK, min(size, (b + 1) * BLOCK), Q, parent, body, ancestor, total_mass, pbody, ppoint, OUT)
+        _point_jacobian_range(
+            b * BLOCK, min(size, (b + 1) * BLOCK), Q, parent, body, ancestor, total_mass, pbody, ppoint, OUT, WORK[_thread()]
+        )
 
 
 @kernel()
@@ -149,9 +174,10 @@ def _jstar_range(
     ee_body: np.ndarray,
     ee_point: np.ndarray,
     OUT: np.ndarray,
+    work: np.ndarray,
 ) -> None:  # pragma: no cover
     """J* of rows start..stop."""
-    s = scratch(np.empty(work_size_jit(parent.shape[0])), parent.shape[0])
+    s = scratch(work, parent.shape[0])
     for i in range(start, stop):
         jstar_one(Q[i], parent, body, ancestor, total_mass, ee_body, ee_point, s, OUT[i])
 
@@ -166,29 +192,50 @@ def _jstar_parallel(
     ee_body: np.ndarray,
     ee_point: np.ndarray,
     OUT: np.ndarray,
+    WORK: np.ndarray,
 ) -> None:  # pragma: no cover
     size = Q.shape[0]
     for b in prange((size + BLOCK - 1) // BLOCK):
-        _jstar_range(b * BLOCK, min(size, (b + 1) * BLOCK), Q, parent, body, ancestor, total_mass, ee_body, ee_point, OUT)
+        _jstar_range(
+            b * BLOCK,
+            min(size, (b + 1) * BLOCK),
+            Q,
+            parent,
+            body,
+            ancestor,
+            total_mass,
+            ee_body,
+            ee_point,
+            OUT,
+            WORK[_thread()],
+        )
 
 
 @kernel()
 def _hplus_range(
-    start: int, stop: int, Q: np.ndarray, parent: np.ndarray, body: np.ndarray, ancestor: np.ndarray, total_mass: float, OUT: np.ndarray
+    start: int,
+    stop: int,
+    Q: np.ndarray,
+    parent: np.ndarray,
+    body: np.ndarray,
+    ancestor: np.ndarray,
+    total_mass: float,
+    OUT: np.ndarray,
+    work: np.ndarray,
 ) -> None:  # pragma: no cover
     """H+ of rows start..stop."""
-    s = scratch(np.empty(work_size_jit(parent.shape[0])), parent.shape[0])
+    s = scratch(work, parent.shape[0])
     for i in range(start, stop):
         hplus_one(Q[i], parent, body, ancestor, total_mass, s, OUT[i])
 
 
 @kernel(parallel=True)
 def _hplus_parallel(
-    Q: np.ndarray, parent: np.ndarray, body: np.ndarray, ancestor: np.ndarray, total_mass: float, OUT: np.ndarray
+    Q: np.ndarray, parent: np.ndarray, body: np.ndarray, ancestor: np.ndarray, total_mass: float, OUT: np.ndarray, WORK: np.ndarray
 ) -> None:  # pragma: no cover
     size = Q.shape[0]
     for b in prange((size + BLOCK - 1) // BLOCK):
-        _hplus_range(b * BLOCK, min(size, (b + 1) * BLOCK), Q, parent, body, ancestor, total_mass, OUT)
+        _hplus_range(b * BLOCK, min(size, (b + 1) * BLOCK), Q, parent, body, ancestor, total_mass, OUT, WORK[_thread()])
 
 
 # ----------------------------------------------------------------- dynamics
@@ -208,9 +255,10 @@ def _inverse_range(
     EXT: np.ndarray,
     accelerate: bool,
     OUT: np.ndarray,
+    work: np.ndarray,
 ) -> None:  # pragma: no cover
     """Rows [omega0, q] of H+ zddot0 + C+ - Q_u - Q_ext of rows start..stop (accelerate False: zddot0 = 0)."""
-    s = scratch(np.empty(work_size_jit(parent.shape[0])), parent.shape[0])
+    s = scratch(work, parent.shape[0])
     for i in range(start, stop):
         prepare(Q[i], parent, body, s, True)
         newton_euler(body, parent, total_mass, s, V[i], A[i], accelerate, U[i], T0[i], ext_i, EXT[i], OUT[i])
@@ -230,10 +278,27 @@ def _inverse_parallel(
     EXT: np.ndarray,
     accelerate: bool,
     OUT: np.ndarray,
+    WORK: np.ndarray,
 ) -> None:  # pragma: no cover
     size = Q.shape[0]
     for b in prange((size + BLOCK - 1) // BLOCK):
-        _inverse_range(b * BLOCK, min(size, (b + 1) * BLOCK), Q, V, A, U, T0, parent, body, total_mass, ext_i, EXT, accelerate, OUT)
+        _inverse_range(
+            b * BLOCK,
+            min(size, (b + 1) * BLOCK),
+            Q,
+            V,
+            A,
+            U,
+            T0,
+            parent,
+            body,
+            total_mass,
+            ext_i,
+            EXT,
+            accelerate,
+            OUT,
+            WORK[_thread()],
+        )
 
 
 @kernel()
@@ -252,9 +317,10 @@ def _forward_range(
     EXT: np.ndarray,
     OUT: np.ndarray,
     OK: np.ndarray,
+    work: np.ndarray,
 ) -> None:  # pragma: no cover
     """zddot0 of rows start..stop; OK[i] False where H+ is not positive definite."""
-    s = scratch(np.empty(work_size_jit(parent.shape[0])), parent.shape[0])
+    s = scratch(work, parent.shape[0])
     for i in range(start, stop):
         OK[i] = accelerations_one(Q[i], V[i], U[i], T0[i], parent, body, ancestor, total_mass, ext_i, EXT[i], s, OUT[i])
 
@@ -273,10 +339,27 @@ def _forward_parallel(
     EXT: np.ndarray,
     OUT: np.ndarray,
     OK: np.ndarray,
+    WORK: np.ndarray,
 ) -> None:  # pragma: no cover
     size = Q.shape[0]
     for b in prange((size + BLOCK - 1) // BLOCK):
-        _forward_range(b * BLOCK, min(size, (b + 1) * BLOCK), Q, V, U, T0, parent, body, ancestor, total_mass, ext_i, EXT, OUT, OK)
+        _forward_range(
+            b * BLOCK,
+            min(size, (b + 1) * BLOCK),
+            Q,
+            V,
+            U,
+            T0,
+            parent,
+            body,
+            ancestor,
+            total_mass,
+            ext_i,
+            EXT,
+            OUT,
+            OK,
+            WORK[_thread()],
+        )
 
 
 @kernel()
@@ -293,9 +376,10 @@ def _derivative_range(
     EXT: np.ndarray,
     OUT: np.ndarray,
     OK: np.ndarray,
+    work: np.ndarray,
 ) -> None:  # pragma: no cover
     """d/dt of the flat states of rows start..stop."""
-    s = scratch(np.empty(work_size_jit(parent.shape[0])), parent.shape[0])
+    s = scratch(work, parent.shape[0])
     q = np.empty(parent.shape[0] - 1)
     for i in range(start, stop):
         OK[i] = state_derivative_one(X[i], U[i], parent, body, ancestor, total_mass, ext_i, EXT[i], s, q, OUT, i)
@@ -313,10 +397,25 @@ def _derivative_parallel(
     EXT: np.ndarray,
     OUT: np.ndarray,
     OK: np.ndarray,
+    WORK: np.ndarray,
 ) -> None:  # pragma: no cover
     size = X.shape[0]
     for b in prange((size + BLOCK - 1) // BLOCK):
-        _derivative_range(b * BLOCK, min(size, (b + 1) * BLOCK), X, U, parent, body, ancestor, total_mass, ext_i, EXT, OUT, OK)
+        _derivative_range(
+            b * BLOCK,
+            min(size, (b + 1) * BLOCK),
+            X,
+            U,
+            parent,
+            body,
+            ancestor,
+            total_mass,
+            ext_i,
+            EXT,
+            OUT,
+            OK,
+            WORK[_thread()],
+        )
 
 
 # ----------------------------------------------------------------- rollouts with a joint PD in the loop
@@ -345,6 +444,7 @@ def _rollout_range(
     US: np.ndarray,
     SAT: np.ndarray,
     DONE: np.ndarray,
+    work: np.ndarray,
 ) -> None:  # pragma: no cover
     """Fixed-step RK4 of trajectories start..stop (rows of X0 (K, S)) with the joint PD u = ff[k] + kp (qref - q) + kd (vref - qdot).
 
@@ -357,7 +457,7 @@ def _rollout_range(
     n = nb - 1
     size = X0.shape[1]
     width = ff.shape[2]
-    s = scratch(np.empty(work_size_jit(nb)), nb)
+    s = scratch(work, nb)
     q = np.empty(n)
     x = np.empty(size)
     u = np.zeros(n + 6)
@@ -431,6 +531,7 @@ def _rollout_parallel(
     US: np.ndarray,
     SAT: np.ndarray,
     DONE: np.ndarray,
+    WORK: np.ndarray,
 ) -> None:  # pragma: no cover
     for b in prange(X0.shape[0]):
         _rollout_range(
@@ -457,6 +558,7 @@ def _rollout_parallel(
             US,
             SAT,
             DONE,
+            WORK[_thread()],
         )
 
 

@@ -72,7 +72,7 @@ def frames(model: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n_b = t.parent.shape[0]
     rot = np.empty((flat.shape[0], n_b, 3, 3))
     pos = np.empty((flat.shape[0], n_b, 3))
-    _drivers.frames_batch(flat.shape[0], flat, t.parent, t.body, rot, pos)
+    _drivers.frames_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, rot, pos)
     return rot.reshape((*batch, n_b, 3, 3)), pos.reshape((*batch, n_b, 3))
 
 
@@ -89,7 +89,7 @@ def points(model: Any, q: np.ndarray, bodies: Any, pts: Any) -> np.ndarray:
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
     out = np.empty((flat.shape[0], b.shape[0], 3))
-    _drivers.points_batch(flat.shape[0], flat, t.parent, t.body, t.total_mass, b, p, out)
+    _drivers.points_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.total_mass, b, p, out)
     return out.reshape((*batch, b.shape[0], 3))
 
 
@@ -100,7 +100,7 @@ def point_jacobians(model: Any, q: np.ndarray, bodies: Any, pts: Any) -> np.ndar
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
     out = np.empty((flat.shape[0], b.shape[0], 6, 6 + t.n_joints))
-    _drivers.point_jacobian_batch(flat.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, b, p, out)
+    _drivers.point_jacobian_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, b, p, out)
     return out.reshape((*batch, b.shape[0], 6, 6 + t.n_joints))
 
 
@@ -111,7 +111,7 @@ def generalized_jacobian(model: Any, q: np.ndarray) -> np.ndarray:
     flat = _flat(q, batch, (t.n_joints,))
     rows = 6 * t.ee_body.shape[0]
     out = np.empty((flat.shape[0], rows, t.n_joints))
-    _drivers.jstar_batch(flat.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, t.ee_body, t.ee_point, out)
+    _drivers.jstar_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, t.ee_body, t.ee_point, out)
     return out.reshape((*batch, rows, t.n_joints))
 
 
@@ -122,7 +122,7 @@ def inertia_matrix(model: Any, q: np.ndarray) -> np.ndarray:
     flat = _flat(q, batch, (t.n_joints,))
     size = 6 + t.n_joints
     out = np.empty((flat.shape[0], size, size))
-    _drivers.hplus_batch(flat.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, out)
+    _drivers.hplus_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, out)
     return out.reshape((*batch, size, size))
 
 
@@ -174,7 +174,9 @@ def residual_rows(
     acc_in = np.zeros(6 + n) if acceleration is None else acceleration
     batch, (qf, vf, af, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext, acc_in)
     out = np.empty((qf.shape[0], 3 + n))
-    _drivers.inverse_batch(qf.shape[0], qf, vf, af, uf, t0f, t.parent, t.body, t.total_mass, ext_i, ext_f, acceleration is not None, out)
+    _drivers.inverse_batch(
+        qf.shape[0], t.parent.shape[0], qf, vf, af, uf, t0f, t.parent, t.body, t.total_mass, ext_i, ext_f, acceleration is not None, out
+    )
     return out.reshape((*batch, 3 + n))
 
 
@@ -192,7 +194,9 @@ def accelerations(
     batch, (qf, vf, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext)
     out = np.empty((qf.shape[0], 6 + n))
     ok = np.empty(qf.shape[0], dtype=np.bool_)
-    _drivers.forward_batch(qf.shape[0], qf, vf, uf, t0f, t.parent, t.body, t.ancestor, t.total_mass, ext_i, ext_f, out, ok)
+    _drivers.forward_batch(
+        qf.shape[0], t.parent.shape[0], qf, vf, uf, t0f, t.parent, t.body, t.ancestor, t.total_mass, ext_i, ext_f, out, ok
+    )
     return out.reshape((*batch, 6 + n)), ok.reshape(batch)
 
 
@@ -207,7 +211,9 @@ def state_derivative(
     ext_i, ext_f = _wrench_data(ext, batch)
     out = np.empty_like(xf)
     ok = np.empty(xf.shape[0], dtype=np.bool_)
-    _drivers.derivative_batch(xf.shape[0], xf, _actuation(u, t, batch), t.parent, t.body, t.ancestor, t.total_mass, ext_i, ext_f, out, ok)
+    _drivers.derivative_batch(
+        xf.shape[0], t.parent.shape[0], xf, _actuation(u, t, batch), t.parent, t.body, t.ancestor, t.total_mass, ext_i, ext_f, out, ok
+    )
     return out.reshape((*batch, size)), ok.reshape(batch)
 
 
@@ -242,6 +248,7 @@ def rollout(
     ext_i, ext_f = _wrench_data(ext, (k,))
     _drivers.rollout_batch(
         k,
+        t.parent.shape[0],
         _own(x0),
         float(dt),
         int(steps),
@@ -290,16 +297,15 @@ class Stepper:
     def __init__(self, model: Any, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES) -> None:
         self.tree = t = tree(model)
         self.size = 13 + 2 * t.n_joints
-        self.ext_i = _own(ext[0], np.int64)
-        self.ext_f = _own(np.asarray(ext[1], dtype=np.float64).reshape(-1, 9))
-        self.work = np.empty(work_size(t.parent.shape[0]) + t.n_joints)
-        self.rk4: Callable[[np.ndarray, np.ndarray, float, int], int] = functools.partial(
-            _configuration.rk4_steps, t.parent, t.body, t.ancestor, t.total_mass, self.ext_i, self.ext_f, self.work
-        )
+        ext_i = np.asarray(ext[0], dtype=np.int64).reshape(-1, 2)
+        ext_f = np.asarray(ext[1], dtype=np.float64).reshape(-1, 9)
+        nb = t.parent.shape[0]
+        header = [nb, ext_i.shape[0], t.body.shape[1]]
+        self.ints = np.concatenate([header, t.parent, t.ancestor.ravel(), ext_i.ravel()]).astype(np.int64)
+        work = np.empty(work_size(nb) + t.n_joints)
+        self.floats = np.concatenate([[t.total_mass], t.body.ravel(), ext_f.ravel(), work])
+        self.rk4: Callable[[np.ndarray, np.ndarray, float, int], int] = functools.partial(_configuration.rk4_steps, self.ints, self.floats)
 
     def derivative(self, x: np.ndarray, u: np.ndarray, out: np.ndarray) -> bool:
         """out = d/dt x under u; False if H+ is not positive definite."""
-        t = self.tree
-        return bool(
-            _configuration.state_derivative(x, u, t.parent, t.body, t.ancestor, t.total_mass, self.ext_i, self.ext_f, self.work, out)
-        )
+        return bool(_configuration.state_derivative(self.ints, self.floats, x, u, out))

@@ -31,10 +31,14 @@ from pathlib import Path
 from typing import Any, Literal
 
 import numba
+import numpy as np
 import platformdirs
+from numba import types
+from numba.core import cgutils
 from numba.core.caching import CompileResultCacheImpl, FunctionCache, _CacheLocator, _SourceFileBackedLocatorMixin
+from numba.extending import intrinsic
 
-__all__ = ["CacheWarning", "cache_dir", "kernel"]
+__all__ = ["CacheWarning", "cache_dir", "kernel", "unowned_floats", "unowned_ints"]
 
 
 class CacheWarning(UserWarning):
@@ -131,3 +135,31 @@ def kernel(*, parallel: bool = False, inline: Literal["never", "always"] = "neve
         return dispatcher
 
     return wrap
+
+
+# ----------------------------------------------------------------- views without reference counting
+@intrinsic
+def _address(typingctx: Any, src: Any) -> Any:  # pragma: no cover - compiled
+    """The integer address ``src`` as a ``void *`` (for :func:`numba.carray`)."""
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        return builder.inttoptr(args[0], cgutils.voidptr_t)
+
+    return types.voidptr(src), codegen
+
+
+@kernel(inline="always")
+def unowned_floats(buffer: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
+    """``buffer`` (1-D float64, contiguous) as an array that does not own or count references to its memory.
+
+    Views of it cost ~12 ns instead of ~28 ns (no atomic reference counting): the scratch views
+    made at every call of a kernel from Python (~40 of them) are then ~0.6 us cheaper. Only for
+    buffers that the caller keeps alive for the whole call (arguments of the kernel).
+    """
+    return numba.carray(_address(buffer.ctypes.data), buffer.shape[0], np.float64)  # type: ignore[call-arg]
+
+
+@kernel(inline="always")
+def unowned_ints(buffer: np.ndarray) -> np.ndarray:  # pragma: no cover - compiled
+    """:func:`unowned_floats` for a 1-D int64 buffer."""
+    return numba.carray(_address(buffer.ctypes.data), buffer.shape[0], np.int64)  # type: ignore[call-arg]

@@ -51,7 +51,7 @@ from typing import Any
 
 import numpy as np
 
-from ._numba_cache import kernel
+from ._numba_cache import kernel, unowned_floats
 from ._tree import _AX, _C, _I, _M, _P0, _P1, _P2, _PR, _S, _T
 
 #: Scratch space of one configuration: views of one flat buffer, made once per batch range (or per
@@ -99,6 +99,7 @@ def scratch(work: np.ndarray, nb: int) -> Any:  # pragma: no cover - compiled
     n = nb - 1
     m = 3 + n
     size = 13 + 2 * n
+    work = unowned_floats(work)  # views without reference counting: the caller holds work
     o = 0
     rot = work[o : o + 9 * nb].reshape((nb, 3, 3))
     o += 9 * nb
