@@ -179,7 +179,8 @@ class PathIndependentWorkspace:
     resolution / 2 of a found singular radius (gaps narrower than
     ``merge_gap`` are not resolved). ``accuracy`` (m): of the PIW
     boundaries, polished on the singular set (the sampling resolution where
-    polishing failed).
+    polishing failed). ``criterion``: what counted as singular (the rows of
+    J*, the measure and its threshold).
     """
 
     model_name: str
@@ -195,6 +196,7 @@ class PathIndependentWorkspace:
     resolution: float
     accuracy: float
     merge_gap: float
+    criterion: str = "det J* = 0 (1992 eq. 17)"
 
     def __post_init__(self) -> None:
         _freeze(self)

@@ -19,7 +19,7 @@ Angles in rad (``theta_deg``-style values only in :mod:`freeflyer.papers.paper19
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -32,10 +32,12 @@ from ..mechanics.jacobians import end_effector_jacobian
 from ..mechanics.kinematics import end_effector_positions, forward_kinematics, system_cm
 from ..mechanics.planar import position_coefficients
 from . import _workspace_search as search
-from ._path_placement import PathDoesNotFitError, PathPlacement, approach_distance, place_path
-from ._workspace_reach import _jacobian_fun, end_effector_radius, reachable_workspace, singularity_measure
+from ._capture_path import PathMotion, free_floating_path_motion, path_checked_candidates, refine_candidates
+from ._path_placement import PathDoesNotFitError, PathPlacement, _check_path, _margin, _perpendiculars, approach_distance, place_path
+from ._workspace_reach import end_effector_radius, reachable_workspace, singularity_measure
 from ._workspace_results import PathIndependentWorkspace, _axes, _circle, _freeze
 from ._workspace_singular import path_independent_workspace
+from .singularity import SingularityCriterion
 
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
@@ -46,10 +48,12 @@ __all__ = [
     "CapturePlan",
     "CapturePosture",
     "PathDoesNotFitError",
+    "PathMotion",
     "PathPlacement",
     "approach_distance",
     "capture_families",
     "draw_system",
+    "free_floating_path_motion",
     "optimal_capture_posture",
     "place_path",
     "plan_capture",
@@ -197,13 +201,17 @@ def draw_system(
     return artists
 
 
-def _dexterity(model: Model, q: np.ndarray) -> np.ndarray:
-    """Product of the singular values of J* (1992 eq. 14; planar rows for a planar model), (...) for q (..., N).
+def _dexterity(model: Model, q: np.ndarray, criterion: SingularityCriterion | None = None) -> np.ndarray:
+    """What the capture posture maximises, (...) for q (..., N): the criterion's measure, absolute.
 
+    Default (``criterion`` None or measure ``"auto"``): the product of the
+    singular values of J* (1992 eq. 14; planar rows for a planar model):
     |det J*| when J* is square, sqrt(det J* J*ᵀ) (the manipulability) otherwise.
     """
-    jac = _jacobian_fun(model, None)(np.asarray(q, dtype=float))
-    return np.prod(np.linalg.svd(jac, compute_uv=False), axis=-1)
+    crit = criterion if criterion is not None else SingularityCriterion()
+    measure = "manipulability" if crit.measure == "auto" else crit.measure
+    jac = crit.jacobian(model, np.asarray(q, dtype=float))
+    return np.abs(search.measure_values(jac, measure))
 
 
 def _is_two_link(model: Model) -> bool:
@@ -219,7 +227,9 @@ def _family_of(model: Model, e: int, R_plus: float, q: np.ndarray) -> int | None
     return None if np.all(np.isnan(gap)) else int(np.nanargmin(gap))
 
 
-def _starts(model: Model, e: int, R_plus: float, box: search.JointBox, samples: int, starts: int, seed: int) -> list[np.ndarray]:
+def _starts(
+    model: Model, e: int, R_plus: float, box: search.JointBox, samples: int, starts: int, seed: int, criterion: SingularityCriterion | None
+) -> list[np.ndarray]:
     out: list[np.ndarray] = []
     if _is_two_link(model):  # the best point of each family of eq. 21 on a fine q1 grid
         q1 = np.linspace(-np.pi, np.pi, 3601)
@@ -232,7 +242,7 @@ def _starts(model: Model, e: int, R_plus: float, box: search.JointBox, samples: 
     q = search.sobol(samples, box.lo, box.hi, seed)
     r = end_effector_radius(model, q, e)
     near = np.argsort(np.abs(r - R_plus))[: max(64, q.shape[0] // 50)]
-    meas = _dexterity(model, q[near])
+    meas = _dexterity(model, q[near], criterion)
     out += [q[i] for i in near[np.argsort(-meas)][:starts]]
     return out
 
@@ -247,8 +257,13 @@ def optimal_capture_posture(
     samples: int = 1 << 14,
     starts: int = 8,
     seed: int = 0,
+    criterion: SingularityCriterion | None = None,
 ) -> CapturePosture:
     """The capture posture that maximises |det J*| (or sqrt det J* J*ᵀ) with |r_E(q)| = R+ (1992 §V, eq. 21).
+
+    ``criterion``: maximise its measure on its rows of J* instead
+    (:class:`~freeflyer.analysis.singularity.SingularityCriterion`; measure
+    ``"auto"``: the product of the singular values).
 
     SLSQP with the equality constraint |r_E|² = R+² (analytic gradient from
     :func:`freeflyer.end_effector_jacobian`) and the joint limits as bounds,
@@ -284,10 +299,10 @@ def optimal_capture_posture(
         return (2.0 * r @ end_effector_jacobian(model, q, e)[0:3, 6:])[None, :]
 
     def objective(q: np.ndarray) -> float:
-        return -float(_dexterity(model, q))
+        return -float(_dexterity(model, q, criterion))
 
     results = []
-    candidates = _starts(model, e, R_plus, box, samples, starts, seed)
+    candidates = _starts(model, e, R_plus, box, samples, starts, seed, criterion)
     for q0 in candidates:
         res = minimize(
             objective,
@@ -303,12 +318,12 @@ def optimal_capture_posture(
         if abs(residual) < 1e-9 * max(1.0, R_plus) and inside:
             on = _family_of(model, e, R_plus, q)
             if family is None or on == family:
-                results.append((float(_dexterity(model, q)), q, on))
+                results.append((float(_dexterity(model, q, criterion)), q, on))
     if not results:
         which = "" if family is None else f" on family {family}"
         raise ValueError(f"optimal_capture_posture: no start converged to |r_E| = {R_plus:.6g} m{which}; try more samples or starts")
     best_value = max(r[0] for r in results)
-    square = _square(model)
+    square = _square(model) and (criterion is None or criterion.rows == "auto")
 
     def rank(item: tuple[float, np.ndarray, int | None]) -> tuple[bool, float, float]:
         value, q, _ = item
@@ -355,9 +370,20 @@ def _square(model: Model) -> bool:
 
 
 # ----------------------------------------------------------------------------------------------------------------- the whole §V
+STRATEGIES = ("auto", "piw", "path")
+
+
 @dataclass(frozen=True, eq=False)
 class CapturePlan:
-    """The §V procedure end to end: workspaces after capture, path placement, approach, posture."""
+    """The §V procedure end to end: workspaces after capture, path placement, approach, posture.
+
+    ``method``: ``"piw"`` (the paper's: the path lies in the post-capture
+    PIW, so no configuration met on it can be singular) or ``"path"`` (the
+    path fits in no PIW annulus, but the free-floating motion along it from
+    this posture and attitude was integrated and never meets a singularity
+    of ``criterion``). ``motion``: that free-floating motion (1992 eqs. 12,
+    14) along the path, with the singularity measure along it.
+    """
 
     before: Model
     captured: Model
@@ -365,6 +391,9 @@ class CapturePlan:
     piw: PathIndependentWorkspace
     placement: PathPlacement
     posture: CapturePosture
+    method: str = "piw"
+    motion: PathMotion | None = None
+    criterion: SingularityCriterion = field(default_factory=SingularityCriterion)
 
     @property
     def approach_distance(self) -> float:
@@ -388,6 +417,108 @@ class CapturePlan:
         return artists
 
 
+def _snap_to_radius(model: Model, e: int, q: np.ndarray, R_plus: float, box: search.JointBox) -> np.ndarray:
+    """Newton steps along the gradient of |r_E| that put each configuration (M, N) on |r_E| = R+; NaN rows where it fails."""
+    q = q.copy()
+    for _ in range(30):
+        r = end_effector_positions(model, q)[:, e]
+        norm = np.linalg.norm(r, axis=-1)
+        grad = np.einsum("mi,mij->mj", r / np.maximum(norm, 1e-300)[:, None], end_effector_jacobian(model, q, e)[:, 0:3, 6:])
+        q -= ((norm - R_plus) / np.maximum(np.einsum("mj,mj->m", grad, grad), 1e-300))[:, None] * grad
+    ok = np.abs(end_effector_radius(model, q, e) - R_plus) < 1e-9 * max(1.0, R_plus)
+    ok &= np.all(((q >= box.lo) & (q <= box.hi)) | box.free, axis=1)
+    q[~ok] = np.nan
+    return q
+
+
+def _posture_candidates(
+    model: Model, e: int, R_plus: float, criterion: SingularityCriterion, *, count: int = 4, seed: int = 0
+) -> list[np.ndarray]:
+    """Up to ``count`` distinct capture configurations on |r_E| = R+ (Sobol samples put on the sphere), the most dexterous first."""
+    out: list[np.ndarray] = []
+    box = search.joint_box(model.joint_lower, model.joint_upper)
+    q = search.sobol(1 << 12, box.lo, box.hi, seed + 1)
+    near = np.argsort(np.abs(end_effector_radius(model, q, e) - R_plus))[:256]
+    snapped = _snap_to_radius(model, e, q[near], R_plus, box)
+    snapped = snapped[np.all(np.isfinite(snapped), axis=1)]
+    if snapped.size:
+        for qq in snapped[np.argsort(-_dexterity(model, snapped, criterion))]:
+            if len(out) >= count:
+                break
+            if all(np.max(np.abs(np.angle(np.exp(1j * (qq - p))))) > 0.3 for p in out):
+                out.append(qq)
+    return out
+
+
+def _path_checked_plan(
+    model: Model,
+    captured: Model,
+    e: int,
+    path: np.ndarray,
+    piw: PathIndependentWorkspace,
+    mass: float,
+    criterion: SingularityCriterion,
+    R_plus: float | None,
+) -> tuple[PathPlacement, CapturePosture, PathMotion] | None:
+    """Search placements, postures and attitudes whose free-floating motion along the path stays non-singular."""
+    reach = piw.reachable
+    pts = np.asarray(path, dtype=float)
+    a = pts[0]
+    u = (pts[1] - a) / np.linalg.norm(pts[1] - a)
+    normals = _perpendiculars(u)
+    if normals.shape[0] > 8:
+        normals = normals[:: normals.shape[0] // 8]
+    if R_plus is not None:
+        radii = np.array([float(R_plus)])
+    else:
+        radii = np.linspace(reach.R_min, reach.R_max, 8)[1:-1]
+    fits = [r for r in radii if max(_margin(pts, a + r * n, reach.R_min, reach.R_max) for n in normals) >= 0.0]
+    if not fits:
+        return None
+    found = path_checked_candidates(
+        captured, e, pts, np.array(fits), normals, lambda r: _posture_candidates(captured, e, r, criterion), criterion=criterion
+    )
+    best = refine_candidates(captured, e, pts, found[:8], criterion=criterion)
+    if best is None:
+        return None
+    c = best.cm_plus[: pts.shape[1]]
+    robot = model.total_mass
+    placement = PathPlacement(
+        path=pts,
+        cm_plus=c,
+        start=a,
+        direction=(a - c) / best.R_plus,
+        R_plus=best.R_plus,
+        margin=_margin(pts, c, reach.R_min, reach.R_max),
+        interval=(reach.R_min, reach.R_max),
+        workspace="reachable workspace (path checked)",
+        rule="path_checked",
+        robot_mass=robot,
+        payload_mass=mass,
+        approach_distance=approach_distance(robot, mass, best.R_plus),
+        approach_point=a + (c - a) * (robot + mass) / robot,
+    )
+    d = np.zeros(3)
+    d[: pts.shape[1]] = placement.direction
+    rot = Rotation.from_quat(best.attitude)
+    theta = float(rot.as_rotvec()[2]) if captured.is_planar and abs(d[2]) < 1e-12 else None
+    posture = CapturePosture(
+        model_name=captured.name,
+        end_effector=captured.end_effector_names[e],
+        q=best.q,
+        R_plus=best.R_plus,
+        measure=float(_dexterity(captured, best.q, criterion)),
+        det=None,
+        residual=float(end_effector_radius(captured, best.q, e)) - best.R_plus,
+        direction=d,
+        attitude=best.attitude,
+        theta=theta,
+        family=None,
+        starts=len(found),
+    )
+    return placement, posture, best.motion
+
+
 def plan_capture(
     model: Model,
     end_effector: str | int,
@@ -399,18 +530,72 @@ def plan_capture(
     rule: str = "perpendicular",
     R_plus: float | None = None,
     samples: int = 1 << 18,
+    criterion: SingularityCriterion | None = None,
+    strategy: str = "auto",
 ) -> CapturePlan:
     """Run 1992 §V: capture of a payload (``mass`` kg, ``inertia`` about its CM) that must then follow ``path``.
 
     Returns the post-capture PIW, where CM+ and the free-flyer's CM must be
-    (eq. 19), and the capture posture and attitude (eqs. 20-21). Raises
-    :class:`PathDoesNotFitError` when the path fits nowhere.
+    (eq. 19), the capture posture and attitude (eqs. 20-21) and the
+    free-floating motion along the path with the singularity measure along it.
+
+    ``criterion`` (:class:`~freeflyer.analysis.singularity.SingularityCriterion`):
+    which rows of J* and which measure count as singular, with a threshold;
+    for a spatial arm carrying a payload CM, ``rows="position"`` (the full
+    6 x 6 J* of a 6-DOF arm is singular at every radius through its wrist).
+    ``strategy``: ``"piw"`` (the paper's: the path must lie in the PIW),
+    ``"path"`` (search CM+ on the reachable workspace, the posture and the
+    attitude, integrating the free-floating motion along the path, and keep
+    the one whose smallest measure along it is largest, above the threshold),
+    or ``"auto"`` (the PIW, else the path check). Raises
+    :class:`PathDoesNotFitError` when no plan is found.
     """
+    if strategy not in STRATEGIES:
+        raise ValueError(f"strategy: expected one of {', '.join(STRATEGIES)}, got {strategy!r}")
+    crit = criterion if criterion is not None else SingularityCriterion()
     e = model.end_effector_index(end_effector)
     captured = model.with_payload(e, mass=mass, inertia=inertia, offset=offset)
-    piw = path_independent_workspace(captured, e, samples=samples)
-    placement = place_path(piw, path, rule=rule, R_plus=R_plus, robot_mass=model.total_mass, payload_mass=float(mass))
-    posture = optimal_capture_posture(captured, e, placement.R_plus, direction=placement.direction)
+    piw = path_independent_workspace(captured, e, samples=samples, criterion=crit)
+    pts = _check_path(path)
+    if strategy != "path":
+        try:
+            placement = place_path(piw, pts, rule=rule, R_plus=R_plus, robot_mass=model.total_mass, payload_mass=float(mass))
+        except PathDoesNotFitError:
+            if strategy == "piw":
+                raise
+        else:
+            posture = optimal_capture_posture(captured, e, placement.R_plus, direction=placement.direction, criterion=criterion)
+            motion = free_floating_path_motion(captured, e, posture.q, posture.attitude, placement.cm_plus, pts, criterion=crit)[0]
+            return CapturePlan(
+                before=model,
+                captured=captured,
+                end_effector=model.end_effector_names[e],
+                piw=piw,
+                placement=placement,
+                posture=posture,
+                method="piw",
+                motion=motion,
+                criterion=crit,
+            )
+    checked = _path_checked_plan(model, captured, e, pts, piw, float(mass), crit, R_plus)
+    if checked is None:
+        where = ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in piw.piw) or "(empty)"
+        raise PathDoesNotFitError(
+            f"the path fits in no PIW annulus {where} m, and no capture placement, posture and attitude found moves the "
+            f"payload along it free-floating without a singularity ({crit.describe(captured)}): use the thrusters "
+            "(1992 §V), a lower threshold or a shorter path",
+            margin=-np.inf,
+            fits_reachable=None,
+        )
+    placement, posture, motion = checked
     return CapturePlan(
-        before=model, captured=captured, end_effector=model.end_effector_names[e], piw=piw, placement=placement, posture=posture
+        before=model,
+        captured=captured,
+        end_effector=model.end_effector_names[e],
+        piw=piw,
+        placement=placement,
+        posture=posture,
+        method="path",
+        motion=motion,
+        criterion=crit,
     )

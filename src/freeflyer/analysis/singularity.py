@@ -1,4 +1,4 @@
-"""Maps of dynamic singularities: det J*(q) over a grid of two joint angles.
+"""Dynamic singularities: the measure that detects them, and maps of det J*(q) over two joint angles.
 
 Papadopoulos 1992 eq. 17: a free-floating system with zero momentum cannot
 move its end effectors in some direction wherever det ⁰J*(q) = 0. These
@@ -10,6 +10,14 @@ spacecraft attitude, so a map over joint space is the whole story.
 :func:`jacobian_determinant_map` computes the map (one batched call of
 :func:`freeflyer.jacobian_determinant`); :meth:`DeterminantMap.plot` draws it.
 Angles are in radians inside; ``plot(degrees=True)`` shows degrees.
+
+:class:`SingularityCriterion` states which rows of J* and which measure
+decide "singular" for the workspaces (PIW/PDW) and the capture planning of
+a model: the full J* (eq. 14) or only its translational rows, det J*, the
+smallest singular value or the manipulability, and a threshold below which a
+configuration counts as singular. A 6-DOF arm with a light wrist is singular
+in its full 6 x 6 J* somewhere at every radius (wrist singularities); for
+carrying a payload CM along a path only the translational rows matter.
 """
 
 from __future__ import annotations
@@ -22,7 +30,8 @@ import numpy as np
 
 from ..core.errors import ShapeError
 from ..core.model import Model
-from ..mechanics.jacobians import jacobian_determinant
+from ..mechanics.jacobians import generalized_jacobian, jacobian_determinant
+from . import _workspace_search as search
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -30,7 +39,123 @@ if TYPE_CHECKING:
     from matplotlib.colorbar import Colorbar
     from matplotlib.contour import QuadContourSet
 
-__all__ = ["DeterminantMap", "DeterminantMapArtists", "jacobian_determinant_map"]
+__all__ = ["DeterminantMap", "DeterminantMapArtists", "SingularityCriterion", "jacobian_determinant_map"]
+
+ROWS = ("auto", "full", "position")
+MEASURES = ("auto", *search.MEASURES)
+
+
+@dataclass(frozen=True)
+class SingularityCriterion:
+    """Which configurations count as dynamically singular (1992 eq. 17, generalised).
+
+    Parameters
+    ----------
+    rows
+        Rows of ⁰J* (1992 eq. 14, spacecraft frame) per end effector:
+        ``"position"``: the translational rows v (3 per end effector; [v_x, v_y]
+        for a planar model), enough to move a grasped payload's CM along a
+        path; ``"full"``: [v; ω] (6 per end effector; [v_x, v_y, ω_z] planar);
+        ``"auto"`` (default): the paper's choice, [v_x, v_y] planar, all 6 in 3D.
+    measure
+        ``"sigma_min"``: the smallest singular value σ_min of those rows (m/rad
+        for position rows): the slowest end-effector speed per unit joint rate;
+        ``"manipulability"``: sqrt(det(J Jᵀ)) (Yoshikawa), the product of the
+        singular values; ``"det"``: det J (signed; square J only);
+        ``"auto"`` (default): det where J is square, else σ_min.
+    threshold
+        A configuration is singular where |measure| <= threshold (default 0:
+        exactly singular, rank-deficient J). In the measure's unit.
+
+    With ``threshold = 0`` every measure has the same singular set (rank J <
+    rows), so the search may use the fastest one.
+    """
+
+    rows: str = "auto"
+    measure: str = "auto"
+    threshold: float = 0.0
+
+    def __post_init__(self) -> None:
+        if self.rows not in ROWS:
+            raise ValueError(f"rows: expected one of {', '.join(ROWS)}, got {self.rows!r}")
+        if self.measure not in MEASURES:
+            raise ValueError(f"measure: expected one of {', '.join(MEASURES)}, got {self.measure!r}")
+        t = self.threshold
+        if isinstance(t, bool) or not isinstance(t, (int, float, np.floating, np.integer)) or not np.isfinite(t) or t < 0.0:
+            raise ValueError(f"threshold: expected a finite number >= 0 (in the measure's unit), got {t!r}")
+        object.__setattr__(self, "threshold", float(t))
+
+    def row_indices(self, model: Model, end_effector: int | None = None) -> np.ndarray:
+        """Indices of the rows of ⁰J* (6 per end effector, [v; ω]) used: one end effector, or all (None)."""
+        ees = range(model.n_end_effectors) if end_effector is None else [int(end_effector)]
+        if model.is_planar:
+            keep: tuple[int, ...] = (0, 1, 5) if self.rows == "full" else (0, 1)
+        else:
+            keep = (0, 1, 2) if self.rows == "position" else tuple(range(6))
+        return np.array([6 * e + r for e in ees for r in keep], dtype=int)
+
+    def square(self, model: Model, end_effector: int | None = None) -> bool:
+        """True when the chosen rows of J* form a square matrix (det J* exists)."""
+        return self.row_indices(model, end_effector).size == model.n_joints
+
+    def resolved_measure(self, model: Model, end_effector: int | None = None) -> str:
+        """The measure used for ``model``: ``"auto"`` resolved; ``"det"`` checked for a square J*."""
+        square = self.square(model, end_effector)
+        if self.measure == "auto":
+            return "det" if square else "sigma_min"
+        if self.measure == "det" and not square:
+            n_rows = self.row_indices(model, end_effector).size
+            raise ValueError(
+                f"measure='det': the chosen rows of J* form a {n_rows} x {model.n_joints} matrix, not square; "
+                "use measure='sigma_min' or 'manipulability'"
+            )
+        return self.measure
+
+    def jacobian(self, model: Model, q: Any, end_effector: int | None = None) -> np.ndarray:
+        """The chosen rows of ⁰J*(q), (..., rows, N), spacecraft frame."""
+        return generalized_jacobian(model, q)[..., self.row_indices(model, end_effector), :]
+
+    def evaluate(self, model: Model, q: Any, end_effector: int | None = None) -> np.ndarray:
+        """The measure at q (..., N), (...). Zero at exact singularities (signed for det)."""
+        arr = np.asarray(q, dtype=float)
+        measure = self.resolved_measure(model, end_effector)
+        if measure == "det" and self.rows == "auto" and end_effector is None:  # the dedicated determinant
+            return np.asarray(jacobian_determinant(model, arr))
+        flat = arr.reshape(-1, model.n_joints)
+        out = search.batched(lambda qq: search.measure_values(self.jacobian(model, qq, end_effector), measure), flat)
+        return out.reshape(arr.shape[:-1])
+
+    def is_singular(self, model: Model, q: Any, end_effector: int | None = None) -> np.ndarray:
+        """|measure(q)| <= threshold, (...) booleans."""
+        return np.abs(self.evaluate(model, q, end_effector)) <= self.threshold
+
+    def search_criterion(self, model: Model, end_effector: int | None = None) -> search.Criterion:
+        """The criterion of the singular-set search (private helper of the workspace and capture modules)."""
+        rows = self.row_indices(model, end_effector)
+        measure = self.resolved_measure(model, end_effector)
+        if self.threshold == 0.0 and rows.size == model.n_joints:
+            measure = "det"  # the same singular set; sign changes are found fastest
+
+        def jac_fun(qq: np.ndarray) -> np.ndarray:
+            return generalized_jacobian(model, qq)[..., rows, :]
+
+        return search.Criterion(jac_fun, measure, self.threshold)
+
+    def describe(self, model: Model, end_effector: int | None = None) -> str:
+        """One line for reports: the rows, the measure and the threshold."""
+        n_rows = self.row_indices(model, end_effector).size
+        which = {"position": "translational", "full": "all", "auto": "the paper's"}[self.rows]
+        measure = {
+            "det": "det J*",
+            "sigma_min": "smallest singular value of J*",
+            "manipulability": "manipulability sqrt(det J* J*ᵀ)",
+        }[self.resolved_measure(model, end_effector)]
+        return f"{measure} ({which} rows of J*, {n_rows} x {model.n_joints}); singular where |measure| <= {self.threshold:g}"
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready: rows, measure, threshold."""
+        return {"rows": self.rows, "measure": self.measure, "threshold": self.threshold}
+
 
 _SUPERSCRIPT = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
 

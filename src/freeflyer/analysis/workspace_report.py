@@ -22,6 +22,7 @@ from ..core.model import Model
 from ._workspace_reach import guaranteed_workspace, reachable_workspace
 from ._workspace_results import GuaranteedWorkspace, PathIndependentWorkspace, ReachableWorkspace
 from ._workspace_singular import path_independent_workspace
+from .singularity import SingularityCriterion
 
 __all__ = ["WorkspaceLimits", "limits_json", "system_jacobian_is_square", "workspace_limits", "write_workspace_plots"]
 
@@ -91,6 +92,7 @@ class WorkspaceLimits:
                     "intervals": _intervals(piw.piw),
                     "pdw": _intervals(piw.pdw),
                     "method": piw.method,
+                    "criterion": piw.criterion,
                     "accuracy": piw.accuracy,
                     "resolution": piw.resolution,
                     "samples": piw.samples,
@@ -129,6 +131,7 @@ class WorkspaceLimits:
             lines += [
                 f"  PIW        (eq. 17)  {head}",
                 f"  PDW                  {_fmt_intervals(piw.pdw)}",
+                f"  singular where       {piw.criterion}",
                 f"  PIW method           {piw.method}; {piw.samples} configurations; accuracy {piw.accuracy:.1e} m, "
                 f"resolution {piw.resolution:.1e} m",
             ]
@@ -141,6 +144,7 @@ def workspace_limits(
     *,
     piw: bool | None = None,
     samples: int = 1 << 16,
+    criterion: SingularityCriterion | None = None,
 ) -> WorkspaceLimits:
     """Reachable, guaranteed and path-independent workspaces of the chosen end effectors (default: all).
 
@@ -148,24 +152,29 @@ def workspace_limits(
     when the system J* is square (det J* exists, as in the paper), and skips
     them otherwise (a non-square J* is searched by its smallest singular
     value: minutes for a 7-joint arm). ``samples``: configurations sampled
-    for the PIW. Unknown end effectors raise :class:`~freeflyer.UnknownNameError`.
+    for the PIW. ``criterion``: which rows of J* and which measure count as
+    singular for the PIW (:class:`~freeflyer.analysis.singularity.SingularityCriterion`;
+    default the paper's). Unknown end effectors raise :class:`~freeflyer.UnknownNameError`.
     """
     chosen = list(range(model.n_end_effectors)) if not end_effectors else [model.end_effector_index(e) for e in end_effectors]
     if len(set(chosen)) != len(chosen):
         raise ValueError(f"end_effectors: each end effector once, got {list(end_effectors or [])!r}")
-    square = system_jacobian_is_square(model)
+    crit = criterion if criterion is not None else SingularityCriterion()
+    square = crit.square(model) and crit.threshold == 0.0
     do_piw = square if piw is None else bool(piw)
     note = ""
     if not do_piw:
         note = (
-            "J* is not square (det J* undefined; searching its smallest singular value is slow): pass --piw to compute it"
+            "J* is not square (det J* undefined; searching its smallest singular value is slow) or a threshold is set: "
+            "pass --piw to compute it"
             if piw is None
             else "not requested"
         )
     reach = tuple(reachable_workspace(model, e) for e in chosen)
     gws = tuple(guaranteed_workspace(model, e) for e in chosen)
     piws = tuple(
-        path_independent_workspace(model, e, samples=samples, reachable=r) if do_piw else None for e, r in zip(chosen, reach, strict=True)
+        path_independent_workspace(model, e, samples=samples, reachable=r, criterion=crit) if do_piw else None
+        for e, r in zip(chosen, reach, strict=True)
     )
     return WorkspaceLimits(
         model=model,
