@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from scipy.interpolate import CubicSpline
+from scipy.spatial.transform import Rotation
 
 import freeflyer as ff
 from freeflyer.analysis.capture import CapturePlan, PathDoesNotFitError, free_floating_path_motion, plan_capture
@@ -158,8 +159,10 @@ def test_user_arm_6dof_capture_plan_replays_without_singularity(user_arm: ff.Mod
     )
     assert plan.placement.approach_distance == pytest.approx((user_arm.total_mass + 50.0) / user_arm.total_mass * plan.placement.R_plus)
     min_measure, deviation = check_replay(plan)
-    print(f"6-DOF: R+ = {plan.placement.R_plus:.4f} m, q = {np.round(posture.q, 4)}, replay min σ_min = {min_measure:.4f} m/rad, "
-          f"deviation {deviation:.2e} m")
+    print(
+        f"6-DOF: R+ = {plan.placement.R_plus:.4f} m, q = {np.round(posture.q, 4)}, replay min σ_min = {min_measure:.4f} m/rad, "
+        f"deviation {deviation:.2e} m"
+    )
 
 
 def test_7dof_benchmark_arm_capture_plan_replays_without_singularity() -> None:
@@ -169,8 +172,10 @@ def test_7dof_benchmark_arm_capture_plan_replays_without_singularity() -> None:
     assert plan.piw.R_min is not None and plan.piw.R_min <= plan.placement.R_plus <= plan.piw.R_max
     assert plan.motion is not None and plan.motion.singularity_free
     min_measure, deviation = check_replay(plan)
-    print(f"7-DOF: R+ = {plan.placement.R_plus:.4f} m, PIW {plan.piw.piw}, replay min σ_min = {min_measure:.4f} m/rad, "
-          f"deviation {deviation:.2e} m")
+    print(
+        f"7-DOF: R+ = {plan.placement.R_plus:.4f} m, PIW {plan.piw.piw}, replay min σ_min = {min_measure:.4f} m/rad, "
+        f"deviation {deviation:.2e} m"
+    )
 
 
 def test_path_motion_is_the_zero_momentum_motion() -> None:
@@ -180,10 +185,8 @@ def test_path_motion_is_the_zero_momentum_motion() -> None:
     cm = np.zeros(3)
     att = np.array([0.0, 0.0, 0.0, 1.0])
     a = ff.end_effector_positions(model, q0)[0]
-    motion = free_floating_path_motion(model, 0, q0, att, cm, np.array([a, a + [0.0, 0.1, 0.05]]), criterion=POSITION)[0]
+    motion = free_floating_path_motion(model, 0, q0, att, cm, np.array([a, a + np.array([0.0, 0.1, 0.05])]), criterion=POSITION)[0]
     assert motion.follows_path and motion.deviation < 1e-8
-    from scipy.spatial.transform import Rotation
-
     k = motion.s.size // 2
     dq = (motion.q[k + 1] - motion.q[k - 1]) / 2.0
     rot = Rotation.from_quat(motion.attitude[k - 1]).inv() * Rotation.from_quat(motion.attitude[k + 1])

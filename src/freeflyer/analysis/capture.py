@@ -560,8 +560,8 @@ def plan_capture(
     if strategy != "path":
         try:
             placement = place_path(piw, pts, rule=rule, R_plus=R_plus, robot_mass=model.total_mass, payload_mass=float(mass))
-        except PathDoesNotFitError:
-            if strategy == "piw":
+        except PathDoesNotFitError as exc:
+            if strategy == "piw" or exc.fits_reachable is False:  # not even in the reachable workspace: thrusters
                 raise
         else:
             posture = optimal_capture_posture(captured, e, placement.R_plus, direction=placement.direction, criterion=criterion)

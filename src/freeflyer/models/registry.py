@@ -14,6 +14,7 @@ from ..core.errors import ModelError
 from ..core.model import Model
 from ..io.model_files import load
 from .papers import papadopoulos1991, papadopoulos1992
+from .spacecraft import spacecraft_7dof
 
 __all__ = ["BUILTIN_MODELS", "load_model"]
 
@@ -22,6 +23,7 @@ BUILTIN_MODELS: dict[str, tuple[str, Callable[[], Model]]] = {
     "papadopoulos1991": ("Papadopoulos & Dubowsky 1991, §V example", papadopoulos1991),
     "papadopoulos1992": ("Papadopoulos 1992, Table I, two arms", lambda: papadopoulos1992(arms=2)),
     "papadopoulos1992-one-arm": ("Papadopoulos 1992, Table I, manipulator 2 removed", lambda: papadopoulos1992(arms=1)),
+    "spacecraft-7dof": ("a 1500 kg spacecraft with a 7-DOF iiwa-style arm (3D, the benchmark arm)", spacecraft_7dof),
 }
 
 _MODEL_SUFFIXES = (".toml", ".urdf", ".xml")
