@@ -29,10 +29,11 @@ from scipy.spatial.transform import Rotation
 from ..core.errors import ModelError
 from ..core.model import Model
 from ..mechanics.jacobians import end_effector_jacobian
-from ..mechanics.kinematics import end_effector_positions, forward_kinematics, system_cm
+from ..mechanics.kinematics import end_effector_positions
 from ..mechanics.planar import position_coefficients
 from . import _workspace_search as search
 from ._capture_path import PathMotion, free_floating_path_motion, path_checked_candidates, refine_candidates
+from ._capture_plots import draw_system
 from ._path_placement import PathDoesNotFitError, PathPlacement, _check_path, _margin, _perpendiculars, approach_distance, place_path
 from ._workspace_reach import end_effector_radius, reachable_workspace, singularity_measure
 from ._workspace_results import PathIndependentWorkspace, _axes, _circle, _freeze
@@ -159,46 +160,6 @@ class CapturePosture:
     def plot(self, model: Model, ax: Axes | None = None, *, center: Any = (0.0, 0.0)) -> list[Artist]:
         """Stick figure of ``model`` in this posture and attitude, system CM at ``center`` (x-y plane)."""
         return draw_system(_axes(ax), model, self.q, attitude=self.attitude, center=center)
-
-
-def draw_system(
-    ax: Axes, model: Model, q: Any, *, attitude: Any = None, center: Any = (0.0, 0.0), color: str = "k", label: str | None = None
-) -> list[Artist]:
-    """Stick figure of ``model`` at joint angles q (N,), x-y plane of the inertial frame, m.
-
-    The system CM is put at ``center`` (2 or 3 numbers) and the spacecraft
-    turned by ``attitude`` (quaternion [x, y, z, w]; None: identity). Links
-    are lines from joint to joint (from the spacecraft CM for the first
-    link of each arm), end effectors dots, the spacecraft a square at its CM,
-    the system CM a small circle. Returns the artists.
-    """
-    q = np.asarray(q, dtype=float)
-    rot, pos = forward_kinematics(model, q)
-    cm = system_cm(model, q)
-    t0 = np.eye(3) if attitude is None else Rotation.from_quat(np.asarray(attitude, dtype=float)).as_matrix()
-    c = np.zeros(3)
-    given = np.asarray(center, dtype=float).ravel()
-    c[: given.size] = given
-
-    def to_i(point: Any) -> np.ndarray:
-        return np.asarray((t0 @ (np.asarray(point) - cm).T).T + c)
-
-    joints = to_i(pos)
-    artists: list[Artist] = []
-    for k in range(1, model.n_bodies):
-        p = int(model.parent[k])
-        start = to_i(pos[p] + rot[p] @ model.com[p]) if p == 0 else joints[p]
-        artists += ax.plot([start[0], joints[k][0]], [start[1], joints[k][1]], "-", color=color, lw=2, label=label if k == 1 else None)
-    for e, body in enumerate(model.end_effector_body):
-        tip = to_i(pos[body] + rot[body] @ model.end_effector_point[e])
-        artists += ax.plot([joints[body][0], tip[0]], [joints[body][1], tip[1]], "-", color=color, lw=2)
-        artists += ax.plot(tip[0], tip[1], "o", color=color, ms=4)
-    sc = to_i(model.com[0])
-    artists += ax.plot(sc[0], sc[1], "s", color=color, ms=12, mfc="0.8")
-    artists.append(_circle(ax, c, 0.01, edgecolor=color))
-    ax.set_aspect("equal")
-    ax.autoscale_view()
-    return artists
 
 
 def _dexterity(model: Model, q: np.ndarray, criterion: SingularityCriterion | None = None) -> np.ndarray:

@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from ..core._figures import new_axes
 from ..core.errors import ShapeError
 from ..core.model import Model
 from ..mechanics.jacobians import generalized_jacobian, jacobian_determinant
@@ -214,17 +215,16 @@ class DeterminantMap:
     def plot(self, ax: Axes | None = None, degrees: bool = True) -> DeterminantMapArtists:
         """Draw the map: colour mesh of det J*, the det J* = 0 contour (black), a colour bar.
 
-        ``ax`` defaults to a new :class:`matplotlib.figure.Figure` (no pyplot
-        state). ``degrees=True`` labels the axes in degrees (the data stay in
+        ``ax`` defaults to the axes of a new pyplot figure (``plt.show()`` and
+        notebooks display it). ``degrees=True`` labels the axes in degrees (the data stay in
         radians). Returns the artists; nothing else is drawn or shown.
         """
         from matplotlib.colors import Normalize
-        from matplotlib.figure import Figure
         from matplotlib.lines import Line2D
         from matplotlib.ticker import MultipleLocator
 
         if ax is None:
-            ax = Figure(figsize=(6.4, 5.2), layout="constrained").add_subplot()
+            ax = new_axes(figsize=(6.4, 5.2))
         fig = ax.get_figure()
         assert fig is not None
         scale = 180.0 / np.pi if degrees else 1.0
