@@ -311,6 +311,10 @@ def simulate_command(
     progress: Annotated[
         bool | None, typer.Option("--progress/--no-progress", help="Progress bar on stderr (default: when stderr is a terminal).")
     ] = None,
+    animate: Annotated[
+        Path | None,
+        typer.Option("--animate", metavar="PATH", help="Also write an animation of the motion: .gif (Pillow) or .mp4 (ffmpeg)."),
+    ] = None,
 ) -> None:
     """Simulate a scenario (model, initial state, actuation or controller, duration); write the trajectory and its plots."""
     import sys
@@ -320,7 +324,9 @@ def simulate_command(
 
     with user_errors():
         loaded = load_scenario(scenario)
-        written = simulate_scenario(loaded, output_dir(out), progress=sys.stderr.isatty() if progress is None else progress)
+        written = simulate_scenario(
+            loaded, output_dir(out), progress=sys.stderr.isatty() if progress is None else progress, animation=animate
+        )
     for path in written:
         typer.echo(str(path))
 

@@ -75,6 +75,7 @@ def _circle(ax: Axes, center: Any, r: float, **style: Any) -> Artist:
 
 
 PLANES = ("xy", "xz", "yz")
+_PDW_LABEL = "path-dependent workspace (PDW)"
 
 
 def _finish(ax: Axes, center: Any, reach: float, plane: str = "xy") -> None:
@@ -239,7 +240,17 @@ class PathIndependentWorkspace:
             artists.append(_ring(ax, center, lo, hi, facecolor=color, alpha=0.3, edgecolor=color, label=text))
         for k, (lo, hi) in enumerate(self.pdw):
             artists.append(
-                _ring(ax, center, lo, hi, fill=False, hatch="///", edgecolor="0.5", linewidth=0.0, label="PDW" if k == 0 else None)
+                _ring(
+                    ax,
+                    center,
+                    lo,
+                    hi,
+                    fill=False,
+                    hatch="///",
+                    edgecolor="0.5",
+                    linewidth=0.0,
+                    label="path-dependent workspace (PDW)" if k == 0 else None,
+                )
             )
         artists.append(_circle(ax, center, self.reachable.R_max, edgecolor="k", linewidth=0.8))
         if self.reachable.R_min > 0.0:

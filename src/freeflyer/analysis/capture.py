@@ -26,6 +26,7 @@ import numpy as np
 from scipy.optimize import minimize
 from scipy.spatial.transform import Rotation
 
+from ..core._figures import new_axes
 from ..core.errors import ModelError
 from ..core.model import Model
 from ..mechanics.jacobians import end_effector_jacobian
@@ -33,10 +34,10 @@ from ..mechanics.kinematics import end_effector_positions
 from ..mechanics.planar import position_coefficients
 from . import _workspace_search as search
 from ._capture_path import PathMotion, free_floating_path_motion, path_checked_candidates, refine_candidates
-from ._capture_plots import draw_system
+from ._capture_plots import draw_system, plot_plan
 from ._path_placement import PathDoesNotFitError, PathPlacement, _check_path, _margin, _perpendiculars, approach_distance, place_path
 from ._workspace_reach import end_effector_radius, reachable_workspace, singularity_measure
-from ._workspace_results import PathIndependentWorkspace, _axes, _circle, _freeze
+from ._workspace_results import PathIndependentWorkspace, _axes, _freeze
 from ._workspace_singular import path_independent_workspace
 from .singularity import SingularityCriterion
 
@@ -363,19 +364,13 @@ class CapturePlan:
         return self.placement.approach_distance
 
     def plot(self, ax: Axes | None = None) -> list[Artist]:
-        """Fig. 7: reachable workspace before capture (dashed, around the free-flyer's CM), PIW after capture around
-        CM+, the path, the approach point and the capture posture."""
-        ax = _axes(ax)
-        artists: list[Artist] = []
-        if self.placement.approach_point is not None:  # the reachable workspace before capture, around the free-flyer's CM
-            before = reachable_workspace(self.before, self.end_effector)
-            for r in (before.R_min, before.R_max):
-                if r > 0.0:
-                    artists.append(_circle(ax, self.placement.approach_point[:2], r, edgecolor="C0", linestyle="--", linewidth=1.0))
-        artists += self.piw.plot(ax, center=self.placement.cm_plus[:2])
-        artists += self.placement.plot(ax, annulus=False)
-        artists += self.posture.plot(self.captured, ax, center=self.placement.cm_plus)
-        return artists
+        """The plan like the 1992 paper's Fig. 7 ("the workspaces before and after the capture of a payload at A"):
+        the reachable workspace before capture, the reachable workspace, PIW and PDW after capture, the path A→B,
+        CM+, the free-flyer's CM before capture, the robot at capture and at B. Without ``ax``: a new pyplot figure,
+        3D axes for a spatial model. Returns the artists."""
+        if ax is None:
+            ax = new_axes(figsize=(7.4, 7.6), projection=None if self.captured.is_planar else "3d")
+        return plot_plan(self, ax)
 
 
 def _snap_to_radius(model: Model, e: int, q: np.ndarray, R_plus: float, box: search.JointBox) -> np.ndarray:

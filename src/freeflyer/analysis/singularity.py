@@ -145,7 +145,10 @@ class SingularityCriterion:
     def describe(self, model: Model, end_effector: int | None = None) -> str:
         """One line for reports: the rows, the measure and the threshold."""
         n_rows = self.row_indices(model, end_effector).size
-        which = {"position": "translational", "full": "all", "auto": "the paper's"}[self.rows]
+        if self.rows == "position" or (self.rows == "auto" and model.is_planar):
+            which = "in-plane velocity" if model.is_planar else "translational"
+        else:
+            which = "in-plane velocity and rotation" if model.is_planar else "all"
         measure = {
             "det": "det J*",
             "sigma_min": "smallest singular value of J*",

@@ -443,8 +443,8 @@ def write_capture_outputs(result: CaptureResult, out: Path, *, dpi: int = 200) -
     path = out / "capture.json"
     path.write_text(json.dumps(result.as_dict(), indent=2, allow_nan=False) + "\n")
     written.append(path)
-    fig = Figure(figsize=(7.0, 6.4), layout="constrained")
-    ax = fig.add_subplot()
+    fig = Figure(figsize=(7.4, 8.4), layout="constrained")
+    ax = fig.add_subplot(projection=None if result.plan.captured.is_planar else "3d")
     plot_capture_plan(result.plan, ax)
     path = out / "capture_plan.png"
     fig.savefig(path, dpi=dpi, bbox_inches="tight", pad_inches=0.15)
@@ -460,16 +460,17 @@ def write_capture_outputs(result: CaptureResult, out: Path, *, dpi: int = 200) -
 
 
 def plot_capture_plan(plan: CapturePlan, ax: Any) -> None:
-    """The §V plan like the paper's Fig. 7, with a legend, labels in m and a title."""
+    """The §V plan like the paper's Fig. 7 (:meth:`CapturePlan.plot`), with a legend, labels in m and a title.
+
+    ``ax``: 2D axes, or 3D axes (``projection="3d"``) for a spatial model."""
     plan.plot(ax)
     placement = plan.placement
-    if placement.approach_point is not None:
-        ax.plot([], [], "C0--", lw=1.0, label="reachable workspace before capture")
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncols=2, fontsize="small", frameon=False)
-    ax.set_xlabel("x (m, inertial)")
-    ax.set_ylabel("y (m, inertial)")
+    handles, labels = ax.get_legend_handles_labels()
+    ax.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, -0.08), ncols=2, fontsize="small", frameon=False)
     r = "" if placement.approach_distance is None else f", approach distance R = {placement.approach_distance:.3f} m"
-    ax.set_title(f"Capture at A: R+ = {placement.R_plus:.3f} m{r}\n(1992 §V, eqs. 19-21)", fontsize="medium")
+    how = "" if plan.method == "piw" else "; path checked free-floating"
+    measure = "" if plan.motion is None else f"\nmin |measure| along the path {plan.motion.min_measure:.3g} ({plan.motion.criterion})"
+    ax.set_title(f"Capture at A: R+ = {placement.R_plus:.3f} m{r}{how}{measure}\n(1992 §V, eqs. 19-21)", fontsize="medium")
 
 
 def plot_capture_families(plan: CapturePlan, ax: Any, *, marks: dict[str, float] | None = None) -> None:
