@@ -1,8 +1,7 @@
 import os
 import sys
-from pathlib import Path
-
 from collections.abc import Iterator
+from pathlib import Path
 
 import matplotlib
 import pytest

@@ -61,7 +61,7 @@ def _annulus(ax: Axes, r_in: float, r_out: float, **style: Any) -> None:
 
 
 #: Per arm: colour, outline line style and hatching of its guaranteed workspace (Fig. 4), so overlapping bands stay readable.
-ARM_STYLES = {1: ("C0", "-", "////"), 2: ("C3", (0, (6, 3)), "\\\\")}
+ARM_STYLES = {1: ("C0", "-", "////"), 2: ("C3", (0, (6, 3)), "\\\\\\\\")}
 
 
 def _workspace_panel(ax: Axes, results: Results1992, table: str, *, after: bool, limit: float) -> None:
