@@ -27,12 +27,11 @@ from scipy.optimize import minimize
 from scipy.spatial.transform import Rotation
 
 from ..core._figures import new_axes
-from ..core.errors import ModelError
 from ..core.model import Model
 from ..mechanics.jacobians import end_effector_jacobian
 from ..mechanics.kinematics import end_effector_positions
-from ..mechanics.planar import position_coefficients
 from . import _workspace_search as search
+from ._capture_families import CaptureFamilies, _family_of, _is_two_link, _two_link_coefficients, capture_families
 from ._capture_path import PathMotion, free_floating_path_motion, path_checked_candidates, refine_candidates
 from ._capture_plots import draw_system, plot_plan
 from ._path_placement import PathDoesNotFitError, PathPlacement, _check_path, _margin, _perpendiculars, approach_distance, place_path
@@ -60,72 +59,6 @@ __all__ = [
     "place_path",
     "plan_capture",
 ]
-
-
-# ----------------------------------------------------------------------------------------------------------------- eq. 21 families
-@dataclass(frozen=True, eq=False)
-class CaptureFamilies:
-    """The two families q2(q1) of eq. 21 and det J* along them (1992 Fig. 6).
-
-    ``q1`` (...) rad; ``q2`` and ``det`` (..., 2): family 0 takes +acos, family
-    1 -acos; NaN where |r_E| = R+ has no solution for that q1.
-    """
-
-    R_plus: float
-    q1: np.ndarray
-    q2: np.ndarray
-    det: np.ndarray
-
-    def __post_init__(self) -> None:
-        _freeze(self)
-
-    def plot(self, ax: Axes | None = None, *, degrees: bool = True) -> list[Artist]:
-        """q2(q1) of both families and det J* along them (second y axis), like Fig. 6."""
-        ax = _axes(ax)
-        s = 180.0 / np.pi if degrees else 1.0
-        unit = "deg" if degrees else "rad"
-        artists: list[Artist] = []
-        twin = ax.twinx()
-        for k, style in ((0, "-"), (1, "--")):
-            artists += ax.plot(self.q1 * s, self.q2[..., k] * s, "C0" + style, label=f"q2, family {k + 1}")
-            artists += twin.plot(self.q1 * s, self.det[..., k], "C3" + style, label=f"det J*, family {k + 1}")
-        ax.set_xlabel(f"q1 ({unit})")
-        ax.set_ylabel(f"q2 ({unit})")
-        twin.set_ylabel("det J*")
-        return artists
-
-
-def _two_link_coefficients(model: Model, end_effector: str | int) -> np.ndarray:
-    ok = model.n_joints == 2 and model.n_bodies == 3 and list(model.parent) == [-1, 0, 1]
-    if not ok or not model.is_planar:
-        raise ModelError(
-            f"model {model.name!r}",
-            "eq. 21 has two families q2(q1) only for a planar spacecraft with one two-link arm",
-            "use optimal_capture_posture, which works for any model",
-        )
-    return position_coefficients(model, end_effector)
-
-
-def capture_families(model: Model, end_effector: str | int, R_plus: float, q1: Any) -> CaptureFamilies:
-    """Solve eq. 21, |r_E(q1, q2)| = R+, for q2: two families, and det J* along them; batched over q1 (...).
-
-    r_E = a0 + a1 e^{i q1} + a2 e^{i(q1+q2)} with the eq. 20 coefficients
-    (complex in general); with w = a0 + a1 e^{i q1},
-    q2 = arg w - arg a2 - q1 ± acos((R+² - |w|² - |a2|²) / (2 |a2| |w|)).
-    """
-    a = _two_link_coefficients(model, end_effector)
-    q1 = np.asarray(q1, dtype=float)
-    w = a[0] + a[1] * np.exp(1j * q1)
-    c = (float(R_plus) ** 2 - np.abs(w) ** 2 - np.abs(a[2]) ** 2) / (2.0 * np.abs(a[2]) * np.maximum(np.abs(w), 1e-300))
-    valid = np.abs(c) <= 1.0
-    base = np.angle(w) - np.angle(a[2]) - q1
-    acos = np.arccos(np.clip(c, -1.0, 1.0))
-    q2 = np.stack([base + acos, base - acos], axis=-1)
-    q2 = np.angle(np.exp(1j * q2))
-    q2 = np.where(valid[..., None], q2, np.nan)
-    q = np.stack([np.broadcast_to(q1[..., None], q2.shape), np.nan_to_num(q2)], axis=-1)
-    det = np.where(valid[..., None], singularity_measure(model, q), np.nan)
-    return CaptureFamilies(R_plus=float(R_plus), q1=q1, q2=q2, det=det)
 
 
 # ----------------------------------------------------------------------------------------------------------------- posture
@@ -174,19 +107,6 @@ def _dexterity(model: Model, q: np.ndarray, criterion: SingularityCriterion | No
     measure = "manipulability" if crit.measure == "auto" else crit.measure
     jac = crit.jacobian(model, np.asarray(q, dtype=float))
     return np.abs(search.measure_values(jac, measure))
-
-
-def _is_two_link(model: Model) -> bool:
-    return model.n_joints == 2 and model.is_planar and model.n_bodies == 3 and list(model.parent) == [-1, 0, 1]
-
-
-def _family_of(model: Model, e: int, R_plus: float, q: np.ndarray) -> int | None:
-    """Which eq. 21 family (0: +acos, 1: -acos) a configuration on |r_E| = R+ belongs to; None if not a two-link arm."""
-    if not _is_two_link(model):
-        return None
-    fam = capture_families(model, e, R_plus, q[0])
-    gap = np.abs(np.angle(np.exp(1j * (fam.q2 - q[1]))))
-    return None if np.all(np.isnan(gap)) else int(np.nanargmin(gap))
 
 
 def _starts(
@@ -513,6 +433,7 @@ def plan_capture(
     captured = model.with_payload(e, mass=mass, inertia=inertia, offset=offset)
     piw = path_independent_workspace(captured, e, samples=samples, criterion=crit)
     pts = _check_path(path)
+    found: tuple[str, PathPlacement, CapturePosture, PathMotion] | None = None
     if strategy != "path":
         try:
             placement = place_path(piw, pts, rule=rule, R_plus=R_plus, robot_mass=model.total_mass, payload_mass=float(mass))
@@ -522,28 +443,20 @@ def plan_capture(
         else:
             posture = optimal_capture_posture(captured, e, placement.R_plus, direction=placement.direction, criterion=criterion)
             motion = free_floating_path_motion(captured, e, posture.q, posture.attitude, placement.cm_plus, pts, criterion=crit)[0]
-            return CapturePlan(
-                before=model,
-                captured=captured,
-                end_effector=model.end_effector_names[e],
-                piw=piw,
-                placement=placement,
-                posture=posture,
-                method="piw",
-                motion=motion,
-                criterion=crit,
+            found = ("piw", placement, posture, motion)
+    if found is None:
+        checked = _path_checked_plan(model, captured, e, pts, piw, float(mass), crit, R_plus)
+        if checked is None:
+            where = ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in piw.piw) or "(empty)"
+            raise PathDoesNotFitError(
+                f"the path fits in no PIW annulus {where} m, and no capture placement, posture and attitude found moves the "
+                f"payload along it free-floating without a singularity ({crit.describe(captured)}): use the thrusters "
+                "(1992 §V), a lower threshold or a shorter path",
+                margin=-np.inf,
+                fits_reachable=None,
             )
-    checked = _path_checked_plan(model, captured, e, pts, piw, float(mass), crit, R_plus)
-    if checked is None:
-        where = ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in piw.piw) or "(empty)"
-        raise PathDoesNotFitError(
-            f"the path fits in no PIW annulus {where} m, and no capture placement, posture and attitude found moves the "
-            f"payload along it free-floating without a singularity ({crit.describe(captured)}): use the thrusters "
-            "(1992 §V), a lower threshold or a shorter path",
-            margin=-np.inf,
-            fits_reachable=None,
-        )
-    placement, posture, motion = checked
+        found = ("path", *checked)
+    method, placement, posture, motion = found
     return CapturePlan(
         before=model,
         captured=captured,
@@ -551,7 +464,7 @@ def plan_capture(
         piw=piw,
         placement=placement,
         posture=posture,
-        method="path",
+        method=method,
         motion=motion,
         criterion=crit,
     )

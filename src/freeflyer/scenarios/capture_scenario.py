@@ -377,10 +377,11 @@ class CaptureResult:
         else:
             lines.append("  capture posture    max |det J*| subject to |r_E| = R+ (eq. 21) and the joint limits:")
         chosen = p.posture
+        measure_name = {"sigma_min": "σ_min of J*", "det": "|det J*|"}.get(p.criterion.measure, "sqrt det J*J*ᵀ")
         shown = [f for f in self.family_postures if f is not None] or [chosen]
         for post in shown:
             fam = "" if post.family is None else f"family {post.family + 1} ({'+' if post.family == 0 else '-'}acos)  "
-            det = f"det J* = {post.det:+.6f}" if post.det is not None else f"sqrt det J*J*ᵀ = {post.measure:.6f}"
+            det = f"det J* = {post.det:+.6f}" if post.det is not None else f"{measure_name} = {post.measure:.6f}"
             theta = "" if post.theta is None else f", θ = {np.degrees(post.theta):.2f} deg"
             mark = "  <- chosen" if len(shown) > 1 and np.allclose(post.q, chosen.q, atol=1e-6) else ""
             lines.append(f"    {fam}q = [{', '.join(f'{v:.2f}' for v in np.degrees(post.q))}] deg, {det}{theta}{mark}")
