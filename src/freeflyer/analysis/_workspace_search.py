@@ -254,8 +254,15 @@ def _illinois(
     return np.where(np.abs(fb) <= np.abs(fa), b, a)
 
 
-def singular_points(crit: Criterion, box: JointBox, *, samples: int, seed: int, points_per_line: int = 64) -> SingularSearch:
-    """Sample the singular set of a :class:`Criterion` over ``box``."""
+def singular_points(
+    crit: Criterion, box: JointBox, *, samples: int, seed: int, points_per_line: int = 64, max_inside: int = 4096
+) -> SingularSearch:
+    """Sample the singular set of a :class:`Criterion` over ``box``.
+
+    With a threshold, the sampled configurations inside the set (up to ``max_inside`` of them) are
+    returned with the boundary points: each lies in the set, and each seeds the search of the
+    PDW boundaries from another part of it.
+    """
     n = box.lo.size
     base, axes, t, grid = _lines(box, samples, seed, points_per_line)
     span = box.hi - box.lo
@@ -286,6 +293,11 @@ def singular_points(crit: Criterion, box: JointBox, *, samples: int, seed: int, 
                 measure, base[li], axes[li], lo_t, hi_t, values[li, ki], values[li, ki + 1], xtol=1e-13 * max(1.0, float(np.max(span)))
             )
             found.append(_along(base[li], axes[li], roots))
+        if crit.threshold > 0.0:  # samples inside the near-singular set belong to it too (a random subset of them)
+            inside = q_lines[values < 0.0]
+            if inside.shape[0] > max_inside:
+                inside = inside[np.random.default_rng(seed).choice(inside.shape[0], max_inside, replace=False)]
+            found.append(inside)
         q = np.concatenate(found) if found else np.zeros((0, n))
         what = "det J*" if crit.threshold == 0.0 else f"{crit.measure} - threshold"
         method = f"{what} sign changes on " + ("every grid edge" if grid else "random axis-parallel lines") + ", Illinois root polishing"
