@@ -76,3 +76,20 @@ def test_capture_plan_of_a_spatial_arm_plots_in_3d() -> None:
     assert ax.name == "3d" and plt.fignum_exists(ax.get_figure(root=True).number)
     labels = {a.get_label() for a in artists}
     assert {"payload path A→B", "robot at capture (A)", "robot with the payload at B", "CM+ (system CM after capture)"} <= labels
+
+
+def test_singularity_map_of_a_spatial_arm_with_the_chosen_measure() -> None:
+    """The map of σ_min of the translational J* of the 7-DOF arm over two joints, its threshold drawn as a contour."""
+    dmap = ff.workspace.jacobian_determinant_map(ARM, ("j2", "j4"), n=41, ranges=((-2.0, 2.0), (-2.0, 2.0)), criterion=POSITION)
+    q = np.zeros((41, 41, 7))
+    grid = np.linspace(-2.0, 2.0, 41)
+    q[..., 1], q[..., 3] = grid[:, None], grid[None, :]
+    np.testing.assert_allclose(dmap.values, POSITION.evaluate(ARM, q))
+    assert dmap.measure == "σ_min(⁰J*)" and dmap.threshold == 0.02 and "translational" in dmap.criterion
+    assert dmap.values.min() < 0.02 < dmap.values.max()  # the arm is singular when stretched (j4 = 0)
+    artists = dmap.plot()
+    assert artists.contour is not None and artists.contour.levels.tolist() == [0.02]
+    assert artists.colorbar.ax.get_ylabel() == "σ_min(⁰J*)"
+    assert plt.fignum_exists(artists.mesh.get_figure(root=True).number)
+    with pytest.raises(ff.ShapeError, match="not square"):
+        ff.workspace.jacobian_determinant_map(ARM, (0, 1), n=5)  # det J* needs a square J*: pass a criterion

@@ -193,6 +193,10 @@ class DeterminantMap:
                      replaced by the grid values
         unit         unit of the determinant ("mᴺ", e.g. "m²", for a planar model, whose J*
                      keeps the in-plane velocity rows; "" otherwise)
+        measure      what ``values`` holds: "det ⁰J*" (default, signed), or the measure of a
+                     :class:`SingularityCriterion` (σ_min or manipulability, >= 0)
+        threshold    the criterion's threshold: singular where |values| <= threshold
+        criterion    one line describing the criterion ("" for the paper's det J*)
     """
 
     model_name: str
@@ -203,6 +207,9 @@ class DeterminantMap:
     values: np.ndarray
     q_fixed: np.ndarray
     unit: str = ""
+    measure: str = "det ⁰J*"
+    threshold: float = 0.0
+    criterion: str = ""
 
     def __post_init__(self) -> None:
         for name in ("angles_x", "angles_y", "values", "q_fixed"):
@@ -234,12 +241,20 @@ class DeterminantMap:
         x, y = self.angles_x * scale, self.angles_y * scale
         c = self.values.T  # rows along y
         span = float(np.nanmax(np.abs(c))) or 1.0
-        mesh = ax.pcolormesh(x, y, c, shading="nearest", cmap="RdBu_r", norm=Normalize(-span, span), rasterized=True)
         contour = None
-        if self.has_sign_change:
-            contour = ax.contour(x, y, c, levels=[0.0], colors="k", linewidths=1.6)
+        if self.measure.startswith("det") and self.threshold == 0.0:  # signed: a diverging map, the zero contour
+            mesh = ax.pcolormesh(x, y, c, shading="nearest", cmap="RdBu_r", norm=Normalize(-span, span), rasterized=True)
+            level, text = 0.0, f"{self.measure} = 0: dynamic singularity"
+            draw = self.has_sign_change
+        else:  # a measure >= 0: a sequential map, the threshold contour
+            mesh = ax.pcolormesh(x, y, np.abs(c), shading="nearest", cmap="viridis", norm=Normalize(0.0, span), rasterized=True)
+            level, text = self.threshold, f"|{self.measure}| = {self.threshold:g}: singular below"
+            draw = self.threshold > 0.0 and float(np.nanmin(np.abs(c))) < self.threshold < float(np.nanmax(np.abs(c)))
+            c = np.abs(c)
+        if draw:
+            contour = ax.contour(x, y, c, levels=[level], colors="k" if level == 0.0 else "tab:red", linewidths=1.6)
             ax.legend(
-                handles=[Line2D([], [], color="k", lw=1.6, label="det ⁰J* = 0: dynamic singularity")],
+                handles=[Line2D([], [], color="k" if level == 0.0 else "tab:red", lw=1.6, label=text)],
                 loc="upper center",
                 bbox_to_anchor=(0.5, -0.12),
                 frameon=False,
@@ -247,7 +262,7 @@ class DeterminantMap:
             )
         unit = f" ({self.unit})" if self.unit else ""
         # A colour bar exactly as tall as the axes, also with an equal aspect ratio.
-        colorbar = fig.colorbar(mesh, cax=ax.inset_axes((1.04, 0.0, 0.045, 1.0)), label=f"det ⁰J*{unit}")
+        colorbar = fig.colorbar(mesh, cax=ax.inset_axes((1.04, 0.0, 0.045, 1.0)), label=f"{self.measure}{unit}")
         angle_unit = "deg" if degrees else "rad"
         ax.set_xlabel(f"{self.joint_names[0]} ({angle_unit})")
         ax.set_ylabel(f"{self.joint_names[1]} ({angle_unit})")
@@ -256,7 +271,10 @@ class DeterminantMap:
                 if values[-1] - values[0] >= 180.0:
                     axis.set_major_locator(MultipleLocator(90.0))
         ax.set_aspect("equal" if np.isclose(x[-1] - x[0], y[-1] - y[0]) else "auto")
-        ax.set_title(f"Dynamic singularities of {self.model_name}\n(1992 eq. 17, det ⁰J*)")
+        import textwrap
+
+        what = "1992 eq. 17, det ⁰J*" if not self.criterion else textwrap.fill(self.criterion, 64)
+        ax.set_title(f"Dynamic singularities of {self.model_name}\n({what})", fontsize="medium" if self.criterion else None)
         return DeterminantMapArtists(mesh=mesh, contour=contour, colorbar=colorbar)
 
 
@@ -284,6 +302,7 @@ def jacobian_determinant_map(
     n: int | Sequence[int] = 361,
     ranges: Sequence[Sequence[float]] | None = None,
     q_fixed: Any = None,
+    criterion: SingularityCriterion | None = None,
 ) -> DeterminantMap:
     """det ⁰J*(q) (1992 eq. 17) over a grid of two joint angles, in one batched call.
 
@@ -291,7 +310,8 @@ def jacobian_determinant_map(
     ----------
     model
         A model whose J* is square in the sense of :func:`freeflyer.jacobian_determinant`
-        (planar: 2E rows [v_x, v_y] per end effector = N joints; otherwise 6E = N).
+        (planar: 2E rows [v_x, v_y] per end effector = N joints; otherwise 6E = N), or any
+        model with a ``criterion``.
     joints
         The two swept joints, by index or name (``model.joint_names``).
     n
@@ -302,6 +322,10 @@ def jacobian_determinant_map(
         [-π, π] for both.
     q_fixed
         (N,) configuration of the other joints, rad; default zeros.
+    criterion
+        Map this :class:`SingularityCriterion`'s measure instead of det J* (any
+        model, e.g. σ_min of the translational rows of a 6- or 7-DOF arm's J*);
+        its threshold is drawn as a contour.
 
     Returns
     -------
@@ -338,6 +362,21 @@ def jacobian_determinant_map(
     q = np.broadcast_to(base, (n_x, n_y, model.n_joints)).copy()
     q[..., i] = angles_x[:, None]
     q[..., j] = angles_y[None, :]
+    if criterion is not None:
+        measure = criterion.resolved_measure(model)
+        names = {"det": "det ⁰J*", "sigma_min": "σ_min(⁰J*)", "manipulability": "sqrt det(⁰J* ⁰J*ᵀ)"}
+        return DeterminantMap(
+            model_name=model.name,
+            joints=(i, j),
+            joint_names=(model.joint_names[i], model.joint_names[j]),
+            angles_x=angles_x,
+            angles_y=angles_y,
+            values=criterion.evaluate(model, q),
+            q_fixed=base,
+            measure=names[measure],
+            threshold=criterion.threshold,
+            criterion=criterion.describe(model),
+        )
     values = jacobian_determinant(model, q)
     return DeterminantMap(
         model_name=model.name,
