@@ -54,6 +54,20 @@ class System:
         return ff.jacobian_determinant(self.model, q) if self.square else ff.manipulability(self.model, q)
 
 
+def panda_model() -> ff.Model:
+    """The Panda of example-robot-data under a spacecraft (tests/robots.py), tool frame panda_hand_tcp."""
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from robots import REAL_ROBOTS, spacecraft_urdf
+
+    relative, tools = REAL_ROBOTS["panda"]
+    with tempfile.TemporaryDirectory() as folder:
+        return ff.load(spacecraft_urdf(relative, Path(folder)), end_effectors=tools)
+
+
 def systems() -> list[System]:
     paper = ff.models.papadopoulos1992()
     arm = ff.models.spacecraft_7dof()
@@ -63,6 +77,13 @@ def systems() -> list[System]:
             "Papadopoulos 1992 two-arm planar system (N = 4; J* 12 x 4, det over the planar rows [vx, vy] of both end effectors: 4 x 4)",
             paper,
             True,
+        ),
+        System(
+            "panda_prismatic",
+            "Franka Panda (example-robot-data URDF) under a 500 kg spacecraft: 7 revolute joints and 2 prismatic fingers "
+            "(N = 9; J* 6 x 9 at panda_hand_tcp: 'det' is the manipulability)",
+            panda_model(),
+            False,
         ),
         System(
             "spacecraft_7dof",

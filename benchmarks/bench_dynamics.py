@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 import freeflyer as ff
-from bench_core import best_of, machine_info, machine_line, set_threads, thread_counts
+from bench_core import best_of, machine_info, machine_line, panda_model, set_threads, thread_counts
 from freeflyer.core.state import State
 from freeflyer.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
 from freeflyer.io.oracles import acceleration_from_pinocchio, pinocchio_configuration, pinocchio_velocity, to_pinocchio
@@ -47,6 +47,7 @@ def systems() -> dict[str, tuple[str, ff.Model]]:
     return {
         "papadopoulos1992": ("Papadopoulos 1992 two-arm planar system (N = 4)", ff.models.papadopoulos1992(arms=2)),
         "spacecraft_7dof": ("1500 kg spacecraft with a 7-DOF iiwa-style arm, 3D (N = 7)", ff.models.spacecraft_7dof()),
+        "panda_prismatic": ("Franka Panda URDF under a 500 kg spacecraft: 7 revolute + 2 prismatic fingers (N = 9)", panda_model()),
     }
 
 

@@ -28,13 +28,15 @@ def build_random_model(
     branch_at: list[int | None],
     fixed_at: list[int | None],
     name: str = "random",
+    prismatic: float = 0.0,
 ) -> ff.Model:
     """A spacecraft with len(joints_per_arm) arms.
 
     ``branch_at[m]``: index of the link of arm m after which a second 1-2 link
     branch starts (None: no branch). ``fixed_at[m]``: index of a link that is
     attached through an extra fixed joint and a massive intermediate body
-    (None: no fixed joint).
+    (None: no fixed joint). ``prismatic``: the probability that a joint slides (limits ±0.5 m)
+    instead of turning.
     """
     b = ff.ModelBuilder(name)
     m0 = rng.uniform(50.0, 500.0)
@@ -43,6 +45,7 @@ def build_random_model(
     def link(parent: str, body: str, joint: str) -> None:
         m = rng.uniform(1.0, 50.0)
         b.add_body(body, mass=m, inertia=random_inertia(rng, m), com=rng.normal(scale=0.4, size=3))
+        sliding = prismatic > 0.0 and rng.uniform() < prismatic
         b.add_joint(
             joint,
             parent=parent,
@@ -50,8 +53,8 @@ def build_random_model(
             origin=rng.normal(scale=0.5, size=3),
             rotation=Rotation.random(random_state=rng).as_matrix(),
             axis=rng.normal(size=3),
-            type="revolute",
-            limits=(-np.pi, np.pi),
+            type="prismatic" if sliding else "revolute",
+            limits=(-0.5, 0.5) if sliding else (-np.pi, np.pi),
         )
 
     for arm, n in enumerate(joints_per_arm):
@@ -83,11 +86,19 @@ def build_random_model(
 
 
 @st.composite
-def random_trees(draw: st.DrawFn, max_arms: int = 3, max_joints: int = 7) -> ff.Model:
-    """Hypothesis strategy: 1-3 arms, 1-7 joints per arm, optional branch and fixed joint per arm."""
+def random_trees(draw: st.DrawFn, max_arms: int = 3, max_joints: int = 7, prismatic: float = 0.0) -> ff.Model:
+    """Hypothesis strategy: 1-3 arms, 1-7 joints per arm, optional branch and fixed joint per arm.
+
+    ``prismatic`` > 0: each joint slides with that probability (and at least one does).
+    """
     n_arms = draw(st.integers(1, max_arms))
     joints = [draw(st.integers(1, max_joints)) for _ in range(n_arms)]
     branch = [draw(st.one_of(st.none(), st.integers(0, n - 1))) for n in joints]
     fixed = [draw(st.one_of(st.none(), st.integers(0, n - 1))) for n in joints]
     seed = draw(st.integers(0, 2**32 - 1))
-    return build_random_model(np.random.default_rng(seed), joints, branch, fixed)
+    model = build_random_model(np.random.default_rng(seed), joints, branch, fixed, prismatic=prismatic)
+    if prismatic > 0.0:
+        from hypothesis import assume
+
+        assume(model.has_prismatic)
+    return model

@@ -18,6 +18,7 @@ their body in ``with user_errors():``.
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -27,7 +28,7 @@ import numpy as np
 import typer
 
 from .analysis.singularity import jacobian_determinant_map
-from .core.errors import FreeflyerError
+from .core.errors import FreeflyerError, ModelCorrectionWarning
 from .core.model import Model
 from .models import BUILTIN_MODELS, load_model
 from .papers.report import PAPER_PAYLOAD, model_info, paper_systems, render_text, write_model_reports
@@ -46,13 +47,28 @@ app = typer.Typer(
 # --------------------------------------------------------------------- shared pieces
 @contextmanager
 def user_errors() -> Iterator[None]:
-    """Turn bad input into one ``error: ...`` line on stderr and exit code 1."""
-    try:
-        yield
-    except (FreeflyerError, OSError, ValueError) as exc:
-        message = " ".join(str(exc).split()) or type(exc).__name__
-        typer.echo(f"error: {message}", err=True)
-        raise typer.Exit(1) from None
+    """Turn bad input into one ``error: ...`` line on stderr and exit code 1; corrections of a model
+    file (:class:`~freeflyer.core.errors.ModelCorrectionWarning`) into ``warning: ...`` lines."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ModelCorrectionWarning)
+
+        def flush() -> None:
+            while caught:
+                w = caught.pop(0)
+                if issubclass(w.category, ModelCorrectionWarning):
+                    typer.echo(f"warning: {' '.join(str(w.message).split())}", err=True)
+                else:
+                    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+
+        try:
+            yield
+        except (FreeflyerError, OSError, ValueError) as exc:
+            flush()
+            message = " ".join(str(exc).split()) or type(exc).__name__
+            typer.echo(f"error: {message}", err=True)
+            raise typer.Exit(1) from None
+        finally:
+            flush()
 
 
 def _inertia(text: str) -> Any:
@@ -123,6 +139,19 @@ PayloadEE = Annotated[
 ]
 
 
+EndEffectorOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--end-effector",
+        "-e",
+        help="An end effector: a link/body/site name (repeat the option for several). Default: those the file names, else every leaf.",
+    ),
+]
+StrictOption = Annotated[
+    bool, typer.Option("--strict", help="Refuse non-physical inertias in URDF/MJCF files instead of correcting them (with a warning).")
+]
+
+
 RowsOpt = Annotated[
     str | None,
     typer.Option("--rows", help="Rows of J* that decide singularity: position (translational), full, or auto (the paper's: all 6 in 3D)."),
@@ -150,15 +179,35 @@ def criterion_options(rows: str | None, measure: str | None, threshold: float | 
 
 @app.command("inspect")
 def inspect_command(
-    model: ModelArg,
+    model: Annotated[
+        str | None,
+        typer.Argument(
+            metavar="[MODEL]",
+            help="A .toml, .urdf or MJCF .xml model file, or a built-in model; without MODEL, list the built-in models (the zoo).",
+        ),
+    ] = None,
     json_output: Annotated[bool, typer.Option("--json", help="Print one JSON object instead of text.")] = False,
+    end_effector: EndEffectorOption = None,
+    strict: StrictOption = False,
     payload_mass: PayloadMass = None,
     payload_inertia: PayloadInertia = None,
     payload_ee: PayloadEE = None,
 ) -> None:
-    """Print a model: joints, end effectors, mass properties and barycentric vectors (1992 eqs. 5-9)."""
+    """Print a model: joints, end effectors (and the rule that chose them), mass properties, barycentric
+    vectors (1992 eqs. 5-9) and every correction made when loading it; without MODEL, list the built-in models."""
     with user_errors():
-        info = model_info(with_payload(load_model(model), payload_mass, payload_inertia, payload_ee))
+        if model is None:
+            listing = [{"name": name, "description": text} for name, (text, _) in BUILTIN_MODELS.items()]
+            if json_output:
+                typer.echo(json.dumps({"models": listing}, indent=2))
+            else:
+                width = max(len(m["name"]) for m in listing)
+                typer.echo("built-in models (freeflyer inspect NAME for one; provenance in docs/model-files.md):")
+                for m in listing:
+                    typer.echo(f"  {m['name'].ljust(width)}  {m['description']}")
+            return
+        loaded = load_model(model, end_effectors=end_effector or None, strict=strict)
+        info = model_info(with_payload(loaded, payload_mass, payload_inertia, payload_ee))
     typer.echo(json.dumps(info, indent=2) if json_output else render_text(info).rstrip("\n"))
 
 

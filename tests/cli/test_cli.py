@@ -96,12 +96,15 @@ def test_inspect_json_matches_library() -> None:
     assert joint == {
         "index": 2,
         "name": "arm2_q1",
+        "type": "revolute",
         "parent": "spacecraft",
         "child": "arm2_link1",
         "origin": [-0.5, 0.0, 0.0],
         "axis": [0.0, 0.0, 1.0],
+        "limits": None,
         "limits_deg": None,
     }
+    assert info["end_effector_rule"] == "leaves" and info["corrections"] == []
     link2 = info["bodies"][2]
     assert link2["mass"] == 30.0 and link2["cm"] == [0.5, 0.0, 0.0]
     assert link2["principal_moments"] == pytest.approx([30 * 0.05**2 / 2, 2.5, 2.5])
@@ -305,3 +308,52 @@ def test_python_m_freeflyer() -> None:
     assert failed.returncode == 1
     assert failed.stdout == ""
     assert failed.stderr.splitlines() == ["error: no_such_model.urdf: no such model file"]
+
+
+# ----------------------------------------------------------------------------- inspect: real files (issue 12)
+def test_inspect_without_a_model_lists_the_built_in_models() -> None:
+    result = invoke("inspect")
+    assert result.exit_code == 0, result.output
+    for name in ff.models.BUILTIN_MODELS:
+        assert name in result.stdout
+    listed = json.loads(invoke("inspect", "--json").stdout)["models"]
+    assert [m["name"] for m in listed] == list(ff.models.BUILTIN_MODELS)
+
+
+def test_inspect_shows_joint_types_the_end_effector_rule_and_corrections(tmp_path: Path) -> None:
+    from io_files import flawed_urdf  # tests/io_files.py
+
+    path = flawed_urdf(tmp_path)
+    result = invoke("inspect", str(path), "-e", "tool")
+    assert result.exit_code == 0, result.output
+    assert result.stderr.startswith("warning: ") and "l2" in result.stderr and "nearest physical inertia" in result.stderr
+    out = result.stdout
+    assert "named (only the listed ones)" in out and "prismatic" in out
+    assert "Corrections made when loading" in out and "triangle inequality" in out
+    result = invoke("inspect", str(path), "--end-effector", "tool", "--json")
+    info = json.loads(result.stdout)
+    assert [j["type"] for j in info["joints"]] == ["revolute", "prismatic"]
+    assert info["joints"][1]["limits"] == [-0.2, 0.3] and info["joints"][1]["limits_deg"] is None
+    (fix,) = info["corrections"]
+    assert "l2" in fix["where"] and fix["change_kg_m2"] > 0
+    assert [e["name"] for e in info["end_effectors"]] == ["tool"]
+    assert json.loads(invoke("inspect", str(path), "--json").stdout)["end_effector_rule"] == "leaves"
+    assert_one_line_error(invoke("inspect", str(path), "--strict"), "triangle inequality", "strict=False")
+    result = invoke("inspect", str(path), "-e", "nope")
+    assert result.exit_code == 1 and result.stdout == ""
+    assert result.stderr.splitlines()[0].startswith("warning: ")  # the correction is reported before the error
+    assert result.stderr.splitlines()[-1].startswith("error: ") and "'nope' is not a body or frame" in result.stderr
+
+
+def test_inspect_reads_all_three_formats(tmp_path: Path) -> None:
+    from io_files import HAND_WRITTEN
+
+    mjcf = tmp_path / "arm.xml"
+    mjcf.write_text(HAND_WRITTEN, encoding="utf-8")
+    info = inspect_json(str(mjcf))
+    assert info["end_effector_rule"] == "leaf sites" and [j["type"] for j in info["joints"]] == ["revolute", "prismatic", "revolute"]
+    toml = tmp_path / "arm.toml"
+    ff.save(ff.load(mjcf), toml)
+    again = inspect_json(str(toml))
+    assert [j["name"] for j in again["joints"]] == [j["name"] for j in info["joints"]]
+    assert again["total_mass"] == pytest.approx(info["total_mass"], rel=1e-15)

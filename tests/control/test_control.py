@@ -62,14 +62,20 @@ def test_task_rates_and_bias_against_finite_differences(name, make, model_name):
     model = getattr(ff.models, model_name)()
     task = make(model)
     state = _random_state(model, np.random.default_rng(7), planar=task.planar)
-    _, jac, zdot, bias = task.evaluate(state, bias=True)
+    jac = check_rates_and_bias(task, state)
     assert jac.shape == (task.dim, 6 + model.n_joints)
+
+
+def check_rates_and_bias(task: TaskSpace, state: State) -> np.ndarray:
+    """zdot = J_z zdot0 and the bias Jdot_z zdot0 against central differences along the motion; returns J_z."""
+    _, jac, zdot, bias = task.evaluate(state, bias=True)
     h = 1e-6
     fd = task.error(task.coordinates(_advance(state, h)), task.coordinates(_advance(state, -h))) / (2 * h)
     np.testing.assert_allclose(zdot, fd, atol=1e-7 * (1 + np.abs(zdot).max()))
     h = 1e-5
     fd_bias = (task.velocity(_advance(state, h)) - task.velocity(_advance(state, -h))) / (2 * h)
     np.testing.assert_allclose(bias, fd_bias, atol=1e-6 * (1 + np.abs(bias).max()))
+    return jac
 
 
 def test_task_jacobian_matches_ff_task_jacobian():
@@ -165,6 +171,34 @@ def test_eq27_exact_on_random_trees(model, seed):
         model, state.q, state.velocity, act.joint_torque, act.spacecraft_force, act.spacecraft_torque, attitude=state.attitude
     )
     _, jac, zdot, bias = task.evaluate(state, bias=True)
+    np.testing.assert_allclose(jac @ acc + bias, -6.0 * zdot, rtol=1e-7, atol=1e-7 * (1 + np.abs(zdot).max()))
+
+
+@settings(max_examples=10)
+@given(random_trees(max_arms=2, max_joints=3, prismatic=0.5), st.integers(0, 1000))
+def test_task_bias_and_eq27_with_prismatic_joints(model, seed):
+    """Sliding joints in the task kinematics: J_z zdot and its bias against finite differences, and eq. 27 exact."""
+    task = TaskSpace.create(model, end_effector_orientation=True, spacecraft_orientation=True, orientation="quaternion")
+    state = _random_state(model, np.random.default_rng(seed))
+    check_rates_and_bias(task, state)
+    h = 1e-5
+    body, tip = model.n_bodies - 1, [0.1, -0.2, 0.3]
+    point = ff.mechanics.point_bias_acceleration(model, state.q, state.velocity, body, tip, attitude=state.attitude)
+    pv = [ff.point_jacobian(model, s.q, body, tip, attitude=s.attitude) @ s.velocity for s in (_advance(state, h), _advance(state, -h))]
+    fd_point = (pv[0] - pv[1]) / (2 * h)  # inertial frame: the derivative of the point's velocity at zddot0 = 0
+    np.testing.assert_allclose(point, fd_point, atol=1e-6 * (1 + np.abs(point).max()))
+    # eq. 27 with an exact model gives the commanded task acceleration (here: -Kd zdot at the current point),
+    # on the task of test_eq27_exact_on_random_trees (positions, and the spacecraft pose when J_z can hold it)
+    full = 6 + 3 * model.n_end_effectors <= 6 + model.n_joints
+    task = TaskSpace.create(model, end_effector_orientation=False, spacecraft_orientation=full, orientation="quaternion")
+    _, jac, zdot, bias = task.evaluate(state, bias=True)
+    sv = np.linalg.svd(jac, compute_uv=False)
+    assume(sv[-1] > 1e-2 * sv[0])
+    ctrl = OperationalSpaceController(model, task, task.coordinates(state), kp=9.0, kd=6.0)
+    act = ctrl(0.0, state)
+    acc = ff.forward_dynamics(
+        model, state.q, state.velocity, act.joint_torque, act.spacecraft_force, act.spacecraft_torque, attitude=state.attitude
+    )
     np.testing.assert_allclose(jac @ acc + bias, -6.0 * zdot, rtol=1e-7, atol=1e-7 * (1 + np.abs(zdot).max()))
 
 

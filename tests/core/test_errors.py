@@ -136,10 +136,10 @@ def test_malformed_urdf(tmp_path: Path) -> None:
         ff.load(path)
 
 
-URDF_PRISMATIC = """<robot name="slider">
+URDF_SCREW = """<robot name="slider">
   <link name="bus"><inertial><mass value="10"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
   <link name="carriage"><inertial><mass value="1"/><inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link>
-  <joint name="slide" type="prismatic">
+  <joint name="slide" type="screw">
     <parent link="bus"/><child link="carriage"/><axis xyz="1 0 0"/>
     <limit lower="0" upper="1" effort="1" velocity="1"/>
   </joint>
@@ -149,8 +149,10 @@ URDF_PRISMATIC = """<robot name="slider">
 
 def test_urdf_with_an_unsupported_joint_type(tmp_path: Path) -> None:
     path = tmp_path / "slider.urdf"
-    path.write_text(URDF_PRISMATIC, encoding="utf-8")
-    with raises_model_error(f"{path}: joint[0] (slide).type", "unsupported joint type 'prismatic'", "revolute, continuous and fixed"):
+    path.write_text(URDF_SCREW, encoding="utf-8")
+    with raises_model_error(
+        f"{path}: joint[0] (slide).type", "unsupported joint type 'screw'", "revolute, continuous, prismatic and fixed"
+    ):
         ff.load(path)
 
 

@@ -77,12 +77,7 @@ def wrenches(model: ff.Model) -> list[ff.ExternalWrench]:
 def check_all(model: ff.Model, x: dict[str, np.ndarray]) -> None:
     """Every quantity with two algorithms: the engine against the barycentric closed form."""
     q, v, a = x["q"], x["v"], x["a"]
-    assert_rel(ff.end_effector_positions(model, q), ff.end_effector_positions(model, q, method="barycentric"))
-    assert_rel(ff.body_cm_positions(model, q), ff.body_cm_positions(model, q, method="barycentric"))
-    last = model.n_bodies - 1
-    assert_rel(ff.point_jacobian(model, q, last, [0.1, 0.2, 0.3]), ff.point_jacobian(model, q, last, [0.1, 0.2, 0.3], method="barycentric"))
-    assert_rel(ff.generalized_jacobian(model, q), ff.generalized_jacobian(model, q, method="barycentric"))
-    assert_rel(ff.system_inertia_matrix(model, q), ff.system_inertia_matrix(model, q, method="barycentric"))
+    check_kinematics(model, x)
     assert_rel(ff.nonlinear_forces(model, q, v)[:, 3:], ff.nonlinear_forces(model, q, v, method="barycentric")[:, 3:])
     ext = wrenches(model)
     args = (x["tau"], x["f"], x["n"], x["quat"])
@@ -100,6 +95,26 @@ def check_all(model: ff.Model, x: dict[str, np.ndarray]) -> None:
 def test_engine_matches_barycentric_forms_at_every_batch_size(name: str, size: int) -> None:
     model = MODELS[name]()
     check_all(model, random_inputs(model, np.random.default_rng(size), size))
+
+
+def check_kinematics(model: ff.Model, x: dict[str, np.ndarray]) -> None:
+    """The quantities whose barycentric forms cover prismatic joints (positions, J+, J*, H+)."""
+    q = x["q"]
+    assert_rel(ff.end_effector_positions(model, q), ff.end_effector_positions(model, q, method="barycentric"))
+    assert_rel(ff.body_cm_positions(model, q), ff.body_cm_positions(model, q, method="barycentric"))
+    last = model.n_bodies - 1
+    assert_rel(ff.point_jacobian(model, q, last, [0.1, 0.2, 0.3]), ff.point_jacobian(model, q, last, [0.1, 0.2, 0.3], method="barycentric"))
+    assert_rel(ff.generalized_jacobian(model, q), ff.generalized_jacobian(model, q, method="barycentric"))
+    assert_rel(ff.system_inertia_matrix(model, q), ff.system_inertia_matrix(model, q, method="barycentric"))
+
+
+@pytest.mark.parametrize("size", SIZES)
+def test_engine_matches_barycentric_forms_with_prismatic_joints(size: int) -> None:
+    model = build_random_model(np.random.default_rng(13), [3, 2], [1, None], [None, 0], prismatic=0.5)
+    assert model.has_prismatic
+    check_kinematics(model, random_inputs(model, np.random.default_rng(size), size))
+    with pytest.raises(ff.ModelError, match="prismatic"):
+        ff.nonlinear_forces(model, np.zeros(model.n_joints), np.zeros(6 + model.n_joints), method="barycentric")
 
 
 @settings(max_examples=40, deadline=None)
@@ -221,6 +236,22 @@ def test_compiled_rollout_matches_single_simulations(batch: int) -> None:
             np.testing.assert_allclose(getattr(ours, field)[:, b], getattr(ref, field), rtol=0, atol=1e-9, err_msg=field)
         np.testing.assert_array_equal(ours.saturated[:, b], ref.saturated)
     assert ours.saturated.any()
+
+
+def test_rollout_with_prismatic_joints_matches_single_simulations() -> None:
+    """A tree with sliding joints: the compiled rollout equals simulate() trajectory by trajectory."""
+    model = build_random_model(np.random.default_rng(13), [3, 2], [1, None], [None, 0], prismatic=0.5)
+    n = model.n_joints
+    rng = np.random.default_rng(2)
+    q0 = rng.uniform(-0.3, 0.3, (4, n))
+    states = State(q=q0, qdot=rng.uniform(-0.1, 0.1, (4, n)))
+    pd = JointPD(kp=20.0, kd=5.0, q_ref=0.2)
+    ours = rollout(model, states, 0.05, dt=1e-3, controller=pd, output_period=1e-2)
+    for b in range(4):
+        ref = simulate(model, State(q=states.q[b], qdot=states.qdot[b]), 0.05, pd, fixed_step=1e-3, output_period=1e-2)
+        for field in ("q", "qdot", "omega", "attitude", "r_cm", "v_cm"):
+            np.testing.assert_allclose(getattr(ours, field)[:, b], getattr(ref, field), rtol=0, atol=1e-9, err_msg=field)
+    assert np.abs(ours.q[-1] - ours.q[0]).max() > 1e-3, "the joints should move"
 
 
 def test_rollout_with_python_controller_matches_compiled_pd_and_reference() -> None:

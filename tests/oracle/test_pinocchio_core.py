@@ -267,6 +267,16 @@ def test_random_tree_matches_pinocchio(model: ff.Model, seed: int) -> None:
 
 
 @settings(max_examples=200)
+@given(model=random_trees(prismatic=0.4), seed=SEEDS)
+def test_random_tree_with_prismatic_joints_matches_pinocchio(model: ff.Model, seed: int) -> None:
+    """Sliding joints mixed in: both algorithms (engine and barycentric) against Pinocchio's prismatic joints."""
+    system = pinocchio_of(model)
+    assert any(system.pm.joints[i].shortname() == "JointModelPrismaticUnaligned" for i in range(system.pm.njoints))
+    case = compare(model, system, np.random.default_rng(seed))
+    check_bridge(model, system, case)
+
+
+@settings(max_examples=200)
 @given(model=random_trees(), seed=SEEDS)
 def test_random_tree_urdf_matches_pinocchio_urdf_parser(model: ff.Model, seed: int) -> None:
     with tempfile.TemporaryDirectory() as directory:

@@ -203,7 +203,7 @@ def reachable_workspace(
     if method not in ("auto", "closed_form", "sampling"):
         raise ValueError(f"method: expected 'auto', 'closed_form' or 'sampling', got {method!r}")
     _check_samples(samples, starts)
-    box = search.joint_box(model.joint_lower, model.joint_upper)
+    box = search.model_box(model)
     closed_ok = model.is_planar and bool(np.all(box.free))
     if method == "auto":
         method = "closed_form" if closed_ok else "sampling"
@@ -293,7 +293,7 @@ def guaranteed_workspace(
     if method not in ("auto", "closed_form", "sampling"):
         raise ValueError(f"method: expected 'auto', 'closed_form' or 'sampling', got {method!r}")
     _check_samples(samples, starts)
-    box = search.joint_box(model.joint_lower, model.joint_upper)
+    box = search.model_box(model)
     closed_ok = model.is_planar and bool(np.all(box.free))
     if method == "auto":
         method = "closed_form" if closed_ok else "sampling"

@@ -23,10 +23,13 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares, minimize
 from scipy.stats import qmc
+
+from ..core.errors import ModelError
 
 Batch = Callable[[np.ndarray], np.ndarray]
 
@@ -53,6 +56,26 @@ def joint_box(lower: np.ndarray, upper: np.ndarray) -> JointBox:
     lo = np.where(free, -np.pi, lower)
     hi = np.where(free, np.pi, upper)
     return JointBox(lo=lo, hi=hi, free=free)
+
+
+def model_box(model: Any) -> JointBox:
+    """The sampling box of a model's joints: :func:`joint_box` of its limits, a prismatic joint never free.
+
+    A workspace needs the reach of every joint: a prismatic joint without both limits would make
+    it unbounded, so it is refused with a :class:`ModelError` naming the joint.
+    """
+    lower = np.asarray(model.joint_lower, dtype=float)
+    upper = np.asarray(model.joint_upper, dtype=float)
+    sliding = np.asarray(model.prismatic, dtype=bool)
+    for j in np.flatnonzero(sliding & ~(np.isfinite(lower) & np.isfinite(upper))):
+        raise ModelError(
+            f"{model.name}: joint {model.joint_names[j]!r}.limits",
+            "is a prismatic joint without limits, so its workspace is unbounded",
+            "give the joint [lower, upper] limits in m (model file: limits = [lo, hi]; URDF: <limit lower= upper=>)",
+        )
+    box = joint_box(lower, upper)
+    free = box.free & ~sliding
+    return JointBox(lo=np.where(sliding, lower, box.lo), hi=np.where(sliding, upper, box.hi), free=free)
 
 
 def batched(fun: Batch, q: np.ndarray, chunk: int = CHUNK) -> np.ndarray:

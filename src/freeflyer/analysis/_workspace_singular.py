@@ -106,7 +106,7 @@ def path_independent_workspace(
         raise ValueError("reachable: computed for another model or end effector")
     crit_user = criterion if criterion is not None else SingularityCriterion()
     crit = crit_user.search_criterion(model, None if jacobian == "system" else e)
-    box = search.joint_box(model.joint_lower, model.joint_upper)
+    box = search.model_box(model)
     found = search.singular_points(crit, box, samples=samples, seed=seed)
     gap = 0.02 * reach.R_max if merge_gap is None else float(merge_gap)
     if not gap > 0.0:
@@ -204,7 +204,7 @@ def payload_effect(model: Model, end_effector: str | int, mass: float, inertia: 
     ees = range(model.n_end_effectors)
     body = int(model.end_effector_body[e])
     point = model.end_effector_point[e] + off
-    box = search.joint_box(model.joint_lower, model.joint_upper)
+    box = search.model_box(model)
     reach_p, *_ = _norm_range(lambda qq: point_positions(model, qq, body, point), box, samples=1 << 14, starts=4, seed=3)
     scale = m_p / (model.total_mass + m_p)
     return PayloadEffect(

@@ -170,7 +170,7 @@ def optimal_capture_posture(
         raise ValueError(
             f"R_plus = {R_plus!r} m is outside the reachable workspace [{reach.R_min:.6g}, {reach.R_max:.6g}] m of {reach.end_effector!r}"
         )
-    box = search.joint_box(model.joint_lower, model.joint_upper)
+    box = search.model_box(model)
     bounds = [(None, None) if f else (lo, hi) for lo, hi, f in zip(box.lo, box.hi, box.free, strict=True)]
 
     def constraint(q: np.ndarray) -> np.ndarray:
@@ -312,7 +312,7 @@ def _posture_candidates(
 ) -> list[np.ndarray]:
     """Up to ``count`` distinct capture configurations on |r_E| = R+ (Sobol samples put on the sphere), the most dexterous first."""
     out: list[np.ndarray] = []
-    box = search.joint_box(model.joint_lower, model.joint_upper)
+    box = search.model_box(model)
     q = search.sobol(1 << 12, box.lo, box.hi, seed + 1)
     near = np.argsort(np.abs(end_effector_radius(model, q, e) - R_plus))[:256]
     snapped = _snap_to_radius(model, e, q[near], R_plus, box)

@@ -120,7 +120,7 @@ def workspace_cloud(
     if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 16:
         raise ValueError(f"samples: expected an integer >= 16, got {samples!r}")
     crit = criterion if criterion is not None else SingularityCriterion()
-    box = search.joint_box(model.joint_lower, model.joint_upper)
+    box = search.model_box(model)
     q = search.sobol(int(samples), box.lo, box.hi, seed)
     return WorkspaceCloud(
         model_name=model.name,

@@ -38,7 +38,7 @@ from ..core.conventions import attitude_matrix, euler321_from_matrix, euler321_r
 from ..core.errors import ShapeError
 from ..core.model import Model
 from ..core.state import State
-from ..mechanics.dynamics import _motion
+from ..mechanics.dynamics import _linear_bias, _motion
 from ..mechanics.jacobians import _assemble, _point_terms
 from ..mechanics.kinematics import _rotations
 
@@ -241,9 +241,11 @@ class TaskSpace:
         tables = (
             np.stack([self.model.bary.point_vectors(self.model, it.body, np.array(it.point)) for it in positions]) if positions else None
         )
+        bodies = np.array([it.body for it in positions], dtype=int)
         if tables is not None:
-            rho, j12, j22 = _point_terms(self.model, rot, tables, np.array([it.body for it in positions]))
+            rho, j12, j22 = _point_terms(self.model, rot, tables, bodies, qf)
         motion = _motion(self.model, qf, vel[:, 3:6], vel[:, 6:]) if need_bias else None
+        linear_bias = _linear_bias(self.model, motion, qf, vel, tables, bodies) if motion is not None and tables is not None else None
         z = np.zeros((c, self.size))
         jac = np.zeros((c, self.dim, 6 + n))
         bias = np.zeros((c, self.dim)) if need_bias else None
@@ -259,20 +261,16 @@ class TaskSpace:
                 z[:, zs] = pos[:, rows]
                 jac[:, vs] = full[:, rows]
                 if bias is not None:
-                    assert motion is not None and tables is not None
-                    w = np.einsum("cbij,bj->cbi", motion.rot, tables[p])  # T_i v_iP, spacecraft frame
-                    u = np.cross(motion.omega, w).sum(axis=1)
-                    lin0 = np.cross(vel[:, 3:6], u) + (
-                        np.cross(motion.kappa, w) + np.cross(motion.omega, np.cross(motion.omega_rel, w))
-                    ).sum(axis=1)
-                    bias[:, vs] = np.einsum("cij,cj->ci", t0, lin0)[:, rows]
+                    assert linear_bias is not None
+                    bias[:, vs] = np.einsum("cij,cj->ci", t0, linear_bias[:, p])[:, rows]
                 continue
             # orientation of body it.body: R = T0 ⁰T_k, omega_k = T0 (omega0 + F_k qdot)
             r_body = t0 @ rot[:, it.body]
             w_jac = np.zeros((c, 3, 6 + n))
             w_jac[:, :, 3:6] = t0
             sub = self.model.subtree[1:, it.body].astype(float)  # joints l with body outboard of l
-            axes = np.einsum("clij,lj->cli", rot[:, 1:], self.model.joint_axis[1:])  # (C, N, 3) spacecraft frame
+            turning = self.model.joint_axis[1:] * ~self.model.prismatic[:, None]  # a prismatic joint turns nothing
+            axes = np.einsum("clij,lj->cli", rot[:, 1:], turning)  # (C, N, 3) spacecraft frame
             w_jac[:, :, 6:] = np.einsum("cij,clj->cil", t0, axes * sub[None, :, None])
             omega_i = np.einsum("cij,cj->ci", w_jac, vel)
             w_bias = np.einsum("cij,cj->ci", t0, motion.alpha[:, it.body]) if motion is not None else None
@@ -492,6 +490,8 @@ class TaskSpace:
             while int(model.parent[chain[-1]]) != 0:
                 chain.append(int(model.parent[chain[-1]]))
             chain.reverse()  # first body after the spacecraft ... the point's body
+            if any(model.prismatic[k - 1] for k in chain):
+                continue  # segment lengths change with a sliding joint: this quick check covers turning chains only
             mount = model.joint_origin[chain[0]] - model.com[0]  # spacecraft frame, from the spacecraft CM
             segments = [float(np.linalg.norm(model.joint_origin[k])) for k in chain[1:]] + [float(np.linalg.norm(it.point))]
             reach_max = float(sum(segments))

@@ -25,6 +25,16 @@ barycentric vector per body (1992 eq. 4, generalized):
 The outboard mass fraction mu*_k = S_k / M (1992 eq. 6) is the mass beyond
 joint k. All of this depends on the mass distribution only, so it is computed
 once when the model is built.
+
+**Prismatic joints** (docs/theory.md §"Prismatic joints"). When joint c slides body c by q_c
+along a_c (parent frame), the joint position in the parent p is t_c + q_c a_c, so the barycenter
+b_p moves by q_c mu*_c a_c and every barycentric vector of body p is affine in q_c:
+
+    v_pk(q) = v_pk(0) + q_c (chi_c(k) - mu*_c) a_c,   chi_c(k) = 1 if body k is in the subtree of c
+
+(the vector towards the sliding subtree grows by (1 - mu*_c) q_c a_c, all others shrink by
+mu*_c q_c a_c; sum_k m_k v_pk = 0 still holds). The tables below hold v(0); ``slide_coefficient``
+and ``slide_axis`` hold the affine part.
 """
 
 from __future__ import annotations
@@ -68,6 +78,8 @@ class MassTree(Protocol):
     def n_bodies(self) -> int: ...
     @property
     def n_end_effectors(self) -> int: ...
+    @property
+    def prismatic(self) -> np.ndarray: ...
 
 
 class _Built(Protocol):
@@ -87,6 +99,9 @@ class BarycentricVectors:
     point_table  (B, B, 3)  row k, column i: v_ik of the CM of body k (eq. 4)
     end_effector_table (E, B, 3)  row e, column i: v_iE of end effector e (eq. 10)
     diagonal_inertia (B, 3, 3)  I_i + sum_k m_k (|v_ik|^2 1 - v_ik v_ik^T), the i = j case of 1991 eq. 17
+                     (at q = 0 of the prismatic joints)
+    slide_coefficient (N, B)  row j: chi_c(k) - mu*_c for prismatic joint j (body c = j + 1), zero for revolute
+    slide_axis   (N, 3)  a_c, the axis of prismatic joint j in its parent's frame (zero for revolute)
     """
 
     outboard_mass_fraction: np.ndarray
@@ -97,6 +112,8 @@ class BarycentricVectors:
     point_table: np.ndarray
     end_effector_table: np.ndarray
     diagonal_inertia: np.ndarray
+    slide_coefficient: np.ndarray
+    slide_axis: np.ndarray
 
     def point_vectors(self, model: MassTree, body: int, point: np.ndarray) -> np.ndarray:
         """v_iP (B, 3) for a point P (body frame of ``body``): rho_P = sum_i T_i v_iP."""
@@ -148,6 +165,14 @@ def compute(model: MassTree) -> BarycentricVectors:
     for i in range(n):
         v = table[:, i, :]  # v_ik over k
         diag[i] += np.sum(model.mass * np.sum(v * v, axis=1)) * eye - np.einsum("k,kx,ky->xy", model.mass, v, v)
+    n_j = n - 1
+    prismatic = np.asarray(model.prismatic, dtype=bool).reshape(n_j)
+    slide = np.zeros((n_j, n))
+    slide_axis = np.zeros((n_j, 3))
+    for j in np.flatnonzero(prismatic):
+        c = int(j) + 1
+        slide[j] = model.subtree[c].astype(float) - subtree_mass[c] / total
+        slide_axis[j] = model.joint_rotation[c] @ model.joint_axis[c]
     out = BarycentricVectors(
         outboard_mass_fraction=subtree_mass / total,
         barycenter=bary,
@@ -157,6 +182,8 @@ def compute(model: MassTree) -> BarycentricVectors:
         point_table=table,
         end_effector_table=ee,
         diagonal_inertia=diag,
+        slide_coefficient=slide,
+        slide_axis=slide_axis,
     )
     for arr in vars(out).values():
         arr.setflags(write=False)
@@ -183,8 +210,9 @@ def is_planar(model: MassTree, tol: float = 1e-12) -> bool:
         p = int(model.parent[k])
         rot[k] = rot[p] @ model.joint_rotation[k]
         pos[k] = pos[p] + rot[p] @ model.joint_origin[k]
-        if abs(abs(rot[k] @ model.joint_axis[k] @ ez) - 1.0) > tol:
-            return False
+        along_z = abs(rot[k] @ model.joint_axis[k] @ ez)
+        if (abs(along_z) > tol) if model.prismatic[k - 1] else (abs(along_z - 1.0) > tol):
+            return False  # a revolute axis along z, a prismatic axis in the x-y plane
         if abs(abs(rot[k][2, 2]) - 1.0) > tol:
             return False
     heights = [pos[k][2] + (rot[k] @ model.com[k])[2] for k in range(n)]

@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 from .errors import ModelError
 from .model import Model, _vector, check_inertia, inertia_matrix
 
-__all__ = ["BodySpec", "JointSpec", "ModelBuilder"]
+__all__ = ["BodySpec", "EndEffectorSpec", "JointSpec", "ModelBuilder"]
 
 
 def _rotation_matrix(rotation: Any, path: str) -> np.ndarray:
@@ -70,6 +70,15 @@ class JointSpec:
     upper: float = np.inf
 
 
+@dataclass(frozen=True)
+class EndEffectorSpec:
+    """An end effector named by the user: a point (``point``, frame of ``body``) of a body or frame."""
+
+    name: str
+    body: str
+    point: np.ndarray
+
+
 class ModelBuilder:
     """Build a :class:`Model` in Python.
 
@@ -87,6 +96,7 @@ class ModelBuilder:
         self.name = name
         self._bodies: list[BodySpec] = []
         self._joints: list[JointSpec] = []
+        self._end_effectors: list[EndEffectorSpec] = []
 
     def add_body(
         self,
@@ -98,11 +108,15 @@ class ModelBuilder:
         end_effector: Any = None,
         end_effector_name: str | None = None,
         frame: bool = False,
+        degenerate_ok: bool = False,
     ) -> ModelBuilder:
         """Add a body. ``inertia`` is about the CM: 3x3, [Ixx, Iyy, Izz] or a scalar.
 
         ``frame=True`` allows a massless frame (mass 0, as a URDF link without
         ``<inertial>``); it must be attached by a fixed joint to a body with mass.
+        ``degenerate_ok=True`` accepts a zero or semi-definite inertia (a point mass, a thin rod,
+        as small links in real files have): the model is then checked as a whole (every merged
+        body, and H+ positive definite when loaded from a file).
         """
         path = f"bodies[{len(self._bodies)}]"
         if not isinstance(name, str) or not name:
@@ -120,7 +134,7 @@ class ModelBuilder:
         spec = BodySpec(
             name=name,
             mass=mass_value,
-            inertia=np.zeros((3, 3)) if massless else inertia_matrix(inertia, f"{path}.inertia"),
+            inertia=np.zeros((3, 3)) if massless else inertia_matrix(inertia, f"{path}.inertia", degenerate_ok=degenerate_ok),
             com=_vector(com, f"{path}.com", "give the CM [x, y, z] in the body frame, in m"),
             end_effector=None
             if end_effector is None
@@ -148,8 +162,9 @@ class ModelBuilder:
         ``origin`` (m) and ``rotation`` (3x3) or ``rpy`` (fixed-axis roll, pitch,
         yaw in rad, as URDF) place the joint frame in the parent frame; the child
         frame equals the joint frame at zero angle. ``axis`` is in the joint
-        frame and is normalised. ``type`` is ``revolute``, ``continuous`` or
-        ``fixed``; ``limits`` = (lower, upper) in rad.
+        frame and is normalised. ``type`` is ``revolute``, ``continuous`` (a revolute
+        joint without limits), ``prismatic`` (the child slides along the axis; q in m) or
+        ``fixed``; ``limits`` = (lower, upper) in rad (m for a prismatic joint).
         """
         index = len(self._joints)
         path = f"joints[{index}] ({name})"
@@ -157,8 +172,8 @@ class ModelBuilder:
             raise ModelError(f"joints[{index}].name", f"expected a non-empty string, got {name!r}", "name every joint")
         if any(j.name == name for j in self._joints):
             raise ModelError(f"{path}.name", f"duplicate joint name {name!r}", "give every joint a unique name")
-        if type not in ("revolute", "continuous", "fixed"):
-            raise ModelError(f"{path}.type", f"unknown joint type {type!r}", "use 'revolute', 'continuous' or 'fixed'")
+        if type not in ("revolute", "continuous", "prismatic", "fixed"):
+            raise ModelError(f"{path}.type", f"unknown joint type {type!r}", "use 'revolute', 'continuous', 'prismatic' or 'fixed'")
         if rotation is not None and rpy is not None:
             raise ModelError(f"{path}.rotation", "both rotation and rpy given", "give one of them")
         if rpy is not None:
@@ -170,14 +185,15 @@ class ModelBuilder:
         if type != "fixed" and norm < 1e-12:
             raise ModelError(f"{path}.axis", "is the zero vector", "give a nonzero axis, e.g. [0, 0, 1]")
         lower, upper = -np.inf, np.inf
-        if limits is not None and type == "revolute":
+        unit = "m" if type == "prismatic" else "rad"
+        if limits is not None and type in ("revolute", "prismatic"):
             try:
                 lower, upper = (float(v) for v in limits)
             except (TypeError, ValueError):
-                raise ModelError(f"{path}.limits", f"cannot read {limits!r} as [lower, upper]", "give two numbers in rad") from None
+                raise ModelError(f"{path}.limits", f"cannot read {limits!r} as [lower, upper]", f"give two numbers in {unit}") from None
             if np.isnan(lower) or np.isnan(upper) or not lower < upper:
                 raise ModelError(
-                    f"{path}.limits", f"lower {lower} must be below upper {upper}", "give [lower, upper] in rad with lower < upper"
+                    f"{path}.limits", f"lower {lower} must be below upper {upper}", f"give [lower, upper] in {unit} with lower < upper"
                 )
         self._joints.append(
             JointSpec(
@@ -194,9 +210,35 @@ class ModelBuilder:
         )
         return self
 
-    def build(self, *, source: str = "") -> Model:
-        """Validate the tree, merge fixed joints and return the frozen :class:`Model`."""
-        return _build(self.name, self._bodies, self._joints, source)
+    def add_end_effector(self, name: str, *, body: str, point: Any = (0.0, 0.0, 0.0)) -> ModelBuilder:
+        """Name an end effector: ``point`` (m) in the frame of ``body`` (a body or a frame fixed to one).
+
+        Once any end effector is named, only the named ones are end effectors (in the order named);
+        leaves not named (a solar array, an antenna, a camera mast) are plain frames. When none is
+        named, every leaf body is an end effector (``Model.end_effector_rule`` says which rule).
+        """
+        path = f"end_effectors[{len(self._end_effectors)}]"
+        if not isinstance(name, str) or not name:
+            raise ModelError(f"{path}.name", f"expected a non-empty string, got {name!r}", "name every end effector")
+        if any(e.name == name for e in self._end_effectors):
+            raise ModelError(f"{path}.name", f"duplicate end-effector name {name!r}", "give every end effector a unique name")
+        if not isinstance(body, str) or not body:
+            raise ModelError(f"{path} ({name}).body", f"expected a body or frame name, got {body!r}", "name the body that holds the tool")
+        point_vec = _vector(point, f"{path} ({name}).point", "give the point [x, y, z] in the body frame, in m")
+        self._end_effectors.append(EndEffectorSpec(name=name, body=body, point=point_vec))
+        return self
+
+    def build(self, *, source: str = "", corrections: Sequence[dict[str, Any]] = ()) -> Model:
+        """Validate the tree, merge fixed joints and return the frozen :class:`Model`.
+
+        ``corrections``: what a file reader changed in the given data (``Model.corrections``).
+        """
+        model = _build(self.name, self._bodies, self._joints, source, self._end_effectors)
+        if corrections:
+            import dataclasses
+
+            model = dataclasses.replace(model, corrections=tuple(dict(c) for c in corrections))
+        return model
 
 
 def _close(name: str, known: Sequence[str]) -> str:
@@ -204,7 +246,7 @@ def _close(name: str, known: Sequence[str]) -> str:
     return f" (did you mean {', '.join(repr(c) for c in close)}?)" if close else ""
 
 
-def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], source: str) -> Model:
+def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], source: str, named: Sequence[EndEffectorSpec] = ()) -> Model:
     if not bodies:
         raise ModelError("bodies", "the model has no bodies", "add at least the spacecraft body")
     by_name = {b.name: b for b in bodies}
@@ -291,7 +333,7 @@ def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], s
         if mass[k] <= 0.0:
             raise ModelError(
                 f"bodies ({order[k]}).mass",
-                "a massless body moves on a revolute joint (or is the spacecraft), which makes the inertia matrix singular",
+                "a massless body moves on a joint (or is the spacecraft), which makes the inertia matrix singular",
                 "give it a positive mass and an inertia (URDF: an <inertial> element), or attach it with a fixed joint",
             )
     com = first / mass[:, None]
@@ -319,13 +361,26 @@ def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], s
     ee_names: list[str] = []
     ee_body: list[int] = []
     ee_point: list[np.ndarray] = []
-    for leaf in leaves:
-        spec = by_name[leaf]
-        r, t = to_host[leaf]
-        point = np.zeros(3) if spec.end_effector is None else spec.end_effector
-        ee_names.append(spec.end_effector_name or leaf)
-        ee_body.append(index[host[leaf]])
-        ee_point.append(t + r @ point)
+    if named:  # the user's list: only these, in their order
+        for i, ee in enumerate(named):
+            if ee.body not in by_name:
+                raise ModelError(
+                    f"end_effectors[{i}] ({ee.name}).body",
+                    f"{ee.body!r} is not a body or frame of the model{_close(ee.body, names)}",
+                    "name a link (URDF), body or frame of the model",
+                )
+            r, t = to_host[ee.body]
+            ee_names.append(ee.name)
+            ee_body.append(index[host[ee.body]])
+            ee_point.append(t + r @ ee.point)
+    else:
+        for leaf in leaves:
+            spec = by_name[leaf]
+            r, t = to_host[leaf]
+            point = np.zeros(3) if spec.end_effector is None else spec.end_effector
+            ee_names.append(spec.end_effector_name or leaf)
+            ee_body.append(index[host[leaf]])
+            ee_point.append(t + r @ point)
     if len(set(ee_names)) != len(ee_names):
         raise ModelError("end_effector_name", f"duplicate end-effector names {ee_names}", "give every end effector a unique name")
 
@@ -346,4 +401,6 @@ def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], s
         end_effector_body=np.asarray(ee_body, dtype=int),
         end_effector_point=np.asarray(ee_point, dtype=float).reshape(-1, 3),
         source=source,
+        joint_type=tuple("prismatic" if j.type == "prismatic" else "revolute" for j in movable_joints),
+        end_effector_rule="named" if named else "leaves",
     )

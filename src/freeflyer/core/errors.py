@@ -12,6 +12,7 @@ from typing import Any
 
 __all__ = [
     "FreeflyerError",
+    "ModelCorrectionWarning",
     "ModelError",
     "NearSingularWarning",
     "PathDoesNotFitError",
@@ -64,6 +65,14 @@ class SingularConfigurationError(FreeflyerError, ArithmeticError):
     def __init__(self, what: str, determinant: float, fix: str = "") -> None:
         self.determinant = determinant
         super().__init__(f"{what} is singular (determinant {determinant:.3e}). {fix}".strip())
+
+
+class ModelCorrectionWarning(UserWarning):
+    """A loaded model file had data that is not physical and freeflyer corrected it (say what and by how much).
+
+    Every correction is also recorded in ``Model.corrections``. Turn these into errors with
+    ``ff.load(path, strict=True)`` (or ``warnings.simplefilter("error", ModelCorrectionWarning)``).
+    """
 
 
 class NearSingularWarning(UserWarning):

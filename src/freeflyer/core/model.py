@@ -1,7 +1,7 @@
 """The immutable :class:`Model` of a space robot (:class:`~freeflyer.core.builder.ModelBuilder` makes it).
 
 A model is a tree of rigid bodies rooted at the spacecraft (body 0), joined by
-revolute joints (fixed joints are merged into the parent at build time). It is
+revolute or prismatic joints (fixed joints are merged into the parent at build time). It is
 validated once, when built, and never changes: ``with_payload`` returns a new
 model. Everything that depends only on the mass distribution (outboard mass
 fractions, barycenters, barycentric vectors, 1992 eqs. 5-9) is computed at
@@ -19,7 +19,11 @@ import numpy as np
 from . import barycentric
 from .errors import ModelError, UnknownNameError
 
-__all__ = ["Model", "check_inertia", "inertia_matrix"]
+__all__ = ["JOINT_TYPES", "Model", "check_inertia", "inertia_defect", "inertia_matrix", "nearest_physical_inertia"]
+
+#: The joint types a model holds after fixed joints are merged: a revolute joint turns its body
+#: about the axis by q (rad); a prismatic joint slides it along the axis by q (m).
+JOINT_TYPES = ("revolute", "prismatic")
 
 _INERTIA_RTOL = 1e-9
 
@@ -36,7 +40,7 @@ def _vector(value: Any, path: str, fix: str) -> np.ndarray:
     return arr
 
 
-def inertia_matrix(value: Any, path: str) -> np.ndarray:
+def inertia_matrix(value: Any, path: str, *, degenerate_ok: bool = False) -> np.ndarray:
     """Read an inertia given as a 3x3 matrix, three principal moments, or one isotropic moment."""
     fix = "give a 3x3 symmetric matrix, [Ixx, Iyy, Izz], or one number (isotropic), in kg m^2 about the CM"
     try:
@@ -49,31 +53,68 @@ def inertia_matrix(value: Any, path: str) -> np.ndarray:
         arr = np.diag(arr)
     elif arr.shape != (3, 3):
         raise ModelError(path, f"expected shape (3, 3), (3,) or a scalar, got {arr.shape}", fix)
-    check_inertia(arr, path)
+    check_inertia(arr, path, degenerate_ok=degenerate_ok)
     return arr
 
 
-def check_inertia(inertia: np.ndarray, path: str) -> None:
+def check_inertia(inertia: np.ndarray, path: str, *, degenerate_ok: bool = False) -> None:
     """Raise :class:`ModelError` unless ``inertia`` is a physical inertia matrix about a CM.
 
-    Physical means finite, symmetric, positive definite, and principal moments
-    that satisfy the triangle inequality ``I1 <= I2 + I3``.
+    Physical means finite, symmetric, positive definite (``degenerate_ok``: semi-definite, as a
+    point mass), and principal moments that satisfy the triangle inequality ``I1 <= I2 + I3``.
     """
     fix = "use the inertia of a real body about its CM (symmetric, positive definite, each principal moment <= the sum of the other two)"
+    defect = inertia_defect(inertia, degenerate_ok=degenerate_ok)
+    if defect is not None:
+        raise ModelError(path, defect, fix)
+
+
+def inertia_defect(inertia: np.ndarray, *, degenerate_ok: bool = False) -> str | None:
+    """What makes ``inertia`` (3x3, about a CM) non-physical, or None when it is physical.
+
+    Physical: finite, symmetric, principal moments positive (``degenerate_ok``: zero allowed, as a
+    point mass or a thin rod) and each at most the sum of the other two (triangle inequality), with
+    a relative tolerance of 1e-9 of the largest moment.
+    """
     if not np.all(np.isfinite(inertia)):
-        raise ModelError(path, "has NaN or infinite entries", fix)
+        return "has NaN or infinite entries"
     scale = max(float(np.max(np.abs(inertia))), 1e-300)
     if np.max(np.abs(inertia - inertia.T)) > 1e-9 * scale:
-        raise ModelError(path, "is not symmetric", fix)
+        return "is not symmetric"
     moments = np.linalg.eigvalsh(0.5 * (inertia + inertia.T))
-    if moments[0] <= 0.0:
-        raise ModelError(path, f"is not positive definite (principal moments {moments.tolist()})", fix)
-    if moments[2] > (moments[0] + moments[1]) * (1.0 + _INERTIA_RTOL):
-        raise ModelError(
-            path,
-            f"violates the triangle inequality: principal moment {moments[2]:.6g} > {moments[0]:.6g} + {moments[1]:.6g}",
-            fix,
-        )
+    floor = -_INERTIA_RTOL * scale if degenerate_ok else 0.0
+    if moments[0] < floor or (not degenerate_ok and moments[0] == 0.0):
+        return f"is not positive definite (principal moments {moments.tolist()})"
+    if moments[2] > (moments[0] + moments[1]) * (1.0 + _INERTIA_RTOL) + (_INERTIA_RTOL * scale if degenerate_ok else 0.0):
+        return f"violates the triangle inequality: principal moment {moments[2]:.6g} > {moments[0]:.6g} + {moments[1]:.6g}"
+    return None
+
+
+def nearest_physical_inertia(inertia: np.ndarray) -> np.ndarray:
+    """The physical inertia nearest to ``inertia`` in the Frobenius norm.
+
+    The set of physical inertias depends on the principal moments only, so the nearest one keeps
+    the principal axes of the symmetric part and moves the moments to the nearest point of the
+    cone {I_k >= 0, I_a <= I_b + I_c}: a small quadratic programme (scipy.optimize, SLSQP).
+    Asymmetry is removed first (the symmetric part is the nearest symmetric matrix).
+    """
+    from scipy.optimize import minimize
+
+    sym = 0.5 * (inertia + inertia.T)
+    moments, axes = np.linalg.eigh(sym)
+    cone = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0], [-1.0, 1, 1], [1, -1.0, 1], [1, 1, -1.0]])
+    result = minimize(
+        lambda x: float(np.sum((x - moments) ** 2)),
+        np.clip(moments, 0.0, None),
+        jac=lambda x: 2.0 * (x - moments),
+        constraints=[{"type": "ineq", "fun": lambda x: cone @ x, "jac": lambda x: cone}],
+        method="SLSQP",
+        options={"ftol": 1e-30, "maxiter": 200},
+    )
+    fixed = np.clip(result.x, 0.0, None)
+    # tiny round-off of the QP may leave the triangle inequality violated by ~1e-16: close it exactly
+    fixed[np.argmax(fixed)] = min(float(fixed.max()), float(np.sum(fixed) - fixed.max()))
+    return (axes * fixed) @ axes.T
 
 
 def _frozen(arr: Any, dtype: Any = float) -> np.ndarray:
@@ -95,7 +136,11 @@ class Model:
         joint_origin      (B, 3) joint position in the parent frame (row 0 unused)
         joint_rotation    (B, 3, 3) joint frame relative to the parent frame
         joint_axis        (B, 3) unit joint axis in the joint (= child) frame
-        joint_lower/upper (N,) joint limits in rad (±inf when none)
+        joint_type        (N,) "revolute" (q in rad) or "prismatic" (q in m, the body slides
+                          along the axis; its frame origin is joint_origin + q axis)
+        joint_lower/upper (N,) joint limits in rad or m (±inf when none)
+        end_effector_rule "named" (the model file or builder named them) or "leaves" (every leaf)
+        corrections       every change made to the given data when loading (see ``ff.load``)
         mass, com, inertia  per body; inertia about the CM
         end_effector_body, end_effector_point  (E,), (E, 3)
     """
@@ -117,6 +162,9 @@ class Model:
     end_effector_point: np.ndarray
     source: str = ""
     payloads: tuple[dict[str, Any], ...] = ()
+    joint_type: tuple[str, ...] = ()
+    end_effector_rule: str = "leaves"
+    corrections: tuple[dict[str, Any], ...] = ()
     # derived at build time
     total_mass: float = field(init=False)
     subtree: np.ndarray = field(init=False, repr=False)
@@ -138,6 +186,18 @@ class Model:
             object.__setattr__(self, name, _frozen(getattr(self, name)))
         for name in ("parent", "end_effector_body"):
             object.__setattr__(self, name, _frozen(getattr(self, name), int))
+        if not self.joint_type:
+            object.__setattr__(self, "joint_type", ("revolute",) * len(self.joint_names))
+        object.__setattr__(self, "joint_type", tuple(str(t) for t in self.joint_type))
+        if len(self.joint_type) != len(self.joint_names):
+            raise ModelError(
+                "joint_type", f"has {len(self.joint_type)} entries for {len(self.joint_names)} joints", "give one type per joint"
+            )
+        for j, kind in enumerate(self.joint_type):
+            if kind not in JOINT_TYPES:
+                raise ModelError(
+                    f"joints[{j}] ({self.joint_names[j]}).type", f"unknown joint type {kind!r}", f"use one of {', '.join(JOINT_TYPES)}"
+                )
         n = len(self.body_names)
         subtree = np.zeros((n, n), dtype=bool)
         for k in range(n):
@@ -150,7 +210,8 @@ class Model:
         object.__setattr__(self, "bary", barycentric.compute(self))
         # (P, P K, P K^2) per joint: placement P, axis cross matrix K; the joint's
         # rotation relative to its parent is P (1 + sin q K + (1 - cos q) K^2).
-        axis = self.joint_axis[1:]
+        # A prismatic joint does not turn: K = 0, so its rotation is P at every q.
+        axis = self.joint_axis[1:] * ~self.prismatic[:, None]
         kx = np.zeros((self.n_joints, 3, 3))
         kx[:, 0, 1], kx[:, 0, 2], kx[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
         kx -= np.swapaxes(kx, 1, 2)
@@ -170,7 +231,18 @@ class Model:
 
     @property
     def n_end_effectors(self) -> int:
+        """Number of end effectors E."""
         return len(self.end_effector_names)
+
+    @property
+    def prismatic(self) -> np.ndarray:
+        """(N,) bool: True where joint j is prismatic (q_j in m), False where it is revolute (rad)."""
+        return np.array([t == "prismatic" for t in self.joint_type], dtype=bool)
+
+    @property
+    def has_prismatic(self) -> bool:
+        """True when any joint is prismatic."""
+        return "prismatic" in self.joint_type
 
     @property
     def is_planar(self) -> bool:
@@ -259,6 +331,9 @@ class Model:
             end_effector_point=self.end_effector_point,
             source=self.source,
             payloads=(*self.payloads, record),
+            joint_type=self.joint_type,
+            end_effector_rule=self.end_effector_rule,
+            corrections=self.corrections,
         )
 
     def __repr__(self) -> str:

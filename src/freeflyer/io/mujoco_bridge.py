@@ -27,6 +27,9 @@ from ..mechanics.kinematics import system_cm
 __all__ = ["from_mujoco_state", "mujoco_state", "to_mjcf", "to_mujoco"]
 
 
+_MJCF_JOINT = {"revolute": "hinge", "prismatic": "slide"}
+
+
 def _fmt(values: Any) -> str:
     return " ".join(repr(float(v)) for v in np.ravel(values))
 
@@ -48,9 +51,10 @@ def to_mjcf(model: Model, *, timestep: float = 1e-3, integrator: str = "RK4") ->
             head = f'{indent}<body name="{name}" pos="0 0 0">\n{indent}  <freejoint name="root"/>\n'
         else:
             quat = Rotation.from_matrix(model.joint_rotation[k]).as_quat()  # x y z w
+            kind = _MJCF_JOINT[model.joint_type[k - 1]]
             head = (
                 f'{indent}<body name="{name}" pos="{_fmt(model.joint_origin[k])}" quat="{_fmt(np.roll(quat, 1))}">\n'
-                f'{indent}  <joint name="{model.joint_names[k - 1]}" type="hinge" axis="{_fmt(model.joint_axis[k])}" limited="false"/>\n'
+                f'{indent}  <joint name="{model.joint_names[k - 1]}" type="{kind}" axis="{_fmt(model.joint_axis[k])}" limited="false"/>\n'
             )
         inner = "".join(body(c, indent + "  ") for c in children[k])
         return f"{head}{indent}  {inertial(k)}\n{inner}{indent}</body>\n"

@@ -46,7 +46,9 @@ def to_pinocchio(model: Model) -> Any:
     for k in range(model.n_bodies):
         if k > 0:
             placement = pin.SE3(np.array(model.joint_rotation[k]), np.array(model.joint_origin[k]))
-            joint = pin.JointModelRevoluteUnaligned(np.array(model.joint_axis[k]))
+            axis = np.array(model.joint_axis[k])
+            sliding = model.joint_type[k - 1] == "prismatic"
+            joint = pin.JointModelPrismaticUnaligned(axis) if sliding else pin.JointModelRevoluteUnaligned(axis)
             ids.append(pm.addJoint(ids[int(model.parent[k])], joint, placement, model.joint_names[k - 1]))
         inertia = pin.Inertia(float(model.mass[k]), np.array(model.com[k]), np.array(model.inertia[k]))
         pm.appendBodyToJoint(ids[k], inertia, pin.SE3.Identity())

@@ -44,9 +44,9 @@ def jstar_one(
     """J* (6E, N) at q (1992 eq. 14; the formula is in :mod:`._recursions`)."""
     nb = parent.shape[0]
     prepare(q, parent, body, s, True)
-    pos, axis, cf, g, x, re = s.pos, s.axis, s.cf, s.g, s.x, s.re
-    unit_momenta(body, axis, s.mom, cf, s.ci, g, s.h, True)
-    centroidal_blocks(body, ancestor, total_mass, axis, s.mom, cf, s.ci, g, s.h, s.a, False)
+    pos, axis, mom, cf, g, x, re = s.pos, s.axis, s.mom, s.cf, s.g, s.x, s.re
+    unit_momenta(body, axis, mom, cf, s.ci, g, s.h, True)
+    centroidal_blocks(body, ancestor, total_mass, axis, mom, cf, s.ci, g, s.h, s.a, False)
     solve3(s.a, x)
     c0, c1, c2 = cf[0, 0] / total_mass, cf[0, 1] / total_mass, cf[0, 2] / total_mass
     for e in range(ee_body.shape[0]):
@@ -60,11 +60,10 @@ def jstar_one(
             v2 = -g[l, 2] / total_mass + (r0 * x1 - r1 * x0)
             w0, w1, w2 = -x0, -x1, -x2
             if ancestor[l, k]:
-                u0, u1, u2 = axis[l, 0], axis[l, 1], axis[l, 2]
-                d0, d1, d2 = re[0] - pos[l, 0], re[1] - pos[l, 1], re[2] - pos[l, 2]
-                v0 += u1 * d2 - u2 * d1
-                v1 += u2 * d0 - u0 * d2
-                v2 += u0 * d1 - u1 * d0
+                u0, u1, u2 = axis[l, 0], axis[l, 1], axis[l, 2]  # S_l = [u; m] moves r_E at m + u x r_E
+                v0 += mom[l, 0] + u1 * re[2] - u2 * re[1]
+                v1 += mom[l, 1] + u2 * re[0] - u0 * re[2]
+                v2 += mom[l, 2] + u0 * re[1] - u1 * re[0]
                 w0 += u0
                 w1 += u1
                 w2 += u2
@@ -91,12 +90,13 @@ def point_jacobian_one(
     """J+ (P, 6, 6 + N) of points ``ppoint`` (body frames of ``pbody``), spacecraft frame (1991 eqs. 7-10).
 
     Rows [v_P; w_k] over [rdot_cm, omega0, qdot]: [[1, -[rho_P]x, J12], [0, 1, J22]] with
-    J12[:, l] = [l inboard of P] u_l x (r_P - p_l) - g_l / M and J22[:, l] = [l inboard of P] u_l.
+    J12[:, l] = [l inboard of P] (m_l + u_l x r_P) - g_l / M and J22[:, l] = [l inboard of P] u_l, with
+    S_l = [u_l; m_l] the motion axis at O (m_l = p_l x u_l when revolute; u_l = 0, m_l = the axis when prismatic).
     """
     nb = parent.shape[0]
     prepare(q, parent, body, s, False)
-    pos, axis, cf, g, rp = s.pos, s.axis, s.cf, s.g, s.re
-    unit_momenta(body, axis, s.mom, cf, s.ci, g, s.h, False)
+    pos, axis, mom, cf, g, rp = s.pos, s.axis, s.mom, s.cf, s.g, s.re
+    unit_momenta(body, axis, mom, cf, s.ci, g, s.h, False)
     c0, c1, c2 = cf[0, 0] / total_mass, cf[0, 1] / total_mass, cf[0, 2] / total_mass
     for e in range(pbody.shape[0]):
         k = pbody[e]
@@ -114,11 +114,10 @@ def point_jacobian_one(
         for l in range(1, nb):
             v0, v1, v2 = -g[l, 0] / total_mass, -g[l, 1] / total_mass, -g[l, 2] / total_mass
             if ancestor[l, k]:
-                u0, u1, u2 = axis[l, 0], axis[l, 1], axis[l, 2]
-                d0, d1, d2 = rp[0] - pos[l, 0], rp[1] - pos[l, 1], rp[2] - pos[l, 2]
-                v0 += u1 * d2 - u2 * d1
-                v1 += u2 * d0 - u0 * d2
-                v2 += u0 * d1 - u1 * d0
+                u0, u1, u2 = axis[l, 0], axis[l, 1], axis[l, 2]  # S_l = [u; m] moves r_P at m + u x r_P
+                v0 += mom[l, 0] + u1 * rp[2] - u2 * rp[1]
+                v1 += mom[l, 1] + u2 * rp[0] - u0 * rp[2]
+                v2 += mom[l, 2] + u0 * rp[1] - u1 * rp[0]
                 out[e, 3, 5 + l], out[e, 4, 5 + l], out[e, 5, 5 + l] = u0, u1, u2
             out[e, 0, 5 + l], out[e, 1, 5 + l], out[e, 2, 5 + l] = v0, v1, v2
 

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from ..core.conventions import attitude_matrix
-from ..core.errors import ShapeError
+from ..core.errors import ModelError, ShapeError
 from ..core.model import Model
 from ._arrays import joint_array, vector_array
 
@@ -67,3 +67,14 @@ def check_method(method: str, reference: str) -> str:
     if method not in METHODS:
         raise ValueError(f"method: expected 'recursive' (the engine) or 'barycentric' ({reference}), got {method!r}")
     return method
+
+
+def revolute_only(model: Model, what: str) -> None:
+    """Refuse a model with prismatic joints in a closed form written for revolute joints only."""
+    if model.has_prismatic:
+        sliding = [n for n, t in zip(model.joint_names, model.joint_type, strict=True) if t == "prismatic"]
+        raise ModelError(
+            f"{model.name}.joint_type",
+            f"{what} is the barycentric closed form of revolute joints; joints {sliding} are prismatic",
+            "use method='recursive' (the engine covers prismatic joints), or a model with revolute joints only",
+        )

@@ -15,7 +15,9 @@ from the spacecraft frame origin O, so composite (subtree) quantities add withou
 
 * kinematics: joint k turns body k about its axis u_k (Rodrigues: the joint placement P_k times
   1 + sin q K + (1 - cos q) K^2), ⁰T_k = ⁰T_parent P_k R(q_k); p_k the joint position, and the
-  motion axis of joint k at O is S_k = [u_k; p_k x u_k];
+  motion axis of joint k at O is S_k = [u_k; p_k x u_k]. A prismatic joint slides instead:
+  ⁰T_k = ⁰T_parent P_k, p_k = p_parent + ⁰T_parent (t_k + q_k P_k u_k) and S_k = [0; u_k]; below,
+  "u_l" and "p_l x u_l" stand for the angular and linear parts of S_l, so every formula covers both;
 * mass properties at O: per body the mass m_k, first moment m_k c_k and inertia about O; their
   subtree sums (composite bodies) S_k, F_k, I_k;
 * momenta of a unit joint rate: the subtree of joint l turning about its axis at unit rate has
@@ -28,7 +30,7 @@ from the spacecraft frame origin O, so composite (subtree) quantities add withou
   i is an ancestor of, or is, joint l);
 * J* (1992 eq. 14): omega0 = -X qdot with X = D^-1 D_q (zero angular momentum, 1992 eq. 12), and
   for an end effector at r_E (rho_E = r_E - c), column l is
-  v = [l inboard of E] u_l x (r_E - p_l) - g_l / M + rho_E x X_l,  w = [l inboard of E] u_l - X_l;
+  v = [l inboard of E] (p_l x u_l + u_l x r_E) - g_l / M + rho_E x X_l,  w = [l inboard of E] u_l - X_l;
 * C+ and the generalized forces (1991 eqs. 18-21) by Newton-Euler at O with the base's linear
   velocity and acceleration set to zero, then the uniform acceleration delta = -f_O / M that
   removes the base force (the omega0 and q rows do not change under it; docs/dynamics.md §4);
@@ -50,7 +52,7 @@ from typing import Any
 import numpy as np
 
 from ._numba_cache import kernel
-from ._tree import _AX, _C, _I, _M, _P0, _P1, _P2, _S, _T
+from ._tree import _AX, _C, _I, _M, _P0, _P1, _P2, _PR, _S, _T
 
 #: Scratch space of one configuration: views of one flat buffer, made once per batch range (or per
 #: stepper call) and passed down, so no kernel makes a view per configuration (each costs ~25 ns).
@@ -180,7 +182,12 @@ def work_size_jit(n_bodies: int) -> int:  # pragma: no cover - compiled
 def kinematics(
     q: np.ndarray, parent: np.ndarray, body: np.ndarray, rot: np.ndarray, pos: np.ndarray, axis: np.ndarray, mom: np.ndarray
 ) -> None:  # pragma: no cover - compiled
-    """Body rotations ⁰T_k, joint positions p_k (from O), spacecraft-frame joint axes u_k and p_k x u_k."""
+    """Body rotations ⁰T_k, joint positions p_k (from O) and the motion axes of the joints at O.
+
+    ``axis`` and ``mom`` are the angular and linear parts of joint k's motion axis at O (spacecraft
+    frame): [u_k; p_k x u_k] for a revolute joint, [0; u_k] for a prismatic one. Every recursion
+    below uses only these two, so it holds for both joint types unchanged.
+    """
     nb = parent.shape[0]
     for i in range(3):
         for j in range(3):
@@ -190,8 +197,15 @@ def kinematics(
         mom[0, i] = 0.0
     for k in range(1, nb):
         p = parent[k]
-        s = math.sin(q[k - 1])
-        c = 1.0 - math.cos(q[k - 1])
+        slide = body[k, _PR] != 0.0
+        if slide:  # prismatic: no turn (P1 = P2 = 0); the body frame origin moves q along the axis
+            s = 0.0
+            c = 0.0
+            d = q[k - 1]
+        else:
+            s = math.sin(q[k - 1])
+            c = 1.0 - math.cos(q[k - 1])
+            d = 0.0
         l00 = body[k, _P0] + s * body[k, _P1] + c * body[k, _P2]
         l01 = body[k, _P0 + 1] + s * body[k, _P1 + 1] + c * body[k, _P2 + 1]
         l02 = body[k, _P0 + 2] + s * body[k, _P1 + 2] + c * body[k, _P2 + 2]
@@ -208,11 +222,17 @@ def kinematics(
             rot[k, i, 0] = r0 * l00 + r1 * l10 + r2 * l20
             rot[k, i, 1] = r0 * l01 + r1 * l11 + r2 * l21
             rot[k, i, 2] = r0 * l02 + r1 * l12 + r2 * l22
-            pos[k, i] = pos[p, i] + r0 * body[k, _T] + r1 * body[k, _T + 1] + r2 * body[k, _T + 2]
-            axis[k, i] = r0 * body[k, _AX] + r1 * body[k, _AX + 1] + r2 * body[k, _AX + 2]
-        mom[k, 0] = pos[k, 1] * axis[k, 2] - pos[k, 2] * axis[k, 1]
-        mom[k, 1] = pos[k, 2] * axis[k, 0] - pos[k, 0] * axis[k, 2]
-        mom[k, 2] = pos[k, 0] * axis[k, 1] - pos[k, 1] * axis[k, 0]
+            a = r0 * body[k, _AX] + r1 * body[k, _AX + 1] + r2 * body[k, _AX + 2]
+            pos[k, i] = pos[p, i] + r0 * body[k, _T] + r1 * body[k, _T + 1] + r2 * body[k, _T + 2] + d * a
+            axis[k, i] = a
+        if slide:  # motion axis [0; u]: no angular part, linear part u at every point
+            for i in range(3):
+                mom[k, i] = axis[k, i]
+                axis[k, i] = 0.0
+        else:  # motion axis [u; p x u]
+            mom[k, 0] = pos[k, 1] * axis[k, 2] - pos[k, 2] * axis[k, 1]
+            mom[k, 1] = pos[k, 2] * axis[k, 0] - pos[k, 0] * axis[k, 2]
+            mom[k, 2] = pos[k, 0] * axis[k, 1] - pos[k, 1] * axis[k, 0]
 
 
 @kernel(inline="always")

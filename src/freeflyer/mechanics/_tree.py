@@ -25,7 +25,8 @@ _M = 33  # mass
 _C = 34  # CM in the body frame (3)
 _I = 37  # inertia about the CM, body axes (3x3, row-major)
 _S = 46  # mass of the subtree of the body (itself included)
-NF = 47
+_PR = 47  # 1.0 when the body's joint is prismatic (slides along the axis), 0.0 when revolute
+NF = 48
 
 
 @dataclass(frozen=True, eq=False)
@@ -60,13 +61,16 @@ def tree(model: Any) -> Tree:
     axis = np.asarray(model.joint_axis, dtype=float)
     for k in range(n_b):
         u = axis[k]
-        kx = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+        sliding = k > 0 and bool(model.prismatic[k - 1])
+        w = 0.0 * u if sliding else u  # a prismatic joint does not turn: K = 0
+        kx = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
         place = np.asarray(model.joint_rotation[k], dtype=float)
         body[k, _T : _T + 3] = model.joint_origin[k]
         body[k, _P0 : _P0 + 9] = place.ravel()
         body[k, _P1 : _P1 + 9] = (place @ kx).ravel()
         body[k, _P2 : _P2 + 9] = (place @ kx @ kx).ravel()
         body[k, _AX : _AX + 3] = place @ u
+        body[k, _PR] = 1.0 if sliding else 0.0
         body[k, _M] = model.mass[k]
         body[k, _C : _C + 3] = model.com[k]
         body[k, _I : _I + 9] = np.asarray(model.inertia[k], dtype=float).ravel()

@@ -59,10 +59,10 @@ from ..core.errors import ShapeError, SingularConfigurationError
 from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, pieces
-from ._inputs import _attitude, _joints, _rotate, _vector, _velocity, check_method
+from ._inputs import _attitude, _joints, _rotate, _vector, _velocity, check_method, revolute_only
 from .forces import _actuation_0, _actuation_vector, _engine_wrenches, _generalized_forces_0, _wrenches
 from .jacobians import actuation_jacobian
-from .kinematics import _rotations
+from .kinematics import _rotations, _slides
 from .momentum import system_inertia_matrix
 
 __all__ = [
@@ -114,8 +114,8 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def _motion(model: Model, q: np.ndarray, omega0: np.ndarray, qdot: np.ndarray) -> _Motion:
     rot = _rotations(model, q)
     batch, n = q.shape[0], model.n_bodies
-    axis = np.zeros((batch, n, 3))
-    axis[:, 1:] = np.einsum("ckij,kj->cki", rot[:, 1:], model.joint_axis[1:])
+    axis = np.zeros((batch, n, 3))  # turning axes: zero for prismatic joints, which turn nothing
+    axis[:, 1:] = np.einsum("ckij,kj->cki", rot[:, 1:], model.joint_axis[1:] * ~model.prismatic[:, None])
     rate = axis.copy()
     rate[:, 1:] *= qdot[:, :, None]  # u_k qdot_k
     sub = model.subtree.astype(float)  # sub[l, i]: body i is outboard of (or is) body l
@@ -185,6 +185,7 @@ def nonlinear_forces(model: Model, q: Any, velocity: Any, *, method: str = "recu
         out = np.zeros((*rows.shape[:-1], 6 + model.n_joints))
         out[..., 3:] = rows
         return out
+    revolute_only(model, "nonlinear_forces(method='barycentric') (1991 eqs. 18-21)")
     kernel = _c_plus_barycentric
     return chunked(pieces(lambda qq, vv: kernel(model, qq, vv), model.n_bodies), q, v, core_ndims=(1, 1))
 
@@ -233,19 +234,45 @@ def system_inertia_matrix_rate(model: Model, q: Any, qdot: Any) -> np.ndarray:
     body-fixed vector v_i is (F_i qdot) x v_i. Used by the closed form of C+
     and by momentum checks: d/dt h = Ddot omega0 + D omega0dot + D_q,dot qdot + D_q qddot.
     """
+    revolute_only(model, "system_inertia_matrix_rate")
     q = _joints(model, q, "q")
     qd = _joints(model, qdot, "qdot")
     return chunked(pieces(lambda qq, vv: _hplus_rate(model, qq, vv), model.n_bodies), q, qd, core_ndims=(1, 1))
 
 
 # ----------------------------------------------------------------- bias acceleration of a point
+def _linear_bias(model: Model, mo: _Motion, q: np.ndarray, velocity: np.ndarray, tables: np.ndarray, bodies: np.ndarray) -> np.ndarray:
+    """Kernel: the linear part of Jdot+ zdot0 of P points (C, P, 3), spacecraft-frame components.
+
+    With x = T0^T (Rdot_P - rdot_cm) = sum_i omega_i x w_i + s (w_i = T_i v_iP(q); s the sliding
+    of prismatic joints, docs/theory.md), the acceleration at zddot0 = 0 is T0 (omega0 x x + xdot):
+    xdot = sum_i (kappa_i x w_i + omega_i x (omega_rel,i x w_i + sigma_i)) + sdot, where sigma_i is
+    the sliding of the joints whose parent is body i and sdot = sum_c coef_cP omega_rel,p(c) x qdot_c u_c.
+    """
+    omega0 = velocity[:, 3:6]
+    w = np.einsum("cbij,pbj->cpbi", mo.rot, tables)  # T_i v_iP (C, P, B, 3)
+    x = _cross(mo.omega[:, None], w).sum(axis=2)
+    terms = _cross(mo.kappa[:, None], w) + _cross(mo.omega[:, None], _cross(mo.omega_rel[:, None], w))
+    if model.has_prismatic:
+        coef = model.bary.slide_coefficient[:, bodies]  # (N, P)
+        parents = model.parent[1:]
+        rates = _slides(model, mo.rot, velocity[:, 6:])  # qdot_c u_c (C, N, 3)
+        offsets = _slides(model, mo.rot, q)  # q_c u_c
+        scatter = np.zeros((model.n_joints, model.n_bodies))
+        scatter[np.arange(model.n_joints), parents] = 1.0  # joint c -> its parent body
+        w = w + np.einsum("cjx,jp,jb->cpbx", offsets, coef, scatter)  # the barycentric vectors at q
+        x = _cross(mo.omega[:, None], w).sum(axis=2) + np.einsum("cjx,jp->cpx", rates, coef)
+        sigma = np.einsum("cjx,jp,jb->cpbx", rates, coef, scatter)
+        terms = _cross(mo.kappa[:, None], w) + _cross(mo.omega[:, None], _cross(mo.omega_rel[:, None], w) + sigma)
+        s_dot = np.einsum("jp,cjx->cpx", coef, _cross(mo.omega_rel[:, parents], rates))
+        return _cross(omega0[:, None], x) + terms.sum(axis=2) + s_dot
+    return _cross(omega0[:, None], x) + terms.sum(axis=2)
+
+
 def _point_bias(model: Model, q: np.ndarray, velocity: np.ndarray, body: int, table: np.ndarray) -> np.ndarray:
     """Kernel: Jdot+ zdot0 of a point (C, 6), spacecraft-frame components."""
-    omega0 = velocity[:, 3:6]
-    mo = _motion(model, q, omega0, velocity[:, 6:])
-    w = np.einsum("cbij,bj->cbi", mo.rot, table)  # T_i v_iP
-    u = _cross(mo.omega, w).sum(axis=1)  # T0^T (point velocity - rdot_cm)
-    lin = _cross(omega0, u) + (_cross(mo.kappa, w) + _cross(mo.omega, _cross(mo.omega_rel, w))).sum(axis=1)
+    mo = _motion(model, q, velocity[:, 3:6], velocity[:, 6:])
+    lin = _linear_bias(model, mo, q, velocity, table[None], np.array([body]))[:, 0]
     return np.concatenate([lin, mo.alpha[:, body]], axis=1)
 
 

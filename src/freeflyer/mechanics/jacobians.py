@@ -31,7 +31,7 @@ from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, joint_array, pieces
 from ._inputs import check_method
-from .kinematics import _rotations, body_rotations
+from .kinematics import _rotations, _slides, body_rotations
 from .momentum import _hplus_barycentric
 
 __all__ = [
@@ -50,8 +50,15 @@ def _method(method: str) -> str:
     return check_method(method, "1991 eq. 10, 1992 eq. 14")
 
 
-def _point_terms(model: Model, rot: np.ndarray, tables: np.ndarray, bodies: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Kernel: rho (C, P, 3), J12 (C, P, 3, N), J22 (C, P, 3, N) for P points (spacecraft frame)."""
+def _point_terms(
+    model: Model, rot: np.ndarray, tables: np.ndarray, bodies: np.ndarray, q: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Kernel: rho (C, P, 3), J12 (C, P, 3, N), J22 (C, P, 3, N) for P points (spacecraft frame).
+
+    Revolute column l: J12 = u_l x s_l (s_l the barycentric sum over the subtree of joint l),
+    J22 = [P outboard of l] u_l. Prismatic column l (docs/theory.md): J12 = (chi_l(P) - mu*_l) u_l,
+    J22 = 0, and the sliding offsets enter rho and s; ``q`` is needed then.
+    """
     sub = model.subtree.astype(float)
     # subtree sums s[c, p, l] = sum_{i in sub(l)} T_i tables[p, i] and the joint axes T_l u_l: one GEMM over (i, j)
     c, n_b = rot.shape[:2]
@@ -63,10 +70,21 @@ def _point_terms(model: Model, rot: np.ndarray, tables: np.ndarray, bodies: np.n
     both = (lhs @ rhs.reshape(n_b * 3, n_p * n_b + n)).reshape(c, 3, n_p * n_b + n)
     s = both[:, :, : n_p * n_b].reshape(c, 3, n_p, n_b).transpose(0, 2, 3, 1)
     axes = np.swapaxes(both[:, :, n_p * n_b :], 1, 2)  # (C, N, 3)
+    outboard = sub[1:, bodies].T  # (P, N): 1 if the point's body is outboard of joint l
+    sliding = model.prismatic
+    if sliding.any():
+        if q is None:
+            raise TypeError("_point_terms: q is needed for a model with prismatic joints")
+        # offsets of the prismatic joints j whose parent body is in the subtree of l: (C, P, B, 3)
+        within = sub[:, model.parent[1:]]  # (B, N): [l, j] = parent of joint j in the subtree of body l
+        coef = model.bary.slide_coefficient[:, bodies]  # (N, P)
+        s = s + np.einsum("cjx,jp,lj->cplx", _slides(model, rot, q), coef, within)
     rho = s[:, :, 0]
     j12 = np.cross(axes[:, None, :, :], s[:, :, 1:, :], axis=-1)  # (C, P, N, 3)
-    outboard = sub[1:, bodies].T  # (P, N): 1 if the point's body is outboard of joint l
     j22 = axes[:, None, :, :] * outboard[None, :, :, None]
+    if sliding.any():
+        j12[:, :, sliding] = axes[:, None, sliding, :] * model.bary.slide_coefficient[sliding][:, bodies].T[None, :, :, None]
+        j22[:, :, sliding] = 0.0
     return rho, np.swapaxes(j12, -1, -2), np.swapaxes(j22, -1, -2)
 
 
@@ -106,7 +124,7 @@ def point_jacobian(
     bodies = np.array([k])
 
     def kernel(qq: np.ndarray) -> np.ndarray:
-        rho, j12, j22 = _point_terms(model, _rotations(model, qq), table, bodies)
+        rho, j12, j22 = _point_terms(model, _rotations(model, qq), table, bodies, qq)
         return _assemble(rho[:, 0], j12[:, 0], j22[:, 0], None)
 
     out = chunked(kernel, q, core_ndims=(1,))
@@ -196,7 +214,7 @@ def _gj_barycentric(model: Model, qq: np.ndarray) -> np.ndarray:
     rot = _rotations(model, qq)
     h = _hplus_barycentric(model, qq)
     x = np.linalg.solve(h[:, 3:6, 3:6], h[:, 3:6, 6:])  # omega0 = -x qdot   (1992 eq. 12 with zero momentum)
-    rho, j12, j22 = _point_terms(model, rot, model.bary.end_effector_table, model.end_effector_body)
+    rho, j12, j22 = _point_terms(model, rot, model.bary.end_effector_table, model.end_effector_body, qq)
     n_e = rho.shape[1]
     out = np.empty((qq.shape[0], n_e, 6, model.n_joints))
     # v = J12 qdot + J11 omega0 = J12 qdot - rho x omega0 = (J12 + rho x X) qdot

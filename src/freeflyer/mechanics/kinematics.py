@@ -52,6 +52,21 @@ def _rotations(model: Model, q: np.ndarray) -> np.ndarray:
     return out
 
 
+def _slides(model: Model, rot: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """q_j T_parent a_j (C, N, 3): the sliding of each prismatic joint j, spacecraft frame (zero rows for revolute).
+
+    With these, a barycentric vector of body p = parent(j) is v_pk(0) T_p-rotated plus
+    q_j (chi_j(k) - mu*_j) T_p a_j (:mod:`freeflyer.core.barycentric`, docs/theory.md).
+    """
+    parents = model.parent[1:]
+    return np.einsum("cjxy,jy->cjx", rot[:, parents], model.bary.slide_axis) * q[:, :, None]
+
+
+def _slide_offsets(model: Model, rot: np.ndarray, q: np.ndarray, bodies: np.ndarray) -> np.ndarray:
+    """Sum over prismatic joints of q_j (chi_j(k) - mu*_j) T_p a_j for points on ``bodies`` (P,): (C, P, 3)."""
+    return np.einsum("cjx,jp->cpx", _slides(model, rot, q), model.bary.slide_coefficient[:, bodies])
+
+
 def body_rotations(model: Model, q: Any) -> np.ndarray:
     """Orientation ⁰T_k of every body frame in the spacecraft frame, (..., B, 3, 3).
 
@@ -69,7 +84,7 @@ def forward_kinematics(model: Model, q: Any) -> tuple[np.ndarray, np.ndarray]:
 
 
 def joint_axes(model: Model, rotations: np.ndarray) -> np.ndarray:
-    """Joint axes in the spacecraft frame, ⁰T_k u_k, (..., N, 3), from ``body_rotations``."""
+    """Joint axes in the spacecraft frame, ⁰T_k u_k, (..., N, 3), from ``body_rotations`` (turning or sliding axes)."""
     return np.einsum("...kij,kj->...ki", rotations[..., 1:, :, :], model.joint_axis[1:])
 
 
@@ -93,7 +108,17 @@ def body_cm_positions(model: Model, q: Any, *, method: str = "recursive") -> np.
     if _method(method) == "recursive":
         return _engine.points(model, q, np.arange(model.n_bodies), model.com)
     table = model.bary.point_table
-    return chunked(lambda qq: np.einsum("cbij,kbj->cki", _rotations(model, qq), table), q, core_ndims=(1,))
+    bodies = np.arange(model.n_bodies)
+    return chunked(lambda qq: _barycentric_sum(model, qq, table, bodies), q, core_ndims=(1,))
+
+
+def _barycentric_sum(model: Model, q: np.ndarray, table: np.ndarray, bodies: np.ndarray) -> np.ndarray:
+    """rho_P = sum_i T_i v_iP(q) (1992 eq. 4, with the sliding of prismatic joints) for a table (P, B, 3): (C, P, 3)."""
+    rot = _rotations(model, q)
+    out = np.einsum("cbij,pbj->cpi", rot, table)
+    if model.has_prismatic:
+        out += _slide_offsets(model, rot, q, bodies)
+    return out
 
 
 def end_effector_positions(model: Model, q: Any, *, attitude: Any = None, method: str = "recursive") -> np.ndarray:
@@ -108,7 +133,7 @@ def end_effector_positions(model: Model, q: Any, *, attitude: Any = None, method
         r_e = _engine.points(model, q, model.end_effector_body, model.end_effector_point)
     else:
         table = model.bary.end_effector_table
-        r_e = chunked(lambda qq: np.einsum("cbij,ebj->cei", _rotations(model, qq), table), q, core_ndims=(1,))
+        r_e = chunked(lambda qq: _barycentric_sum(model, qq, table, model.end_effector_body), q, core_ndims=(1,))
     if attitude is None:
         return r_e
     return np.einsum("...ij,...ej->...ei", attitude_matrix(attitude), r_e)
@@ -130,8 +155,8 @@ def point_positions(model: Model, q: Any, body: str | int, point: Any = (0.0, 0.
     q = joint_array(model, q)
     if _method(method) == "recursive":
         return _engine.points(model, q, k, p)[..., 0, :]
-    table = model.bary.point_vectors(model, k, p)
-    return chunked(lambda qq: np.einsum("cbij,bj->ci", _rotations(model, qq), table), q, core_ndims=(1,))
+    table = model.bary.point_vectors(model, k, p)[None]
+    return chunked(lambda qq: _barycentric_sum(model, qq, table, np.array([k]))[:, 0], q, core_ndims=(1,))
 
 
 def stick_figure(model: Model, q: Any, *, attitude: Any = None) -> np.ndarray:

@@ -36,7 +36,7 @@ from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, joint_array, pieces, vector_array
 from ._inputs import check_method
-from .kinematics import _rotations, joint_axes
+from .kinematics import _rotations, _slides, joint_axes
 
 __all__ = [
     "InertiaBlocks",
@@ -62,10 +62,14 @@ class InertiaBlocks:
 
 
 # ------------------------------------------------------------------ the barycentric reference (1991 eqs. 16-17)
-def _pair_inertias(model: Model, rot: np.ndarray) -> np.ndarray:
-    """Kernel: the pair inertias D_ij (C, B, B, 3, 3) of 1991 eq. 17, spacecraft frame."""
+def _pair_inertias(model: Model, rot: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
+    """Kernel: the pair inertias D_ij (C, B, B, 3, 3) of 1991 eq. 17, spacecraft frame.
+
+    With prismatic joints the barycentric vectors are taken at ``q`` (docs/theory.md) and the
+    diagonal blocks are summed there instead of read from the table made at build time.
+    """
     # w[c, k, i] = T_i v_ik; a_ij = T_i v_(i->j) = w[:, j, i]; b_ij = T_j v_(j->i) = w[:, i, j]
-    w = _rotate_table(rot, model.bary.point_table)
+    w = _rotated_tables(model, rot, q)
     b = w
     a = np.swapaxes(w, 1, 2)
     dot = np.sum(a * b, axis=-1)
@@ -73,10 +77,29 @@ def _pair_inertias(model: Model, rot: np.ndarray) -> np.ndarray:
     idx = np.arange(3)
     out[..., idx, idx] -= dot[..., None]
     out *= model.total_mass
-    diag = np.matmul(np.matmul(rot, model.bary.diagonal_inertia), np.swapaxes(rot, -1, -2))
+    if model.has_prismatic:
+        mass = model.mass
+        sq = np.einsum("k,ckix,ckix->ci", mass, w, w)
+        own = np.matmul(np.matmul(rot, model.inertia), np.swapaxes(rot, -1, -2))
+        diag = own + sq[..., None, None] * np.eye(3) - np.einsum("k,ckix,ckiy->cixy", mass, w, w)
+    else:
+        diag = np.matmul(np.matmul(rot, model.bary.diagonal_inertia), np.swapaxes(rot, -1, -2))
     bodies = np.arange(model.n_bodies)
     out[:, bodies, bodies] = diag
     return out
+
+
+def _rotated_tables(model: Model, rot: np.ndarray, q: np.ndarray | None) -> np.ndarray:
+    """w[c, k, i] = T_i v_ik(q) (C, B, B, 3): the barycentric vectors of the body CMs, spacecraft frame, at q."""
+    w = _rotate_table(rot, model.bary.point_table)
+    if model.has_prismatic:
+        if q is None:
+            raise TypeError("_rotated_tables: q is needed for a model with prismatic joints")
+        slides = _slides(model, rot, q)  # (C, N, 3)
+        parents = model.parent[1:]
+        for j in np.flatnonzero(model.prismatic):
+            w[:, :, parents[j]] += slides[:, j, None, :] * model.bary.slide_coefficient[j][None, :, None]
+    return w
 
 
 def _rotate_table(rot: np.ndarray, table: np.ndarray) -> np.ndarray:
@@ -90,11 +113,18 @@ def _hplus_barycentric(model: Model, q: np.ndarray) -> np.ndarray:
 
     D = sum_ij D_ij, D_q = sum_ij D_ij F_j, D_qq = sum_ij F_i^T D_ij F_j with F_j (3, N) the axes
     (spacecraft frame) of the joints between the spacecraft and body j, zero elsewhere (1991 eq. 5).
+
+    Prismatic joints (docs/theory.md): they turn nothing (zero columns of F_j), and the sliding
+    rate of joint l moves the CM of body k, relative to the system CM, by (chi_l(k) - mu*_l) u_l.
+    That adds to the kinetic energy the cross terms omega_i . (Y_il x u_l) qdot_l with
+    Y_il = sum_k m_k (chi_l(k) - mu*_l) T_i v_ik, and (sum_k m_k c_jk c_lk) u_j . u_l qdot_j qdot_l.
     """
     rot = _rotations(model, q)
-    pair = _pair_inertias(model, rot)  # (C, B, B, 3, 3)
+    sliding = model.prismatic
+    pair = _pair_inertias(model, rot, q)  # (C, B, B, 3, 3)
     n = model.n_joints
-    f = np.einsum("lj,clx->cjxl", model.subtree[1:].astype(float), joint_axes(model, rot))  # F_j (C, B, 3, N)
+    axes = joint_axes(model, rot)  # (C, N, 3), turning or sliding
+    f = np.einsum("lj,clx->cjxl", model.subtree[1:].astype(float) * ~sliding[:, None], axes)  # F_j (C, B, 3, N)
     out = np.zeros((q.shape[0], 6 + n, 6 + n))
     out[:, 0, 0] = out[:, 1, 1] = out[:, 2, 2] = model.total_mass
     out[:, 3:6, 3:6] = pair.sum(axis=(1, 2))
@@ -102,6 +132,17 @@ def _hplus_barycentric(model: Model, q: np.ndarray) -> np.ndarray:
     out[:, 3:6, 6:] = d_q
     out[:, 6:, 3:6] = np.swapaxes(d_q, 1, 2)
     out[:, 6:, 6:] = np.einsum("cixk,cijxy,cjyl->ckl", f, pair, f)
+    if sliding.any():
+        coef = model.bary.slide_coefficient  # (N, K): chi_l(k) - mu*_l, zero rows for revolute joints
+        y = np.einsum("k,lk,ckix->cilx", model.mass, coef, _rotated_tables(model, rot, q))  # Y_il (C, B, N, 3)
+        cross = np.cross(y, axes[:, None, :, :])  # Y_il x u_l (C, B, N, 3)
+        g = np.concatenate([np.broadcast_to(np.eye(3), (*f.shape[:2], 3, 3)), f], axis=-1)  # G_i = [1, F_i]
+        col = np.einsum("cixk,cilx->ckl", g, cross)  # (C, 3 + N, N): d T / d(omega-part) d qdot_l
+        block = out[:, 3:, 3:]
+        block[:, :, 3:] += col
+        block[:, 3:, :] += np.swapaxes(col, 1, 2)
+        energy = np.einsum("k,jk,lk->jl", model.mass, coef, coef)
+        block[:, 3:, 3:] += energy[None] * np.einsum("cjx,clx->cjl", axes, axes)
     return out
 
 

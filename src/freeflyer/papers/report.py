@@ -45,8 +45,13 @@ def model_info(model: Model) -> dict[str, Any]:
     from the spacecraft frame origin, spacecraft frame, m), ``payloads`` (as
     recorded by :meth:`Model.with_payload`), and the lists
 
-    - ``joints``: index, name, parent, child (bodies), origin (m, parent
-      frame), axis (joint frame), limits_deg ([lower, upper], null = none);
+    - ``joints``: index, name, type (revolute or prismatic), parent, child (bodies), origin (m,
+      parent frame), axis (joint frame), limits ([lower, upper] in rad or m, null = none) and
+      limits_deg (revolute joints; null otherwise);
+    - ``end_effector_rule``: "named" (the file or the caller named them), "leaf sites" (MJCF
+      sites on leaf bodies) or "leaves" (every leaf body, when nothing is named);
+    - ``corrections``: every change the loader made to the file's data (where, defect, what was
+      used instead, size of the change);
     - ``end_effectors``: index, name, body, point (m, body frame), r_star
       (barycenter of the body -> end-effector point, m, body frame, 1992 eq. 10);
     - ``bodies``: index, name, mass (kg), cm (m, body frame), inertia (3x3
@@ -61,15 +66,19 @@ def model_info(model: Model) -> dict[str, Any]:
     for j, name in enumerate(model.joint_names):
         k = j + 1
         lower, upper = _limit(model.joint_lower[j]), _limit(model.joint_upper[j])
+        sliding = model.joint_type[j] == "prismatic"
+        raw: list[float | None] = [v if np.isfinite(v) else None for v in (_float(model.joint_lower[j]), _float(model.joint_upper[j]))]
         joints.append(
             {
                 "index": j,
                 "name": name,
+                "type": model.joint_type[j],
                 "parent": model.body_names[int(model.parent[k])],
                 "child": model.body_names[k],
                 "origin": _vec(model.joint_origin[k]),
                 "axis": _vec(model.joint_axis[k]),
-                "limits_deg": None if lower is None and upper is None else [lower, upper],
+                "limits": None if raw == [None, None] else raw,
+                "limits_deg": None if sliding or (lower is None and upper is None) else [lower, upper],
             }
         )
     end_effectors = []
@@ -130,11 +139,33 @@ def model_info(model: Model) -> dict[str, Any]:
         "n_end_effectors": model.n_end_effectors,
         "system_cm_q0": _vec(system_cm(model, np.zeros(model.n_joints))),
         "payloads": payloads,
+        "end_effector_rule": model.end_effector_rule,
+        "corrections": [_jsonable(c) for c in model.corrections],
         "joints": joints,
         "end_effectors": end_effectors,
         "bodies": bodies,
         "barycentric": barycentric,
     }
+
+
+def _jsonable(value: Any) -> Any:
+    """Plain JSON types (floats, lists, dicts, str) of a correction record; non-finite floats as strings."""
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, (float, np.floating)):
+        return float(value) if np.isfinite(value) else str(float(value))
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        return int(value)
+    return value
+
+
+_RULES = {
+    "named": "named (only the listed ones)",
+    "leaf sites": "every site on a leaf body (MJCF; none named)",
+    "leaves": "every leaf body (none named)",
+}
 
 
 # --------------------------------------------------------------------- layout
@@ -190,7 +221,12 @@ def _summary(info: dict[str, Any]) -> list[tuple[str, str]]:
             f"{_count(info['n_bodies'], 'body')}, {_count(info['n_joints'], 'joint')}, {_count(info['n_end_effectors'], 'end effector')}",
         ),
         ("system CM at q = 0", f"[{', '.join(_num(x) for x in cm)}] m (spacecraft frame, from its origin)"),
+        ("end effectors", _RULES.get(info.get("end_effector_rule", ""), str(info.get("end_effector_rule")))),
+        ("corrections", f"{len(info.get('corrections', []))} (listed below)" if info.get("corrections") else "none"),
     ]
+    kinds = [j.get("type", "revolute") for j in info["joints"]]
+    if "prismatic" in kinds:
+        lines.append(("joint types", f"{kinds.count('revolute')} revolute, {kinds.count('prismatic')} prismatic (q in m)"))
     for p in info["payloads"]:
         moments = np.linalg.eigvalsh(np.asarray(p["inertia"]))
         lines.append(
@@ -206,20 +242,21 @@ def _summary(info: dict[str, Any]) -> list[tuple[str, str]]:
 def _tables(info: dict[str, Any]) -> list[_Table]:
     joints = _Table(
         "Joints",
-        ("#", "name", "parent", "child", "origin (m)", "axis", "limits (deg)"),
+        ("#", "name", "type", "parent", "child", "origin (m)", "axis", "limits"),
         tuple(
             (
                 j["index"],
                 j["name"],
+                j.get("type", "revolute"),
                 j["parent"],
                 j["child"],
                 j["origin"],
                 j["axis"],
-                "none" if j["limits_deg"] is None else f"[{_num(j['limits_deg'][0])}, {_num(j['limits_deg'][1])}]",
+                _limits_text(j),
             )
             for j in info["joints"]
         ),
-        ("origin: joint position in the parent body frame; axis: unit vector in the joint frame.",),
+        ("origin: joint position in the parent body frame; axis: unit vector in the joint frame; limits in deg (revolute) or m.",),
     )
     effectors = _Table(
         "End effectors",
@@ -246,7 +283,34 @@ def _tables(info: dict[str, Any]) -> list[_Table]:
             "r*: barycenter of the parent body -> this body's joint, parent body frame (eq. 8a); zero for the spacecraft.",
         ),
     )
-    return [joints, effectors, bodies, bary]
+    tables = [joints, effectors, bodies, bary]
+    if info.get("corrections"):
+        tables.append(
+            _Table(
+                "Corrections made when loading",
+                ("#", "where", "defect", "used instead", "change"),
+                tuple(
+                    (
+                        i,
+                        str(c.get("where", "")),
+                        str(c.get("defect", "")),
+                        str(c.get("correction", "")),
+                        f"{_num(c.get('change_kg_m2'))} kg m² ({_num(100.0 * float(c.get('relative_change', 0.0)))} %)",
+                    )
+                    for i, c in enumerate(info["corrections"])
+                ),
+                ("Load with strict=True (CLI: --strict) to refuse such data instead.",),
+            )
+        )
+    return tables
+
+
+def _limits_text(joint: dict[str, Any]) -> str:
+    if joint.get("type") == "prismatic":
+        lim = joint.get("limits")
+        return "none" if lim is None else f"[{_num(lim[0])}, {_num(lim[1])}] m"
+    lim = joint["limits_deg"]
+    return "none" if lim is None else f"[{_num(lim[0])}, {_num(lim[1])}] deg"
 
 
 def render_text(info: dict[str, Any]) -> str:
