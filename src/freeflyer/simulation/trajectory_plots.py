@@ -58,6 +58,11 @@ def plot_trajectory(traj: Trajectory, axes: Any = None) -> list[Any]:
     return artists
 
 
+def _single(traj: Trajectory, what: str) -> None:
+    if np.ndim(traj.q) != 2:
+        raise ValueError(f"{what} draws one trajectory; this one holds a batch (q has shape {np.shape(traj.q)}, time first)")
+
+
 def _spatial(traj: Trajectory) -> bool:
     return traj.model is not None and not traj.model.is_planar
 
@@ -88,6 +93,7 @@ def plot_path(traj: Trajectory, ax: Any = None, *, snapshots: int = 4, axis_leng
     beside it, the spacecraft attitude (Euler 3-2-1 angles) against time. Returns the artists.
     """
     model = traj._need_model()
+    _single(traj, "plot_path")
     dims = 3 if _spatial(traj) else 2
     attitude_ax = None
     if ax is None:
@@ -157,6 +163,7 @@ def animate_trajectory(
     from matplotlib import animation
 
     model = traj._need_model()
+    _single(traj, "animate")
     out = Path(path)
     if out.suffix.lower() not in (".gif", ".mp4"):
         raise ValueError(f"{out}: unknown animation type {out.suffix!r}; use .gif (Pillow) or .mp4 (ffmpeg)")
