@@ -1,8 +1,10 @@
 import os
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import matplotlib
+import pytest
 from hypothesis import settings
 
 matplotlib.use("Agg")
@@ -10,3 +12,11 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 settings.register_profile("freeflyer", derandomize=True, deadline=None, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "freeflyer"))
+
+
+@pytest.fixture(autouse=True)
+def _close_pyplot_figures() -> Iterator[None]:
+    """Every ``plot()`` makes a pyplot figure (so scripts and notebooks show it); close them after each test."""
+    yield
+    if "matplotlib.pyplot" in sys.modules:
+        sys.modules["matplotlib.pyplot"].close("all")

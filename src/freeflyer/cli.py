@@ -33,7 +33,7 @@ from .core.model import Model
 from .models import BUILTIN_MODELS, load_model
 from .papers.report import PAPER_PAYLOAD, model_info, paper_systems, render_text, write_model_reports
 
-__all__ = ["app", "main", "output_dir", "user_errors", "with_payload"]
+__all__ = ["app", "criterion_options", "main", "output_dir", "user_errors", "with_payload"]
 
 app = typer.Typer(
     name="freeflyer",
@@ -152,6 +152,31 @@ StrictOption = Annotated[
 ]
 
 
+RowsOpt = Annotated[
+    str | None,
+    typer.Option("--rows", help="Rows of J* that decide singularity: position (translational), full, or auto (the paper's: all 6 in 3D)."),
+]
+MeasureOpt = Annotated[
+    str | None,
+    typer.Option("--measure", help="Singularity measure: sigma_min (smallest singular value), manipulability, det, or auto."),
+]
+ThresholdOpt = Annotated[
+    float | None, typer.Option("--threshold", help="Singular where |measure| <= this (default 0: exact singularities).")
+]
+
+
+def criterion_options(rows: str | None, measure: str | None, threshold: float | None, base: Any = None) -> Any:
+    """A SingularityCriterion from ``--rows/--measure/--threshold``, each overriding ``base`` (default: the paper's)."""
+    from .analysis.singularity import SingularityCriterion
+
+    base = base if base is not None else SingularityCriterion()
+    return SingularityCriterion(
+        rows=base.rows if rows is None else rows,
+        measure=base.measure if measure is None else measure,
+        threshold=base.threshold if threshold is None else threshold,
+    )
+
+
 @app.command("inspect")
 def inspect_command(
     model: Annotated[
@@ -267,6 +292,9 @@ def workspace_command(
     samples: Annotated[int, typer.Option("--samples", min=16, help="Configurations sampled for the PIW.")] = 1 << 16,
     out: Annotated[Path | None, typer.Option("--out", help="Write workspace.json and one plot per end effector here (created).")] = None,
     json_output: Annotated[bool, typer.Option("--json", help="Print one JSON object instead of the table.")] = False,
+    rows: RowsOpt = None,
+    measure: MeasureOpt = None,
+    threshold: ThresholdOpt = None,
 ) -> None:
     """Workspace limits about the system CM (1992 eqs. 15-17): reachable, guaranteed, PIW/PDW, with method and accuracy."""
     from .analysis.workspace_report import limits_json, workspace_limits, write_workspace_plots
@@ -275,7 +303,8 @@ def workspace_command(
         loaded = with_payload(load_model(model), payload_mass, payload_inertia, payload_ee)
         names = loaded.end_effector_names
         chosen = [int(a) if a.isdigit() and a not in names else a for a in arm or []]
-        limits = workspace_limits(loaded, chosen or None, piw=piw, samples=samples)
+        criterion = criterion_options(rows, measure, threshold)
+        limits = workspace_limits(loaded, chosen or None, piw=piw, samples=samples, criterion=criterion)
         written = []
         if out is not None:
             out = output_dir(out)
@@ -290,12 +319,32 @@ def workspace_command(
 def capture_command(
     scenario: Annotated[Path, typer.Argument(metavar="SCENARIO", help="Capture scenario TOML (schema: docs/workspaces.md).")],
     out: Annotated[Path | None, typer.Option("--out", help="Write capture.json and the plots here (created).")] = None,
+    rows: RowsOpt = None,
+    measure: MeasureOpt = None,
+    threshold: ThresholdOpt = None,
+    strategy: Annotated[
+        str | None,
+        typer.Option("--strategy", help="auto (PIW, else a path-checked plan), piw (the paper's) or path; overrides the scenario."),
+    ] = None,
 ) -> None:
-    """Plan a payload capture (1992 §V): approach distance, CM+, R+, capture posture and spacecraft orientation."""
+    """Plan a payload capture (1992 §V): approach distance, CM+, R+, capture posture and spacecraft orientation.
+
+    --rows/--measure/--threshold/--strategy override the scenario's [singularity] table."""
+    import dataclasses
+
+    from .analysis.capture import STRATEGIES
     from .scenarios.capture_scenario import load_capture_scenario, run_capture_scenario, write_capture_outputs
 
     with user_errors():
-        result = run_capture_scenario(load_capture_scenario(scenario))
+        loaded = load_capture_scenario(scenario)
+        if strategy is not None and strategy not in STRATEGIES:
+            raise ValueError(f"--strategy {strategy!r}: unknown; choose one of {', '.join(STRATEGIES)}")
+        loaded = dataclasses.replace(
+            loaded,
+            criterion=criterion_options(rows, measure, threshold, loaded.criterion),
+            strategy=loaded.strategy if strategy is None else strategy,
+        )
+        result = run_capture_scenario(loaded)
         written = write_capture_outputs(result, output_dir(out)) if out is not None else []
     typer.echo(result.render_text().rstrip("\n"))
     for path in written:
@@ -311,6 +360,10 @@ def simulate_command(
     progress: Annotated[
         bool | None, typer.Option("--progress/--no-progress", help="Progress bar on stderr (default: when stderr is a terminal).")
     ] = None,
+    animate: Annotated[
+        Path | None,
+        typer.Option("--animate", metavar="PATH", help="Also write an animation of the motion: .gif (Pillow) or .mp4 (ffmpeg)."),
+    ] = None,
 ) -> None:
     """Simulate a scenario (model, initial state, actuation or controller, duration); write the trajectory and its plots."""
     import sys
@@ -320,7 +373,9 @@ def simulate_command(
 
     with user_errors():
         loaded = load_scenario(scenario)
-        written = simulate_scenario(loaded, output_dir(out), progress=sys.stderr.isatty() if progress is None else progress)
+        written = simulate_scenario(
+            loaded, output_dir(out), progress=sys.stderr.isatty() if progress is None else progress, animation=animate
+        )
     for path in written:
         typer.echo(str(path))
 

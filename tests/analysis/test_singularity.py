@@ -98,11 +98,13 @@ def test_plot_on_given_axes(captured_map: ff.workspace.DeterminantMap) -> None:
     assert rad.get_xlim()[1] < 3.2
 
 
-def test_plot_without_axes_leaves_no_pyplot_state(captured_map: ff.workspace.DeterminantMap) -> None:
+def test_plot_without_axes_makes_one_pyplot_figure(captured_map: ff.workspace.DeterminantMap) -> None:
+    """Issue 11: a plot() without axes is a pyplot figure, so plt.show() and notebooks display it."""
     before = plt.get_fignums()
     artists = captured_map.plot()
-    assert isinstance(artists.mesh.get_figure(root=True), Figure)
-    assert plt.get_fignums() == before
+    fig = artists.mesh.get_figure(root=True)
+    assert isinstance(fig, Figure)
+    assert plt.get_fignums() == [*before, fig.number]
 
 
 def test_no_contour_without_sign_change() -> None:

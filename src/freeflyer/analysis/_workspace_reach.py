@@ -14,10 +14,10 @@ from scipy.optimize import least_squares
 
 from ..core.barycentric import barycentric_vectors
 from ..core.model import Model
-from ..mechanics.jacobians import generalized_jacobian, jacobian_determinant
 from ..mechanics.kinematics import body_rotations, end_effector_positions
 from . import _workspace_search as search
 from ._workspace_results import GuaranteedRadii, GuaranteedWorkspace, RadiusRange, ReachableWorkspace
+from .singularity import SingularityCriterion
 
 __all__ = [
     "collinear_radii",
@@ -104,35 +104,21 @@ def end_effector_radius(model: Model, q: Any, end_effector: str | int = 0) -> np
     return np.linalg.norm(end_effector_positions(model, q)[..., e, :], axis=-1)
 
 
-def _jacobian_rows(model: Model, end_effector: int | None) -> np.ndarray:
-    """Rows of ⁰J* used for singularities: [v_x, v_y] per end effector (planar) or all 6 (3D)."""
-    ees = range(model.n_end_effectors) if end_effector is None else [end_effector]
-    keep = (0, 1) if model.is_planar else tuple(range(6))
-    return np.array([6 * e + r for e in ees for r in keep], dtype=int)
+def singularity_measure(
+    model: Model, q: Any, *, end_effector: str | int | None = None, criterion: SingularityCriterion | None = None
+) -> np.ndarray:
+    """The singularity measure of ⁰J*(q), (...) for q (..., N); zero at dynamic singularities.
 
-
-def _jacobian_fun(model: Model, end_effector: int | None) -> search.Batch:
-    rows = _jacobian_rows(model, end_effector)
-    return lambda qq: generalized_jacobian(model, qq)[..., rows, :]
-
-
-def singularity_measure(model: Model, q: Any, *, end_effector: str | int | None = None) -> np.ndarray:
-    """det ⁰J*(q) where J* is square, else its smallest singular value; (...) for q (..., N).
-
-    J* (1992 eq. 14, spacecraft frame) keeps the rows [v_x, v_y] per end
-    effector for a planar model (as :func:`freeflyer.jacobian_determinant`)
-    and all six otherwise; ``end_effector`` keeps that end effector's rows
-    only (default: the whole system, eq. 17). Zero at dynamic singularities.
-    One call evaluates millions of configurations (in chunks).
+    ``criterion`` (:class:`~freeflyer.analysis.singularity.SingularityCriterion`)
+    says which rows of J* (1992 eq. 14, spacecraft frame) and which measure;
+    the default keeps [v_x, v_y] per end effector for a planar model (as
+    :func:`freeflyer.jacobian_determinant`) and all six rows otherwise, and
+    gives det J* where that is square, else its smallest singular value.
+    ``end_effector`` keeps that end effector's rows only (default: the whole
+    system, eq. 17). One call evaluates millions of configurations (in chunks).
     """
     e = None if end_effector is None else model.end_effector_index(end_effector)
-    arr = np.asarray(q, dtype=float)
-    if e is None and _jacobian_rows(model, None).size == model.n_joints:  # square: the dedicated (compiled) determinant
-        return np.asarray(jacobian_determinant(model, arr))
-    fun = _jacobian_fun(model, e)
-    flat = arr.reshape(-1, model.n_joints) if arr.ndim > 1 else arr[None]
-    out = search.batched(lambda qq: search.singularity_values(fun(qq)), flat)
-    return out.reshape(arr.shape[:-1])
+    return (criterion or SingularityCriterion()).evaluate(model, q, e)
 
 
 # ----------------------------------------------------------------------------------------------------------------- computations

@@ -3,6 +3,7 @@
 Every workspace is a set of distances from the system CM; ``.plot(ax=None)``
 draws it as annuli around a centre (the system CM, m) with the matplotlib
 object API and returns the artists, like the 1992 paper's Figs. 4 and 7.
+Without ``ax`` the figure is a new pyplot figure, so ``plt.show()`` shows it.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from ..core._figures import new_axes
 from ..core.model import Model
 from ..mechanics.kinematics import point_positions
 
@@ -50,11 +52,8 @@ def _freeze(obj: Any) -> None:
 
 
 def _axes(ax: Axes | None) -> Axes:
-    if ax is not None:
-        return ax
-    from matplotlib.figure import Figure
-
-    return Figure(figsize=(6.0, 6.0), layout="constrained").add_subplot()
+    """``ax``, or the axes of a new pyplot-managed figure (``plt.show()`` and notebooks display it)."""
+    return ax if ax is not None else new_axes(figsize=(6.0, 6.0))
 
 
 def _ring(ax: Axes, center: Any, r_in: float, r_out: float, **style: Any) -> Artist:
@@ -75,15 +74,25 @@ def _circle(ax: Axes, center: Any, r: float, **style: Any) -> Artist:
     return patch
 
 
-def _finish(ax: Axes, center: Any, reach: float) -> None:
-    """Equal axes that show everything drawn so far (patches update the data limits) and the circle of ``reach``."""
+PLANES = ("xy", "xz", "yz")
+_PDW_LABEL = "path-dependent workspace (PDW)"
+
+
+def _finish(ax: Axes, center: Any, reach: float, plane: str = "xy") -> None:
+    """Equal axes that show everything drawn so far (patches update the data limits) and the circle of ``reach``.
+
+    ``plane``: the section through the system CM the axes show (a shell about the CM is the
+    same annulus in every such plane): the axes are labelled with its two coordinates.
+    """
+    if plane not in PLANES:
+        raise ValueError(f"plane: expected one of {', '.join(PLANES)}, got {plane!r}")
     c = np.asarray(center, dtype=float)
     ax.update_datalim([(c[0] - reach, c[1] - reach), (c[0] + reach, c[1] + reach)])
     ax.set_aspect("equal")
     ax.margins(0.05)
     ax.autoscale_view()
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
+    ax.set_xlabel(f"{plane[0]} (m)")
+    ax.set_ylabel(f"{plane[1]} (m)")
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,12 +124,16 @@ class ReachableWorkspace:
     def __post_init__(self) -> None:
         _freeze(self)
 
-    def plot(self, ax: Axes | None = None, *, center: Any = (0.0, 0.0), color: str = "C0", label: str | None = None) -> list[Artist]:
-        """Draw the annulus R_min..R_max around ``center`` (the system CM, m) as in the paper's Figs. 4 and 7."""
+    def plot(
+        self, ax: Axes | None = None, *, center: Any = (0.0, 0.0), color: str = "C0", label: str | None = None, plane: str = "xy"
+    ) -> list[Artist]:
+        """Draw the annulus R_min..R_max around ``center`` (the system CM, m) as in the paper's Figs. 4 and 7.
+
+        In 3D the shell's section by ``plane`` ("xy", "xz" or "yz") through the CM."""
         ax = _axes(ax)
         text = label if label is not None else f"reachable {self.end_effector} [{self.R_min:.3f}, {self.R_max:.3f}] m"
         artists = [_ring(ax, center, self.R_min, self.R_max, facecolor=color, alpha=0.15, edgecolor=color, label=text)]
-        _finish(ax, center, self.R_max)
+        _finish(ax, center, self.R_max, plane)
         return artists
 
 
@@ -154,7 +167,9 @@ class GuaranteedWorkspace:
     accuracy: float
     coupled: bool = False
 
-    def plot(self, ax: Axes | None = None, *, center: Any = (0.0, 0.0), color: str = "C2", label: str | None = None) -> list[Artist]:
+    def plot(
+        self, ax: Axes | None = None, *, center: Any = (0.0, 0.0), color: str = "C2", label: str | None = None, plane: str = "xy"
+    ) -> list[Artist]:
         """Draw the GW shell (dashed outline) around ``center``; nothing but an empty list when it does not exist."""
         ax = _axes(ax)
         if not self.exists or self.R_min is None or self.R_max is None:
@@ -163,7 +178,7 @@ class GuaranteedWorkspace:
         artists = [
             _ring(ax, center, self.R_min, self.R_max, facecolor=color, alpha=0.15, edgecolor=color, linestyle="--", label=text),
         ]
-        _finish(ax, center, self.R_max)
+        _finish(ax, center, self.R_max, plane)
         return artists
 
 
@@ -179,7 +194,8 @@ class PathIndependentWorkspace:
     resolution / 2 of a found singular radius (gaps narrower than
     ``merge_gap`` are not resolved). ``accuracy`` (m): of the PIW
     boundaries, polished on the singular set (the sampling resolution where
-    polishing failed).
+    polishing failed). ``criterion``: what counted as singular (the rows of
+    J*, the measure and its threshold).
     """
 
     model_name: str
@@ -195,6 +211,7 @@ class PathIndependentWorkspace:
     resolution: float
     accuracy: float
     merge_gap: float
+    criterion: str = "det J* = 0 (1992 eq. 17)"
 
     def __post_init__(self) -> None:
         _freeze(self)
@@ -212,7 +229,9 @@ class PathIndependentWorkspace:
     def _widest(self) -> tuple[float, float] | None:
         return max(self.piw, key=lambda iv: iv[1] - iv[0]) if self.piw else None
 
-    def plot(self, ax: Axes | None = None, *, center: Any = (0.0, 0.0), color: str = "C1", label: str | None = None) -> list[Artist]:
+    def plot(
+        self, ax: Axes | None = None, *, center: Any = (0.0, 0.0), color: str = "C1", label: str | None = None, plane: str = "xy"
+    ) -> list[Artist]:
         """Draw the PIW annuli (filled), the PDW (hatched) and the reachable outline around ``center``."""
         ax = _axes(ax)
         artists: list[Artist] = []
@@ -221,12 +240,22 @@ class PathIndependentWorkspace:
             artists.append(_ring(ax, center, lo, hi, facecolor=color, alpha=0.3, edgecolor=color, label=text))
         for k, (lo, hi) in enumerate(self.pdw):
             artists.append(
-                _ring(ax, center, lo, hi, fill=False, hatch="///", edgecolor="0.5", linewidth=0.0, label="PDW" if k == 0 else None)
+                _ring(
+                    ax,
+                    center,
+                    lo,
+                    hi,
+                    fill=False,
+                    hatch="///",
+                    edgecolor="0.5",
+                    linewidth=0.0,
+                    label="path-dependent workspace (PDW)" if k == 0 else None,
+                )
             )
         artists.append(_circle(ax, center, self.reachable.R_max, edgecolor="k", linewidth=0.8))
         if self.reachable.R_min > 0.0:
             artists.append(_circle(ax, center, self.reachable.R_min, edgecolor="k", linewidth=0.8))
-        _finish(ax, center, self.reachable.R_max)
+        _finish(ax, center, self.reachable.R_max, plane)
         return artists
 
 

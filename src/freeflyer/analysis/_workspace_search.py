@@ -178,6 +178,52 @@ def singularity_values(jac: np.ndarray) -> np.ndarray:
     return np.linalg.svd(jac, compute_uv=False)[..., -1]
 
 
+MEASURES = ("det", "sigma_min", "manipulability")
+
+
+def measure_values(jac: np.ndarray, measure: str) -> np.ndarray:
+    """A singularity measure of J (..., m, n) over the leading axes.
+
+    ``"det"``: det J (square J only, signed); ``"sigma_min"``: the smallest
+    singular value; ``"manipulability"``: sqrt(det(J Jᵀ)) = the product of the
+    singular values (Yoshikawa's measure; |det J| for a square J).
+    """
+    if measure == "det":
+        return np.linalg.det(jac)
+    s = np.linalg.svd(jac, compute_uv=False)
+    return s[..., -1] if measure == "sigma_min" else np.prod(s, axis=-1)
+
+
+@dataclass(frozen=True)
+class Criterion:
+    """The singular set searched: {q : measure(J(q)) <= threshold}, J = ``jac_fun(q)`` (M, N) -> (M, m, N).
+
+    With ``threshold == 0`` the set is the exact singular set (rank J < m): a
+    square J is searched by the sign changes of det J, another by the null
+    vectors of J. With ``threshold > 0`` it is the sublevel set of the
+    measure, whose boundary measure = threshold is the zero set of the
+    signed ``level`` and is searched by its sign changes.
+    """
+
+    jac_fun: Batch
+    measure: str
+    threshold: float = 0.0
+
+    @property
+    def signed(self) -> bool:
+        """True when the boundary is a sign change of :meth:`level` (det J, or any measure with a threshold)."""
+        return self.measure == "det" or self.threshold > 0.0
+
+    def values(self, q: np.ndarray) -> np.ndarray:
+        """The measure at each row of q (M, N)."""
+        return measure_values(self.jac_fun(q), self.measure)
+
+    def level(self, q: np.ndarray) -> np.ndarray:
+        """Signed level function: det J (threshold 0), else |measure| - threshold; <= 0 inside the set."""
+        v = self.values(q)
+        return v if self.threshold == 0.0 else np.abs(v) - self.threshold
+
+
 def _lines(box: JointBox, samples: int, seed: int, points_per_line: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
     """Axis-parallel sampling lines: base configurations (M, N), axes (M,), parameters t (K,) in [0, 1]."""
     n = box.lo.size
@@ -231,19 +277,23 @@ def _illinois(
     return np.where(np.abs(fb) <= np.abs(fa), b, a)
 
 
-def singular_points(jac_fun: Batch, box: JointBox, *, samples: int, seed: int, points_per_line: int = 64) -> SingularSearch:
-    """Sample the singular set of ``jac_fun`` (M, N) -> (M, m, N) over ``box``."""
+def singular_points(
+    crit: Criterion, box: JointBox, *, samples: int, seed: int, points_per_line: int = 64, max_inside: int = 4096
+) -> SingularSearch:
+    """Sample the singular set of a :class:`Criterion` over ``box``.
+
+    With a threshold, the sampled configurations inside the set (up to ``max_inside`` of them) are
+    returned with the boundary points: each lies in the set, and each seeds the search of the
+    PDW boundaries from another part of it.
+    """
     n = box.lo.size
     base, axes, t, grid = _lines(box, samples, seed, points_per_line)
     span = box.hi - box.lo
     q_lines = base[:, None, :].repeat(t.size, axis=1)
     rows = np.arange(base.shape[0])
     q_lines[rows, :, axes] = box.lo[axes][:, None] + t[None, :] * span[axes][:, None]
-    probe = jac_fun(base[:1])
-    square = probe.shape[-1] == probe.shape[-2]
-
-    def measure(qq: np.ndarray) -> np.ndarray:
-        return singularity_values(jac_fun(qq))
+    square = crit.signed
+    measure = crit.level
 
     if grid:  # evaluate every node once; the lines along each axis are views of the grid
         nodes = [box.lo[a] + t * span[a] for a in range(n)]
@@ -266,10 +316,16 @@ def singular_points(jac_fun: Batch, box: JointBox, *, samples: int, seed: int, p
                 measure, base[li], axes[li], lo_t, hi_t, values[li, ki], values[li, ki + 1], xtol=1e-13 * max(1.0, float(np.max(span)))
             )
             found.append(_along(base[li], axes[li], roots))
+        if crit.threshold > 0.0:  # samples inside the near-singular set belong to it too (a random subset of them)
+            inside = q_lines[values < 0.0]
+            if inside.shape[0] > max_inside:
+                inside = inside[np.random.default_rng(seed).choice(inside.shape[0], max_inside, replace=False)]
+            found.append(inside)
         q = np.concatenate(found) if found else np.zeros((0, n))
-        method = "det J* sign changes on " + ("every grid edge" if grid else "random axis-parallel lines") + ", Illinois root polishing"
+        what = "det J*" if crit.threshold == 0.0 else f"{crit.measure} - threshold"
+        method = f"{what} sign changes on " + ("every grid edge" if grid else "random axis-parallel lines") + ", Illinois root polishing"
     else:
-        q = _nonsquare_roots(jac_fun, q_lines, values)
+        q = _nonsquare_roots(crit, q_lines, values)
         method = (
             "local minima of the smallest singular value on " + ("grid lines" if grid else "random lines") + ", least-squares polishing"
         )
@@ -284,20 +340,22 @@ def fd_jacobian(fun: Batch, x: np.ndarray, h: float = 1e-7) -> np.ndarray:
     return ((vals[:d] - vals[d:]) / (2.0 * h)).T
 
 
-def singular_system(jac_fun: Batch, n: int, q0: np.ndarray) -> tuple[Batch, np.ndarray]:
-    """Batched residual F(x) (M, k) that vanishes exactly on the singular set, and a start x0.
+def singular_system(crit: Criterion, n: int, q0: np.ndarray) -> tuple[Batch, np.ndarray]:
+    """Batched residual F(x) (M, k) that vanishes exactly on the boundary of the set, and a start x0.
 
-    Square J: x = q, F = det J(q) / |J(q0)|^n. Otherwise x = (q, u) with a
-    unit null vector u: F = [J(q)ᵀu (wide J) or J(q)u (tall J); |u|² - 1],
-    J scaled by 1 / |J(q0)|.
+    Signed criteria: x = q, F = det J(q) / |J(q0)|^m (threshold 0) or
+    (|measure| - threshold) / threshold. Otherwise x = (q, u) with a unit null
+    vector u: F = [J(q)ᵀu (wide J) or J(q)u (tall J); |u|² - 1], J scaled by
+    1 / |J(q0)|.
     """
+    jac_fun = crit.jac_fun
     jac0 = jac_fun(q0[None])[0]
     norm = max(float(np.linalg.norm(jac0)), 1e-300)
-    if jac0.shape[0] == jac0.shape[1]:
-        scale = norm**n
+    if crit.signed:
+        scale = crit.threshold if crit.threshold > 0.0 else norm ** jac0.shape[0]
 
         def det_f(x: np.ndarray) -> np.ndarray:
-            return (np.linalg.det(jac_fun(x[:, :n])) / scale)[:, None]
+            return (crit.level(x[:, :n]) / scale)[:, None]
 
         return det_f, q0.copy()
     wide = jac0.shape[0] < jac0.shape[1]
@@ -313,10 +371,10 @@ def singular_system(jac_fun: Batch, n: int, q0: np.ndarray) -> tuple[Batch, np.n
     return null_f, np.concatenate([q0, u0])
 
 
-def solve_singular(jac_fun: Batch, q0: np.ndarray, extra: Batch | None = None) -> np.ndarray | None:
+def solve_singular(crit: Criterion, q0: np.ndarray, extra: Batch | None = None) -> np.ndarray | None:
     """Least squares from q0 onto the singular set (and onto extra(q) = 0 if given); None if it does not converge."""
     n = q0.size
-    system, x0 = singular_system(jac_fun, n, q0)
+    system, x0 = singular_system(crit, n, q0)
 
     def full(x: np.ndarray) -> np.ndarray:
         out = system(x)
@@ -330,7 +388,7 @@ def solve_singular(jac_fun: Batch, q0: np.ndarray, extra: Batch | None = None) -
     return np.asarray(res.x[:n])
 
 
-def _nonsquare_roots(jac_fun: Batch, q_lines: np.ndarray, values: np.ndarray, max_polish: int = 80) -> np.ndarray:
+def _nonsquare_roots(crit: Criterion, q_lines: np.ndarray, values: np.ndarray, max_polish: int = 80) -> np.ndarray:
     """Singular configurations of a non-square Jacobian from the smallest singular value along the lines."""
     n = q_lines.shape[-1]
     inner = (values[:, 1:-1] <= values[:, :-2]) & (values[:, 1:-1] <= values[:, 2:])
@@ -339,13 +397,15 @@ def _nonsquare_roots(jac_fun: Batch, q_lines: np.ndarray, values: np.ndarray, ma
     if li.size == 0:
         return np.zeros((0, n))
     keep = np.argsort(values[li, ki])[:max_polish]
-    found = [solve_singular(jac_fun, q0) for q0 in q_lines[li[keep], ki[keep]]]
+    found = [solve_singular(crit, q0) for q0 in q_lines[li[keep], ki[keep]]]
     return np.array([q for q in found if q is not None]).reshape(-1, n)
 
 
-def singularity_residual(jac_fun: Batch, q: np.ndarray) -> np.ndarray:
-    """Relative distance to singularity at each row of q: |det J| / |J|^m (square) or σ_min / σ_max."""
-    jac = batched(jac_fun, q)
+def singularity_residual(crit: Criterion, q: np.ndarray) -> np.ndarray:
+    """Relative distance to the set's boundary at each row of q: |det J| / |J|^m (det), σ_min / σ_max, or |level| / threshold."""
+    if crit.threshold > 0.0:
+        return np.abs(batched(crit.level, q)) / crit.threshold
+    jac = batched(crit.jac_fun, q)
     s = np.linalg.svd(jac, compute_uv=False)
     if jac.shape[-1] == jac.shape[-2]:
         return np.prod(s, axis=-1) / np.maximum(s[..., 0] ** s.shape[-1], 1e-300)
@@ -353,7 +413,7 @@ def singularity_residual(jac_fun: Batch, q: np.ndarray) -> np.ndarray:
 
 
 def polish_extreme_radius(
-    jac_fun: Batch,
+    crit: Criterion,
     radius2_fun: Batch,
     q0: np.ndarray,
     box: JointBox,
@@ -371,7 +431,7 @@ def polish_extreme_radius(
     sign = -1.0 if maximize else 1.0
     lo = np.where(box.free, q0 - trust, np.maximum(box.lo, q0 - trust))
     hi = np.where(box.free, q0 + trust, np.minimum(box.hi, q0 + trust))
-    system, x0 = singular_system(jac_fun, n, q0)
+    system, x0 = singular_system(crit, n, q0)
 
     def objective(x: np.ndarray) -> np.ndarray:
         return sign * radius2_fun(x[:, :n])[:, None]
@@ -385,13 +445,13 @@ def polish_extreme_radius(
         res = minimize(f, x0, jac=True, method="SLSQP", bounds=bounds, constraints=cons, options={"ftol": 1e-15, "maxiter": 300})
     except (ValueError, np.linalg.LinAlgError):  # pragma: no cover - defensive
         return None
-    q, ok = project_to_singular(jac_fun, np.asarray(res.x[:n])[None])  # land exactly on the singular set
+    q, ok = project_to_singular(crit, np.asarray(res.x[:n])[None])  # land exactly on the singular set
     if not ok[0] or np.max(np.abs(q[0] - res.x[:n])) > 1e-6:
         return None
     return q[0]
 
 
-def project_to_singular(jac_fun: Batch, q: np.ndarray, h: float = 1e-7) -> tuple[np.ndarray, np.ndarray]:
+def project_to_singular(crit: Criterion, q: np.ndarray, h: float = 1e-7) -> tuple[np.ndarray, np.ndarray]:
     """Project configurations (M, N) onto the singular set: (projected q, ok mask).
 
     Square Jacobians: batched Newton steps on det J (minimal-norm step along
@@ -401,18 +461,18 @@ def project_to_singular(jac_fun: Batch, q: np.ndarray, h: float = 1e-7) -> tuple
     m, n = q.shape
     if m == 0:
         return q, np.zeros(0, dtype=bool)
-    probe = jac_fun(q[:1])[0]
-    if probe.shape[0] != probe.shape[1]:
-        found = [solve_singular(jac_fun, qi) for qi in q]
+    if not crit.signed:
+        found = [solve_singular(crit, qi) for qi in q]
         ok = np.array([f is not None for f in found])
         return np.array([f if f is not None else qi for f, qi in zip(found, q, strict=True)]), ok
     x = q.copy()
     eye = np.eye(n)
     for _ in range(20):
         pts = np.concatenate([x[:, None, :], x[:, None, :] + h * eye, x[:, None, :] - h * eye], axis=1).reshape(-1, n)
-        vals = batched(lambda qq: singularity_values(jac_fun(qq)), pts).reshape(m, 2 * n + 1)
+        vals = batched(crit.level, pts).reshape(m, 2 * n + 1)
         f, grad = vals[:, 0], (vals[:, 1 : n + 1] - vals[:, n + 1 :]) / (2.0 * h)
         g2 = np.maximum(np.einsum("mi,mi->m", grad, grad), 1e-300)
         x = x - (f / g2)[:, None] * grad
-    ok = (singularity_residual(jac_fun, x) < 1e-14) & np.all(np.isfinite(x), axis=1)
+    tol = 1e-12 if crit.threshold > 0.0 else 1e-14
+    ok = (singularity_residual(crit, x) < tol) & np.all(np.isfinite(x), axis=1)
     return x, ok

@@ -18,13 +18,13 @@ from . import _workspace_search as search
 from ._workspace_reach import (
     POLISH_ACCURACY,
     _check_samples,
-    _jacobian_fun,
     _norm_range,
     end_effector_radius,
     guaranteed_workspace,
     reachable_workspace,
 )
 from ._workspace_results import PathIndependentWorkspace, PayloadEffect, RadiusRange, ReachableWorkspace
+from .singularity import SingularityCriterion
 
 __all__ = ["path_independent_workspace", "payload_effect"]
 
@@ -62,6 +62,7 @@ def path_independent_workspace(
     merge_gap: float | None = None,
     reachable: ReachableWorkspace | None = None,
     max_steps: int = 400,
+    criterion: SingularityCriterion | None = None,
 ) -> PathIndependentWorkspace:
     """The path-independent workspace (PIW) and path-dependent workspace (PDW) of one end effector.
 
@@ -80,6 +81,12 @@ def path_independent_workspace(
     ``merge_gap`` (default 2 % of R_max): PDW radii closer than this are one
     interval. ``reachable``: a precomputed
     :func:`reachable_workspace` of the same model and end effector.
+    ``criterion``: which rows of J* and which measure count as singular, with
+    a threshold (:class:`~freeflyer.analysis.singularity.SingularityCriterion`;
+    default: the paper's, exact singularities of det J*). With
+    ``SingularityCriterion(rows="position", measure="sigma_min", threshold=t)``
+    the PDW holds every radius reached in a configuration whose translational
+    J* has σ_min <= t: the boundary σ_min = t is searched like det J* = 0.
 
     Examples
     --------
@@ -97,9 +104,10 @@ def path_independent_workspace(
     reach = reachable if reachable is not None else reachable_workspace(model, e)
     if reach.end_effector != model.end_effector_names[e] or reach.model_name != model.name:
         raise ValueError("reachable: computed for another model or end effector")
-    jac_fun = _jacobian_fun(model, None if jacobian == "system" else e)
+    crit_user = criterion if criterion is not None else SingularityCriterion()
+    crit = crit_user.search_criterion(model, None if jacobian == "system" else e)
     box = search.model_box(model)
-    found = search.singular_points(jac_fun, box, samples=samples, seed=seed)
+    found = search.singular_points(crit, box, samples=samples, seed=seed)
     gap = 0.02 * reach.R_max if merge_gap is None else float(merge_gap)
     if not gap > 0.0:
         raise ValueError(f"merge_gap: expected a positive distance in m, got {merge_gap!r}")
@@ -110,7 +118,8 @@ def path_independent_workspace(
         extra += list(search.collinear_corners(model.n_joints, box))
     if extra:
         cand = np.array(extra)
-        q_s = np.concatenate([q_s, cand[search.singularity_residual(jac_fun, cand) < 1e-12]])
+        inside = crit.level(cand) <= 0.0 if crit.threshold > 0.0 else search.singularity_residual(crit, cand) < 1e-12
+        q_s = np.concatenate([q_s, cand[inside]])
     radii = end_effector_radius(model, q_s, e) if q_s.shape[0] else np.zeros(0)
     slack = max(10.0 * reach.accuracy, 1e-8 * max(1.0, reach.R_max))
     trust = 3.0 * found.step if found.grid else np.full(model.n_joints, 0.5)
@@ -131,19 +140,19 @@ def path_independent_workspace(
             break
         k, maximize = facing[0]
         pending.add((k, maximize))
-        q_new = search.polish_extreme_radius(jac_fun, radius2, q_s[k], box, maximize=maximize, trust=trust)
+        q_new = search.polish_extreme_radius(crit, radius2, q_s[k], box, maximize=maximize, trust=trust)
         if q_new is None:
             continue
         r_new = float(end_effector_radius(model, q_new, e))
         if not maximize and r_new < 1e-3 * reach.R_max:  # the singular set may pass through r_E = 0 exactly
-            q_zero = search.solve_singular(jac_fun, q_new, extra=lambda qq: end_effector_positions(model, qq)[..., e, :])
+            q_zero = search.solve_singular(crit, q_new, extra=lambda qq: end_effector_positions(model, qq)[..., e, :])
             if q_zero is not None:
                 q_new, r_new = q_zero, float(end_effector_radius(model, q_zero, e))
         if (r_new - radii[k] if maximize else radii[k] - r_new) <= 1e-12 * max(1.0, reach.R_max):
             converged.add((k, maximize))
             continue
         n_chain = int(min(200, np.ceil(abs(r_new - radii[k]) / (0.25 * gap)) + 1))
-        chain, ok = search.project_to_singular(jac_fun, q_s[k] + np.linspace(0.0, 1.0, n_chain + 1)[1:-1, None] * (q_new - q_s[k]))
+        chain, ok = search.project_to_singular(crit, q_s[k] + np.linspace(0.0, 1.0, n_chain + 1)[1:-1, None] * (q_new - q_s[k]))
         new_q = np.concatenate([chain[ok], q_new[None]])
         q_s = np.concatenate([q_s, new_q])
         radii = np.concatenate([radii, end_effector_radius(model, new_q, e)])
@@ -171,6 +180,7 @@ def path_independent_workspace(
         singular_radii=radii,
         method=found.method + "; PIW boundaries by SLSQP on the singular set",
         jacobian=jacobian,
+        criterion=crit_user.describe(model, None if jacobian == "system" else e),
         samples=found.evaluated,
         resolution=resolution,
         accuracy=max(errors) if errors else 0.0,

@@ -19,23 +19,26 @@ Angles in rad (``theta_deg``-style values only in :mod:`freeflyer.papers.paper19
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.optimize import minimize
 from scipy.spatial.transform import Rotation
 
-from ..core.errors import ModelError
+from ..core._figures import new_axes
 from ..core.model import Model
 from ..mechanics.jacobians import end_effector_jacobian
-from ..mechanics.kinematics import end_effector_positions, forward_kinematics, system_cm
-from ..mechanics.planar import position_coefficients
+from ..mechanics.kinematics import end_effector_positions
 from . import _workspace_search as search
-from ._path_placement import PathDoesNotFitError, PathPlacement, approach_distance, place_path
-from ._workspace_reach import _jacobian_fun, end_effector_radius, reachable_workspace, singularity_measure
-from ._workspace_results import PathIndependentWorkspace, _axes, _circle, _freeze
+from ._capture_families import CaptureFamilies, _family_of, _is_two_link, _two_link_coefficients, capture_families
+from ._capture_path import PathMotion, free_floating_path_motion, path_checked_candidates, refine_candidates
+from ._capture_plots import draw_system, plot_plan
+from ._path_placement import PathDoesNotFitError, PathPlacement, _check_path, _margin, _perpendiculars, approach_distance, place_path
+from ._workspace_reach import end_effector_radius, reachable_workspace, singularity_measure
+from ._workspace_results import PathIndependentWorkspace, _axes, _freeze
 from ._workspace_singular import path_independent_workspace
+from .singularity import SingularityCriterion
 
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
@@ -46,80 +49,16 @@ __all__ = [
     "CapturePlan",
     "CapturePosture",
     "PathDoesNotFitError",
+    "PathMotion",
     "PathPlacement",
     "approach_distance",
     "capture_families",
     "draw_system",
+    "free_floating_path_motion",
     "optimal_capture_posture",
     "place_path",
     "plan_capture",
 ]
-
-
-# ----------------------------------------------------------------------------------------------------------------- eq. 21 families
-@dataclass(frozen=True, eq=False)
-class CaptureFamilies:
-    """The two families q2(q1) of eq. 21 and det J* along them (1992 Fig. 6).
-
-    ``q1`` (...) rad; ``q2`` and ``det`` (..., 2): family 0 takes +acos, family
-    1 -acos; NaN where |r_E| = R+ has no solution for that q1.
-    """
-
-    R_plus: float
-    q1: np.ndarray
-    q2: np.ndarray
-    det: np.ndarray
-
-    def __post_init__(self) -> None:
-        _freeze(self)
-
-    def plot(self, ax: Axes | None = None, *, degrees: bool = True) -> list[Artist]:
-        """q2(q1) of both families and det J* along them (second y axis), like Fig. 6."""
-        ax = _axes(ax)
-        s = 180.0 / np.pi if degrees else 1.0
-        unit = "deg" if degrees else "rad"
-        artists: list[Artist] = []
-        twin = ax.twinx()
-        for k, style in ((0, "-"), (1, "--")):
-            artists += ax.plot(self.q1 * s, self.q2[..., k] * s, "C0" + style, label=f"q2, family {k + 1}")
-            artists += twin.plot(self.q1 * s, self.det[..., k], "C3" + style, label=f"det J*, family {k + 1}")
-        ax.set_xlabel(f"q1 ({unit})")
-        ax.set_ylabel(f"q2 ({unit})")
-        twin.set_ylabel("det J*")
-        return artists
-
-
-def _two_link_coefficients(model: Model, end_effector: str | int) -> np.ndarray:
-    ok = model.n_joints == 2 and model.n_bodies == 3 and list(model.parent) == [-1, 0, 1]
-    if not ok or not model.is_planar:
-        raise ModelError(
-            f"model {model.name!r}",
-            "eq. 21 has two families q2(q1) only for a planar spacecraft with one two-link arm",
-            "use optimal_capture_posture, which works for any model",
-        )
-    return position_coefficients(model, end_effector)
-
-
-def capture_families(model: Model, end_effector: str | int, R_plus: float, q1: Any) -> CaptureFamilies:
-    """Solve eq. 21, |r_E(q1, q2)| = R+, for q2: two families, and det J* along them; batched over q1 (...).
-
-    r_E = a0 + a1 e^{i q1} + a2 e^{i(q1+q2)} with the eq. 20 coefficients
-    (complex in general); with w = a0 + a1 e^{i q1},
-    q2 = arg w - arg a2 - q1 ± acos((R+² - |w|² - |a2|²) / (2 |a2| |w|)).
-    """
-    a = _two_link_coefficients(model, end_effector)
-    q1 = np.asarray(q1, dtype=float)
-    w = a[0] + a[1] * np.exp(1j * q1)
-    c = (float(R_plus) ** 2 - np.abs(w) ** 2 - np.abs(a[2]) ** 2) / (2.0 * np.abs(a[2]) * np.maximum(np.abs(w), 1e-300))
-    valid = np.abs(c) <= 1.0
-    base = np.angle(w) - np.angle(a[2]) - q1
-    acos = np.arccos(np.clip(c, -1.0, 1.0))
-    q2 = np.stack([base + acos, base - acos], axis=-1)
-    q2 = np.angle(np.exp(1j * q2))
-    q2 = np.where(valid[..., None], q2, np.nan)
-    q = np.stack([np.broadcast_to(q1[..., None], q2.shape), np.nan_to_num(q2)], axis=-1)
-    det = np.where(valid[..., None], singularity_measure(model, q), np.nan)
-    return CaptureFamilies(R_plus=float(R_plus), q1=q1, q2=q2, det=det)
 
 
 # ----------------------------------------------------------------------------------------------------------------- posture
@@ -157,69 +96,22 @@ class CapturePosture:
         return draw_system(_axes(ax), model, self.q, attitude=self.attitude, center=center)
 
 
-def draw_system(
-    ax: Axes, model: Model, q: Any, *, attitude: Any = None, center: Any = (0.0, 0.0), color: str = "k", label: str | None = None
-) -> list[Artist]:
-    """Stick figure of ``model`` at joint angles q (N,), x-y plane of the inertial frame, m.
+def _dexterity(model: Model, q: np.ndarray, criterion: SingularityCriterion | None = None) -> np.ndarray:
+    """What the capture posture maximises, (...) for q (..., N): the criterion's measure, absolute.
 
-    The system CM is put at ``center`` (2 or 3 numbers) and the spacecraft
-    turned by ``attitude`` (quaternion [x, y, z, w]; None: identity). Links
-    are lines from joint to joint (from the spacecraft CM for the first
-    link of each arm), end effectors dots, the spacecraft a square at its CM,
-    the system CM a small circle. Returns the artists.
-    """
-    q = np.asarray(q, dtype=float)
-    rot, pos = forward_kinematics(model, q)
-    cm = system_cm(model, q)
-    t0 = np.eye(3) if attitude is None else Rotation.from_quat(np.asarray(attitude, dtype=float)).as_matrix()
-    c = np.zeros(3)
-    given = np.asarray(center, dtype=float).ravel()
-    c[: given.size] = given
-
-    def to_i(point: Any) -> np.ndarray:
-        return np.asarray((t0 @ (np.asarray(point) - cm).T).T + c)
-
-    joints = to_i(pos)
-    artists: list[Artist] = []
-    for k in range(1, model.n_bodies):
-        p = int(model.parent[k])
-        start = to_i(pos[p] + rot[p] @ model.com[p]) if p == 0 else joints[p]
-        artists += ax.plot([start[0], joints[k][0]], [start[1], joints[k][1]], "-", color=color, lw=2, label=label if k == 1 else None)
-    for e, body in enumerate(model.end_effector_body):
-        tip = to_i(pos[body] + rot[body] @ model.end_effector_point[e])
-        artists += ax.plot([joints[body][0], tip[0]], [joints[body][1], tip[1]], "-", color=color, lw=2)
-        artists += ax.plot(tip[0], tip[1], "o", color=color, ms=4)
-    sc = to_i(model.com[0])
-    artists += ax.plot(sc[0], sc[1], "s", color=color, ms=12, mfc="0.8")
-    artists.append(_circle(ax, c, 0.01, edgecolor=color))
-    ax.set_aspect("equal")
-    ax.autoscale_view()
-    return artists
-
-
-def _dexterity(model: Model, q: np.ndarray) -> np.ndarray:
-    """Product of the singular values of J* (1992 eq. 14; planar rows for a planar model), (...) for q (..., N).
-
+    Default (``criterion`` None or measure ``"auto"``): the product of the
+    singular values of J* (1992 eq. 14; planar rows for a planar model):
     |det J*| when J* is square, sqrt(det J* J*ᵀ) (the manipulability) otherwise.
     """
-    jac = _jacobian_fun(model, None)(np.asarray(q, dtype=float))
-    return np.prod(np.linalg.svd(jac, compute_uv=False), axis=-1)
+    crit = criterion if criterion is not None else SingularityCriterion()
+    measure = "manipulability" if crit.measure == "auto" else crit.measure
+    jac = crit.jacobian(model, np.asarray(q, dtype=float))
+    return np.abs(search.measure_values(jac, measure))
 
 
-def _is_two_link(model: Model) -> bool:
-    return model.n_joints == 2 and model.is_planar and model.n_bodies == 3 and list(model.parent) == [-1, 0, 1]
-
-
-def _family_of(model: Model, e: int, R_plus: float, q: np.ndarray) -> int | None:
-    """Which eq. 21 family (0: +acos, 1: -acos) a configuration on |r_E| = R+ belongs to; None if not a two-link arm."""
-    if not _is_two_link(model):
-        return None
-    fam = capture_families(model, e, R_plus, q[0])
-    gap = np.abs(np.angle(np.exp(1j * (fam.q2 - q[1]))))
-    return None if np.all(np.isnan(gap)) else int(np.nanargmin(gap))
-
-
-def _starts(model: Model, e: int, R_plus: float, box: search.JointBox, samples: int, starts: int, seed: int) -> list[np.ndarray]:
+def _starts(
+    model: Model, e: int, R_plus: float, box: search.JointBox, samples: int, starts: int, seed: int, criterion: SingularityCriterion | None
+) -> list[np.ndarray]:
     out: list[np.ndarray] = []
     if _is_two_link(model):  # the best point of each family of eq. 21 on a fine q1 grid
         q1 = np.linspace(-np.pi, np.pi, 3601)
@@ -232,7 +124,7 @@ def _starts(model: Model, e: int, R_plus: float, box: search.JointBox, samples: 
     q = search.sobol(samples, box.lo, box.hi, seed)
     r = end_effector_radius(model, q, e)
     near = np.argsort(np.abs(r - R_plus))[: max(64, q.shape[0] // 50)]
-    meas = _dexterity(model, q[near])
+    meas = _dexterity(model, q[near], criterion)
     out += [q[i] for i in near[np.argsort(-meas)][:starts]]
     return out
 
@@ -247,8 +139,13 @@ def optimal_capture_posture(
     samples: int = 1 << 14,
     starts: int = 8,
     seed: int = 0,
+    criterion: SingularityCriterion | None = None,
 ) -> CapturePosture:
     """The capture posture that maximises |det J*| (or sqrt det J* J*ᵀ) with |r_E(q)| = R+ (1992 §V, eq. 21).
+
+    ``criterion``: maximise its measure on its rows of J* instead
+    (:class:`~freeflyer.analysis.singularity.SingularityCriterion`; measure
+    ``"auto"``: the product of the singular values).
 
     SLSQP with the equality constraint |r_E|² = R+² (analytic gradient from
     :func:`freeflyer.end_effector_jacobian`) and the joint limits as bounds,
@@ -284,10 +181,10 @@ def optimal_capture_posture(
         return (2.0 * r @ end_effector_jacobian(model, q, e)[0:3, 6:])[None, :]
 
     def objective(q: np.ndarray) -> float:
-        return -float(_dexterity(model, q))
+        return -float(_dexterity(model, q, criterion))
 
     results = []
-    candidates = _starts(model, e, R_plus, box, samples, starts, seed)
+    candidates = _starts(model, e, R_plus, box, samples, starts, seed, criterion)
     for q0 in candidates:
         res = minimize(
             objective,
@@ -303,12 +200,12 @@ def optimal_capture_posture(
         if abs(residual) < 1e-9 * max(1.0, R_plus) and inside:
             on = _family_of(model, e, R_plus, q)
             if family is None or on == family:
-                results.append((float(_dexterity(model, q)), q, on))
+                results.append((float(_dexterity(model, q, criterion)), q, on))
     if not results:
         which = "" if family is None else f" on family {family}"
         raise ValueError(f"optimal_capture_posture: no start converged to |r_E| = {R_plus:.6g} m{which}; try more samples or starts")
     best_value = max(r[0] for r in results)
-    square = _square(model)
+    square = _square(model) and (criterion is None or criterion.rows == "auto")
 
     def rank(item: tuple[float, np.ndarray, int | None]) -> tuple[bool, float, float]:
         value, q, _ = item
@@ -355,9 +252,20 @@ def _square(model: Model) -> bool:
 
 
 # ----------------------------------------------------------------------------------------------------------------- the whole §V
+STRATEGIES = ("auto", "piw", "path")
+
+
 @dataclass(frozen=True, eq=False)
 class CapturePlan:
-    """The §V procedure end to end: workspaces after capture, path placement, approach, posture."""
+    """The §V procedure end to end: workspaces after capture, path placement, approach, posture.
+
+    ``method``: ``"piw"`` (the paper's: the path lies in the post-capture
+    PIW, so no configuration met on it can be singular) or ``"path"`` (the
+    path fits in no PIW annulus, but the free-floating motion along it from
+    this posture and attitude was integrated and never meets a singularity
+    of ``criterion``). ``motion``: that free-floating motion (1992 eqs. 12,
+    14) along the path, with the singularity measure along it.
+    """
 
     before: Model
     captured: Model
@@ -365,6 +273,9 @@ class CapturePlan:
     piw: PathIndependentWorkspace
     placement: PathPlacement
     posture: CapturePosture
+    method: str = "piw"
+    motion: PathMotion | None = None
+    criterion: SingularityCriterion = field(default_factory=SingularityCriterion)
 
     @property
     def approach_distance(self) -> float:
@@ -373,19 +284,115 @@ class CapturePlan:
         return self.placement.approach_distance
 
     def plot(self, ax: Axes | None = None) -> list[Artist]:
-        """Fig. 7: reachable workspace before capture (dashed, around the free-flyer's CM), PIW after capture around
-        CM+, the path, the approach point and the capture posture."""
-        ax = _axes(ax)
-        artists: list[Artist] = []
-        if self.placement.approach_point is not None:  # the reachable workspace before capture, around the free-flyer's CM
-            before = reachable_workspace(self.before, self.end_effector)
-            for r in (before.R_min, before.R_max):
-                if r > 0.0:
-                    artists.append(_circle(ax, self.placement.approach_point[:2], r, edgecolor="C0", linestyle="--", linewidth=1.0))
-        artists += self.piw.plot(ax, center=self.placement.cm_plus[:2])
-        artists += self.placement.plot(ax, annulus=False)
-        artists += self.posture.plot(self.captured, ax, center=self.placement.cm_plus)
-        return artists
+        """The plan like the 1992 paper's Fig. 7 ("the workspaces before and after the capture of a payload at A"):
+        the reachable workspace before capture, the reachable workspace, PIW and PDW after capture, the path A→B,
+        CM+, the free-flyer's CM before capture, the robot at capture and at B. Without ``ax``: a new pyplot figure,
+        3D axes for a spatial model. Returns the artists."""
+        if ax is None:
+            ax = new_axes(figsize=(7.4, 7.6), projection=None if self.captured.is_planar else "3d")
+        return plot_plan(self, ax)
+
+
+def _snap_to_radius(model: Model, e: int, q: np.ndarray, R_plus: float, box: search.JointBox) -> np.ndarray:
+    """Newton steps along the gradient of |r_E| that put each configuration (M, N) on |r_E| = R+; NaN rows where it fails."""
+    q = q.copy()
+    for _ in range(30):
+        r = end_effector_positions(model, q)[:, e]
+        norm = np.linalg.norm(r, axis=-1)
+        grad = np.einsum("mi,mij->mj", r / np.maximum(norm, 1e-300)[:, None], end_effector_jacobian(model, q, e)[:, 0:3, 6:])
+        q -= ((norm - R_plus) / np.maximum(np.einsum("mj,mj->m", grad, grad), 1e-300))[:, None] * grad
+    ok = np.abs(end_effector_radius(model, q, e) - R_plus) < 1e-9 * max(1.0, R_plus)
+    ok &= np.all(((q >= box.lo) & (q <= box.hi)) | box.free, axis=1)
+    q[~ok] = np.nan
+    return q
+
+
+def _posture_candidates(
+    model: Model, e: int, R_plus: float, criterion: SingularityCriterion, *, count: int = 4, seed: int = 0
+) -> list[np.ndarray]:
+    """Up to ``count`` distinct capture configurations on |r_E| = R+ (Sobol samples put on the sphere), the most dexterous first."""
+    out: list[np.ndarray] = []
+    box = search.model_box(model)
+    q = search.sobol(1 << 12, box.lo, box.hi, seed + 1)
+    near = np.argsort(np.abs(end_effector_radius(model, q, e) - R_plus))[:256]
+    snapped = _snap_to_radius(model, e, q[near], R_plus, box)
+    snapped = snapped[np.all(np.isfinite(snapped), axis=1)]
+    if snapped.size:
+        for qq in snapped[np.argsort(-_dexterity(model, snapped, criterion))]:
+            if len(out) >= count:
+                break
+            if all(np.max(np.abs(np.angle(np.exp(1j * (qq - p))))) > 0.3 for p in out):
+                out.append(qq)
+    return out
+
+
+def _path_checked_plan(
+    model: Model,
+    captured: Model,
+    e: int,
+    path: np.ndarray,
+    piw: PathIndependentWorkspace,
+    mass: float,
+    criterion: SingularityCriterion,
+    R_plus: float | None,
+) -> tuple[PathPlacement, CapturePosture, PathMotion] | None:
+    """Search placements, postures and attitudes whose free-floating motion along the path stays non-singular."""
+    reach = piw.reachable
+    pts = np.asarray(path, dtype=float)
+    a = pts[0]
+    u = (pts[1] - a) / np.linalg.norm(pts[1] - a)
+    normals = _perpendiculars(u)
+    if normals.shape[0] > 8:
+        normals = normals[:: normals.shape[0] // 8]
+    if R_plus is not None:
+        radii = np.array([float(R_plus)])
+    else:
+        radii = np.linspace(reach.R_min, reach.R_max, 8)[1:-1]
+    fits = [r for r in radii if max(_margin(pts, a + r * n, reach.R_min, reach.R_max) for n in normals) >= 0.0]
+    if not fits:
+        return None
+    found = path_checked_candidates(
+        captured, e, pts, np.array(fits), normals, lambda r: _posture_candidates(captured, e, r, criterion), criterion=criterion
+    )
+    best = refine_candidates(captured, e, pts, found[:8], criterion=criterion)
+    if best is None:
+        return None
+    c = best.cm_plus[: pts.shape[1]]
+    robot = model.total_mass
+    placement = PathPlacement(
+        path=pts,
+        cm_plus=c,
+        start=a,
+        direction=(a - c) / best.R_plus,
+        R_plus=best.R_plus,
+        margin=_margin(pts, c, reach.R_min, reach.R_max),
+        interval=(reach.R_min, reach.R_max),
+        workspace="reachable workspace (path checked)",
+        rule="path_checked",
+        robot_mass=robot,
+        payload_mass=mass,
+        approach_distance=approach_distance(robot, mass, best.R_plus),
+        approach_point=a + (c - a) * (robot + mass) / robot,
+    )
+    d = np.zeros(3)
+    d[: pts.shape[1]] = placement.direction
+    rot = Rotation.from_quat(best.attitude)
+    theta = float(rot.as_rotvec()[2]) if captured.is_planar and abs(d[2]) < 1e-12 else None
+    posture = CapturePosture(
+        model_name=captured.name,
+        end_effector=captured.end_effector_names[e],
+        q=best.q,
+        R_plus=best.R_plus,
+        measure=float(_dexterity(captured, best.q, criterion)),
+        det=None,
+        residual=float(end_effector_radius(captured, best.q, e)) - best.R_plus,
+        direction=d,
+        attitude=best.attitude,
+        theta=theta,
+        family=None,
+        starts=len(found),
+    )
+    return placement, posture, best.motion
 
 
 def plan_capture(
@@ -399,18 +406,65 @@ def plan_capture(
     rule: str = "perpendicular",
     R_plus: float | None = None,
     samples: int = 1 << 18,
+    criterion: SingularityCriterion | None = None,
+    strategy: str = "auto",
 ) -> CapturePlan:
     """Run 1992 §V: capture of a payload (``mass`` kg, ``inertia`` about its CM) that must then follow ``path``.
 
     Returns the post-capture PIW, where CM+ and the free-flyer's CM must be
-    (eq. 19), and the capture posture and attitude (eqs. 20-21). Raises
-    :class:`PathDoesNotFitError` when the path fits nowhere.
+    (eq. 19), the capture posture and attitude (eqs. 20-21) and the
+    free-floating motion along the path with the singularity measure along it.
+
+    ``criterion`` (:class:`~freeflyer.analysis.singularity.SingularityCriterion`):
+    which rows of J* and which measure count as singular, with a threshold;
+    for a spatial arm carrying a payload CM, ``rows="position"`` (the full
+    6 x 6 J* of a 6-DOF arm is singular at every radius through its wrist).
+    ``strategy``: ``"piw"`` (the paper's: the path must lie in the PIW),
+    ``"path"`` (search CM+ on the reachable workspace, the posture and the
+    attitude, integrating the free-floating motion along the path, and keep
+    the one whose smallest measure along it is largest, above the threshold),
+    or ``"auto"`` (the PIW, else the path check). Raises
+    :class:`PathDoesNotFitError` when no plan is found.
     """
+    if strategy not in STRATEGIES:
+        raise ValueError(f"strategy: expected one of {', '.join(STRATEGIES)}, got {strategy!r}")
+    crit = criterion if criterion is not None else SingularityCriterion()
     e = model.end_effector_index(end_effector)
     captured = model.with_payload(e, mass=mass, inertia=inertia, offset=offset)
-    piw = path_independent_workspace(captured, e, samples=samples)
-    placement = place_path(piw, path, rule=rule, R_plus=R_plus, robot_mass=model.total_mass, payload_mass=float(mass))
-    posture = optimal_capture_posture(captured, e, placement.R_plus, direction=placement.direction)
+    piw = path_independent_workspace(captured, e, samples=samples, criterion=crit)
+    pts = _check_path(path)
+    found: tuple[str, PathPlacement, CapturePosture, PathMotion] | None = None
+    if strategy != "path":
+        try:
+            placement = place_path(piw, pts, rule=rule, R_plus=R_plus, robot_mass=model.total_mass, payload_mass=float(mass))
+        except PathDoesNotFitError as exc:
+            if strategy == "piw" or exc.fits_reachable is False:  # not even in the reachable workspace: thrusters
+                raise
+        else:
+            posture = optimal_capture_posture(captured, e, placement.R_plus, direction=placement.direction, criterion=criterion)
+            motion = free_floating_path_motion(captured, e, posture.q, posture.attitude, placement.cm_plus, pts, criterion=crit)[0]
+            found = ("piw", placement, posture, motion)
+    if found is None:
+        checked = _path_checked_plan(model, captured, e, pts, piw, float(mass), crit, R_plus)
+        if checked is None:
+            where = ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in piw.piw) or "(empty)"
+            raise PathDoesNotFitError(
+                f"the path fits in no PIW annulus {where} m, and no capture placement, posture and attitude found moves the "
+                f"payload along it free-floating without a singularity ({crit.describe(captured)}): use the thrusters "
+                "(1992 §V), a lower threshold or a shorter path",
+                margin=-np.inf,
+                fits_reachable=None,
+            )
+        found = ("path", *checked)
+    method, placement, posture, motion = found
     return CapturePlan(
-        before=model, captured=captured, end_effector=model.end_effector_names[e], piw=piw, placement=placement, posture=posture
+        before=model,
+        captured=captured,
+        end_effector=model.end_effector_names[e],
+        piw=piw,
+        placement=placement,
+        posture=posture,
+        method=method,
+        motion=motion,
+        criterion=crit,
     )

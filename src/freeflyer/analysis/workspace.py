@@ -18,6 +18,11 @@ planar model) or a union of them, centred on the CM, which does not move.
 * :func:`jacobian_determinant_map`: det J* over a grid of two joint angles.
 * :func:`workspace_limits`: every limit above for every end effector of a
   model (``freeflyer workspace``), with its plots and JSON.
+* :class:`SingularityCriterion`: which rows of J* (full or translational)
+  and which measure (det, smallest singular value, manipulability) count as
+  singular, with a threshold; accepted by the PIW and the capture planning.
+* :func:`workspace_cloud` and :func:`plot_workspace_sections`: spatial arms
+  drawn in 3D (sections of the shells through the CM, point clouds).
 
 Closed forms. For a planar model whose joints are all free (no limits, or a
 full turn), r_E = Σ_i a_i exp(iφ_i) (eq. 18 generalised: one barycentric
@@ -56,7 +61,8 @@ from ._workspace_results import (
     ReachableWorkspace,
 )
 from ._workspace_singular import path_independent_workspace, payload_effect
-from .singularity import DeterminantMap, DeterminantMapArtists, jacobian_determinant_map
+from .singularity import DeterminantMap, DeterminantMapArtists, SingularityCriterion, jacobian_determinant_map
+from .workspace_3d import WorkspaceCloud, plot_workspace_sections, workspace_cloud
 from .workspace_report import WorkspaceLimits, limits_json, workspace_limits, write_workspace_plots
 
 __all__ = [
@@ -68,6 +74,8 @@ __all__ = [
     "PayloadEffect",
     "RadiusRange",
     "ReachableWorkspace",
+    "SingularityCriterion",
+    "WorkspaceCloud",
     "WorkspaceLimits",
     "collinear_radii",
     "collinear_radius_range",
@@ -79,8 +87,10 @@ __all__ = [
     "limits_json",
     "path_independent_workspace",
     "payload_effect",
+    "plot_workspace_sections",
     "reachable_workspace",
     "singularity_measure",
+    "workspace_cloud",
     "workspace_limits",
     "write_workspace_plots",
 ]

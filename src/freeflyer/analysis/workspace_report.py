@@ -22,6 +22,8 @@ from ..core.model import Model
 from ._workspace_reach import guaranteed_workspace, reachable_workspace
 from ._workspace_results import GuaranteedWorkspace, PathIndependentWorkspace, ReachableWorkspace
 from ._workspace_singular import path_independent_workspace
+from .singularity import SingularityCriterion
+from .workspace_3d import plot_workspace_sections, workspace_cloud
 
 __all__ = ["WorkspaceLimits", "limits_json", "system_jacobian_is_square", "workspace_limits", "write_workspace_plots"]
 
@@ -58,6 +60,7 @@ class WorkspaceLimits:
     guaranteed: tuple[GuaranteedWorkspace, ...]
     piw: tuple[PathIndependentWorkspace | None, ...]
     piw_note: str = ""
+    criterion: SingularityCriterion | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """A JSON-ready summary (floats, lists, None); radii in m."""
@@ -91,6 +94,7 @@ class WorkspaceLimits:
                     "intervals": _intervals(piw.piw),
                     "pdw": _intervals(piw.pdw),
                     "method": piw.method,
+                    "criterion": piw.criterion,
                     "accuracy": piw.accuracy,
                     "resolution": piw.resolution,
                     "samples": piw.samples,
@@ -129,6 +133,7 @@ class WorkspaceLimits:
             lines += [
                 f"  PIW        (eq. 17)  {head}",
                 f"  PDW                  {_fmt_intervals(piw.pdw)}",
+                f"  singular where       {piw.criterion}",
                 f"  PIW method           {piw.method}; {piw.samples} configurations; accuracy {piw.accuracy:.1e} m, "
                 f"resolution {piw.resolution:.1e} m",
             ]
@@ -141,6 +146,7 @@ def workspace_limits(
     *,
     piw: bool | None = None,
     samples: int = 1 << 16,
+    criterion: SingularityCriterion | None = None,
 ) -> WorkspaceLimits:
     """Reachable, guaranteed and path-independent workspaces of the chosen end effectors (default: all).
 
@@ -148,24 +154,29 @@ def workspace_limits(
     when the system J* is square (det J* exists, as in the paper), and skips
     them otherwise (a non-square J* is searched by its smallest singular
     value: minutes for a 7-joint arm). ``samples``: configurations sampled
-    for the PIW. Unknown end effectors raise :class:`~freeflyer.UnknownNameError`.
+    for the PIW. ``criterion``: which rows of J* and which measure count as
+    singular for the PIW (:class:`~freeflyer.analysis.singularity.SingularityCriterion`;
+    default the paper's). Unknown end effectors raise :class:`~freeflyer.UnknownNameError`.
     """
     chosen = list(range(model.n_end_effectors)) if not end_effectors else [model.end_effector_index(e) for e in end_effectors]
     if len(set(chosen)) != len(chosen):
         raise ValueError(f"end_effectors: each end effector once, got {list(end_effectors or [])!r}")
-    square = system_jacobian_is_square(model)
+    crit = criterion if criterion is not None else SingularityCriterion()
+    square = crit.square(model) and crit.threshold == 0.0
     do_piw = square if piw is None else bool(piw)
     note = ""
     if not do_piw:
         note = (
-            "J* is not square (det J* undefined; searching its smallest singular value is slow): pass --piw to compute it"
+            "J* is not square (det J* undefined; searching its smallest singular value is slow) or a threshold is set: "
+            "pass --piw to compute it"
             if piw is None
             else "not requested"
         )
     reach = tuple(reachable_workspace(model, e) for e in chosen)
     gws = tuple(guaranteed_workspace(model, e) for e in chosen)
     piws = tuple(
-        path_independent_workspace(model, e, samples=samples, reachable=r) if do_piw else None for e, r in zip(chosen, reach, strict=True)
+        path_independent_workspace(model, e, samples=samples, reachable=r, criterion=crit) if do_piw else None
+        for e, r in zip(chosen, reach, strict=True)
     )
     return WorkspaceLimits(
         model=model,
@@ -174,6 +185,7 @@ def workspace_limits(
         guaranteed=gws,
         piw=piws,
         piw_note=note,
+        criterion=crit,
     )
 
 
@@ -181,31 +193,42 @@ def _slug(name: str) -> str:
     return "".join(c if c.isalnum() or c in "-_" else "_" for c in name)
 
 
-def write_workspace_plots(limits: WorkspaceLimits, out: Path, *, dpi: int = 200) -> list[Path]:
-    """One PNG per end effector (reachable, guaranteed, PIW/PDW annuli about the system CM) in ``out``.
+def write_workspace_plots(limits: WorkspaceLimits, out: Path, *, dpi: int = 200, cloud_samples: int = 1 << 13) -> list[Path]:
+    """One PNG per end effector (reachable, guaranteed, PIW/PDW about the system CM) in ``out``.
 
-    Distances are |r_E| (attitude-free), so each workspace is drawn as
-    annuli in the plane through the CM, like the 1992 paper's Figs. 4 and 7.
-    Returns the written paths.
+    Distances are |r_E| (attitude-free), so each workspace is a shell about
+    the CM. A planar model is drawn as annuli in its plane, like the 1992
+    paper's Figs. 4 and 7; a spatial model as the shells' sections by the xy,
+    xz and yz planes through the CM with the points reached near each plane,
+    and a 3D cloud of ``cloud_samples`` end-effector positions coloured by the
+    singularity measure (:mod:`freeflyer.analysis.workspace_3d`). Returns the written paths.
     """
     from matplotlib.figure import Figure
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     written = []
+    model = limits.model
     for name, reach, gw, piw in zip(limits.end_effectors, limits.reachable, limits.guaranteed, limits.piw, strict=True):
-        fig = Figure(figsize=(6.4, 6.0), layout="constrained")
-        ax = fig.add_subplot()
-        reach.plot(ax, color="C0", label=f"reachable [{reach.R_min:.3f}, {reach.R_max:.3f}] m")
-        if gw.exists:
-            gw.plot(ax, color="C2", label=f"guaranteed [{gw.R_min:.3f}, {gw.R_max:.3f}] m")
-        if piw is not None:
-            widest = "" if piw.R_min is None else f" (widest [{piw.R_min:.3f}, {piw.R_max:.3f}] m)"
-            piw.plot(ax, color="C1", label=f"path-independent{widest}")
-        ax.plot([0.0], [0.0], "k+", ms=10, mew=1.5, label="system CM")
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncols=2, fontsize="small", frameon=False)
-        ax.set_title(f"{limits.model.name}: workspaces of {name}\nabout the system CM (1992 eqs. 15-17)", fontsize="medium")
-        path = out / f"workspace_{_slug(limits.model.name)}_{_slug(name)}.png"
+        title = f"{model.name}: workspaces of {name}\nabout the system CM (1992 eqs. 15-17)"
+        if model.is_planar:
+            fig = Figure(figsize=(6.4, 6.0), layout="constrained")
+            ax = fig.add_subplot()
+            reach.plot(ax, color="C0", label=f"reachable [{reach.R_min:.3f}, {reach.R_max:.3f}] m")
+            if gw.exists:
+                gw.plot(ax, color="C2", label=f"guaranteed [{gw.R_min:.3f}, {gw.R_max:.3f}] m")
+            if piw is not None:
+                widest = "" if piw.R_min is None else f" (widest [{piw.R_min:.3f}, {piw.R_max:.3f}] m)"
+                piw.plot(ax, color="C1", label=f"path-independent{widest}")
+            ax.plot([0.0], [0.0], "k+", ms=10, mew=1.5, label="system CM")
+            ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncols=2, fontsize="small", frameon=False)
+            ax.set_title(title, fontsize="medium")
+        else:
+            fig = Figure(figsize=(12.0, 11.0), layout="constrained")
+            cloud = workspace_cloud(model, name, samples=cloud_samples, criterion=limits.criterion)
+            plot_workspace_sections(reach, gw, piw, cloud, fig=fig)
+            fig.suptitle(title.replace("\n", " "))
+        path = out / f"workspace_{_slug(model.name)}_{_slug(name)}.png"
         fig.savefig(path, dpi=dpi, bbox_inches="tight", pad_inches=0.15)
         written.append(path)
     return written

@@ -28,6 +28,7 @@ __all__ = [
     "forward_kinematics",
     "joint_axes",
     "point_positions",
+    "stick_figure",
     "system_cm",
 ]
 
@@ -156,3 +157,30 @@ def point_positions(model: Model, q: Any, body: str | int, point: Any = (0.0, 0.
         return _engine.points(model, q, k, p)[..., 0, :]
     table = model.bary.point_vectors(model, k, p)[None]
     return chunked(lambda qq: _barycentric_sum(model, qq, table, np.array([k]))[:, 0], q, core_ndims=(1,))
+
+
+def stick_figure(model: Model, q: Any, *, attitude: Any = None) -> np.ndarray:
+    """Line segments that draw the system as a stick figure, relative to the system CM, (..., B - 1 + E, 2, 3).
+
+    One segment per link, from its parent's joint (from the spacecraft CM
+    for the first link of each arm) to its own joint, then one per end
+    effector, from its body's joint to the end-effector point. In the
+    spacecraft frame; with ``attitude`` (quaternion [x, y, z, w], Rotation or
+    3x3) rotated into the inertial frame. Add the system CM position r_cm to
+    place it in the inertial frame.
+    """
+    q = joint_array(model, q)
+    rot, pos = forward_kinematics(model, q)
+    spacecraft_cm = pos[..., 0, :] + np.einsum("...ij,j->...i", rot[..., 0, :, :], model.com[0])
+    starts, ends = [], []
+    for k in range(1, model.n_bodies):
+        p = int(model.parent[k])
+        starts.append(spacecraft_cm if p == 0 else pos[..., p, :])
+        ends.append(pos[..., k, :])
+    for e, body in enumerate(model.end_effector_body):
+        starts.append(pos[..., body, :])
+        ends.append(pos[..., body, :] + np.einsum("...ij,j->...i", rot[..., body, :, :], model.end_effector_point[e]))
+    seg = np.stack([np.stack(starts, axis=-2), np.stack(ends, axis=-2)], axis=-2) - system_cm(model, q)[..., None, None, :]
+    if attitude is None:
+        return seg
+    return np.einsum("...ij,...sej->...sei", attitude_matrix(attitude), seg)

@@ -1,7 +1,7 @@
 """Figures of ``freeflyer reproduce 1991``, like the paper's Figs. 3, 4 and 5, plus the two alternatives of §V.
 
-Drawn from :class:`freeflyer.papers.paper1991.Results1991` with the matplotlib object
-API (no pyplot state), saved as PNG:
+Drawn from :class:`freeflyer.papers.paper1991.Results1991` on pyplot figures,
+saved as PNG and closed:
 
 * ``fig3_coordinated_motion.png``: the system in the inertial plane with
   snapshots, the end-effector path and the line A-B, for eq. 30 (``tj``) and
@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..core._figures import new_figure, save_and_close
 from ..mechanics.kinematics import forward_kinematics, system_cm
 
 if TYPE_CHECKING:
@@ -30,11 +31,15 @@ if TYPE_CHECKING:
     from ..core.model import Model
     from .paper1991 import Results1991
 
-__all__ = ["draw_planar_system", "write_figures"]
+__all__ = ["FIGURE_NAMES", "draw_planar_system", "figure_3", "figure_4", "figure_5", "figure_alternatives", "write_figures"]
+
+FIGURE_NAMES = ("fig3_coordinated_motion.png", "fig4_spacecraft_errors.png", "fig5_thruster_forces.png", "fig_alternatives.png")
 
 COLORS = {"tj": "tab:blue", "ct": "tab:red"}
 LABELS = {"tj": "transposed Jacobian, eq. 30", "ct": "operational space, eq. 27"}
 SNAPSHOTS = (0.0, 1.0, 2.0, 4.0, 30.0)
+#: Fig. 5: the symmetric-log y axes are linear within ± this many N (N m).
+FIG5_LINTHRESH = 5.0
 
 
 def draw_planar_system(ax: Axes, model: Model, q: Any, theta: float, r_cm: Any, *, color: str = "k", alpha: float = 1.0) -> list[Any]:
@@ -61,12 +66,13 @@ def draw_planar_system(ax: Axes, model: Model, q: Any, theta: float, r_cm: Any, 
 
 
 def _figure(**kw: Any) -> Any:
-    from matplotlib.figure import Figure
-
-    return Figure(layout="constrained", **kw)
+    return new_figure(**kw)
 
 
-def _fig3(res: Results1991, path: Path) -> Path:
+def figure_3(res: Results1991) -> Any:
+    """The system in the inertial plane with snapshots, the end-effector path and the line A-B (Fig. 3).
+
+    Eq. 30 and eq. 27 side by side. A pyplot figure."""
     fig = _figure(figsize=(11, 5.2))
     axes = fig.subplots(1, 2, sharex=True, sharey=True)
     a = res.task.coordinates(res.initial)[3:5]
@@ -93,8 +99,7 @@ def _fig3(res: Results1991, path: Path) -> Path:
     axes[0].set_ylabel("y (m), inertial")
     axes[0].legend(fontsize=8, loc="lower left")
     fig.suptitle("1991 Fig. 3: coordinated spacecraft/manipulator motion (snapshots at 0, 1, 2, 4, 30 s)", fontsize=11)
-    fig.savefig(path, dpi=150)
-    return path
+    return fig
 
 
 def _states(traj: Any) -> Any:
@@ -103,7 +108,8 @@ def _states(traj: Any) -> Any:
     return State(q=traj.q, attitude=traj.attitude, r_cm=traj.r_cm)
 
 
-def _fig4(res: Results1991, path: Path) -> Path:
+def figure_4(res: Results1991) -> Any:
+    """The spacecraft position and attitude errors against time (Fig. 4). A pyplot figure."""
     fig = _figure(figsize=(9, 6))
     ax_pos, ax_att = fig.subplots(2, 1, sharex=True)
     for name, traj in res.runs.items():
@@ -120,32 +126,56 @@ def _fig4(res: Results1991, path: Path) -> Path:
         ax.legend(fontsize=8)
         ax.set_xlim(0, 20)
     fig.suptitle("1991 Fig. 4: spacecraft errors e = z1,des - z1", fontsize=11)
-    fig.savefig(path, dpi=150)
-    return path
+    return fig
 
 
-def _fig5(res: Results1991, path: Path) -> Path:
-    fig = _figure(figsize=(10, 6))
-    axes = fig.subplots(2, 2, sharex=True)
+def figure_5(res: Results1991) -> Any:
+    """The thruster forces (spacecraft frame) and torque over the first 5 s (Fig. 5). A pyplot figure.
+
+    Both columns share each row's y axis, on a symmetric-log scale (linear within ±``FIG5_LINTHRESH``,
+    logarithmic beyond), so the operational-space controller's peak at t = 0 (about 1 kN) does not
+    flatten the rest of either column; each panel states its peak.
+    """
+    fig = _figure(figsize=(10, 6.4))
+    axes = fig.subplots(2, 2, sharex=True, sharey="row")
     for col, (name, traj) in enumerate(res.runs.items()):
         first = traj.t <= 5.0 + 1e-9
         ax_f, ax_n = axes[0, col], axes[1, col]
-        ax_f.plot(traj.t[first], traj.spacecraft_force[first, 0], "-", color=COLORS[name], label="f_x")
-        ax_f.plot(traj.t[first], traj.spacecraft_force[first, 1], "--", color=COLORS[name], label="f_y")
-        ax_n.plot(traj.t[first], traj.spacecraft_torque[first, 2], "-", color=COLORS[name], label="n_z")
+        t = traj.t[first]
+        force, torque = traj.spacecraft_force[first], traj.spacecraft_torque[first, 2]
+        ax_f.plot(t, force[:, 0], "-", color=COLORS[name], label="f_x")
+        ax_f.plot(t, force[:, 1], "--", color=COLORS[name], label="f_y")
+        ax_n.plot(t, torque, "-", color=COLORS[name], label="n_z")
         ax_f.set_title(LABELS[name], fontsize=10)
-        ax_f.set_ylabel("thruster force, spacecraft frame (N)")
-        ax_n.set_ylabel("thruster torque (N m)")
+        for ax, values, unit in ((ax_f, np.linalg.norm(force[:, :2], axis=1), "N"), (ax_n, np.abs(torque), "N m")):
+            k = int(np.argmax(values))
+            ax.text(
+                0.98,
+                0.95,
+                f"peak {values[k]:.4g} {unit} at t = {t[k]:.2f} s",
+                transform=ax.transAxes,
+                ha="right",
+                va="top",
+                fontsize=8,
+                bbox={"boxstyle": "round", "fc": "white", "ec": "0.7"},
+            )
+            ax.set_yscale("symlog", linthresh=FIG5_LINTHRESH, linscale=1.5)
+            ax.axhline(0.0, color="0.5", lw=0.6)
+            ax.grid(alpha=0.3, which="both")
+            ax.legend(fontsize=8, loc="center right")
         ax_n.set_xlabel("time (s)")
-        for ax in (ax_f, ax_n):
-            ax.grid(alpha=0.3)
-            ax.legend(fontsize=8)
-    fig.suptitle("1991 Fig. 5: reaction-jet forces and torque over the first 5 s", fontsize=11)
-    fig.savefig(path, dpi=150)
-    return path
+    for ax in axes[:, 0]:  # plain numbers at ±5, ±10, ±100, ... (the rows share their y axis)
+        lo, hi = ax.get_ylim()
+        ticks = [v for v in (-1000.0, -100.0, -10.0, -5.0, 0.0, 5.0, 10.0, 100.0, 1000.0) if lo <= v <= hi]
+        ax.set_yticks(ticks, [f"{v:g}" for v in ticks])
+    axes[0, 0].set_ylabel(f"thruster force, spacecraft frame (N)\nsymlog: linear within ±{FIG5_LINTHRESH:g}")
+    axes[1, 0].set_ylabel(f"thruster torque (N m)\nsymlog: linear within ±{FIG5_LINTHRESH:g}")
+    fig.suptitle("1991 Fig. 5: reaction-jet forces and torque over the first 5 s (shared symlog y axes)", fontsize=11)
+    return fig
 
 
-def _fig_alternatives(res: Results1991, path: Path) -> Path:
+def figure_alternatives(res: Results1991) -> Any:
+    """The spacecraft held fixed, and the free-floating straight-line attempt with det J* along the path. A pyplot figure."""
     from ..core.state import State
 
     fig = _figure(figsize=(13, 4.8))
@@ -184,16 +214,13 @@ def _fig_alternatives(res: Results1991, path: Path) -> Path:
     ax_det.grid(alpha=0.3)
     ax_det.set_title("dynamic singularity on the straight line", fontsize=10)
     fig.suptitle("1991 §V: the alternatives to coordinated control", fontsize=11)
-    fig.savefig(path, dpi=150)
-    return path
+    return fig
 
 
 def write_figures(res: Results1991, out: Path) -> list[Path]:
     """Write the four figures into ``out``; returns their paths."""
     out = Path(out)
-    return [
-        _fig3(res, out / "fig3_coordinated_motion.png"),
-        _fig4(res, out / "fig4_spacecraft_errors.png"),
-        _fig5(res, out / "fig5_thruster_forces.png"),
-        _fig_alternatives(res, out / "fig_alternatives.png"),
-    ]
+    return [save_and_close(make(res), out / name, dpi=150) for name, make in zip(FIGURE_NAMES, FIGURES, strict=True)]
+
+
+FIGURES = (figure_3, figure_4, figure_5, figure_alternatives)

@@ -1,8 +1,9 @@
 """Figures of ``freeflyer reproduce 1992``, like the paper's Figs. 4, 6 and 7, plus maps of the dynamic singularities.
 
 Every figure is drawn from freeflyer's own results
-(:class:`freeflyer.papers.paper1992.Results1992`) with the matplotlib object API
-(:class:`matplotlib.figure.Figure`, no pyplot state) and saved as PNG:
+(:class:`freeflyer.papers.paper1992.Results1992`); each ``figure_*`` function
+returns a pyplot figure (``plt.show()`` and notebooks display it), and
+:func:`write_figures_1992` saves each as PNG and closes it:
 
 * ``fig4_two_arm_workspaces.png``: the two-arm system of Table I, reachable
   and guaranteed workspaces of both end effectors about the system CM,
@@ -29,6 +30,7 @@ import numpy as np
 from ..analysis.capture import draw_system
 from ..analysis.singularity import jacobian_determinant_map
 from ..analysis.workspace import PathIndependentWorkspace, end_effector_radius, path_independent_workspace, payload_effect
+from ..core._figures import new_figure, save_and_close
 from ..mechanics.kinematics import end_effector_positions
 from ..models import papadopoulos1992
 from ..scenarios.capture_scenario import plot_capture_families, plot_capture_plan
@@ -58,21 +60,29 @@ def _annulus(ax: Axes, r_in: float, r_out: float, **style: Any) -> None:
     ax.add_patch(Wedge((0.0, 0.0), r_out, 0.0, 360.0, width=r_out - r_in, **style))
 
 
-def _workspace_panel(ax: Axes, results: Results1992, table: str, *, after: bool) -> None:
-    """One panel of Fig. 4: both arms' reachable (R_max; collinear R_min dotted) and guaranteed workspaces."""
+#: Per arm: colour, outline line style and hatching of its guaranteed workspace (Fig. 4), so overlapping bands stay readable.
+ARM_STYLES = {1: ("C0", "-", "////"), 2: ("C3", (0, (6, 3)), "\\\\\\\\")}
+
+
+def _workspace_panel(ax: Axes, results: Results1992, table: str, *, after: bool, limit: float) -> None:
+    """One panel of Fig. 4: both arms' reachable (R_max; collinear R_min dotted) and guaranteed workspaces.
+
+    Each arm's guaranteed workspace is an unfilled band hatched in its own direction and
+    outlined in its own colour and line style: where the bands overlap the hatchings cross,
+    and each legend entry shows exactly what is drawn. ``limit``: both axes span ±limit (m).
+    """
     two = papadopoulos1992(arms=2)
     model = two.with_payload(0, mass=400.0, inertia=25.0) if after else two
     q = np.radians(FIG4_POSTURE_DEG)
-    for arm, color in ((1, "C0"), (2, "C3")):
+    for arm, (color, style, hatch) in ARM_STYLES.items():
         reach, gw = results.reachable[f"{table}.arm{arm}"], results.guaranteed[f"{table}.arm{arm}"]
-        style = "-" if arm == 1 else (0, (6, 3))
-        _circle(ax, reach.R_max, edgecolor=color, lw=1.6, ls=style, label=f"arm {arm}: R_max = {reach.R_max:.3f} m")
+        _circle(ax, reach.R_max, edgecolor=color, lw=1.6, ls=style, label=f"arm {arm}: reachable, R_max = {reach.R_max:.3f} m")
         _circle(ax, results.collinear[f"{table}.arm{arm}"], edgecolor=color, lw=1.0, ls=":")
         if gw.exists and gw.R_min is not None and gw.R_max is not None:
-            _annulus(ax, gw.R_min, gw.R_max, facecolor=color, alpha=0.18, edgecolor=color, lw=0.8)
-            ax.plot([], [], "s", color=color, alpha=0.35, ms=9, label=f"arm {arm}: GW [{gw.R_min:.3f}, {gw.R_max:.3f}] m")
+            label = f"arm {arm}: guaranteed [{gw.R_min:.3f}, {gw.R_max:.3f}] m"
+            _annulus(ax, gw.R_min, gw.R_max, facecolor="none", edgecolor=color, hatch=hatch, lw=1.0, ls=style, label=label)
         else:
-            ax.plot([], [], " ", label=f"arm {arm}: no GW (R'_max < R'_min)")
+            ax.plot([], [], " ", label=f"arm {arm}: no guaranteed workspace (R'_max < R'_min)")
     ax.plot([], [], ":", color="0.3", lw=1.0, label="collinear R_min (the paper's reading)")
     draw_system(ax, model, q, color="k")
     ax.plot([0.0], [0.0], "k+", ms=12, mew=1.8, label="system CM" + (" after capture (CM+)" if after else ""))
@@ -91,7 +101,6 @@ def _workspace_panel(ax: Axes, results: Results1992, table: str, *, after: bool)
             transform=ax.transAxes,
             fontsize="small",
         )
-    limit = 1.08 * max(results.reachable[f"{table}.arm{a}"].R_max for a in (1, 2))
     ax.set_xlim(-limit, limit)
     ax.set_ylim(-limit, limit)
     ax.set_aspect("equal")
@@ -105,12 +114,11 @@ def _workspace_panel(ax: Axes, results: Results1992, table: str, *, after: bool)
 
 def figure_4(results: Results1992) -> Any:
     """Reachable and guaranteed workspaces of the two-arm system before and after capture (Fig. 4, Tables III and V)."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(12.0, 7.4), layout="constrained")
-    left, right = fig.subplots(1, 2)
-    _workspace_panel(left, results, "T3", after=False)
-    _workspace_panel(right, results, "T5", after=True)
+    fig = new_figure(figsize=(12.0, 7.4))
+    left, right = fig.subplots(1, 2, sharex=True, sharey=True)
+    limit = 1.08 * max(results.reachable[f"{t}.arm{a}"].R_max for t in ("T3", "T5") for a in (1, 2))
+    _workspace_panel(left, results, "T3", after=False, limit=limit)
+    _workspace_panel(right, results, "T5", after=True, limit=limit)
     fig.suptitle(
         "Papadopoulos 1992 Fig. 4: workspaces of the two-arm system about the system CM (eqs. 15-16), "
         f"drawn at q = {', '.join(f'{v:g}°' for v in FIG4_POSTURE_DEG)}"
@@ -120,9 +128,7 @@ def figure_4(results: Results1992) -> Any:
 
 def figure_6(results: Results1992) -> Any:
     """The two families of eq. 21 and det J* along them (Fig. 6)."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(8.0, 5.0), layout="constrained")
+    fig = new_figure(figsize=(8.0, 5.0))
     ax = fig.add_subplot()
     plot_capture_families(results.plan, ax, marks={"paper: q1 = 79°": 79.0})
     return fig
@@ -130,9 +136,7 @@ def figure_6(results: Results1992) -> Any:
 
 def figure_7(results: Results1992) -> Any:
     """The §V capture: PIW after capture, path AB, CM+, approach point, posture (Fig. 7)."""
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=(7.4, 7.6), layout="constrained")
+    fig = new_figure(figsize=(7.4, 8.4))
     ax = fig.add_subplot()
     plot_capture_plan(results.plan, ax)
     ax.set_title(ax.get_title().replace("(1992 §V", "(Papadopoulos 1992 Fig. 7, §V"), fontsize="medium")
@@ -179,13 +183,12 @@ def _radii_strip(ax: Axes, rows: list[tuple[str, PathIndependentWorkspace]]) -> 
 
 def figure_singularity_maps(results: Results1992, n: int = 361) -> Any:
     """det J* over joint space of the one-arm system before and after capture, with the PDW radii."""
-    from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
 
     one = papadopoulos1992(arms=1)
     after = results.plan.captured
     before_piw = path_independent_workspace(one, samples=1 << 16)
-    fig = Figure(figsize=(12.0, 8.4), layout="constrained")
+    fig = new_figure(figsize=(12.0, 8.4))
     grid = fig.add_gridspec(2, 2, height_ratios=(3.2, 1.0))
     cases = (("(a) before capture", one, before_piw), ("(b) after capturing 400 kg, 25 kg m²", after, results.plan.piw))
     for col, (title, model, piw) in enumerate(cases):
@@ -217,6 +220,6 @@ def write_figures_1992(results: Results1992, out: Path) -> list[Path]:
     written = []
     for name, make in zip(FIGURE_NAMES, (figure_4, figure_6, figure_7, figure_singularity_maps), strict=True):
         path = out / name
-        make(results).savefig(path, dpi=DPI, bbox_inches="tight", pad_inches=0.15)
+        save_and_close(make(results), path, dpi=DPI, bbox_inches="tight", pad_inches=0.15)
         written.append(path)
     return written

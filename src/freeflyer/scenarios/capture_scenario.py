@@ -20,6 +20,12 @@ for a planar two-link arm. Schema (docs/workspaces.md)::
     rule = "perpendicular"               # optional: "perpendicular" (the paper's) or "max_margin"
     # R_plus = 0.54                      # optional: impose R+ (m) instead of choosing it
 
+    [singularity]                        # optional: what counts as a dynamic singularity (PIW, posture, path check)
+    rows = "position"                    # "position" (translational rows of J*), "full" or "auto" (the paper's; default)
+    measure = "sigma_min"                # "sigma_min", "manipulability", "det" or "auto" (default)
+    threshold = 0.02                     # singular where |measure| <= threshold (default 0)
+    strategy = "auto"                    # "auto" (PIW, else a path-checked plan), "piw" (the paper's) or "path"
+
     [joint_limits]                       # optional, rad: joint name = [lower, upper]
     # arm1_q1 = [-2.5, 2.5]
     [joint_limits_deg]                   # optional, the same in degrees
@@ -33,13 +39,23 @@ from __future__ import annotations
 import dataclasses
 import json
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..analysis.capture import CapturePlan, CapturePosture, _is_two_link, capture_families, optimal_capture_posture, plan_capture
+from ..analysis.capture import (
+    STRATEGIES,
+    CapturePlan,
+    CapturePosture,
+    PathMotion,
+    _is_two_link,
+    capture_families,
+    optimal_capture_posture,
+    plan_capture,
+)
+from ..analysis.singularity import MEASURES, ROWS, SingularityCriterion
 from ..core.errors import ModelError, UnknownNameError
 from ..core.model import Model, inertia_matrix
 from ..io.model_files import load, read_toml
@@ -56,7 +72,8 @@ __all__ = [
     "write_capture_outputs",
 ]
 
-_TOP_KEYS = {"model", "end_effector", "samples", "payload", "path", "joint_limits", "joint_limits_deg", "description"}
+_TOP_KEYS = {"model", "end_effector", "samples", "payload", "path", "singularity", "joint_limits", "joint_limits_deg", "description"}
+_SINGULARITY_KEYS = {"rows", "measure", "threshold", "strategy"}
 _PAYLOAD_KEYS = {"mass", "inertia", "offset"}
 _PATH_KEYS = {"points", "rule", "R_plus"}
 
@@ -76,6 +93,8 @@ class CaptureScenario:
     R_plus: float | None = None
     samples: int = 1 << 18
     description: str = ""
+    criterion: SingularityCriterion = field(default_factory=SingularityCriterion)
+    strategy: str = "auto"
 
 
 def _where(source: str, field: str) -> str:
@@ -221,6 +240,7 @@ def capture_scenario_from_dict(
         r_plus = _number(path_table["R_plus"], source, "path.R_plus", "give R+ in m (> 0) or leave it out")
         if r_plus <= 0.0:
             raise ModelError(_where(source, "path.R_plus"), f"must be positive, got {r_plus!r}", "give R+ in m (> 0) or leave it out")
+    criterion, strategy = _singularity(data.get("singularity", {}), source)
     description = data.get("description", "")
     return CaptureScenario(
         source=source,
@@ -234,7 +254,26 @@ def capture_scenario_from_dict(
         R_plus=r_plus,
         samples=int(samples),
         description=str(description),
+        criterion=criterion,
+        strategy=strategy,
     )
+
+
+def _singularity(table: Any, source: str) -> tuple[SingularityCriterion, str]:
+    """The [singularity] table: a SingularityCriterion and the planning strategy."""
+    table = _check_keys(table, _SINGULARITY_KEYS, source, "singularity")
+    choices = {"rows": ROWS, "measure": MEASURES, "strategy": STRATEGIES}
+    for key, allowed in choices.items():
+        if key in table and table[key] not in allowed:
+            raise ModelError(_where(source, f"singularity.{key}"), f"unknown value {table[key]!r}", f"use one of {', '.join(allowed)}")
+    threshold = 0.0
+    if "threshold" in table:
+        fix = "give threshold >= 0 in the measure's unit (m/rad for sigma_min of the position rows)"
+        threshold = _number(table["threshold"], source, "singularity.threshold", fix)
+        if threshold < 0.0:
+            raise ModelError(_where(source, "singularity.threshold"), f"must be >= 0, got {threshold!r}", fix)
+    criterion = SingularityCriterion(rows=table.get("rows", "auto"), measure=table.get("measure", "auto"), threshold=threshold)
+    return criterion, str(table.get("strategy", "auto"))
 
 
 def load_capture_scenario(path: str | Path, *, model_loader: Callable[[str], Model] | None = None) -> CaptureScenario:
@@ -292,6 +331,9 @@ class CaptureResult:
             "approach_point": None if placement.approach_point is None else placement.approach_point.tolist(),
             "posture": posture(p.posture),
             "family_postures": [posture(f) for f in self.family_postures],
+            "method": p.method,
+            "singularity": {**p.criterion.as_dict(), "described": p.criterion.describe(p.captured)},
+            "motion": None if p.motion is None else _motion_dict(p.motion),
         }
 
     def render_text(self) -> str:
@@ -320,12 +362,26 @@ class CaptureResult:
                 f"  approach distance  R = {placement.approach_distance:.6f} m (eq. 19: (M + m_p)/M R+)",
                 f"  free-flyer CM      {vec(placement.approach_point)} m before capture (on the line A -> CM+)",
             ]
-        lines.append("  capture posture    max |det J*| subject to |r_E| = R+ (eq. 21) and the joint limits:")
+        if p.method == "path":
+            lines.append("  plan               path checked: the path fits in no PIW annulus; the free-floating motion along it")
+            lines.append("                     from this posture and attitude was integrated (1992 eqs. 12, 14) and is singularity-free")
+        if p.motion is not None:
+            m = p.motion
+            lines.append(f"  singularity        {m.criterion}")
+            lines.append(
+                f"  along the path     min |measure| {m.min_measure:.6g} over {m.s.size} points (threshold {m.threshold:g}), "
+                f"max deviation {m.deviation:.2e} m: {'singularity-free' if m.singularity_free else 'MEETS A SINGULARITY'}"
+            )
+        if p.method == "path":
+            lines.append("  capture posture    the most dexterous checked posture on |r_E| = R+ within the joint limits:")
+        else:
+            lines.append("  capture posture    max |det J*| subject to |r_E| = R+ (eq. 21) and the joint limits:")
         chosen = p.posture
+        measure_name = {"sigma_min": "σ_min of J*", "det": "|det J*|"}.get(p.criterion.measure, "sqrt det J*J*ᵀ")
         shown = [f for f in self.family_postures if f is not None] or [chosen]
         for post in shown:
             fam = "" if post.family is None else f"family {post.family + 1} ({'+' if post.family == 0 else '-'}acos)  "
-            det = f"det J* = {post.det:+.6f}" if post.det is not None else f"sqrt det J*J*ᵀ = {post.measure:.6f}"
+            det = f"det J* = {post.det:+.6f}" if post.det is not None else f"{measure_name} = {post.measure:.6f}"
             theta = "" if post.theta is None else f", θ = {np.degrees(post.theta):.2f} deg"
             mark = "  <- chosen" if len(shown) > 1 and np.allclose(post.q, chosen.q, atol=1e-6) else ""
             lines.append(f"    {fam}q = [{', '.join(f'{v:.2f}' for v in np.degrees(post.q))}] deg, {det}{theta}{mark}")
@@ -333,6 +389,18 @@ class CaptureResult:
         theta = "" if chosen.theta is None else f"θ = {np.degrees(chosen.theta):.2f} deg, "
         lines.append(f"  spacecraft         {theta}attitude quaternion [x, y, z, w] = [{quat}] (eq. 20: end effector on A)")
         return "\n".join(lines) + "\n"
+
+
+def _motion_dict(motion: PathMotion) -> dict[str, Any]:
+    return {
+        "points": int(motion.s.size),
+        "min_measure": motion.min_measure,
+        "threshold": motion.threshold,
+        "max_deviation": motion.deviation,
+        "singularity_free": motion.singularity_free,
+        "q_end": motion.q[-1].tolist(),
+        "attitude_end_xyzw": motion.attitude[-1].tolist(),
+    }
 
 
 def run_capture_scenario(scenario: CaptureScenario) -> CaptureResult:
@@ -347,9 +415,11 @@ def run_capture_scenario(scenario: CaptureScenario) -> CaptureResult:
         rule=scenario.rule,
         R_plus=scenario.R_plus,
         samples=scenario.samples,
+        criterion=scenario.criterion,
+        strategy=scenario.strategy,
     )
     families: tuple[CapturePosture | None, ...] = ()
-    if _is_two_link(plan.captured):
+    if _is_two_link(plan.captured) and plan.method == "piw":
         found: list[CapturePosture | None] = []
         for k in (0, 1):
             try:
@@ -374,8 +444,8 @@ def write_capture_outputs(result: CaptureResult, out: Path, *, dpi: int = 200) -
     path = out / "capture.json"
     path.write_text(json.dumps(result.as_dict(), indent=2, allow_nan=False) + "\n")
     written.append(path)
-    fig = Figure(figsize=(7.0, 6.4), layout="constrained")
-    ax = fig.add_subplot()
+    fig = Figure(figsize=(7.4, 8.4), layout="constrained")
+    ax = fig.add_subplot(projection=None if result.plan.captured.is_planar else "3d")
     plot_capture_plan(result.plan, ax)
     path = out / "capture_plan.png"
     fig.savefig(path, dpi=dpi, bbox_inches="tight", pad_inches=0.15)
@@ -391,16 +461,17 @@ def write_capture_outputs(result: CaptureResult, out: Path, *, dpi: int = 200) -
 
 
 def plot_capture_plan(plan: CapturePlan, ax: Any) -> None:
-    """The §V plan like the paper's Fig. 7, with a legend, labels in m and a title."""
+    """The §V plan like the paper's Fig. 7 (:meth:`CapturePlan.plot`), with a legend, labels in m and a title.
+
+    ``ax``: 2D axes, or 3D axes (``projection="3d"``) for a spatial model."""
     plan.plot(ax)
     placement = plan.placement
-    if placement.approach_point is not None:
-        ax.plot([], [], "C0--", lw=1.0, label="reachable workspace before capture")
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncols=2, fontsize="small", frameon=False)
-    ax.set_xlabel("x (m, inertial)")
-    ax.set_ylabel("y (m, inertial)")
+    handles, labels = ax.get_legend_handles_labels()
+    ax.legend(handles, labels, loc="upper center", bbox_to_anchor=(0.5, -0.08), ncols=2, fontsize="small", frameon=False)
     r = "" if placement.approach_distance is None else f", approach distance R = {placement.approach_distance:.3f} m"
-    ax.set_title(f"Capture at A: R+ = {placement.R_plus:.3f} m{r}\n(1992 §V, eqs. 19-21)", fontsize="medium")
+    how = "" if plan.method == "piw" else "; path checked free-floating"
+    measure = "" if plan.motion is None else f"\nmin |measure| along the path {plan.motion.min_measure:.3g} ({plan.motion.criterion})"
+    ax.set_title(f"Capture at A: R+ = {placement.R_plus:.3f} m{r}{how}{measure}\n(1992 §V, eqs. 19-21)", fontsize="medium")
 
 
 def plot_capture_families(plan: CapturePlan, ax: Any, *, marks: dict[str, float] | None = None) -> None:

@@ -51,13 +51,22 @@ def write_trajectory_outputs(traj: Trajectory, out: Path, scenario: Scenario) ->
     return written
 
 
-def simulate_scenario(scenario: Scenario, out: Path, *, progress: bool = False) -> list[Path]:
+def simulate_scenario(scenario: Scenario, out: Path, *, progress: bool = False, animation: Path | None = None) -> list[Path]:
     """Run a scenario and write its outputs into ``out``; what ``freeflyer simulate`` does.
 
     When the simulation fails part-way, the partial trajectory is written (status
     ``"failed"`` and the reason in NAME.json and the files' metadata) and the
     :class:`~freeflyer.SimulationError` is raised again, naming the files.
+    ``animation``: also write an animation of the trajectory there (``.gif`` or
+    ``.mp4``, :meth:`~freeflyer.Trajectory.animate`); an existing file is refused
+    before the run.
     """
+    if animation is not None:
+        animation = Path(animation)
+        if animation.suffix.lower() not in (".gif", ".mp4"):
+            raise ValueError(f"--animate {animation}: unknown animation type {animation.suffix!r}; use .gif or .mp4")
+        if animation.exists():
+            raise FileExistsError(f"--animate {animation}: exists; freeflyer never overwrites a file (choose another name)")
     try:
         traj = run_scenario(scenario, progress=progress)
     except SimulationError as exc:
@@ -65,7 +74,10 @@ def simulate_scenario(scenario: Scenario, out: Path, *, progress: bool = False) 
             raise
         written = write_trajectory_outputs(exc.trajectory, out, scenario)
         raise SimulationError(f"{exc} (partial trajectory up to the failure written to {written[0].parent})", exc.trajectory) from exc
-    return write_trajectory_outputs(traj, out, scenario)
+    written = write_trajectory_outputs(traj, out, scenario)
+    if animation is not None:
+        written.append(traj.animate(animation))
+    return written
 
 
 def _summary(traj: Trajectory, scenario: Scenario) -> dict[str, Any]:

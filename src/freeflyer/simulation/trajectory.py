@@ -119,39 +119,31 @@ class Trajectory:
     def plot(self, axes: Any = None) -> list[Any]:
         """Joint angles, spacecraft attitude and position, and actuation against time.
 
-        ``axes``: four matplotlib Axes (or None: a new figure). Returns the line artists.
+        ``axes``: four matplotlib Axes (or None: a new pyplot figure, which
+        ``plt.show()`` and notebooks display). Returns the line artists.
         """
-        if axes is None:
-            from matplotlib.figure import Figure
+        from .trajectory_plots import plot_trajectory
 
-            fig = Figure(figsize=(9, 7), layout="constrained")
-            axes = fig.subplots(2, 2, sharex=True).ravel()
-        ax_q, ax_att, ax_pos, ax_act = axes
-        artists: list[Any] = []
-        joints = list(self.model.joint_names) if self.model is not None else [f"q{j + 1}" for j in range(self.q.shape[-1])]
-        artists += ax_q.plot(self.t, np.degrees(self.q), label=joints)
-        ax_q.set_ylabel("joint angle (deg)")
-        if self.model is not None:
-            artists += ax_att.plot(self.t, np.degrees(self.spacecraft_euler321), label=["roll", "pitch", "yaw"])
-            ax_att.set_ylabel("spacecraft attitude, Euler 3-2-1 (deg)")
-            artists += ax_pos.plot(self.t, self.spacecraft_position, label=["x", "y", "z"])
-            ax_pos.set_ylabel("spacecraft CM, inertial (m)")
-        else:
-            artists += ax_att.plot(self.t, self.attitude, label=["x", "y", "z", "w"])
-            ax_att.set_ylabel("attitude quaternion")
-            artists += ax_pos.plot(self.t, self.r_cm, label=["x", "y", "z"])
-            ax_pos.set_ylabel("system CM, inertial (m)")
-        artists += ax_act.plot(self.t, self.joint_torque, label=joints)
-        if np.any(self.spacecraft_force) or np.any(self.spacecraft_torque):
-            artists += ax_act.plot(self.t, self.spacecraft_force, linestyle="--", label=["f_x", "f_y", "f_z"])
-            artists += ax_act.plot(self.t, self.spacecraft_torque, linestyle=":", label=["n_x", "n_y", "n_z"])
-        ax_act.set_ylabel("joint torque (N m); thrust (N, --), (N m, :)")
-        for ax in (ax_q, ax_att, ax_pos, ax_act):
-            ax.legend(fontsize=7, loc="best")
-            ax.grid(alpha=0.3)
-        for ax in (ax_pos, ax_act):
-            ax.set_xlabel("time (s)")
-        return artists
+        return plot_trajectory(self, axes)
+
+    def plot_path(self, ax: Any = None, *, snapshots: int = 4) -> list[Any]:
+        """End-effector and spacecraft CM paths (inertial) with the spacecraft body axes at ``snapshots`` + 1 times.
+
+        3D axes for a spatial model (None: a new pyplot figure), the x-y plane for a planar one. Returns the artists.
+        """
+        from .trajectory_plots import plot_path
+
+        return plot_path(self, ax, snapshots=snapshots)
+
+    def animate(self, path: str | Path, *, fps: int = 20, max_frames: int = 120, dpi: int = 80, overwrite: bool = False) -> Path:
+        """Write an animation of the motion to ``path``: ``.gif`` (Pillow) or ``.mp4`` (ffmpeg); returns the path.
+
+        At most ``max_frames`` frames (evenly spaced output samples) at ``fps``
+        frames per second. Never overwrites an existing file unless ``overwrite=True``.
+        """
+        from .trajectory_plots import animate_trajectory
+
+        return animate_trajectory(self, path, fps=fps, max_frames=max_frames, dpi=dpi, overwrite=overwrite)
 
     # ----------------------------------------------------------- files
     def save(self, path: str | Path, *, overwrite: bool = False) -> Path:
