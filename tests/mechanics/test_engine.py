@@ -296,3 +296,30 @@ def test_joint_pd_checks_its_inputs() -> None:
     pd = JointPD(kp=2.0, kd=0.5, q_ref=[1.0, 0.0], feedforward=[[1.0, 1.0], [3.0, 3.0]], feedforward_period=0.1)
     tau = pd(0.15, State(q=[0.5, 0.5], qdot=[1.0, -1.0]))
     np.testing.assert_allclose(tau, [3.0 + 1.0 - 0.5, 3.0 - 1.0 + 0.5])
+
+
+def test_scratch_buffers_are_always_kernel_arguments() -> None:
+    """scratch() makes views without reference counting: its buffer must be an argument of the calling
+    kernel (or a slice of one), never an array made inside it (numba frees those after their last use)."""
+    import ast
+    from pathlib import Path
+
+    folder = Path(ff.__file__).parent / "mechanics"
+    calls = 0
+    for name in ("_drivers.py", "_configuration.py"):
+        tree = ast.parse((folder / name).read_text(encoding="utf-8"))
+        for func in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)):
+            params = {a.arg for a in func.args.args}
+            sliced = {  # names assigned from a subscript of a parameter: work = floats[f:]
+                t.id
+                for n in ast.walk(func)
+                if isinstance(n, ast.Assign) and isinstance(n.value, ast.Subscript) and isinstance(n.value.value, ast.Name)
+                if n.value.value.id in params
+                for t in n.targets
+                if isinstance(t, ast.Name)
+            }
+            for call in (n for n in ast.walk(func) if isinstance(n, ast.Call) and getattr(n.func, "id", None) == "scratch"):
+                calls += 1
+                arg = call.args[0]
+                assert isinstance(arg, ast.Name) and arg.id in params | sliced, f"{name}::{func.name}: scratch({ast.unparse(arg)})"
+    assert calls >= 10

@@ -95,7 +95,13 @@ Scratch = namedtuple(
 
 @kernel(inline="always")
 def scratch(work: np.ndarray, nb: int) -> Any:  # pragma: no cover - compiled
-    """The :data:`Scratch` views of ``work`` (length :func:`work_size_jit`) for a tree of ``nb`` bodies."""
+    """The :data:`Scratch` views of ``work`` (length :func:`work_size_jit`) for a tree of ``nb`` bodies.
+
+    The views do not count references to ``work`` (cheaper: no atomic operations), so ``work`` must
+    outlive them: it is always an argument of the calling kernel (or a slice of one), held by the
+    Python caller for the whole call; never a buffer made inside a kernel, which numba may free
+    after its last use (``tests/mechanics/test_engine.py`` checks every call).
+    """
     n = nb - 1
     m = 3 + n
     size = 13 + 2 * n
