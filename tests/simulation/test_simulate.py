@@ -346,7 +346,7 @@ def test_controller_that_raises_and_a_state_that_blows_up() -> None:
     def unstable(t: float, state: ff.State) -> np.ndarray:
         return -1e9 * state.q - 1e9 * state.qdot  # far too stiff for a 10 ms step
 
-    with pytest.raises(ff.SimulationError, match="non-finite") as info:
+    with pytest.raises(ff.SimulationError, match=r"diverged at t = 0\.01 s: joint 'arm2_q2'") as info:  # the divergence guard
         ff.simulate(model, ff.State(q=[0.1, 0.2, 3.0, -0.2]), 10.0, unstable, fixed_step=0.01)
     partial = info.value.trajectory
     assert partial.status == "failed" and 0 < partial.t[-1] < 10.0 and np.isfinite(partial.q).all()
@@ -448,9 +448,10 @@ def test_cli_simulate_failing_scenario_writes_the_partial_run_and_exits_1(tmp_pa
     )
     result = CliRunner().invoke(app, ["simulate", str(scenario), "--out", str(tmp_path / "out"), "--no-progress"])
     assert result.exit_code == 1
-    assert "non-finite" in result.output and "partial trajectory" in result.output
+    assert "warning: JointPD sampled every 0.01 s is unstable: joint 'arm" in result.output  # found before the run
+    assert "diverged" in result.output and "partial trajectory" in result.output
     summary = json.loads((tmp_path / "out" / "trajectory.json").read_text())
-    assert summary["status"] == "failed" and "non-finite" in summary["message"] and 0 < summary["t_end"] < 10.0
+    assert summary["status"] == "failed" and "diverged" in summary["message"] and 0 < summary["t_end"] < 10.0
     assert ff.Trajectory.load(tmp_path / "out" / "trajectory.csv").status == "failed"
 
 

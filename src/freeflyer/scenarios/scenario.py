@@ -70,6 +70,7 @@ from ..core.model import Model
 from ..core.state import Actuation, ActuatorLimits, State
 from ..io.model_files import load, read_toml
 from ..models import load_model
+from ..simulation._guard import RunEstimate, estimate_run
 from ..simulation.pd import JointPD
 from ..simulation.simulate import METHODS, simulate
 from ..simulation.trajectory import Trajectory
@@ -78,6 +79,7 @@ __all__ = [
     "ACTUATION_TYPES",
     "CONTROLLER_TYPES",
     "Scenario",
+    "estimate_scenario",
     "load_scenario",
     "run_scenario",
     "scenario_from_dict",
@@ -476,6 +478,24 @@ def load_scenario(path: str | Path) -> Scenario:
     return scenario_from_dict(data, source=str(path), base=path.parent)
 
 
-def run_scenario(scenario: Scenario, *, progress: bool = False) -> Trajectory:
-    """Simulate a scenario; a failure part-way raises :class:`~freeflyer.SimulationError` with the partial trajectory."""
-    return simulate(scenario.model, scenario.initial_state, scenario.duration, scenario.controller, progress=progress, **scenario.options)
+def estimate_scenario(scenario: Scenario) -> RunEstimate:
+    """Steps, samples, outputs, memory and wall time of the scenario's run, before it starts (:func:`freeflyer.simulation.estimate_run`)."""
+    options = {key: scenario.options.get(key) for key in ("fixed_step", "sample_period", "output_period")}
+    return estimate_run(scenario.model, scenario.duration, controller=scenario.controller is not None, **options)
+
+
+def run_scenario(scenario: Scenario, *, progress: Any = None, warn_after: float | None = 60.0) -> Trajectory:
+    """Simulate a scenario; a failure part-way raises :class:`~freeflyer.SimulationError` with the partial trajectory.
+
+    ``progress`` and ``warn_after`` as in :func:`freeflyer.simulate`; Ctrl-C returns the
+    trajectory so far (status ``"interrupted"``).
+    """
+    return simulate(
+        scenario.model,
+        scenario.initial_state,
+        scenario.duration,
+        scenario.controller,
+        progress=progress,
+        warn_after=warn_after,
+        **scenario.options,
+    )

@@ -10,8 +10,7 @@ the flat states into a :class:`~freeflyer.Trajectory`. The flat state is
 
 from __future__ import annotations
 
-import itertools
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -134,6 +133,16 @@ def _check_finite(t: float, x: np.ndarray) -> None:
         raise SimulationError(f"the state became non-finite at t = {t:.6g} s (unstable controller or too large a step?)")
 
 
+def _guarded(guard: Any, rec: _Recorder, t: float, x: np.ndarray, act: Any) -> None:
+    """The divergence guard at (t, x); a diverged state is recorded (finite, it shows the growth) before the error."""
+    try:
+        guard.check(t, x)
+    except SimulationError:
+        if not rec.t or rec.t[-1] != t:
+            rec.add(t, x, act)
+        raise
+
+
 def _event_value(events: Sequence[Any], model: Model, t: float, x: np.ndarray) -> np.ndarray:
     return np.array([_event(ev, model, t, x) for ev in events])
 
@@ -157,6 +166,7 @@ def _run_rk4(
     external: Any,
     rec: _Recorder,
     bar: Any,
+    guard: Any,
 ) -> tuple[str, str]:
     """Fixed-step RK4 on the engine, in place: runs of steps between samples, outputs and events go without Python."""
     steps = round(duration / dt)  # simulate() checked that dt divides the duration
@@ -172,7 +182,6 @@ def _run_rk4(
     _u(model, act[0], act[1], act[2], u)
     rec.add(0.0, x, act)
     prev_ev = _event_value(events, model, 0.0, x) if events else None
-    report = max(1, steps // 100)
     i = 0
     while i < steps:
         if events or sample_period is None:
@@ -188,6 +197,7 @@ def _run_rk4(
             raise SimulationError(f"H+ (1991 eq. 15) is not positive definite at t = {t:.6g} s: the mass properties are not physical")
         i += done
         t = i * dt
+        _guarded(guard, rec, t, x, act)
         if i < steps and (sample_period is None or t >= next_sample_time - 1e-9 * dt):
             act = command(t, x.copy())  # a copy: x is advanced in place, the controller may keep its state
             _u(model, act[0], act[1], act[2], u)
@@ -195,8 +205,7 @@ def _run_rk4(
                 next_sample_time += sample_period
         if i % stride == 0 or i == steps:
             rec.add(t, x, act)
-        if bar is not None and i % report < todo:
-            bar.update(bar.task_ids[0], completed=t)
+        bar.update(t)
         if events:
             now = _event_value(events, model, t, x)
             for k, ev in enumerate(events):
@@ -208,6 +217,26 @@ def _run_rk4(
                     return "event", f"event {k} ({getattr(ev, '__name__', 'event')}) at t = {t:.6g} s"
             prev_ev = now
     return "finished", ""
+
+
+def _pieces(duration: float, sample_period: float | None) -> Iterator[tuple[float, float]]:
+    """The integration pieces (a, b): between sample instants k * sample_period (no accumulated rounding),
+    each one a restart of the integrator; without a sample period, hundredths of the duration. Lazy:
+    a run of 1e12 samples costs no memory up front."""
+    count = int(np.ceil(duration / sample_period - 1e-9)) if sample_period is not None else 100
+    step = sample_period if sample_period is not None else duration / 100
+    for k in range(count):
+        yield k * step, (k + 1) * step if k + 1 < count else duration
+
+
+def _outputs_in(a: float, b: float, period: float, n_out: int, extra: float | None) -> np.ndarray:
+    """Output instants k * period (k <= n_out) in (a, b], and ``extra`` (the duration) if it is in there."""
+    k_lo = max(0, int(np.floor((a + 1e-12) / period)) - 1)
+    k_hi = min(n_out, int(np.floor((b + 1e-12) / period)) + 1)
+    grid = np.arange(k_lo, k_hi + 1) * period
+    if extra is not None:
+        grid = np.append(grid, extra)
+    return grid[(grid > a + 1e-12) & (grid <= b + 1e-12)]
 
 
 def _run_adaptive(
@@ -224,15 +253,10 @@ def _run_adaptive(
     external: Any,
     rec: _Recorder,
     bar: Any,
+    guard: Any,
 ) -> tuple[str, str]:
     n_out = int(np.floor(duration / period + 1e-9))
-    t_out = np.append(np.arange(n_out + 1) * period, duration) if n_out * period < duration - 1e-12 else np.arange(n_out + 1) * period
-    if sample_period is not None:
-        # sample instants k * sample_period (no accumulated rounding), each one a restart of the integrator
-        n_samples = int(np.ceil(duration / sample_period - 1e-9))
-        bounds = np.append(np.arange(n_samples) * sample_period, duration)
-    else:
-        bounds = np.linspace(0.0, duration, 101 if bar is not None else 2)
+    end_extra = n_out * period < duration - 1e-12  # the duration is an output instant of its own
     derivative = _rhs(model, external)
     ivp_events = []
     for ev in events:
@@ -246,13 +270,14 @@ def _run_adaptive(
     x = x0.copy()
     held = command(0.0, x) if sample_period is not None else None
     rec.add(0.0, x, held if held is not None else command(0.0, x))
-    for a, b in itertools.pairwise(bounds):
+    for a, b in _pieces(duration, sample_period):
 
         def rhs(t: float, y: np.ndarray, held: Any = held) -> np.ndarray:
+            guard.tick(t, y)
             tau, force, torque, _ = held if held is not None else command(t, y)
             return derivative(y, tau, force, torque)
 
-        inside = t_out[(t_out > a + 1e-12) & (t_out <= b + 1e-12)]
+        inside = _outputs_in(a, b, period, n_out, duration if end_extra else None)
         # always evaluate at b too: the next piece starts from the state there
         t_eval = inside if inside.size and inside[-1] >= b - 1e-12 else np.append(inside, b)
         t_eval[-1] = b
@@ -261,6 +286,7 @@ def _run_adaptive(
             raise SimulationError(f"integrator failed between t = {a:.6g} and {b:.6g} s: {sol.message}")
         x = sol.y[:, -1] if sol.y.shape[1] else x
         _check_finite(float(sol.t[-1]) if sol.t.size else a, x)
+        _guarded(guard, rec, float(sol.t[-1]) if sol.t.size else a, x, held if held is not None else command(b, x))
         # the actuation recorded at a sample instant is the one applied from there on
         last = sol.status == 0 and b < duration - 1e-12 * duration
         new_held = command(b, x) if held is not None and last else held
@@ -269,8 +295,7 @@ def _run_adaptive(
             act = held if held is None or tk < b - 1e-12 else new_held
             rec.add(float(tk), sol.y[:, k], act if act is not None else command(float(tk), sol.y[:, k]))
         held = new_held
-        if bar is not None:
-            bar.update(bar.task_ids[0], completed=b)
+        bar.update(b)
         if sol.status == 1:
             hit = [k for k, te in enumerate(sol.t_events) if len(te)]
             t_ev = float(sol.t_events[hit[0]][0])

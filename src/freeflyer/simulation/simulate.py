@@ -18,15 +18,17 @@ without it, it is evaluated continuously (adaptive) or once per step (RK4).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
-from ..core.errors import FreeflyerError, ShapeError, SimulationError
+from ..core.errors import FreeflyerError, LongRunWarning, ShapeError, SimulationError
 from ..core.model import Model
 from ..core.state import Actuation, ActuatorLimits, State, pack_state, unpack_state
 from ..mechanics import _engine
+from ._guard import DivergenceGuard, Progress, check_pd_gains, estimate_run
 from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory
 from .pd import JointPD
 from .trajectory import Trajectory
@@ -97,18 +99,6 @@ def _call_controller(controller: Controller, model: Model, t: float, x: np.ndarr
         raise SimulationError(f"bad controller output at t = {t:.6g} s: {exc}") from exc
 
 
-def _progress(enabled: bool, duration: float) -> Any:
-    if not enabled:
-        return None
-    from rich.console import Console
-    from rich.progress import Progress
-
-    bar = Progress(console=Console(stderr=True), transient=True)
-    bar.start()
-    bar.add_task("simulating", total=duration)
-    return bar
-
-
 def simulate(
     model: Model,
     initial_state: State,
@@ -124,7 +114,9 @@ def simulate(
     limits: ActuatorLimits | None = None,
     events: Sequence[Callable[[float, State], float]] = (),
     external: Any = (),
-    progress: bool = False,
+    progress: bool | Callable[[float, float], Any] | None = None,
+    warn_after: float | None = 60.0,
+    divergence_guard: bool = True,
 ) -> Trajectory:
     """Simulate ``model`` from ``initial_state`` for ``duration`` seconds.
 
@@ -141,8 +133,25 @@ def simulate(
     runs of RK4 steps between controller samples are one compiled call.
 
     A failure part-way (controller error, non-finite state, integrator
-    failure) raises :class:`SimulationError` whose ``trajectory`` holds the
-    states computed up to the failure.
+    failure, divergence) raises :class:`SimulationError` whose ``trajectory``
+    holds the states computed up to the failure.
+
+    Runs cannot hang unnoticed:
+
+    - before the run, its steps, samples, outputs and wall time are estimated
+      (:func:`freeflyer.simulation.estimate_run`); above ``warn_after`` seconds
+      (None: never) a :class:`~freeflyer.core.errors.LongRunWarning` says so;
+    - a :class:`JointPD` sampled every ``sample_period`` (or RK4 step) whose
+      gains are unstable on a joint's free-floating effective inertia gets a
+      :class:`~freeflyer.core.errors.StiffGainsWarning` naming the joint and
+      the largest stable gains;
+    - ``divergence_guard``: a state growing without bound or an adaptive step
+      collapsing stops the run with a :class:`SimulationError` naming the
+      joint (see :class:`freeflyer.simulation._guard.DivergenceGuard`);
+    - ``progress``: True a bar on stderr, None (default) a bar once the run
+      has lasted 2 s, False none, or a callable ``progress(t, duration)``;
+    - Ctrl-C (KeyboardInterrupt) returns the trajectory computed so far with
+      ``status == "interrupted"``.
     """
     if not isinstance(initial_state, State):
         raise TypeError(f"initial_state: expected a freeflyer.State, got {type(initial_state).__name__}")
@@ -175,12 +184,30 @@ def simulate(
         tau, force, torque = _call_controller(controller, model, t, x, ())
         return limits.apply(tau, force, torque)
 
-    bar = _progress(progress, duration)
+    if warn_after is not None:
+        estimate = estimate_run(model, duration, fixed_step=fixed_step, sample_period=sample_period, output_period=output_period)
+        if estimate.seconds > warn_after:
+            warnings.warn(
+                f"this simulation will take long: {estimate.describe()} (over warn_after = {warn_after:g} s); "
+                "it shows progress and Ctrl-C returns what was computed",
+                LongRunWarning,
+                stacklevel=2,
+            )
+    h = sample_period or fixed_step
+    check_pd_gains(model, controller, np.asarray(state.q, dtype=float), h)
+    pd = controller if not external else None  # the energy test of a joint PD holds without external wrenches
+    guard = DivergenceGuard(model, x0, duration, h, "controller sample" if sample_period else "RK4 step", divergence_guard, pd)
+    bar = Progress(progress, duration)
     try:
         if fixed_step is not None:
-            status = _run_rk4(model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar)
+            status = _run_rk4(model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar, guard)
         else:
-            status = _run_adaptive(model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar)
+            status = _run_adaptive(
+                model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar, guard
+            )
+    except KeyboardInterrupt:
+        t_stop = rec.t[-1] if rec.t else 0.0
+        return rec.trajectory("interrupted", f"interrupted (Ctrl-C) after t = {t_stop:.6g} s of {duration:g} s")
     except SimulationError as exc:
         exc.trajectory = rec.trajectory("failed", str(exc))
         raise
@@ -189,8 +216,7 @@ def simulate(
         message = f"simulation failed after t = {t_fail:.6g} s: {type(exc).__name__}: {exc}"
         raise SimulationError(message, rec.trajectory("failed", message)) from exc
     finally:
-        if bar is not None:
-            bar.stop()
+        bar.close()
     return rec.trajectory(*status)
 
 
