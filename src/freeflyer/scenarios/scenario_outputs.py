@@ -7,6 +7,7 @@ fails part-way. Files the scenario reads are never written.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -88,6 +89,7 @@ def _summary(traj: Trajectory, scenario: Scenario) -> dict[str, Any]:
         "message": traj.message,
         "samples": len(traj),
         "t_end": float(traj.t[-1]) if len(traj) else None,
+        "joint_limit_events": [dataclasses.asdict(e) for e in traj.joint_limit_events],
     }
     if len(traj):
         h = traj.angular_momentum

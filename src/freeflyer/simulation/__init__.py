@@ -15,11 +15,12 @@ from ..core.state import ActuatorLimits
 from ._guard import RunEstimate, estimate_run, pd_gain_bounds, pd_stability
 from .pd import JointPD
 from .simulate import METHODS, rollout, simulate
-from .trajectory import Trajectory
+from .trajectory import JointLimitEvent, Trajectory
 
 __all__ = [
     "METHODS",
     "ActuatorLimits",
+    "JointLimitEvent",
     "JointPD",
     "RunEstimate",
     "SimulationError",

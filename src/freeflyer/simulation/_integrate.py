@@ -10,7 +10,9 @@ the flat states into a :class:`~freeflyer.Trajectory`. The flat state is
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable, Iterator, Sequence
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -167,8 +169,13 @@ def _run_rk4(
     rec: _Recorder,
     bar: Any,
     guard: Any,
+    stops: Any,
 ) -> tuple[str, str]:
-    """Fixed-step RK4 on the engine, in place: runs of steps between samples, outputs and events go without Python."""
+    """Fixed-step RK4 on the engine, in place: runs of steps between samples, outputs and events go without Python.
+
+    With joint stops, a run of steps that ends beyond a limit is redone step by step and the stop
+    acts at the end of the step that crossed (:mod:`._stops`).
+    """
     steps = round(duration / dt)  # simulate() checked that dt divides the duration
     stepper = _engine.Stepper(model, _engine_inputs(model, external))
     n = model.n_joints
@@ -189,12 +196,19 @@ def _run_rk4(
         else:
             to_sample = max(1, round(next_sample_time / dt) - i)
             todo = min(to_sample, stride - i % stride, steps - i)
+        start = x.copy() if stops.active else None
         done = stepper.rk4(x, u, dt, todo)  # the kernel checks that x stays finite
         if done != todo:
             i += abs(done)
             t = i * dt
             _check_finite(t, x)
             raise SimulationError(f"H+ (1991 eq. 15) is not positive definite at t = {t:.6g} s: the mass properties are not physical")
+        if start is not None and stops.beyond(x):
+            x[:] = start
+            for k in range(1, todo + 1):
+                stepper.rk4(x, u, dt, 1)
+                if stops.beyond(x):
+                    stops.apply((i + k) * dt, x)
         i += done
         t = i * dt
         _guarded(guard, rec, t, x, act)
@@ -254,7 +268,14 @@ def _run_adaptive(
     rec: _Recorder,
     bar: Any,
     guard: Any,
+    stops: Any,
 ) -> tuple[str, str]:
+    """Adaptive integration (scipy ``solve_ivp``) piece by piece between controller samples.
+
+    With joint stops, the pieces end at every output instant too, terminal events locate each
+    crossing of a limit (the stop acts there and the piece goes on), and a joint resting on its
+    stop is put back on it at the end of each piece (:mod:`._stops`).
+    """
     n_out = int(np.floor(duration / period + 1e-9))
     end_extra = n_out * period < duration - 1e-12  # the duration is an output instant of its own
     derivative = _rhs(model, external)
@@ -271,6 +292,43 @@ def _run_adaptive(
     held = command(0.0, x) if sample_period is not None else None
     rec.add(0.0, x, held if held is not None else command(0.0, x))
     for a, b in _pieces(duration, sample_period):
+        if stops.active:  # a resting joint is put back on its stop at the end of each piece: end them at the outputs too
+            cuts = [float(c) for c in _outputs_in(a, b, period, n_out, duration if end_extra else None) if c < b - 1e-12]
+            bounds = [a, *cuts, b]
+        else:
+            bounds = [a, b]
+        outputs = (period, n_out, duration, end_extra)
+        status = _adaptive_piece(model, bounds, x, held, command, derivative, guard, method, rtol, atol, ivp_events, stops, rec, outputs)
+        x, held = status[1], status[2]
+        bar.update(b)
+        if status[0]:
+            return "event", status[0]
+    return "finished", ""
+
+
+def _adaptive_piece(
+    model: Model,
+    bounds: list[float],
+    x: np.ndarray,
+    held: Any,
+    command: Any,
+    derivative: Any,
+    guard: Any,
+    method: str,
+    rtol: float,
+    atol: float,
+    ivp_events: list[Any],
+    stops: Any,
+    rec: _Recorder,
+    outputs: tuple[float, int, float, bool],
+) -> tuple[str, np.ndarray, Any]:
+    """One controller sample (held actuation) over ``bounds``; returns (event message or "", end state, next actuation).
+
+    ``outputs`` = (output period, number of outputs, duration, whether the duration is an extra output).
+    """
+    period, n_out, duration, end_extra = outputs
+    b_end = bounds[-1]
+    for a, b in itertools.pairwise(bounds):
 
         def rhs(t: float, y: np.ndarray, held: Any = held) -> np.ndarray:
             guard.tick(t, y)
@@ -281,25 +339,83 @@ def _run_adaptive(
         # always evaluate at b too: the next piece starts from the state there
         t_eval = inside if inside.size and inside[-1] >= b - 1e-12 else np.append(inside, b)
         t_eval[-1] = b
-        sol = solve_ivp(rhs, (a, b), x, method=method, rtol=rtol, atol=atol, t_eval=t_eval, events=ivp_events or None)
+        sol = _solve(rhs, a, b, x, t_eval, method, rtol, atol, ivp_events, stops)
         if sol.status == -1:
             raise SimulationError(f"integrator failed between t = {a:.6g} and {b:.6g} s: {sol.message}")
         x = sol.y[:, -1] if sol.y.shape[1] else x
         _check_finite(float(sol.t[-1]) if sol.t.size else a, x)
         _guarded(guard, rec, float(sol.t[-1]) if sol.t.size else a, x, held if held is not None else command(b, x))
         # the actuation recorded at a sample instant is the one applied from there on
-        last = sol.status == 0 and b < duration - 1e-12 * duration
+        last = sol.status == 0 and b >= b_end and b < duration - 1e-12 * duration
         new_held = command(b, x) if held is not None and last else held
         for k, tk in enumerate(sol.t[: inside.size]):
             _check_finite(float(tk), sol.y[:, k])
             act = held if held is None or tk < b - 1e-12 else new_held
             rec.add(float(tk), sol.y[:, k], act if act is not None else command(float(tk), sol.y[:, k]))
         held = new_held
-        bar.update(b)
         if sol.status == 1:
             hit = [k for k, te in enumerate(sol.t_events) if len(te)]
             t_ev = float(sol.t_events[hit[0]][0])
             y_ev = sol.y_events[hit[0]][0]
             rec.add(t_ev, y_ev, held if held is not None else command(t_ev, y_ev))
-            return "event", f"event {hit[0]} at t = {t_ev:.6g} s"
-    return "finished", ""
+            return f"event {hit[0]} at t = {t_ev:.6g} s", x, held
+    return "", x, held
+
+
+def _stop_events(model: Model, stops: Any) -> list[Any]:
+    """Terminal events at each finite limit of the joints not resting on a stop (upper: rising, lower: falling)."""
+    found = []
+    for i in range(model.n_joints):
+        if i in stops.resting:
+            continue
+        for limit, direction in ((stops.upper[i], 1.0), (stops.lower[i], -1.0)):
+            if np.isfinite(limit):
+
+                def crossing(t: float, y: np.ndarray, index: int = 13 + i, limit: float = float(limit)) -> float:
+                    return float(y[index] - limit)
+
+                crossing.terminal = True  # type: ignore[attr-defined]
+                crossing.direction = direction  # type: ignore[attr-defined]
+                crossing.joint = i  # type: ignore[attr-defined]
+                found.append(crossing)
+    return found
+
+
+def _solve(
+    rhs: Any, a: float, b: float, x: np.ndarray, t_eval: np.ndarray, method: str, rtol: float, atol: float, events: list[Any], stops: Any
+) -> Any:
+    """``solve_ivp`` over (a, b); with joint stops, restarted at each crossing of a limit after the stop acted there."""
+    if not stops.active:
+        return solve_ivp(rhs, (a, b), x, method=method, rtol=rtol, atol=atol, t_eval=t_eval, events=events or None)
+    ts: list[float] = []
+    ys: list[np.ndarray] = []
+    t0, y0 = a, x
+    while True:
+        stops.release(y0)
+        limits = _stop_events(stops.model, stops)
+        todo = t_eval[t_eval > t0 + 1e-12 * max(1.0, abs(t0))]
+        sol = solve_ivp(rhs, (t0, b), y0, method=method, rtol=rtol, atol=atol, t_eval=todo, events=[*events, *limits] or None)
+        if sol.status == -1:
+            return sol
+        ts += [float(t) for t in np.asarray(sol.t)]
+        ys += [np.asarray(sol.y)[:, k].copy() for k in range(len(sol.t))]
+        hits = [k for k, te in enumerate(sol.t_events or []) if len(te)] if sol.status == 1 else []
+        if hits and hits[0] < len(events):  # a user's event: stop there
+            return SimpleNamespace(
+                status=1, message=sol.message, t=np.array(ts), y=np.stack(ys, axis=1), t_events=sol.t_events[: len(events)],
+                y_events=sol.y_events[: len(events)],
+            )  # fmt: skip
+        if not hits:
+            break
+        t0 = float(sol.t_events[hits[0]][0])
+        y0 = sol.y_events[hits[0]][0].copy()
+        stops.apply(t0, y0, joints=[limits[hits[0] - len(events)].joint])
+        if b - t0 <= 1e-12 * max(1.0, abs(b)):
+            ts.append(b)
+            ys.append(y0)
+            break
+    end = ys[-1].copy()
+    if stops.beyond(end):  # a joint resting on its stop: back on it at the end of the piece
+        stops.apply(b, end)
+        ys[-1] = end
+    return SimpleNamespace(status=0, message="", t=np.array(ts), y=np.stack(ys, axis=1), t_events=None, y_events=None)

@@ -18,6 +18,7 @@ without it, it is evaluated continuously (adaptive) or once per step (RK4).
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -30,6 +31,7 @@ from ..core.state import Actuation, ActuatorLimits, State, pack_state, unpack_st
 from ..mechanics import _engine
 from ._guard import DivergenceGuard, Progress, check_pd_gains, estimate_run
 from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory
+from ._stops import JointStops, limit_violations
 from .pd import JointPD
 from .trajectory import Trajectory
 
@@ -117,6 +119,8 @@ def simulate(
     progress: bool | Callable[[float, float], Any] | None = None,
     warn_after: float | None = 60.0,
     divergence_guard: bool = True,
+    joint_limits: str = "stop",
+    restitution: float = 0.0,
 ) -> Trajectory:
     """Simulate ``model`` from ``initial_state`` for ``duration`` seconds.
 
@@ -135,6 +139,13 @@ def simulate(
     A failure part-way (controller error, non-finite state, integrator
     failure, divergence) raises :class:`SimulationError` whose ``trajectory``
     holds the states computed up to the failure.
+
+    Joint limits (``model.joint_lower`` / ``joint_upper``): ``joint_limits="stop"``
+    (default) makes them hard stops, momentum-conserving joint impulses with
+    coefficient of ``restitution`` e in [0, 1] (the rate after = -e x the rate
+    before; :mod:`freeflyer.simulation._stops`), recorded as impacts in
+    ``traj.joint_limit_events``; ``"flag"`` applies no stops and records each
+    span of time beyond a limit there instead (``traj.joint_limits_violated``).
 
     Runs cannot hang unnoticed:
 
@@ -173,6 +184,8 @@ def simulate(
         raise TypeError(f"controller: expected a callable (t, state) -> joint torques or Actuation, got {type(controller).__name__}")
     limits = limits or ActuatorLimits()
     _engine_inputs(model, external)  # a clear error now for bad wrenches
+    stops = JointStops(model, joint_limits, restitution)
+    stops.check_initial(np.asarray(state.q, dtype=float))
     period = output_period or max(0.01, fixed_step or 0.0)
     x0 = pack_state(state)
     rec = _Recorder(model)
@@ -200,24 +213,32 @@ def simulate(
     bar = Progress(progress, duration)
     try:
         if fixed_step is not None:
-            status = _run_rk4(model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar, guard)
+            status = _run_rk4(
+                model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar, guard, stops
+            )
         else:
             status = _run_adaptive(
-                model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar, guard
+                model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar, guard, stops
             )
     except KeyboardInterrupt:
         t_stop = rec.t[-1] if rec.t else 0.0
-        return rec.trajectory("interrupted", f"interrupted (Ctrl-C) after t = {t_stop:.6g} s of {duration:g} s")
+        return _with_limits(rec.trajectory("interrupted", f"interrupted (Ctrl-C) after t = {t_stop:.6g} s of {duration:g} s"), stops)
     except SimulationError as exc:
-        exc.trajectory = rec.trajectory("failed", str(exc))
+        exc.trajectory = _with_limits(rec.trajectory("failed", str(exc)), stops)
         raise
     except (FreeflyerError, ValueError, ArithmeticError, RuntimeError, TypeError, KeyError, IndexError) as exc:
         t_fail = rec.t[-1] if rec.t else 0.0
         message = f"simulation failed after t = {t_fail:.6g} s: {type(exc).__name__}: {exc}"
-        raise SimulationError(message, rec.trajectory("failed", message)) from exc
+        raise SimulationError(message, _with_limits(rec.trajectory("failed", message), stops)) from exc
     finally:
         bar.close()
-    return rec.trajectory(*status)
+    return _with_limits(rec.trajectory(*status), stops)
+
+
+def _with_limits(traj: Trajectory, stops: JointStops) -> Trajectory:
+    """The trajectory with its joint-limit events: the stops' impacts, or (stops off) the spans beyond a limit."""
+    found = stops.events if stops.active else (limit_violations(stops.model, traj.t, traj.q) if len(traj) else [])
+    return dataclasses.replace(traj, joint_limit_events=tuple(found)) if found else traj
 
 
 def _positive(name: str, value: Any) -> float:
