@@ -101,6 +101,11 @@ def path_independent_workspace(
     box = search.joint_box(model.joint_lower, model.joint_upper)
     found = search.singular_points(jac_fun, box, samples=samples, seed=seed)
     gap = 0.02 * reach.R_max if merge_gap is None else float(merge_gap)
+    if merge_gap is None and not gap > 0.0:
+        raise ValueError(
+            f"end effector {reach.end_effector!r}: its reachable workspace has zero size (R_max = {reach.R_max:g} m, "
+            "the joints do not move it relative to the system CM); there is no path-independent workspace to find"
+        )
     if not gap > 0.0:
         raise ValueError(f"merge_gap: expected a positive distance in m, got {merge_gap!r}")
     q_s = found.q

@@ -19,9 +19,28 @@ import numpy as np
 from . import barycentric
 from .errors import ModelError, UnknownNameError
 
-__all__ = ["Model", "check_inertia", "inertia_matrix"]
+__all__ = ["MAX_INERTIA", "MAX_LENGTH", "MAX_MASS", "Model", "check_inertia", "check_mass", "inertia_matrix"]
 
 _INERTIA_RTOL = 1e-9
+
+#: The physical bounds a model is checked against (SI). Beyond them a number is a typo or a unit
+#: slip (mm for m, g for kg), not a space robot, and the arithmetic loses its meaning (1e300 kg
+#: overflows the inertia sums). Bodies: mass in (0, MAX_MASS] kg, 1e9 kg being some 2000 times the
+#: International Space Station; positions (joint origins, CMs, end-effector points, payload offsets)
+#: within MAX_LENGTH m of their frame's origin, 10 km; principal moments of inertia up to MAX_INERTIA
+#: kg m^2, MAX_MASS spread over 1 km.
+MAX_MASS = 1e9
+MAX_LENGTH = 1e4
+MAX_INERTIA = 1e15
+
+
+def check_mass(value: float, path: str, fix: str) -> float:
+    """``value`` (kg) if positive, finite and at most :data:`MAX_MASS`; else a :class:`ModelError`."""
+    if not np.isfinite(value) or value <= 0.0:
+        raise ModelError(path, f"must be positive and finite, got {value!r}", fix)
+    if value > MAX_MASS:
+        raise ModelError(path, f"{value:g} kg is above the {MAX_MASS:g} kg freeflyer accepts for one body (a unit slip?)", fix)
+    return value
 
 
 def _vector(value: Any, path: str, fix: str) -> np.ndarray:
@@ -33,6 +52,9 @@ def _vector(value: Any, path: str, fix: str) -> np.ndarray:
         raise ModelError(path, f"expected three numbers [x, y, z], got shape {arr.shape}", fix)
     if not np.all(np.isfinite(arr)):
         raise ModelError(path, "has NaN or infinite entries", fix)
+    if np.abs(arr).max() > MAX_LENGTH:
+        too_far = f"{np.abs(arr).max():g} m is beyond the {MAX_LENGTH:g} m freeflyer accepts for a position (a unit slip?)"
+        raise ModelError(path, too_far, fix)
     return arr
 
 
@@ -62,6 +84,10 @@ def check_inertia(inertia: np.ndarray, path: str) -> None:
     fix = "use the inertia of a real body about its CM (symmetric, positive definite, each principal moment <= the sum of the other two)"
     if not np.all(np.isfinite(inertia)):
         raise ModelError(path, "has NaN or infinite entries", fix)
+    if np.abs(inertia).max() > MAX_INERTIA:
+        raise ModelError(
+            path, f"{np.abs(inertia).max():g} kg m^2 is above the {MAX_INERTIA:g} kg m^2 freeflyer accepts (a unit slip?)", fix
+        )
     scale = max(float(np.max(np.abs(inertia))), 1e-300)
     if np.max(np.abs(inertia - inertia.T)) > 1e-9 * scale:
         raise ModelError(path, "is not symmetric", fix)
@@ -74,6 +100,11 @@ def check_inertia(inertia: np.ndarray, path: str) -> None:
             f"violates the triangle inequality: principal moment {moments[2]:.6g} > {moments[0]:.6g} + {moments[1]:.6g}",
             fix,
         )
+
+
+def _count(n: int, one: str, many: str | None = None) -> str:
+    """'1 joint', '2 joints' (English plurals in messages)."""
+    return f"{n} {one if n == 1 else (many or one + 's')}"
 
 
 def _frozen(arr: Any, dtype: Any = float) -> np.ndarray:
@@ -212,8 +243,7 @@ class Model:
             m_p = float(mass)
         except (TypeError, ValueError):
             raise ModelError(f"{path}.mass", f"cannot read {mass!r} as a number", "give the payload mass in kg") from None
-        if not np.isfinite(m_p) or m_p <= 0.0:
-            raise ModelError(f"{path}.mass", f"must be positive and finite, got {mass!r}", "give the payload mass in kg (> 0)")
+        check_mass(m_p, f"{path}.mass", "give the payload mass in kg (> 0)")
         i_p = inertia_matrix(inertia, f"{path}.inertia")
         k = int(self.end_effector_body[e])
         c_p = self.end_effector_point[e] + _vector(
@@ -263,8 +293,8 @@ class Model:
 
     def __repr__(self) -> str:
         return (
-            f"Model({self.name!r}: {self.n_bodies} bodies, {self.n_joints} joints, "
-            f"{self.n_end_effectors} end effectors, mass {self.total_mass:.6g} kg)"
+            f"Model({self.name!r}: {_count(self.n_bodies, 'body', 'bodies')}, {_count(self.n_joints, 'joint')}, "
+            f"{_count(self.n_end_effectors, 'end effector')}, mass {self.total_mass:.6g} kg)"
         )
 
 

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..core.model import Model
 from ..mechanics.kinematics import system_cm
@@ -46,7 +47,10 @@ def model_info(model: Model) -> dict[str, Any]:
     recorded by :meth:`Model.with_payload`), and the lists
 
     - ``joints``: index, name, parent, child (bodies), origin (m, parent
-      frame), axis (joint frame), limits_deg ([lower, upper], null = none);
+      frame), rotation (3x3, joint frame -> parent frame) and rpy_deg (the
+      same as URDF's fixed-axis roll, pitch, yaw, degrees), axis (joint
+      frame) and axis_parent (the axis in the parent frame at q = 0),
+      limits_deg ([lower, upper], null = none);
     - ``end_effectors``: index, name, body, point (m, body frame), r_star
       (barycenter of the body -> end-effector point, m, body frame, 1992 eq. 10);
     - ``bodies``: index, name, mass (kg), cm (m, body frame), inertia (3x3
@@ -68,7 +72,10 @@ def model_info(model: Model) -> dict[str, Any]:
                 "parent": model.body_names[int(model.parent[k])],
                 "child": model.body_names[k],
                 "origin": _vec(model.joint_origin[k]),
+                "rotation": [_vec(row) for row in model.joint_rotation[k]],
+                "rpy_deg": _vec(Rotation.from_matrix(model.joint_rotation[k]).as_euler("xyz", degrees=True)),
                 "axis": _vec(model.joint_axis[k]),
+                "axis_parent": _vec(model.joint_rotation[k] @ model.joint_axis[k]),
                 "limits_deg": None if lower is None and upper is None else [lower, upper],
             }
         )
@@ -206,7 +213,7 @@ def _summary(info: dict[str, Any]) -> list[tuple[str, str]]:
 def _tables(info: dict[str, Any]) -> list[_Table]:
     joints = _Table(
         "Joints",
-        ("#", "name", "parent", "child", "origin (m)", "axis", "limits (deg)"),
+        ("#", "name", "parent", "child", "origin (m)", "rpy (deg)", "axis", "axis in parent", "limits (deg)"),
         tuple(
             (
                 j["index"],
@@ -214,12 +221,17 @@ def _tables(info: dict[str, Any]) -> list[_Table]:
                 j["parent"],
                 j["child"],
                 j["origin"],
+                j["rpy_deg"],
                 j["axis"],
+                j["axis_parent"],
                 "none" if j["limits_deg"] is None else f"[{_num(j['limits_deg'][0])}, {_num(j['limits_deg'][1])}]",
             )
             for j in info["joints"]
         ),
-        ("origin: joint position in the parent body frame; axis: unit vector in the joint frame.",),
+        (
+            "origin, rpy: joint frame in the parent body frame (rpy: fixed-axis roll, pitch, yaw, as URDF); "
+            "axis: unit vector in the joint frame, and in the parent frame at q = 0.",
+        ),
     )
     effectors = _Table(
         "End effectors",
