@@ -142,3 +142,25 @@ def test_staged_outputs_helper(tmp_path: Path) -> None:
     assert (out / "sub" / "a.txt").read_text() == "1"  # a failed run commits nothing
     with pytest.raises(ValueError, match="empty path"), staged_outputs("", overwrite=False, command="test"):
         pass
+
+
+def test_a_manifest_above_the_output_directory_vouches_for_its_files(tmp_path: Path) -> None:
+    """What `demo --out out` wrote into out/1992 may be replaced by `reproduce 1992 --out out/1992 --overwrite`."""
+    out = tmp_path / "out"
+    with staged_outputs(out, overwrite=False, command="demo") as target:
+        (target.stage / "1992").mkdir()
+        (target.stage / "1992" / "report.json").write_text("{}")
+    inner = out / "1992"
+    with pytest.raises(FileExistsError, match="exists"):
+        check_targets(inner, ["report.json"], overwrite=False)
+    with staged_outputs(inner, overwrite=True, command="reproduce 1992") as target:
+        (target.stage / "report.json").write_text('{"new": 1}')
+        (target.stage / "extra.png").write_text("png")
+    outer = json.loads((out / MANIFEST).read_text())["files"]
+    assert outer["1992/report.json"]["sha256"] == digest(inner / "report.json")  # one entry per file, kept up to date
+    assert set(json.loads((inner / MANIFEST).read_text())["files"]) == {"extra.png"}
+    with staged_outputs(out, overwrite=True, command="demo") as target:  # and the demo again over both
+        (target.stage / "1992").mkdir()
+        (target.stage / "1992" / "report.json").write_text("{}")
+        (target.stage / "1992" / "extra.png").write_text("png2")
+    assert (inner / "extra.png").read_text() == "png2"

@@ -10,7 +10,9 @@ build time; see :mod:`freeflyer.core.barycentric`.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import functools
+import os
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -19,7 +21,18 @@ import numpy as np
 from . import barycentric
 from .errors import ModelError, UnknownNameError
 
-__all__ = ["MAX_INERTIA", "MAX_LENGTH", "MAX_MASS", "Model", "check_inertia", "check_mass", "inertia_matrix"]
+__all__ = [
+    "MAX_INERTIA",
+    "MAX_LENGTH",
+    "MAX_MASS",
+    "Model",
+    "accepts_model_names",
+    "check_inertia",
+    "check_mass",
+    "inertia_matrix",
+    "register_model_resolver",
+    "resolve_model",
+]
 
 _INERTIA_RTOL = 1e-9
 
@@ -306,3 +319,39 @@ def _lookup(kind: str, key: str | int, names: Sequence[str]) -> int:
     if key in names:
         return list(names).index(str(key))
     raise UnknownNameError(kind, key, names)
+
+
+# --------------------------------------------------------------------- model names at the public boundary
+_RESOLVER: list[Callable[[str], Model]] = []
+
+
+def register_model_resolver(resolver: Callable[[str], Model]) -> None:
+    """Set the function that turns a model name or file path into a Model (``freeflyer.models`` registers
+    :func:`~freeflyer.models.load_model`; the core cannot import it, being below it)."""
+    _RESOLVER[:] = [resolver]
+
+
+def resolve_model(model: Any, argument: str = "model") -> Model:
+    """``model`` itself if it is a :class:`Model`; a built-in model name or a model file path, loaded; else a TypeError."""
+    if isinstance(model, Model):
+        return model
+    if isinstance(model, (str, os.PathLike)) and _RESOLVER:
+        return _RESOLVER[0](os.fspath(model))
+    raise TypeError(
+        f"{argument}: expected a freeflyer.Model, a built-in model name (e.g. 'papadopoulos1992') or a model file path, "
+        f"got {type(model).__name__} {str(model)[:60]!r}"
+    )
+
+
+def accepts_model_names(func: Callable[..., Any]) -> Callable[..., Any]:
+    """``func(model, ...)`` that also takes a model name or file path for ``model`` (:func:`resolve_model`)."""
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        if args:
+            args = (resolve_model(args[0]), *args[1:])
+        elif "model" in kwargs:
+            kwargs["model"] = resolve_model(kwargs["model"])
+        return func(*args, **kwargs)
+
+    return wrapper

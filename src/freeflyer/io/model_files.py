@@ -17,7 +17,7 @@ from scipy.spatial.transform import Rotation
 
 from ..core.builder import ModelBuilder
 from ..core.errors import ModelError
-from ..core.model import Model
+from ..core.model import Model, resolve_model
 
 __all__ = ["load", "load_toml", "load_urdf", "save", "to_toml_dict", "to_urdf_string"]
 
@@ -27,8 +27,10 @@ _TOP_KEYS = {"name", "description", "bodies", "joints"}
 
 
 def load(path: str | Path) -> Model:
-    """Load a model from a ``.toml`` or ``.urdf`` file."""
+    """Load a model from a ``.toml`` or ``.urdf`` file, or a built-in model by name (``ff.load("papadopoulos1992")``)."""
     path = Path(path)
+    if not path.suffix and not path.exists():
+        return resolve_model(str(path), "path")  # a built-in name (or an error listing them)
     if not path.is_file():
         raise ModelError(str(path), "file not found", "give the path of a .toml or .urdf model file")
     suffix = path.suffix.lower()

@@ -5,8 +5,12 @@ DIR, and ``DIR/freeflyer-manifest.json`` lists every file freeflyer wrote there 
 A file of DIR that the run would replace is
 
 - refused unless ``overwrite`` is set (the run's files are then discarded, DIR is unchanged);
-- with ``overwrite``, replaced only if the manifest lists it and its content is still what
+- with ``overwrite``, replaced only if a manifest lists it and its content is still what
   freeflyer wrote (a file the user made or edited is never replaced).
+
+A file's entry lives in the deepest manifest that lists it, in DIR or a folder above it (so
+``freeflyer reproduce 1992 --out out/1992 --overwrite`` may replace what ``freeflyer demo --out
+out`` wrote there); a new file is entered in DIR's own manifest.
 
 :func:`check_targets` does the same test before a run for the names a command knows in advance,
 so that a long run is refused before it starts.
@@ -43,8 +47,8 @@ def _sha256(path: Path) -> str:
     return digest.hexdigest()
 
 
-def _read_manifest(out: Path) -> dict[str, Any]:
-    path = out / MANIFEST
+def _read_manifest(folder: Path) -> dict[str, Any]:
+    path = folder / MANIFEST
     if not path.is_file():
         return {}
     try:
@@ -54,6 +58,28 @@ def _read_manifest(out: Path) -> dict[str, Any]:
     except (OSError, ValueError, KeyError, TypeError):
         return {}  # an unreadable manifest vouches for nothing: every existing file is then protected
 
+
+class _Manifests:
+    """The manifests of a folder and the folders above it, read once; :meth:`entry` finds a file's."""
+
+    def __init__(self) -> None:
+        self.files: dict[Path, dict[str, Any]] = {}
+
+    def of(self, folder: Path) -> dict[str, Any]:
+        folder = folder.resolve()
+        if folder not in self.files:
+            self.files[folder] = _read_manifest(folder)
+        return self.files[folder]
+
+    def entry(self, target: Path) -> tuple[Path, str, dict[str, Any]] | None:
+        """(manifest folder, path relative to it, entry) of the deepest manifest listing ``target``."""
+        target = target.resolve()
+        for folder in target.parents:
+            rel = target.relative_to(folder).as_posix()
+            entry = self.of(folder).get(rel)
+            if isinstance(entry, dict):
+                return folder, rel, entry
+        return None
 
 def output_directory(path: Path | str) -> Path:
     """Create the output directory ``path`` (and its parents); refuse an empty path or a path that is a file."""
@@ -66,7 +92,7 @@ def output_directory(path: Path | str) -> Path:
     return path
 
 
-def _conflict(out: Path, rel: str, overwrite: bool, manifest: dict[str, Any]) -> str | None:
+def _conflict(out: Path, rel: str, overwrite: bool, manifests: _Manifests) -> str | None:
     """Why replacing ``out / rel`` is refused (None: it may be written)."""
     target = out / rel
     if not target.exists() and not target.is_symlink():
@@ -75,10 +101,10 @@ def _conflict(out: Path, rel: str, overwrite: bool, manifest: dict[str, Any]) ->
         return f"{target} exists"
     if target.is_symlink() or not target.is_file():
         return f"{target} exists and is not a file freeflyer wrote"
-    entry = manifest.get(rel)
-    if not isinstance(entry, dict):
-        return f"{target} was not written by freeflyer (not in {MANIFEST})"
-    if entry.get("sha256") != _sha256(target):
+    found = manifests.entry(target)
+    if found is None:
+        return f"{target} was not written by freeflyer (in no {MANIFEST})"
+    if found[2].get("sha256") != _sha256(target):
         return f"{target} was changed after freeflyer wrote it"
     return None
 
@@ -94,8 +120,8 @@ def _refuse(out: Path, problems: list[str], overwrite: bool, when: str) -> None:
 
 def check_targets(out: Path, names: Iterable[str], *, overwrite: bool) -> None:
     """Before a run: refuse if writing ``names`` (paths relative to ``out``) would replace a protected file."""
-    manifest = _read_manifest(out)
-    problems = [p for p in (_conflict(out, name, overwrite, manifest) for name in names) if p]
+    manifests = _Manifests()
+    problems = [p for p in (_conflict(out, name, overwrite, manifests) for name in names) if p]
     if problems:
         _refuse(out, problems, overwrite, "nothing was run")
 
@@ -126,29 +152,31 @@ class OutputDirectory:
 
     def commit(self) -> list[Path]:
         """Move the staged files into the output directory and record them in the manifest (or refuse, changing nothing)."""
-        manifest = _read_manifest(self.path)
+        manifests = _Manifests()
         staged = sorted(p for p in self.stage.rglob("*") if p.is_file())
         rels = [p.relative_to(self.stage).as_posix() for p in staged]
-        problems = [c for c in (_conflict(self.path, rel, self.overwrite, manifest) for rel in rels) if c]
-        if any(rel == MANIFEST for rel in rels):
+        problems = [c for c in (_conflict(self.path, rel, self.overwrite, manifests) for rel in rels) if c]
+        if any(Path(rel).name == MANIFEST for rel in rels):
             problems.append(f"the run wrote a file named {MANIFEST}, which freeflyer keeps for itself")
         if problems:
             _refuse(self.path, problems, self.overwrite, "the run's outputs were discarded")
         now = datetime.now(UTC).isoformat(timespec="seconds")
+        changed: set[Path] = set()
         for src, rel in zip(staged, rels, strict=True):
             dest = self.path / rel
             dest.parent.mkdir(parents=True, exist_ok=True)
+            found = manifests.entry(dest) if dest.exists() else None
             os.replace(src, dest)
-            manifest[rel] = {"sha256": _sha256(dest), "command": self.command, "written": now}
+            folder, key = (found[0], found[1]) if found is not None else (self.path.resolve(), rel)
+            manifests.of(folder)[key] = {"sha256": _sha256(dest), "command": self.command, "written": now}
+            changed.add(folder)
             self.written.append(dest)
-        body = {
-            "written_by": "freeflyer",
-            "note": "files freeflyer wrote here; --overwrite replaces only these, if unchanged",
-            "files": manifest,
-        }
-        tmp = self.path / f"{MANIFEST}.tmp"
-        tmp.write_text(json.dumps(body, indent=2, sort_keys=True) + "\n", encoding="utf-8")
-        os.replace(tmp, self.path / MANIFEST)
+        for folder in changed:
+            body: dict[str, Any] = {"written_by": "freeflyer", "note": "files freeflyer wrote here; --overwrite replaces only these"}
+            body["files"] = manifests.of(folder)
+            tmp = folder / f"{MANIFEST}.tmp"
+            tmp.write_text(json.dumps(body, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+            os.replace(tmp, folder / MANIFEST)
         return self.written
 
 
