@@ -81,6 +81,7 @@ class _Manifests:
                 return folder, rel, entry
         return None
 
+
 def output_directory(path: Path | str) -> Path:
     """Create the output directory ``path`` (and its parents); refuse an empty path or a path that is a file."""
     if not str(path).strip():
