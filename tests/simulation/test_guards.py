@@ -168,3 +168,23 @@ def test_progress_callback_and_delayed_bar(arm: ff.Model, monkeypatch: pytest.Mo
     clock[0] += 100.0
     quiet.update(5.0)
     assert quiet.bar is None
+
+
+def test_cli_ctrl_c_writes_the_partial_run_and_exits_130(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    import dataclasses
+
+    from freeflyer.scenarios import scenario_outputs
+
+    def impatient(t: float, state: ff.State) -> np.ndarray:
+        if t >= 0.3:
+            raise KeyboardInterrupt  # what Ctrl-C raises in the controller's or the integrator's Python
+        return np.zeros(6)
+
+    real = scenario_outputs.run_scenario
+    monkeypatch.setattr(scenario_outputs, "run_scenario", lambda sc, **kw: real(dataclasses.replace(sc, controller=impatient), **kw))
+    scenario = tmp_path / "s.toml"
+    scenario.write_text(f'model = "{ARM.as_posix()}"\nduration = 5.0\n[integrator]\nsample_period = 0.01\n[outputs]\nplots = false\n')
+    result = CliRunner().invoke(app, ["simulate", str(scenario), "--out", str(tmp_path / "out"), "--no-progress"])
+    assert result.exit_code == 130 and "interrupted (Ctrl-C)" in result.output
+    summary = json.loads((tmp_path / "out" / "trajectory.json").read_text())
+    assert summary["status"] == "interrupted" and summary["t_end"] == pytest.approx(0.3, abs=0.011)
