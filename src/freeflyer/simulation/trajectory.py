@@ -274,6 +274,9 @@ class Trajectory:
         )
 
 
+_OLD_CSV_PREFIX = "# freeflyer trajectory "
+
+
 def _sidecar(path: Path) -> Path:
     """The metadata file of a trajectory CSV: ``run.csv`` -> ``run.csv.json``."""
     return path.with_name(path.name + ".json")
@@ -289,7 +292,11 @@ def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         except (ValueError, KeyError, TypeError) as exc:
             raise ValueError(f"{sidecar}: not the metadata of a freeflyer trajectory CSV ({exc})") from exc
     with path.open(encoding="utf-8") as fh:
-        header = next(csv.reader([fh.readline()]), [])
+        first = fh.readline()
+        if first.startswith(_OLD_CSV_PREFIX):  # written by freeflyer 0.1 before the sidecar: metadata in a comment line
+            meta = meta or json.loads(first[len(_OLD_CSV_PREFIX) :])
+            first = fh.readline().replace("[", "_").replace("]", "")
+        header = next(csv.reader([first]), [])
         rows = [line for line in fh if line.strip()]
     table = np.loadtxt(rows, delimiter=",", ndmin=2) if rows else np.zeros((0, len(header)))
     if table.shape[1] != len(header):
