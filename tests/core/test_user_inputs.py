@@ -136,3 +136,15 @@ def test_a_trajectory_csv_of_the_earlier_format_still_loads(tmp_path: Path) -> N
     )
     (tmp_path / "old.csv").write_text("\n".join([f"# freeflyer trajectory {json.dumps(meta)}", old_header, *rows]) + "\n")
     assert "q[0]" in old_header and ff.Trajectory.load(tmp_path / "old.csv", model=model).equals(traj, atol=1e-12)
+
+
+def test_a_model_without_joints_has_no_path_independent_workspace(tmp_path: Path) -> None:
+    """A spacecraft with a tool fixed at its CM: a clear error (it was a ZeroDivisionError, or an internal parameter's name)."""
+    b = ff.ModelBuilder("bus_with_tool")
+    b.add_body("bus", mass=500.0, inertia=[80.0, 90.0, 100.0])
+    b.add_body("tool", mass=0.0, inertia=0.0, frame=True)
+    b.add_joint("mount", parent="bus", child="tool", type="fixed")
+    path = ff.save(b.build(), tmp_path / "bus_with_tool.toml")
+    result = CliRunner().invoke(app, ["workspace", str(path), "--piw", "--samples", "64"])
+    assert result.exit_code == 1 and result.output.startswith("error: model 'bus_with_tool' has no joints")
+    assert "merge_gap" not in result.output and "Traceback" not in result.output

@@ -94,6 +94,11 @@ def path_independent_workspace(
     if jacobian not in ("system", "end_effector"):
         raise ValueError(f"jacobian: expected 'system' or 'end_effector', got {jacobian!r}")
     _check_samples(samples, 1)
+    if model.n_joints == 0:
+        raise ValueError(
+            f"model {model.name!r} has no joints: its end effectors cannot move relative to the spacecraft, "
+            "so there are no dynamic singularities and no path-independent workspace to find (add an arm)"
+        )
     reach = reachable if reachable is not None else reachable_workspace(model, e)
     if reach.end_effector != model.end_effector_names[e] or reach.model_name != model.name:
         raise ValueError("reachable: computed for another model or end effector")
