@@ -164,3 +164,13 @@ def test_a_manifest_above_the_output_directory_vouches_for_its_files(tmp_path: P
         (target.stage / "1992" / "report.json").write_text("{}")
         (target.stage / "1992" / "extra.png").write_text("png2")
     assert (inner / "extra.png").read_text() == "png2"
+
+
+def test_reproduce_never_replaces_a_user_file(tmp_path: Path) -> None:
+    out = tmp_path / "r"
+    out.mkdir()
+    notes = out / "report.md"
+    notes.write_text("my notes on the paper\n")
+    result = invoke("reproduce", "1991", "--out", str(out), "--overwrite")  # even with --overwrite: not a file freeflyer wrote
+    assert result.exit_code == 1 and "report.md was not written by freeflyer" in result.output and "outputs were discarded" in result.output
+    assert notes.read_text() == "my notes on the paper\n" and sorted(p.name for p in out.iterdir()) == ["report.md"]
