@@ -45,7 +45,7 @@ def test_the_issue_hanging_pd_case_stops_with_an_error_naming_the_wrist(arm: ff.
     assert m_wrist == pytest.approx(0.005, rel=1e-3)  # the user's wrist: 0.005 kg m^2 with the spacecraft free
     pd = ff.JointPD(kp=50.0, kd=30.0, q_ref=Q_TARGET)
     with pytest.warns(StiffGainsWarning, match=r"joint 'tool_roll' \(effective inertia 0.005 kg m\^2.*kd < 1 N m s/rad"):
-        with pytest.raises(ff.SimulationError, match=r"diverged at t = .*joint 'tool_roll' turns at") as info:
+        with pytest.raises(ff.SimulationError, match=r"diverged at t = .*joint 'tool_roll'") as info:
             ff.simulate(arm, ff.State(q=np.zeros(6)), 5.0, pd, sample_period=0.01)
     partial = info.value.trajectory
     assert partial.status == "failed" and "tool_roll" in partial.message
@@ -53,9 +53,9 @@ def test_the_issue_hanging_pd_case_stops_with_an_error_naming_the_wrist(arm: ff.
     assert np.all(np.isfinite(partial.q))
 
 
-@pytest.mark.parametrize(("fraction", "stable"), [(0.5, True), (1.5, False)])
+@pytest.mark.parametrize(("fraction", "stable"), [(0.5, True), (0.95, True), (1.5, False)])
 def test_coupled_stability_factor_predicts_the_simulated_arm(arm: ff.Model, fraction: float, stable: bool) -> None:
-    """All six joints together (pd_stability): gains at half the stable factor converge, at 1.5x they diverge."""
+    """All six joints together (pd_stability): gains at 0.5 and 0.95 of the stable factor converge (no false alarm), 1.5x diverge."""
     kp, kd, h = np.array([40.0, 40.0, 20.0, 2.0, 2.0, 1.0]), np.array([20.0, 20.0, 10.0, 0.5, 0.5, 0.5]), 0.01
     rho, scale, _ = pd_stability(arm, kp, kd, np.zeros(6), h)
     assert rho > 1.0 and 0.0 < scale < 1.0  # unstable as given, although each joint alone is within its bound

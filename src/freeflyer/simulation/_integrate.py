@@ -206,7 +206,9 @@ def _run_rk4(
         if start is not None and stops.beyond(x):
             x[:] = start
             for k in range(1, todo + 1):
-                stepper.rk4(x, u, dt, 1)
+                if stepper.rk4(x, u, dt, 1) != 1:
+                    _check_finite((i + k) * dt, x)
+                    raise SimulationError(f"H+ (1991 eq. 15) is not positive definite at t = {(i + k) * dt:.6g} s")
                 if stops.beyond(x):
                     stops.apply((i + k) * dt, x)
         i += done
