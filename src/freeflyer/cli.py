@@ -159,7 +159,6 @@ PayloadEE = Annotated[
 ]
 
 
-OutOption = typer.Option("--out", parser=_out_path, help="Output directory (created).")
 Overwrite = Annotated[
     bool,
     typer.Option(
@@ -275,6 +274,8 @@ def workspace_command(
     from .analysis.workspace_report import limits_json, workspace_limits, write_workspace_plots
 
     with user_errors():
+        if isinstance(out, _EmptyPath):
+            output_directory("")  # refused before the work
         loaded = with_payload(load_model(model), payload_mass, payload_inertia, payload_ee)
         names = loaded.end_effector_names
         chosen = [int(a) if a.isdigit() and a not in names else a for a in arm or []]
