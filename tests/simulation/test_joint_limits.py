@@ -141,3 +141,14 @@ def test_scenario_joint_limits_table(tmp_path: Path) -> None:
     (tmp_path / "bad.toml").write_text(text + "[joint_limits]\nrestitution = 2.0\n")
     with pytest.raises(ff.ModelError, match=r"joint_limits\.restitution: 2\.0 is outside \[0, 1\]"):
         load_scenario(tmp_path / "bad.toml")
+
+
+def test_rollouts_flag_each_trajectory_beyond_a_limit(arm: ff.Model) -> None:
+    """Batched rollouts apply no stops; the violations are recorded with the trajectory index."""
+    tau = np.zeros((3, 6))
+    tau[1, ELBOW] = 20.0  # only trajectory 1 pushes its elbow
+    pd = ff.JointPD(kp=0.0, kd=0.0, feedforward=tau[None])
+    traj = ff.rollout(arm, ff.State(q=np.zeros((3, 6))), 2.0, dt=1e-3, controller=pd, output_period=0.01)
+    elbow = [e for e in traj.joint_limit_events if e.joint == "elbow"]
+    assert elbow and {e.trajectory for e in traj.joint_limit_events} == {1} and elbow[0].kind == "violation"
+    assert elbow[0].t == traj.t[int(np.argmax(traj.q[:, 1, ELBOW] > 2.0))]

@@ -278,6 +278,10 @@ def rollout(
     :class:`freeflyer.simulation.pd.JointPD` (gains per trajectory, open-loop
     feed-forward) runs compiled too, with no Python per step (one call for
     the whole rollout).
+
+    Rollouts apply no joint stops: each span of a trajectory beyond a joint
+    limit is recorded in ``joint_limit_events`` (``kind == "violation"``,
+    with the ``trajectory`` index).
     """
     state = initial_states.resolve(model)
     x = pack_state(state)
@@ -302,7 +306,7 @@ def rollout(
     if controller is None or isinstance(controller, JointPD):
         compiled = _rollout_pd(model, x, dt, steps, hold, stride, controller, limits, external)
         if compiled is not None:
-            return _trajectory(model, *compiled, copy=False)  # the kernels keep the quaternions normalised
+            return _batch_limits(_trajectory(model, *compiled, copy=False))  # the kernels keep the quaternions normalised
     step = _stepper(model, dt, external)
     act = command(0.0, x)
     rec.add(0.0, x, act)
@@ -313,7 +317,19 @@ def rollout(
             act = command(i * dt, x)
         if i % stride == 0 or i == steps:
             rec.add(i * dt, x, act)
-    return rec.trajectory()
+    return _batch_limits(rec.trajectory())
+
+
+def _batch_limits(traj: Trajectory) -> Trajectory:
+    """A rollout's joint-limit violations (rollouts apply no stops), each with its trajectory index."""
+    model = traj.model
+    if model is None or not len(traj):
+        return traj
+    beyond = np.any((traj.q > model.joint_upper) | (traj.q < model.joint_lower), axis=(0, 2))
+    found = []
+    for b in np.flatnonzero(beyond):
+        found += [dataclasses.replace(e, trajectory=int(b)) for e in limit_violations(model, traj.t, traj.q[:, b])]
+    return dataclasses.replace(traj, joint_limit_events=tuple(found)) if found else traj
 
 
 def _rollout_pd(

@@ -46,7 +46,7 @@ class JointLimitEvent:
     the joint rate just before (rad/s), the rate after is ``-restitution * value``.
     ``kind == "violation"`` (stops off, ``joint_limits="flag"``): the joint was beyond ``limit``
     from the output time ``t`` to ``t_end`` (None: still beyond at the end); ``value`` is the
-    furthest angle reached (rad).
+    furthest angle reached (rad). ``trajectory``: the index in a batched rollout (None: one run).
     """
 
     joint: str
@@ -56,6 +56,7 @@ class JointLimitEvent:
     t: float
     t_end: float | None
     value: float
+    trajectory: int | None = None
 
 
 @dataclass(frozen=True, eq=False)
