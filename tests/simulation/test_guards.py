@@ -188,3 +188,17 @@ def test_cli_ctrl_c_writes_the_partial_run_and_exits_130(tmp_path: Path, monkeyp
     assert result.exit_code == 130 and "interrupted (Ctrl-C)" in result.output
     summary = json.loads((tmp_path / "out" / "trajectory.json").read_text())
     assert summary["status"] == "interrupted" and summary["t_end"] == pytest.approx(0.3, abs=0.011)
+
+
+@pytest.mark.parametrize("sample_period", [None, 0.01])
+def test_a_run_of_1e12_seconds_allocates_nothing_up_front_and_ctrl_c_returns_it(arm: ff.Model, sample_period: float | None) -> None:
+    """The integration pieces and output instants are made as the run goes (they were arrays of 1e14 entries)."""
+
+    def impatient(t: float, state: ff.State) -> np.ndarray:
+        if t >= 1.0:
+            raise KeyboardInterrupt
+        return np.zeros(6)
+
+    with pytest.warns(LongRunWarning, match="years"):
+        traj = ff.simulate(arm, ff.State(), 1e12, impatient, sample_period=sample_period)
+    assert traj.status == "interrupted" and 0.98 <= traj.t[-1] <= 1.0 and len(traj) >= 99

@@ -41,8 +41,9 @@ DIVERGENCE_ANGLE = 20.0
 #: A joint PD (no feed-forward, no reference rate, no external wrench) whose kinetic energy exceeds
 #: this many times what it can supply (the initial kinetic energy + 1/2 sum kp (q0 - q_ref)^2) diverges.
 ENERGY_FACTOR = 100.0
-#: The adaptive integrator's mean step over its last ~100 steps below this fraction of the duration:
-#: the step size collapsed (the equations are too stiff for the method, or the state diverges).
+#: The adaptive integrator's mean step over its last ~100 steps below this fraction of the output
+#: period (or of the duration, if shorter): the step size collapsed (the equations are too stiff for
+#: the method, or the state diverges): a billion steps per recorded state.
 MIN_STEP_FRACTION = 1e-9
 #: Seconds of a running simulation before the automatic progress bar appears.
 PROGRESS_DELAY = 2.0
@@ -296,11 +297,18 @@ class DivergenceGuard:
       supply, ``budget`` = initial kinetic energy + 1/2 sum kp (q0 - q_ref)^2 (a stable PD only
       loses energy; its sampled version gains a bounded fraction).
     - **step collapse** (adaptive integrators): the mean step over the last ~100 steps falls
-      below :data:`MIN_STEP_FRACTION` of the duration.
+      below :data:`MIN_STEP_FRACTION` of ``resolution`` (the output period, or the duration if shorter).
     """
 
     def __init__(
-        self, model: Model, x0: np.ndarray, duration: float, h: float | None, what: str, enabled: bool = True, controller: Any = None
+        self,
+        model: Model,
+        x0: np.ndarray,
+        resolution: float,
+        h: float | None,
+        what: str,
+        enabled: bool = True,
+        controller: Any = None,
     ) -> None:
         self.model = model
         self.n = model.n_joints
@@ -309,7 +317,7 @@ class DivergenceGuard:
         self.enabled = enabled
         self.energy0 = self._energy(x0)
         self.budget = self._pd_budget(controller, x0)
-        self.min_step = MIN_STEP_FRACTION * duration
+        self.min_step = MIN_STEP_FRACTION * resolution
         self.evals = 0
         self.window_t: list[float] = []
         self.rate_checked = -1.0

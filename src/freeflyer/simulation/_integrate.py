@@ -235,12 +235,12 @@ def _run_rk4(
     return "finished", ""
 
 
-def _pieces(duration: float, sample_period: float | None) -> Iterator[tuple[float, float]]:
+def _pieces(duration: float, sample_period: float | None, period: float) -> Iterator[tuple[float, float]]:
     """The integration pieces (a, b): between sample instants k * sample_period (no accumulated rounding),
-    each one a restart of the integrator; without a sample period, hundredths of the duration. Lazy:
-    a run of 1e12 samples costs no memory up front."""
-    count = int(np.ceil(duration / sample_period - 1e-9)) if sample_period is not None else 100
-    step = sample_period if sample_period is not None else duration / 100
+    each one a restart of the integrator; without a sample period, hundredths of the duration (or
+    shorter, 10,000 outputs at most each). Lazy: a run of 1e12 samples costs no memory up front."""
+    count = int(np.ceil(duration / sample_period - 1e-9)) if sample_period is not None else max(100, int(np.ceil(duration / period / 1e4)))
+    step = sample_period if sample_period is not None else duration / count
     for k in range(count):
         yield k * step, (k + 1) * step if k + 1 < count else duration
 
@@ -293,7 +293,7 @@ def _run_adaptive(
     x = x0.copy()
     held = command(0.0, x) if sample_period is not None else None
     rec.add(0.0, x, held if held is not None else command(0.0, x))
-    for a, b in _pieces(duration, sample_period):
+    for a, b in _pieces(duration, sample_period, period):
         if stops.active:  # a resting joint is put back on its stop at the end of each piece: end them at the outputs too
             cuts = [float(c) for c in _outputs_in(a, b, period, n_out, duration if end_extra else None) if c < b - 1e-12]
             bounds = [a, *cuts, b]

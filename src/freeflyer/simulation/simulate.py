@@ -209,7 +209,8 @@ def simulate(
     h = sample_period or fixed_step
     check_pd_gains(model, controller, np.asarray(state.q, dtype=float), h)
     pd = controller if not external else None  # the energy test of a joint PD holds without external wrenches
-    guard = DivergenceGuard(model, x0, duration, h, "controller sample" if sample_period else "RK4 step", divergence_guard, pd)
+    what = "controller sample" if sample_period else "RK4 step"
+    guard = DivergenceGuard(model, x0, min(duration, period), h, what, divergence_guard, pd)
     bar = Progress(progress, duration)
     try:
         if fixed_step is not None:
