@@ -87,13 +87,14 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 86400 / 365:.3g} years"
 
 
-_EVAL_COST: dict[int, float] = {}
+_EVAL_COST: dict[tuple[int, int], float] = {}
 
 
 def _derivative_cost(model: Model) -> float:
-    """Seconds per state derivative of ``model`` on this machine (timed once per joint count)."""
+    """Seconds per state derivative of ``model`` on this machine (timed once per tree size)."""
     n = model.n_joints
-    if n not in _EVAL_COST:
+    key = (model.n_bodies, n)
+    if key not in _EVAL_COST:
         stepper = _engine.Stepper(model)
         x = np.zeros(stepper.size)
         x[9] = 1.0
@@ -103,8 +104,8 @@ def _derivative_cost(model: Model) -> float:
         start = time.perf_counter()
         for _ in range(50):
             stepper.derivative(x, u, out)
-        _EVAL_COST[n] = (time.perf_counter() - start) / 50
-    return _EVAL_COST[n]
+        _EVAL_COST[key] = (time.perf_counter() - start) / 50
+    return _EVAL_COST[key]
 
 
 def estimate_run(
@@ -116,7 +117,12 @@ def estimate_run(
     output_period: float | None = None,
     controller: bool = True,
 ) -> RunEstimate:
-    """Steps, controller samples, outputs, memory and wall time of ``simulate`` with these options (see :class:`RunEstimate`)."""
+    """Steps, controller samples, outputs, memory and wall time of ``simulate`` with these options (see :class:`RunEstimate`).
+
+    ``controller``: whether a controller is sampled (False: free-floating, no Python per sample).
+    The time is the engine's timed state derivative (4 per RK4 step, 12 per DOP853 step) plus
+    20 us per controller sample and recorded state.
+    """
     period = output_period or max(0.01, fixed_step or 0.0)
     outputs = int(duration / period) + 1
     cost = _derivative_cost(model)
