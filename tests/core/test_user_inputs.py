@@ -89,6 +89,12 @@ def test_a_model_without_end_effectors_has_no_workspace(tmp_path: Path) -> None:
     path = ff.save(bare, tmp_path / "bare.toml")
     result = CliRunner().invoke(app, ["workspace", str(path)])
     assert result.exit_code == 1 and result.output.startswith("error: model 'bare_bus' has no end effectors")
+    capture = tmp_path / "capture.toml"
+    capture.write_text(
+        f'model = "{path.as_posix()}"\n[payload]\nmass = 400.0\ninertia = 25.0\n[path]\npoints = [[0.0, 0.0], [0.0, 0.25]]\n'
+    )
+    result = CliRunner().invoke(app, ["capture", str(capture)])
+    assert result.exit_code == 1 and "model 'bare_bus' has no end effectors; a capture needs an arm" in result.output
 
 
 def test_a_zero_reach_error_names_the_end_effector_not_an_internal_parameter() -> None:
