@@ -152,3 +152,12 @@ def test_rollouts_flag_each_trajectory_beyond_a_limit(arm: ff.Model) -> None:
     elbow = [e for e in traj.joint_limit_events if e.joint == "elbow"]
     assert elbow and {e.trajectory for e in traj.joint_limit_events} == {1} and elbow[0].kind == "violation"
     assert elbow[0].t == traj.t[int(np.argmax(traj.q[:, 1, ELBOW] > 2.0))]
+
+
+@pytest.mark.parametrize("restitution", [0.0, 0.7, 1.0])
+def test_a_joint_starting_on_its_stop_and_pushed_into_it(arm: ff.Model, restitution: float) -> None:
+    """Bounces shorter than an integrator step at the limit (they once restarted the integrator forever)."""
+    traj = ff.simulate(arm, ff.State(q=[0, 0, 2.0, 0, 0, 0]), 0.5, push_elbow, restitution=restitution)
+    assert traj.status == "finished" and traj.q[:, ELBOW].max() <= 2.0 + 1e-12
+    h = traj.angular_momentum
+    assert np.abs(h - h[0]).max() < 1e-9

@@ -409,9 +409,12 @@ def _solve(
             )  # fmt: skip
         if not hits:
             break
-        t0 = float(sol.t_events[hits[0]][0])
-        y0 = sol.y_events[hits[0]][0].copy()
-        stops.apply(t0, y0, joints=[limits[hits[0] - len(events)].joint])
+        t_hit = float(sol.t_events[hits[0]][0])
+        joint = limits[hits[0] - len(events)].joint
+        if t_hit <= t0 + 1e-12 * max(1.0, abs(t0)):  # no progress: a bounce shorter than a step, at the limit
+            stops.resting.add(joint)  # on its stop until the piece ends (put back there)
+        t0, y0 = t_hit, sol.y_events[hits[0]][0].copy()
+        stops.apply(t0, y0, joints=[joint])
         if b - t0 <= 1e-12 * max(1.0, abs(b)):
             ts.append(b)
             ys.append(y0)
