@@ -19,7 +19,7 @@ $(VENV)/.test: pyproject.toml
 	touch $(VENV)/.runtime $@
 
 demo: $(VENV)/.runtime
-	$(VENV)/bin/freeflyer demo --out $(OUT)
+	$(VENV)/bin/freeflyer demo --out $(OUT) --overwrite
 
 lint: $(VENV)/.test
 	$(VENV)/bin/ruff check src tests benchmarks examples

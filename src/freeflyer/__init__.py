@@ -17,6 +17,12 @@ the rest live in namespaces:
 - ``ff.scenarios``: simulation and capture scenario files.
 - ``ff.papers``: reproduction of the papers.
 
+Every public function whose first argument is ``model`` (here and in the
+namespaces) also takes a built-in model name or a model file path there
+(``ff.generalized_jacobian("papadopoulos1992", q)``): one resolver,
+:func:`freeflyer.core.model.resolve_model`, applied at this boundary; anything
+else is a TypeError that says what is expected.
+
 The packages below draw the layers (docs/architecture.md): ``core`` <
 ``mechanics`` < ``simulation`` | ``control`` | ``analysis`` < ``io`` <
 ``models`` < ``scenarios`` < ``papers`` < ``cli``.
@@ -122,3 +128,27 @@ __all__ = [
     "system_inertia_matrix",
     "task_jacobian",
 ]
+
+
+def _accept_model_names() -> None:
+    """Wrap each public function ``f(model, ...)`` of ``ff`` and its namespaces with the one model resolver."""
+    import inspect
+    import sys
+
+    from .core.model import accepts_model_names
+
+    root = sys.modules[__name__]
+    wrapped: dict[int, object] = {}
+    for module in (root, *(getattr(root, ns) for ns in NAMESPACES)):
+        for name in getattr(module, "__all__", ()):
+            func = getattr(module, name, None)
+            if not inspect.isfunction(func) or hasattr(func, "__wrapped__"):
+                continue
+            if next(iter(inspect.signature(func).parameters), None) != "model":
+                continue
+            if id(func) not in wrapped:
+                wrapped[id(func)] = accepts_model_names(func)
+            setattr(module, name, wrapped[id(func)])
+
+
+_accept_model_names()

@@ -9,7 +9,10 @@ library functions, and prints or writes their results. Shared rules:
   such as a missing file) prints ONE line ``error: <message>`` on stderr and
   exits with code 1; no traceback.
 - Files the user names as input are only read. ``--out`` directories are
-  created; files written there are outputs and are replaced on a re-run.
+  created; a run never replaces a file there unless ``--overwrite`` is given,
+  and then only the files freeflyer itself wrote earlier, unchanged
+  (``DIR/freeflyer-manifest.json``, :mod:`freeflyer.io.outputs`). ``--out ""`` is an error.
+- Warnings (stiff gains, long runs) print as ``warning: ...`` lines on stderr.
 
 New commands register on :data:`app` with ``@app.command("name")`` and wrap
 their body in ``with user_errors():``.
@@ -30,6 +33,7 @@ import typer
 from .analysis.singularity import jacobian_determinant_map
 from .core.errors import FreeflyerError, ModelCorrectionWarning
 from .core.model import Model
+from .io.outputs import OutputDirectory, output_directory, staged_outputs
 from .models import BUILTIN_MODELS, load_model
 from .papers.report import PAPER_PAYLOAD, model_info, paper_systems, render_text, write_model_reports
 
@@ -100,11 +104,42 @@ def with_payload(model: Model, mass: float | None, inertia: str | None, end_effe
 
 
 def output_dir(path: Path) -> Path:
-    """Create the ``--out`` directory (and its parents); refuse a path that is a file."""
-    if path.exists() and not path.is_dir():
-        raise FileExistsError(f"--out {path}: exists and is not a directory; choose another --out")
-    path.mkdir(parents=True, exist_ok=True)
-    return path
+    """Create the ``--out`` directory (and its parents); refuse an empty path or a path that is a file."""
+    return output_directory(path)
+
+
+class _EmptyPath(type(Path())):  # type: ignore[misc]
+    """``--out ""``: kept apart from ``--out .`` so that the command can refuse it with one clear line."""
+
+
+def _out_path(value: str) -> Path:
+    return _EmptyPath("") if not str(value).strip() else Path(value)
+
+
+@contextmanager
+def _staged(out: Path, overwrite: bool, command: str) -> Iterator[OutputDirectory]:
+    """The ``--out`` directory of a command, written through a staging folder (never clobbers)."""
+    if isinstance(out, _EmptyPath):
+        output_directory("")
+    with staged_outputs(out, overwrite=overwrite, command=command) as target:
+        yield target
+
+
+@contextmanager
+def _warnings_as_lines() -> Iterator[None]:
+    """Show library warnings (stiff gains, long runs) as one ``warning: ...`` line each, on stderr, when they happen."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        previous = warnings.showwarning
+
+        def show(message: Any, category: Any, filename: str, lineno: int, file: Any = None, line: Any = None) -> None:
+            typer.echo(f"warning: {' '.join(str(message).split())}", err=True)
+
+        warnings.showwarning = show
+        try:
+            yield
+        finally:
+            warnings.showwarning = previous
 
 
 def _version(value: bool) -> None:
@@ -177,6 +212,15 @@ def criterion_options(rows: str | None, measure: str | None, threshold: float | 
     )
 
 
+Overwrite = Annotated[
+    bool,
+    typer.Option(
+        "--overwrite",
+        help="Replace files of an earlier freeflyer run in --out (only those listed in its freeflyer-manifest.json and unchanged).",
+    ),
+]
+
+
 @app.command("inspect")
 def inspect_command(
     model: Annotated[
@@ -212,18 +256,21 @@ def inspect_command(
 
 
 DETJ_MAP_PNG = "detJ_map_1992_one_arm_captured.png"
+#: ``freeflyer simulate`` asks for confirmation (or --yes) before a run estimated to take longer (s).
+LONG_RUN_S = 60.0
 
 
 @app.command("demo")
 def demo_command(
-    out: Annotated[Path, typer.Option("--out", help="Output directory (created).")] = Path("out"),
+    out: Annotated[Path, typer.Option("--out", parser=_out_path, help="Output directory (created).")] = Path("out"),
+    overwrite: Overwrite = False,
 ) -> None:
     """The main job: reproduce both papers (OUT/1991/, OUT/1992/: report.json, report.md, figures), write
     reports of the papers' systems (OUT/models/) and the det J* map of the captured one-arm system."""
     from matplotlib.figure import Figure
 
-    with user_errors():
-        out = output_dir(out)
+    with user_errors(), _staged(out, overwrite, "demo") as target:
+        out = target.stage
         systems = paper_systems()
         mass, inertia = PAPER_PAYLOAD
         written = write_model_reports(
@@ -252,10 +299,10 @@ def demo_command(
         from .papers.reproduce import reproduce_1991, reproduce_1992
 
         for paper, reproduce in (("1991", reproduce_1991), ("1992", reproduce_1992)):
-            typer.echo(f"reproducing {paper} into {out / paper} ...", err=True)
+            typer.echo(f"reproducing {paper} into {target.path / paper} ...", err=True)
             written += reproduce(output_dir(out / paper))
         written.append(_write_demo_index(out, written))
-    for path in written:
+    for path in target.final(written):
         typer.echo(str(path))
 
 
@@ -290,26 +337,32 @@ def workspace_command(
         bool | None, typer.Option("--piw/--no-piw", help="Compute the PIW/PDW (eq. 17). Default: only when J* is square.")
     ] = None,
     samples: Annotated[int, typer.Option("--samples", min=16, help="Configurations sampled for the PIW.")] = 1 << 16,
-    out: Annotated[Path | None, typer.Option("--out", help="Write workspace.json and one plot per end effector here (created).")] = None,
+    out: Annotated[
+        Path | None, typer.Option("--out", parser=_out_path, help="Write workspace.json and one plot per end effector here (created).")
+    ] = None,
     json_output: Annotated[bool, typer.Option("--json", help="Print one JSON object instead of the table.")] = False,
     rows: RowsOpt = None,
     measure: MeasureOpt = None,
     threshold: ThresholdOpt = None,
+    overwrite: Overwrite = False,
 ) -> None:
     """Workspace limits about the system CM (1992 eqs. 15-17): reachable, guaranteed, PIW/PDW, with method and accuracy."""
     from .analysis.workspace_report import limits_json, workspace_limits, write_workspace_plots
 
     with user_errors():
+        if isinstance(out, _EmptyPath):
+            output_directory("")  # refused before the work
         loaded = with_payload(load_model(model), payload_mass, payload_inertia, payload_ee)
         names = loaded.end_effector_names
         chosen = [int(a) if a.isdigit() and a not in names else a for a in arm or []]
         criterion = criterion_options(rows, measure, threshold)
         limits = workspace_limits(loaded, chosen or None, piw=piw, samples=samples, criterion=criterion)
-        written = []
+        written: list[Path] = []
         if out is not None:
-            out = output_dir(out)
-            (out / "workspace.json").write_text(limits_json(limits) + "\n")
-            written = [out / "workspace.json", *write_workspace_plots(limits, out)]
+            with _staged(out, overwrite, "workspace") as target:
+                (target.stage / "workspace.json").write_text(limits_json(limits) + "\n")
+                written = [target.stage / "workspace.json", *write_workspace_plots(limits, target.stage)]
+            written = target.final(written)
     typer.echo(limits_json(limits) if json_output else limits.render_text().rstrip("\n"))
     for path in written:
         typer.echo(f"wrote {path}", err=True)
@@ -318,7 +371,8 @@ def workspace_command(
 @app.command("capture")
 def capture_command(
     scenario: Annotated[Path, typer.Argument(metavar="SCENARIO", help="Capture scenario TOML (schema: docs/workspaces.md).")],
-    out: Annotated[Path | None, typer.Option("--out", help="Write capture.json and the plots here (created).")] = None,
+    out: Annotated[Path | None, typer.Option("--out", parser=_out_path, help="Write capture.json and the plots here (created).")] = None,
+    overwrite: Overwrite = False,
     rows: RowsOpt = None,
     measure: MeasureOpt = None,
     threshold: ThresholdOpt = None,
@@ -336,6 +390,8 @@ def capture_command(
     from .scenarios.capture_scenario import load_capture_scenario, run_capture_scenario, write_capture_outputs
 
     with user_errors():
+        if out is not None and isinstance(out, _EmptyPath):
+            output_directory("")
         loaded = load_capture_scenario(scenario)
         if strategy is not None and strategy not in STRATEGIES:
             raise ValueError(f"--strategy {strategy!r}: unknown; choose one of {', '.join(STRATEGIES)}")
@@ -345,7 +401,11 @@ def capture_command(
             strategy=loaded.strategy if strategy is None else strategy,
         )
         result = run_capture_scenario(loaded)
-        written = write_capture_outputs(result, output_dir(out)) if out is not None else []
+        written: list[Path] = []
+        if out is not None:
+            with _staged(out, overwrite, "capture") as target:
+                written = write_capture_outputs(result, target.stage)
+            written = target.final(written)
     typer.echo(result.render_text().rstrip("\n"))
     for path in written:
         typer.echo(f"wrote {path}", err=True)
@@ -354,9 +414,10 @@ def capture_command(
 @app.command("simulate")
 def simulate_command(
     scenario: Annotated[Path, typer.Argument(metavar="SCENARIO", help="Simulation scenario TOML (schema: docs/simulation.md).")],
-    out: Annotated[Path, typer.Option("--out", help="Output directory (created): trajectory .npz/.csv/.json and .png plots.")] = Path(
-        "out"
-    ),
+    out: Annotated[
+        Path,
+        typer.Option("--out", parser=_out_path, help="Output directory (created): trajectory .npz/.csv/.json and .png plots."),
+    ] = Path("out"),
     progress: Annotated[
         bool | None, typer.Option("--progress/--no-progress", help="Progress bar on stderr (default: when stderr is a terminal).")
     ] = None,
@@ -364,20 +425,44 @@ def simulate_command(
         Path | None,
         typer.Option("--animate", metavar="PATH", help="Also write an animation of the motion: .gif (Pillow) or .mp4 (ffmpeg)."),
     ] = None,
+    overwrite: Overwrite = False,
+    yes: Annotated[
+        bool, typer.Option("--yes", "-y", help=f"Run without asking even when the run is estimated to take over {LONG_RUN_S:g} s.")
+    ] = False,
 ) -> None:
-    """Simulate a scenario (model, initial state, actuation or controller, duration); write the trajectory and its plots."""
+    """Simulate a scenario (model, initial state, actuation or controller, duration); write the trajectory and its plots.
+
+    Before the run, its steps and wall time are estimated; a run expected to take over a minute
+    asks for confirmation (--yes skips it). Ctrl-C stops the run and writes what was computed.
+    """
     import sys
 
-    from .scenarios.scenario import load_scenario
-    from .scenarios.scenario_outputs import simulate_scenario
+    from .io.outputs import check_targets
+    from .scenarios.scenario import estimate_scenario, load_scenario
+    from .scenarios.scenario_outputs import output_names, simulate_scenario
 
-    with user_errors():
+    with user_errors(), _warnings_as_lines():
         loaded = load_scenario(scenario)
-        written = simulate_scenario(
-            loaded, output_dir(out), progress=sys.stderr.isatty() if progress is None else progress, animation=animate
-        )
+        if isinstance(out, _EmptyPath):
+            output_directory("")
+        check_targets(out, output_names(loaded), overwrite=overwrite)
+        estimate = estimate_scenario(loaded)
+        typer.echo(f"{loaded.source}: {estimate.describe()}", err=True)
+        if estimate.seconds > LONG_RUN_S and not yes:
+            if not sys.stdin.isatty():
+                raise ValueError(f"this run is estimated to take over {LONG_RUN_S:g} s ({estimate.describe()}); pass --yes to run it")
+            typer.confirm(f"This run is estimated to take over {LONG_RUN_S:g} s. Run it?", abort=True, err=True)
+        with _staged(out, overwrite, "simulate") as target:
+            written = simulate_scenario(
+                loaded, target.stage, progress=sys.stderr.isatty() if progress is None else progress, animation=animate
+            )
+        written = target.final(written)
+        status = json.loads(written[0].read_text())["status"] if written and written[0].suffix == ".json" else ""
     for path in written:
         typer.echo(str(path))
+    if status == "interrupted":
+        typer.echo("interrupted (Ctrl-C): the trajectory computed so far is written above", err=True)
+        raise typer.Exit(130)
 
 
 PAPERS = ("1991", "1992")
@@ -386,19 +471,22 @@ PAPERS = ("1991", "1992")
 @app.command("reproduce")
 def reproduce_command(
     paper: Annotated[str, typer.Argument(metavar="PAPER", help="Which paper: 1991 (Papadopoulos & Dubowsky) or 1992 (Papadopoulos).")],
-    out: Annotated[Path, typer.Option("--out", help="Output directory (created): report.json, report.md and the figures.")] = Path("out"),
+    out: Annotated[
+        Path, typer.Option("--out", parser=_out_path, help="Output directory (created): report.json, report.md and the figures.")
+    ] = Path("out"),
+    overwrite: Overwrite = False,
 ) -> None:
     """Reproduce a paper's tables, example and figures; write the paper-vs-freeflyer report to OUT."""
     with user_errors():
         if paper not in PAPERS:
             raise ValueError(f"PAPER {paper!r}: unknown; choose one of {', '.join(PAPERS)}")
-        out = output_dir(out)
         if paper == "1991":
             from .papers.reproduce import reproduce_1991 as reproduce
         else:
             from .papers.reproduce import reproduce_1992 as reproduce
-        written = reproduce(out)
-    for path in written:
+        with _staged(out, overwrite, f"reproduce {paper}") as target:
+            written = reproduce(target.stage)
+    for path in target.final(written):
         typer.echo(str(path))
 
 

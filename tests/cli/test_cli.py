@@ -100,7 +100,10 @@ def test_inspect_json_matches_library() -> None:
         "parent": "spacecraft",
         "child": "arm2_link1",
         "origin": [-0.5, 0.0, 0.0],
+        "rotation": [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        "rpy_deg": [0.0, 0.0, 0.0],
         "axis": [0.0, 0.0, 1.0],
+        "axis_parent": [0.0, 0.0, 1.0],
         "limits": None,
         "limits_deg": None,
     }

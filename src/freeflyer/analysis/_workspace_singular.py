@@ -101,6 +101,11 @@ def path_independent_workspace(
     if jacobian not in ("system", "end_effector"):
         raise ValueError(f"jacobian: expected 'system' or 'end_effector', got {jacobian!r}")
     _check_samples(samples, 1)
+    if model.n_joints == 0:
+        raise ValueError(
+            f"model {model.name!r} has no joints: its end effectors cannot move relative to the spacecraft, "
+            "so there are no dynamic singularities and no path-independent workspace to find (add an arm)"
+        )
     reach = reachable if reachable is not None else reachable_workspace(model, e)
     if reach.end_effector != model.end_effector_names[e] or reach.model_name != model.name:
         raise ValueError("reachable: computed for another model or end effector")
@@ -109,6 +114,11 @@ def path_independent_workspace(
     box = search.model_box(model)
     found = search.singular_points(crit, box, samples=samples, seed=seed)
     gap = 0.02 * reach.R_max if merge_gap is None else float(merge_gap)
+    if merge_gap is None and not gap > 0.0:
+        raise ValueError(
+            f"end effector {reach.end_effector!r}: its reachable workspace has zero size (R_max = {reach.R_max:g} m, "
+            "the joints do not move it relative to the system CM); there is no path-independent workspace to find"
+        )
     if not gap > 0.0:
         raise ValueError(f"merge_gap: expected a positive distance in m, got {merge_gap!r}")
     q_s = found.q

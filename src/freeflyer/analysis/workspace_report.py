@@ -158,6 +158,11 @@ def workspace_limits(
     singular for the PIW (:class:`~freeflyer.analysis.singularity.SingularityCriterion`;
     default the paper's). Unknown end effectors raise :class:`~freeflyer.UnknownNameError`.
     """
+    if model.n_end_effectors == 0:
+        raise ValueError(
+            f"model {model.name!r} has no end effectors (no arm: {model.n_joints} joints); a workspace needs one "
+            "(every leaf body of the tree is an end effector: add an arm)"
+        )
     chosen = list(range(model.n_end_effectors)) if not end_effectors else [model.end_effector_index(e) for e in end_effectors]
     if len(set(chosen)) != len(chosen):
         raise ValueError(f"end_effectors: each end effector once, got {list(end_effectors or [])!r}")

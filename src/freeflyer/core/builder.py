@@ -17,7 +17,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .errors import ModelError
-from .model import Model, _vector, check_inertia, inertia_matrix
+from .model import Model, _vector, check_inertia, check_mass, inertia_matrix
 
 __all__ = ["BodySpec", "EndEffectorSpec", "JointSpec", "ModelBuilder"]
 
@@ -129,8 +129,8 @@ class ModelBuilder:
         except (TypeError, ValueError):
             raise ModelError(f"{path}.mass", f"cannot read {mass!r} as a number", "give the mass in kg") from None
         massless = frame and mass_value == 0.0
-        if not np.isfinite(mass_value) or (mass_value <= 0.0 and not massless):
-            raise ModelError(f"{path}.mass", f"must be positive and finite, got {mass!r}", "give the body's mass in kg (> 0)")
+        if not massless:
+            check_mass(mass_value, f"{path}.mass", "give the body's mass in kg (> 0)")
         spec = BodySpec(
             name=name,
             mass=mass_value,

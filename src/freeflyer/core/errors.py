@@ -12,6 +12,7 @@ from typing import Any
 
 __all__ = [
     "FreeflyerError",
+    "LongRunWarning",
     "ModelCorrectionWarning",
     "ModelError",
     "NearSingularWarning",
@@ -19,6 +20,7 @@ __all__ = [
     "ShapeError",
     "SimulationError",
     "SingularConfigurationError",
+    "StiffGainsWarning",
     "UnknownNameError",
 ]
 
@@ -88,6 +90,17 @@ class SimulationError(FreeflyerError, RuntimeError):
     def __init__(self, message: str, trajectory: Any = None) -> None:
         super().__init__(message)
         self.trajectory = trajectory
+
+
+class StiffGainsWarning(UserWarning):
+    """Joint PD gains that the sampled (zero-order hold) loop cannot keep stable, found before a run.
+
+    The message names each joint, its effective inertia and the largest stable gains for the sample period.
+    """
+
+
+class LongRunWarning(UserWarning):
+    """A simulation is estimated, before it starts, to take longer than the caller's limit (steps and seconds in the message)."""
 
 
 class PathDoesNotFitError(FreeflyerError, ValueError):

@@ -10,7 +10,9 @@ build time; see :mod:`freeflyer.core.barycentric`.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import functools
+import os
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -19,13 +21,46 @@ import numpy as np
 from . import barycentric
 from .errors import ModelError, UnknownNameError
 
-__all__ = ["JOINT_TYPES", "Model", "check_inertia", "inertia_defect", "inertia_matrix", "nearest_physical_inertia"]
+__all__ = [
+    "JOINT_TYPES",
+    "MAX_INERTIA",
+    "MAX_LENGTH",
+    "MAX_MASS",
+    "Model",
+    "accepts_model_names",
+    "check_inertia",
+    "check_mass",
+    "inertia_defect",
+    "inertia_matrix",
+    "nearest_physical_inertia",
+    "register_model_resolver",
+    "resolve_model",
+]
 
 #: The joint types a model holds after fixed joints are merged: a revolute joint turns its body
 #: about the axis by q (rad); a prismatic joint slides it along the axis by q (m).
 JOINT_TYPES = ("revolute", "prismatic")
 
 _INERTIA_RTOL = 1e-9
+
+#: The physical bounds a model is checked against (SI). Beyond them a number is a typo or a unit
+#: slip (mm for m, g for kg), not a space robot, and the arithmetic loses its meaning (1e300 kg
+#: overflows the inertia sums). Bodies: mass in (0, MAX_MASS] kg, 1e9 kg being some 2000 times the
+#: International Space Station; positions (joint origins, CMs, end-effector points, payload offsets)
+#: within MAX_LENGTH m of their frame's origin, 10 km; principal moments of inertia up to MAX_INERTIA
+#: kg m^2, MAX_MASS spread over 1 km.
+MAX_MASS = 1e9
+MAX_LENGTH = 1e4
+MAX_INERTIA = 1e15
+
+
+def check_mass(value: float, path: str, fix: str) -> float:
+    """``value`` (kg) if positive, finite and at most :data:`MAX_MASS`; else a :class:`ModelError`."""
+    if not np.isfinite(value) or value <= 0.0:
+        raise ModelError(path, f"must be positive and finite, got {value!r}", fix)
+    if value > MAX_MASS:
+        raise ModelError(path, f"{value:g} kg is above the {MAX_MASS:g} kg freeflyer accepts for one body (a unit slip?)", fix)
+    return value
 
 
 def _vector(value: Any, path: str, fix: str) -> np.ndarray:
@@ -37,6 +72,9 @@ def _vector(value: Any, path: str, fix: str) -> np.ndarray:
         raise ModelError(path, f"expected three numbers [x, y, z], got shape {arr.shape}", fix)
     if not np.all(np.isfinite(arr)):
         raise ModelError(path, "has NaN or infinite entries", fix)
+    if np.abs(arr).max() > MAX_LENGTH:
+        too_far = f"{np.abs(arr).max():g} m is beyond the {MAX_LENGTH:g} m freeflyer accepts for a position (a unit slip?)"
+        raise ModelError(path, too_far, fix)
     return arr
 
 
@@ -64,6 +102,10 @@ def check_inertia(inertia: np.ndarray, path: str, *, degenerate_ok: bool = False
     point mass), and principal moments that satisfy the triangle inequality ``I1 <= I2 + I3``.
     """
     fix = "use the inertia of a real body about its CM (symmetric, positive definite, each principal moment <= the sum of the other two)"
+    if np.all(np.isfinite(inertia)) and np.abs(inertia).max() > MAX_INERTIA:
+        raise ModelError(
+            path, f"{np.abs(inertia).max():g} kg m^2 is above the {MAX_INERTIA:g} kg m^2 freeflyer accepts (a unit slip?)", fix
+        )
     defect = inertia_defect(inertia, degenerate_ok=degenerate_ok)
     if defect is not None:
         raise ModelError(path, defect, fix)
@@ -115,6 +157,11 @@ def nearest_physical_inertia(inertia: np.ndarray) -> np.ndarray:
     # tiny round-off of the QP may leave the triangle inequality violated by ~1e-16: close it exactly
     fixed[np.argmax(fixed)] = min(float(fixed.max()), float(np.sum(fixed) - fixed.max()))
     return (axes * fixed) @ axes.T
+
+
+def _count(n: int, one: str, many: str | None = None) -> str:
+    """'1 joint', '2 joints' (English plurals in messages)."""
+    return f"{n} {one if n == 1 else (many or one + 's')}"
 
 
 def _frozen(arr: Any, dtype: Any = float) -> np.ndarray:
@@ -284,8 +331,7 @@ class Model:
             m_p = float(mass)
         except (TypeError, ValueError):
             raise ModelError(f"{path}.mass", f"cannot read {mass!r} as a number", "give the payload mass in kg") from None
-        if not np.isfinite(m_p) or m_p <= 0.0:
-            raise ModelError(f"{path}.mass", f"must be positive and finite, got {mass!r}", "give the payload mass in kg (> 0)")
+        check_mass(m_p, f"{path}.mass", "give the payload mass in kg (> 0)")
         i_p = inertia_matrix(inertia, f"{path}.inertia")
         k = int(self.end_effector_body[e])
         c_p = self.end_effector_point[e] + _vector(
@@ -338,8 +384,8 @@ class Model:
 
     def __repr__(self) -> str:
         return (
-            f"Model({self.name!r}: {self.n_bodies} bodies, {self.n_joints} joints, "
-            f"{self.n_end_effectors} end effectors, mass {self.total_mass:.6g} kg)"
+            f"Model({self.name!r}: {_count(self.n_bodies, 'body', 'bodies')}, {_count(self.n_joints, 'joint')}, "
+            f"{_count(self.n_end_effectors, 'end effector')}, mass {self.total_mass:.6g} kg)"
         )
 
 
@@ -351,3 +397,39 @@ def _lookup(kind: str, key: str | int, names: Sequence[str]) -> int:
     if key in names:
         return list(names).index(str(key))
     raise UnknownNameError(kind, key, names)
+
+
+# --------------------------------------------------------------------- model names at the public boundary
+_RESOLVER: list[Callable[[str], Model]] = []
+
+
+def register_model_resolver(resolver: Callable[[str], Model]) -> None:
+    """Set the function that turns a model name or file path into a Model (``freeflyer.models`` registers
+    :func:`~freeflyer.models.load_model`; the core cannot import it, being below it)."""
+    _RESOLVER[:] = [resolver]
+
+
+def resolve_model(model: Any, argument: str = "model") -> Model:
+    """``model`` itself if it is a :class:`Model`; a built-in model name or a model file path, loaded; else a TypeError."""
+    if isinstance(model, Model):
+        return model
+    if isinstance(model, (str, os.PathLike)) and _RESOLVER:
+        return _RESOLVER[0](os.fspath(model))
+    raise TypeError(
+        f"{argument}: expected a freeflyer.Model, a built-in model name (e.g. 'papadopoulos1992') or a model file path, "
+        f"got {type(model).__name__} {str(model)[:60]!r}"
+    )
+
+
+def accepts_model_names(func: Callable[..., Any]) -> Callable[..., Any]:
+    """``func(model, ...)`` that also takes a model name or file path for ``model`` (:func:`resolve_model`)."""
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        if args:
+            args = (resolve_model(args[0]), *args[1:])
+        elif "model" in kwargs:
+            kwargs["model"] = resolve_model(kwargs["model"])
+        return func(*args, **kwargs)
+
+    return wrapper

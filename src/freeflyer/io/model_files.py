@@ -27,7 +27,7 @@ from scipy.spatial.transform import Rotation
 
 from ..core.builder import ModelBuilder
 from ..core.errors import ModelCorrectionWarning, ModelError
-from ..core.model import Model, inertia_defect, nearest_physical_inertia
+from ..core.model import Model, inertia_defect, nearest_physical_inertia, resolve_model
 
 __all__ = ["load", "load_toml", "load_urdf", "save", "to_toml_dict", "to_urdf_string"]
 
@@ -42,7 +42,8 @@ EndEffectors = Sequence[str | tuple[str, str, Sequence[float]]] | None
 
 
 def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool = False) -> Model:
-    """Load a model from a ``.toml``, ``.urdf`` or MJCF (``.xml`` with a ``<mujoco>`` root) file.
+    """Load a model from a ``.toml``, ``.urdf`` or MJCF (``.xml`` with a ``<mujoco>`` root) file, or a
+    built-in model by name (``ff.load("papadopoulos1992")``).
 
     ``end_effectors``: the end effectors, as link names (the point is the link frame origin) or
     (name, link, point) triples, point in the link frame; default: what the file names, else
@@ -50,6 +51,8 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
     The loaded model must be physical as a whole: H+ positive definite at q = 0.
     """
     path = Path(path)
+    if not path.suffix and not path.exists():
+        return resolve_model(str(path), "path")  # a built-in name (or an error listing them)
     if not path.is_file():
         raise ModelError(str(path), "file not found", "give the path of a .toml, .urdf or MJCF .xml model file")
     suffix = path.suffix.lower()

@@ -48,7 +48,15 @@ from .kinematics import (
     point_positions,
     system_cm,
 )
-from .momentum import InertiaBlocks, angular_momentum, inertia_blocks, kinetic_energy, linear_momentum, system_inertia_matrix
+from .momentum import (
+    InertiaBlocks,
+    angular_momentum,
+    free_floating_joint_inertia,
+    inertia_blocks,
+    kinetic_energy,
+    linear_momentum,
+    system_inertia_matrix,
+)
 
 __all__ = [
     "ExternalWrench",
@@ -63,6 +71,7 @@ __all__ = [
     "end_effector_rotations",
     "forward_dynamics",
     "forward_kinematics",
+    "free_floating_joint_inertia",
     "generalized_forces",
     "generalized_jacobian",
     "generalized_jacobian_drift",

@@ -26,6 +26,12 @@ def joint_array(model: Model, q: Any, name: str = "q") -> np.ndarray:
         raise ShapeError(
             f"{name}: expected shape (..., {n}) (one value per joint: {', '.join(model.joint_names) or 'none'}), got {arr.shape}"
         )
+    if not np.isfinite(arr).all():
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise ValueError(
+            f"{name}: has NaN or infinite entries (first at index {tuple(int(i) for i in bad)}, joint "
+            f"{model.joint_names[int(bad[-1])]!r}); every joint angle must be a finite number in rad"
+        )
     return arr
 
 

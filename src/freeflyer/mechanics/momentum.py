@@ -41,6 +41,7 @@ from .kinematics import _rotations, _slides, joint_axes
 __all__ = [
     "InertiaBlocks",
     "angular_momentum",
+    "free_floating_joint_inertia",
     "inertia_blocks",
     "kinetic_energy",
     "linear_momentum",
@@ -168,6 +169,18 @@ def inertia_blocks(model: Model, q: Any, *, method: str = "recursive") -> Inerti
     """D, D_q, D_qq of 1991 eqs. 16-17 (spacecraft frame), batched over q (..., N); views of H+."""
     h = system_inertia_matrix(model, q, method=method)
     return InertiaBlocks(D=h[..., 3:6, 3:6], D_q=h[..., 3:6, 6:], D_qq=h[..., 6:, 6:])
+
+
+def free_floating_joint_inertia(model: Model, q: Any) -> np.ndarray:
+    """Joint-space inertia with the spacecraft free, (..., N, N): D_qq - D_q^T D^-1 D_q.
+
+    The Schur complement of H+ (1991 eqs. 15-17) on its joint block: the inertia
+    that joint torques meet when the spacecraft floats (zero momentum, the
+    generalized inertia matrix of the free-floating system). Its diagonal entry i
+    is joint i's effective inertia (kg m^2) with the other joints held.
+    """
+    blocks = inertia_blocks(model, q)
+    return blocks.D_qq - np.swapaxes(blocks.D_q, -1, -2) @ np.linalg.solve(blocks.D, blocks.D_q)
 
 
 def _velocity(model: Model, velocity: Any) -> np.ndarray:

@@ -7,11 +7,12 @@ scenario file are read.
 from __future__ import annotations
 
 import difflib
+import functools
 from collections.abc import Callable
 from pathlib import Path
 
 from ..core.errors import ModelError
-from ..core.model import Model
+from ..core.model import Model, register_model_resolver
 from ..io.model_files import EndEffectors, load
 from .papers import papadopoulos1991, papadopoulos1992
 from .spacecraft import spacecraft_7dof
@@ -34,19 +35,27 @@ BUILTIN_MODELS: dict[str, tuple[str, Callable[[], Model]]] = {
 _MODEL_SUFFIXES = (".toml", ".urdf", ".xml")
 
 
+@functools.lru_cache(maxsize=len(BUILTIN_MODELS))
+def _builtin(key: str) -> Model:
+    """A built-in model, built once (models are immutable)."""
+    return BUILTIN_MODELS[key][1]()
+
+
 def load_model(spec: str, *, end_effectors: EndEffectors = None, strict: bool = False) -> Model:
     """A built-in model by name (case and ``-``/``_`` ignored) or a model file by path.
 
     ``end_effectors`` and ``strict``: as :func:`freeflyer.load` (model files only; a built-in
     model's end effectors are part of it).
     """
+    if not isinstance(spec, str):
+        raise TypeError(f"model: expected a built-in model name or a model file path, got {type(spec).__name__}")
     key = spec.strip().lower().replace("_", "-")
     if key in BUILTIN_MODELS:
         if end_effectors:
             raise ModelError(
                 f"MODEL {spec!r}", "is a built-in model, whose end effectors are fixed", "name end effectors for model files only"
             )
-        return BUILTIN_MODELS[key][1]()
+        return _builtin(key)
     path = Path(spec)
     if path.is_file():
         return load(path, end_effectors=end_effectors, strict=strict)
@@ -61,3 +70,6 @@ def load_model(spec: str, *, end_effectors: EndEffectors = None, strict: bool = 
         "is neither a model file nor a built-in model",
         f"{hint}built-in models: {', '.join(BUILTIN_MODELS)}; or give a .toml, .urdf or MJCF .xml path",
     )
+
+
+register_model_resolver(load_model)  # model names wherever a model is taken (freeflyer/__init__.py)

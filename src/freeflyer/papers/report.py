@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..core.model import Model
 from ..mechanics.kinematics import system_cm
@@ -46,8 +47,10 @@ def model_info(model: Model) -> dict[str, Any]:
     recorded by :meth:`Model.with_payload`), and the lists
 
     - ``joints``: index, name, type (revolute or prismatic), parent, child (bodies), origin (m,
-      parent frame), axis (joint frame), limits ([lower, upper] in rad or m, null = none) and
-      limits_deg (revolute joints; null otherwise);
+      parent frame), rotation (3x3, joint frame -> parent frame) and rpy_deg (the same as URDF's
+      fixed-axis roll, pitch, yaw, degrees), axis (joint frame) and axis_parent (the axis in the
+      parent frame at q = 0), limits ([lower, upper] in rad or m, null = none) and limits_deg
+      (revolute joints; null otherwise);
     - ``end_effector_rule``: "named" (the file or the caller named them), "leaf sites" (MJCF
       sites on leaf bodies) or "leaves" (every leaf body, when nothing is named);
     - ``corrections``: every change the loader made to the file's data (where, defect, what was
@@ -76,7 +79,10 @@ def model_info(model: Model) -> dict[str, Any]:
                 "parent": model.body_names[int(model.parent[k])],
                 "child": model.body_names[k],
                 "origin": _vec(model.joint_origin[k]),
+                "rotation": [_vec(row) for row in model.joint_rotation[k]],
+                "rpy_deg": _vec(Rotation.from_matrix(model.joint_rotation[k]).as_euler("xyz", degrees=True)),
                 "axis": _vec(model.joint_axis[k]),
+                "axis_parent": _vec(model.joint_rotation[k] @ model.joint_axis[k]),
                 "limits": None if raw == [None, None] else raw,
                 "limits_deg": None if sliding or (lower is None and upper is None) else [lower, upper],
             }
@@ -242,7 +248,7 @@ def _summary(info: dict[str, Any]) -> list[tuple[str, str]]:
 def _tables(info: dict[str, Any]) -> list[_Table]:
     joints = _Table(
         "Joints",
-        ("#", "name", "type", "parent", "child", "origin (m)", "axis", "limits"),
+        ("#", "name", "type", "parent", "child", "origin (m)", "rpy (deg)", "axis", "axis in parent", "limits"),
         tuple(
             (
                 j["index"],
@@ -251,12 +257,17 @@ def _tables(info: dict[str, Any]) -> list[_Table]:
                 j["parent"],
                 j["child"],
                 j["origin"],
+                j["rpy_deg"],
                 j["axis"],
+                j["axis_parent"],
                 _limits_text(j),
             )
             for j in info["joints"]
         ),
-        ("origin: joint position in the parent body frame; axis: unit vector in the joint frame; limits in deg (revolute) or m.",),
+        (
+            "origin, rpy: joint frame in the parent body frame (rpy: fixed-axis roll, pitch, yaw, as URDF); "
+            "axis: unit vector in the joint frame, and in the parent frame at q = 0; limits in deg (revolute) or m.",
+        ),
     )
     effectors = _Table(
         "End effectors",

@@ -201,6 +201,12 @@ def capture_scenario_from_dict(
         raise ModelError(
             _where(source, "end_effector"), f"expected a name or an index, got {ee!r}", f"use one of {model.end_effector_names}"
         )
+    if model.n_end_effectors == 0:
+        raise ModelError(
+            _where(source, "model"),
+            f"model {model.name!r} has no end effectors",
+            "a capture needs an arm to grasp with: give a model with one",
+        )
     try:
         e = model.end_effector_index(ee)
     except UnknownNameError as exc:

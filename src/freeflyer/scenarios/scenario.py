@@ -46,6 +46,10 @@ controller. Schema (docs/simulation.md)::
     joint_torque = 10.0                    # N m: a number or one per joint
     # spacecraft_force, spacecraft_torque
 
+    [joint_limits]                         # optional: the model's joint limits in the simulation
+    mode = "stop"                          # "stop": hard stops (momentum-conserving impulses); "flag": no stops, violations recorded
+    restitution = 0.0                      # rate after an impact = -restitution x rate before
+
     [outputs]                              # optional
     name = "trajectory"                    # file stem: NAME.npz, NAME.csv, NAME.png, NAME_momentum.png
     npz = true
@@ -70,6 +74,7 @@ from ..core.model import Model
 from ..core.state import Actuation, ActuatorLimits, State
 from ..io.model_files import load, read_toml
 from ..models import load_model
+from ..simulation._guard import RunEstimate, estimate_run
 from ..simulation.pd import JointPD
 from ..simulation.simulate import METHODS, simulate
 from ..simulation.trajectory import Trajectory
@@ -78,6 +83,7 @@ __all__ = [
     "ACTUATION_TYPES",
     "CONTROLLER_TYPES",
     "Scenario",
+    "estimate_scenario",
     "load_scenario",
     "run_scenario",
     "scenario_from_dict",
@@ -88,7 +94,8 @@ ACTUATION_TYPES = ("constant", "piecewise", "sinusoid")
 #: Built-in controllers of ``[controller] type``.
 CONTROLLER_TYPES = ("joint_pd",)
 
-_TOP_KEYS = {"description", "model", "duration", "initial", "integrator", "actuation", "controller", "limits", "outputs"}
+_TOP_KEYS = {"description", "model", "duration", "initial", "integrator", "actuation", "controller", "limits", "joint_limits", "outputs"}
+_JOINT_LIMIT_KEYS = {"mode", "restitution"}
 _INITIAL_KEYS = {"q", "q_deg", "qdot", "qdot_deg", "omega", "omega_deg", "attitude", "euler321_deg", "r_cm", "v_cm"}
 _INTEGRATOR_KEYS = {"method", "rtol", "atol", "fixed_step", "output_period", "sample_period"}
 _ACTUATION_KEYS = {
@@ -392,6 +399,24 @@ def _limits(data: Any, model: Model, source: str) -> ActuatorLimits:
 
 
 # --------------------------------------------------------------------- public
+def _joint_limits(data: Any, source: str) -> dict[str, Any]:
+    """``[joint_limits]``: mode = "stop" (hard stops, default) or "flag"; restitution in [0, 1]."""
+    table = _table(data, _JOINT_LIMIT_KEYS, source, "joint_limits")
+    options: dict[str, Any] = {}
+    if "mode" in table:
+        if table["mode"] not in ("stop", "flag"):
+            raise ModelError(_where(source, "joint_limits.mode"), f"unknown mode {table['mode']!r}", 'write "stop" (hard stops) or "flag"')
+        options["joint_limits"] = table["mode"]
+    if "restitution" in table:
+        value = _number(table["restitution"], source, "joint_limits.restitution", "give a number in [0, 1]")
+        if not 0.0 <= value <= 1.0:
+            raise ModelError(
+                _where(source, "joint_limits.restitution"), f"{value} is outside [0, 1]", "0: the joint stops dead, 1: elastic"
+            )
+        options["restitution"] = value
+    return options
+
+
 def _model_loader(base: Path | None) -> Callable[[str], tuple[Model, Path | None]]:
     def loader(spec: str) -> tuple[Model, Path | None]:
         if base is not None and (base / spec).is_file():
@@ -436,6 +461,8 @@ def scenario_from_dict(data: Any, *, source: str = "", base: Path | None = None)
         controller = _controller(top["controller"], model, source)
     if "limits" in top:
         options["limits"] = _limits(top["limits"], model, source)
+    if "joint_limits" in top:
+        options.update(_joint_limits(top["joint_limits"], source))
     outputs = _table(top.get("outputs", {}), _OUTPUT_KEYS, source, "outputs")
     name = outputs.get("name", "trajectory")
     if not isinstance(name, str) or not name or Path(name).name != name or name.startswith("."):
@@ -476,6 +503,24 @@ def load_scenario(path: str | Path) -> Scenario:
     return scenario_from_dict(data, source=str(path), base=path.parent)
 
 
-def run_scenario(scenario: Scenario, *, progress: bool = False) -> Trajectory:
-    """Simulate a scenario; a failure part-way raises :class:`~freeflyer.SimulationError` with the partial trajectory."""
-    return simulate(scenario.model, scenario.initial_state, scenario.duration, scenario.controller, progress=progress, **scenario.options)
+def estimate_scenario(scenario: Scenario) -> RunEstimate:
+    """Steps, samples, outputs, memory and wall time of the scenario's run, before it starts (:func:`freeflyer.simulation.estimate_run`)."""
+    options = {key: scenario.options.get(key) for key in ("fixed_step", "sample_period", "output_period")}
+    return estimate_run(scenario.model, scenario.duration, controller=scenario.controller is not None, **options)
+
+
+def run_scenario(scenario: Scenario, *, progress: Any = None, warn_after: float | None = 60.0) -> Trajectory:
+    """Simulate a scenario; a failure part-way raises :class:`~freeflyer.SimulationError` with the partial trajectory.
+
+    ``progress`` and ``warn_after`` as in :func:`freeflyer.simulate`; Ctrl-C returns the
+    trajectory so far (status ``"interrupted"``).
+    """
+    return simulate(
+        scenario.model,
+        scenario.initial_state,
+        scenario.duration,
+        scenario.controller,
+        progress=progress,
+        warn_after=warn_after,
+        **scenario.options,
+    )

@@ -7,6 +7,7 @@ fails part-way. Files the scenario reads are never written.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -17,20 +18,28 @@ from ..core.errors import SimulationError
 from ..simulation.trajectory import Trajectory
 from .scenario import Scenario, run_scenario
 
-__all__ = ["simulate_scenario", "write_trajectory_outputs"]
+__all__ = ["output_names", "simulate_scenario", "write_trajectory_outputs"]
+
+
+def output_names(scenario: Scenario) -> list[str]:
+    """The files a run of ``scenario`` writes, relative to its output directory (the summary NAME.json first)."""
+    stem = scenario.output_name
+    names = [f"{stem}.json"]
+    names += [f"{stem}.npz"] if scenario.write_npz else []
+    names += [f"{stem}.csv", f"{stem}.csv.json"] if scenario.write_csv else []
+    names += [f"{stem}.png", f"{stem}_momentum.png"] if scenario.write_plots else []
+    return names
 
 
 def write_trajectory_outputs(traj: Trajectory, out: Path, scenario: Scenario) -> list[Path]:
-    """Write NAME.npz, NAME.csv, NAME.png, NAME_momentum.png and NAME.json (summary) into ``out``.
+    """Write NAME.json (summary), NAME.npz, NAME.csv (+ NAME.csv.json, its metadata), NAME.png and NAME_momentum.png into ``out``.
 
-    Outputs of an earlier run are replaced; a file the scenario reads (the
-    scenario itself, its model file) is never written: that is an error.
+    Existing files are replaced here: ``freeflyer simulate`` writes through
+    :func:`freeflyer.io.outputs.staged_outputs`, which never clobbers. A file
+    the scenario reads (the scenario itself, its model file) is never written:
+    that is an error.
     """
-    stem = scenario.output_name
-    targets = [out / f"{stem}.json"]
-    targets += [out / f"{stem}.npz"] if scenario.write_npz else []
-    targets += [out / f"{stem}.csv"] if scenario.write_csv else []
-    targets += [out / f"{stem}.png", out / f"{stem}_momentum.png"] if scenario.write_plots else []
+    targets = [out / name for name in output_names(scenario) if not name.endswith(".csv.json")]
     inputs = {p.resolve() for p in scenario.input_files}
     for target in targets:
         if target.resolve() in inputs:
@@ -41,7 +50,9 @@ def write_trajectory_outputs(traj: Trajectory, out: Path, scenario: Scenario) ->
     for target in targets:
         if target.suffix in (".npz", ".csv"):
             traj.save(target, overwrite=True)
-        elif target.suffix == ".json":
+            if target.suffix == ".csv":
+                written.append(target.with_name(target.name + ".json"))
+        elif target.suffix == ".json":  # (the CSV's metadata sidecar NAME.csv.json is written by Trajectory.save)
             target.write_text(json.dumps(_summary(traj, scenario), indent=2) + "\n", encoding="utf-8")
         elif target.stem.endswith("_momentum"):
             _save_momentum_plot(traj, target)
@@ -51,7 +62,7 @@ def write_trajectory_outputs(traj: Trajectory, out: Path, scenario: Scenario) ->
     return written
 
 
-def simulate_scenario(scenario: Scenario, out: Path, *, progress: bool = False, animation: Path | None = None) -> list[Path]:
+def simulate_scenario(scenario: Scenario, out: Path, *, progress: Any = None, animation: Path | None = None) -> list[Path]:
     """Run a scenario and write its outputs into ``out``; what ``freeflyer simulate`` does.
 
     When the simulation fails part-way, the partial trajectory is written (status
@@ -68,7 +79,7 @@ def simulate_scenario(scenario: Scenario, out: Path, *, progress: bool = False, 
         if animation.exists():
             raise FileExistsError(f"--animate {animation}: exists; freeflyer never overwrites a file (choose another name)")
     try:
-        traj = run_scenario(scenario, progress=progress)
+        traj = run_scenario(scenario, progress=progress, warn_after=None)  # the caller has seen the estimate
     except SimulationError as exc:
         if exc.trajectory is None:
             raise
@@ -90,6 +101,7 @@ def _summary(traj: Trajectory, scenario: Scenario) -> dict[str, Any]:
         "message": traj.message,
         "samples": len(traj),
         "t_end": float(traj.t[-1]) if len(traj) else None,
+        "joint_limit_events": [dataclasses.asdict(e) for e in traj.joint_limit_events],
     }
     if len(traj):
         h = traj.angular_momentum

@@ -12,8 +12,22 @@ from __future__ import annotations
 
 from ..core.errors import SimulationError
 from ..core.state import ActuatorLimits
+from ._guard import RunEstimate, estimate_run, pd_gain_bounds, pd_stability
 from .pd import JointPD
 from .simulate import METHODS, rollout, simulate
-from .trajectory import Trajectory
+from .trajectory import JointLimitEvent, Trajectory
 
-__all__ = ["METHODS", "ActuatorLimits", "JointPD", "SimulationError", "Trajectory", "rollout", "simulate"]
+__all__ = [
+    "METHODS",
+    "ActuatorLimits",
+    "JointLimitEvent",
+    "JointPD",
+    "RunEstimate",
+    "SimulationError",
+    "Trajectory",
+    "estimate_run",
+    "pd_gain_bounds",
+    "pd_stability",
+    "rollout",
+    "simulate",
+]

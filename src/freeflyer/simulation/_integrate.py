@@ -11,7 +11,8 @@ the flat states into a :class:`~freeflyer.Trajectory`. The flat state is
 from __future__ import annotations
 
 import itertools
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -134,6 +135,16 @@ def _check_finite(t: float, x: np.ndarray) -> None:
         raise SimulationError(f"the state became non-finite at t = {t:.6g} s (unstable controller or too large a step?)")
 
 
+def _guarded(guard: Any, rec: _Recorder, t: float, x: np.ndarray, act: Any) -> None:
+    """The divergence guard at (t, x); a diverged state is recorded (finite, it shows the growth) before the error."""
+    try:
+        guard.check(t, x)
+    except SimulationError:
+        if not rec.t or rec.t[-1] != t:
+            rec.add(t, x, act)
+        raise
+
+
 def _event_value(events: Sequence[Any], model: Model, t: float, x: np.ndarray) -> np.ndarray:
     return np.array([_event(ev, model, t, x) for ev in events])
 
@@ -157,8 +168,14 @@ def _run_rk4(
     external: Any,
     rec: _Recorder,
     bar: Any,
+    guard: Any,
+    stops: Any,
 ) -> tuple[str, str]:
-    """Fixed-step RK4 on the engine, in place: runs of steps between samples, outputs and events go without Python."""
+    """Fixed-step RK4 on the engine, in place: runs of steps between samples, outputs and events go without Python.
+
+    With joint stops, a run of steps that ends beyond a limit is redone step by step and the stop
+    acts at the end of the step that crossed (:mod:`._stops`).
+    """
     steps = round(duration / dt)  # simulate() checked that dt divides the duration
     stepper = _engine.Stepper(model, _engine_inputs(model, external))
     n = model.n_joints
@@ -172,7 +189,6 @@ def _run_rk4(
     _u(model, act[0], act[1], act[2], u)
     rec.add(0.0, x, act)
     prev_ev = _event_value(events, model, 0.0, x) if events else None
-    report = max(1, steps // 100)
     i = 0
     while i < steps:
         if events or sample_period is None:
@@ -180,14 +196,24 @@ def _run_rk4(
         else:
             to_sample = max(1, round(next_sample_time / dt) - i)
             todo = min(to_sample, stride - i % stride, steps - i)
+        start = x.copy() if stops.active else None
         done = stepper.rk4(x, u, dt, todo)  # the kernel checks that x stays finite
         if done != todo:
             i += abs(done)
             t = i * dt
             _check_finite(t, x)
             raise SimulationError(f"H+ (1991 eq. 15) is not positive definite at t = {t:.6g} s: the mass properties are not physical")
+        if start is not None and stops.beyond(x):
+            x[:] = start
+            for k in range(1, todo + 1):
+                if stepper.rk4(x, u, dt, 1) != 1:
+                    _check_finite((i + k) * dt, x)
+                    raise SimulationError(f"H+ (1991 eq. 15) is not positive definite at t = {(i + k) * dt:.6g} s")
+                if stops.beyond(x):
+                    stops.apply((i + k) * dt, x)
         i += done
         t = i * dt
+        _guarded(guard, rec, t, x, act)
         if i < steps and (sample_period is None or t >= next_sample_time - 1e-9 * dt):
             act = command(t, x.copy())  # a copy: x is advanced in place, the controller may keep its state
             _u(model, act[0], act[1], act[2], u)
@@ -195,8 +221,7 @@ def _run_rk4(
                 next_sample_time += sample_period
         if i % stride == 0 or i == steps:
             rec.add(t, x, act)
-        if bar is not None and i % report < todo:
-            bar.update(bar.task_ids[0], completed=t)
+        bar.update(t)
         if events:
             now = _event_value(events, model, t, x)
             for k, ev in enumerate(events):
@@ -208,6 +233,26 @@ def _run_rk4(
                     return "event", f"event {k} ({getattr(ev, '__name__', 'event')}) at t = {t:.6g} s"
             prev_ev = now
     return "finished", ""
+
+
+def _pieces(duration: float, sample_period: float | None, period: float) -> Iterator[tuple[float, float]]:
+    """The integration pieces (a, b): between sample instants k * sample_period (no accumulated rounding),
+    each one a restart of the integrator; without a sample period, hundredths of the duration (or
+    shorter, 10,000 outputs at most each). Lazy: a run of 1e12 samples costs no memory up front."""
+    count = int(np.ceil(duration / sample_period - 1e-9)) if sample_period is not None else max(100, int(np.ceil(duration / period / 1e4)))
+    step = sample_period if sample_period is not None else duration / count
+    for k in range(count):
+        yield k * step, (k + 1) * step if k + 1 < count else duration
+
+
+def _outputs_in(a: float, b: float, period: float, n_out: int, extra: float | None) -> np.ndarray:
+    """Output instants k * period (k <= n_out) in (a, b], and ``extra`` (the duration) if it is in there."""
+    k_lo = max(0, int(np.floor((a + 1e-12) / period)) - 1)
+    k_hi = min(n_out, int(np.floor((b + 1e-12) / period)) + 1)
+    grid = np.arange(k_lo, k_hi + 1) * period
+    if extra is not None:
+        grid = np.append(grid, extra)
+    return grid[(grid > a + 1e-12) & (grid <= b + 1e-12)]
 
 
 def _run_adaptive(
@@ -224,15 +269,17 @@ def _run_adaptive(
     external: Any,
     rec: _Recorder,
     bar: Any,
+    guard: Any,
+    stops: Any,
 ) -> tuple[str, str]:
+    """Adaptive integration (scipy ``solve_ivp``) piece by piece between controller samples.
+
+    With joint stops, the pieces end at every output instant too, terminal events locate each
+    crossing of a limit (the stop acts there and the piece goes on), and a joint resting on its
+    stop is put back on it at the end of each piece (:mod:`._stops`).
+    """
     n_out = int(np.floor(duration / period + 1e-9))
-    t_out = np.append(np.arange(n_out + 1) * period, duration) if n_out * period < duration - 1e-12 else np.arange(n_out + 1) * period
-    if sample_period is not None:
-        # sample instants k * sample_period (no accumulated rounding), each one a restart of the integrator
-        n_samples = int(np.ceil(duration / sample_period - 1e-9))
-        bounds = np.append(np.arange(n_samples) * sample_period, duration)
-    else:
-        bounds = np.linspace(0.0, duration, 101 if bar is not None else 2)
+    end_extra = n_out * period < duration - 1e-12  # the duration is an output instant of its own
     derivative = _rhs(model, external)
     ivp_events = []
     for ev in events:
@@ -246,35 +293,134 @@ def _run_adaptive(
     x = x0.copy()
     held = command(0.0, x) if sample_period is not None else None
     rec.add(0.0, x, held if held is not None else command(0.0, x))
+    for a, b in _pieces(duration, sample_period, period):
+        if stops.active:  # a resting joint is put back on its stop at the end of each piece: end them at the outputs too
+            cuts = [float(c) for c in _outputs_in(a, b, period, n_out, duration if end_extra else None) if c < b - 1e-12]
+            bounds = [a, *cuts, b]
+        else:
+            bounds = [a, b]
+        outputs = (period, n_out, duration, end_extra)
+        status = _adaptive_piece(model, bounds, x, held, command, derivative, guard, method, rtol, atol, ivp_events, stops, rec, outputs)
+        x, held = status[1], status[2]
+        bar.update(b)
+        if status[0]:
+            return "event", status[0]
+    return "finished", ""
+
+
+def _adaptive_piece(
+    model: Model,
+    bounds: list[float],
+    x: np.ndarray,
+    held: Any,
+    command: Any,
+    derivative: Any,
+    guard: Any,
+    method: str,
+    rtol: float,
+    atol: float,
+    ivp_events: list[Any],
+    stops: Any,
+    rec: _Recorder,
+    outputs: tuple[float, int, float, bool],
+) -> tuple[str, np.ndarray, Any]:
+    """One controller sample (held actuation) over ``bounds``; returns (event message or "", end state, next actuation).
+
+    ``outputs`` = (output period, number of outputs, duration, whether the duration is an extra output).
+    """
+    period, n_out, duration, end_extra = outputs
+    b_end = bounds[-1]
     for a, b in itertools.pairwise(bounds):
 
         def rhs(t: float, y: np.ndarray, held: Any = held) -> np.ndarray:
+            guard.tick(t, y)
             tau, force, torque, _ = held if held is not None else command(t, y)
             return derivative(y, tau, force, torque)
 
-        inside = t_out[(t_out > a + 1e-12) & (t_out <= b + 1e-12)]
+        inside = _outputs_in(a, b, period, n_out, duration if end_extra else None)
         # always evaluate at b too: the next piece starts from the state there
         t_eval = inside if inside.size and inside[-1] >= b - 1e-12 else np.append(inside, b)
         t_eval[-1] = b
-        sol = solve_ivp(rhs, (a, b), x, method=method, rtol=rtol, atol=atol, t_eval=t_eval, events=ivp_events or None)
+        sol = _solve(rhs, a, b, x, t_eval, method, rtol, atol, ivp_events, stops)
         if sol.status == -1:
             raise SimulationError(f"integrator failed between t = {a:.6g} and {b:.6g} s: {sol.message}")
         x = sol.y[:, -1] if sol.y.shape[1] else x
         _check_finite(float(sol.t[-1]) if sol.t.size else a, x)
+        _guarded(guard, rec, float(sol.t[-1]) if sol.t.size else a, x, held if held is not None else command(b, x))
         # the actuation recorded at a sample instant is the one applied from there on
-        last = sol.status == 0 and b < duration - 1e-12 * duration
+        last = sol.status == 0 and b >= b_end and b < duration - 1e-12 * duration
         new_held = command(b, x) if held is not None and last else held
         for k, tk in enumerate(sol.t[: inside.size]):
             _check_finite(float(tk), sol.y[:, k])
             act = held if held is None or tk < b - 1e-12 else new_held
             rec.add(float(tk), sol.y[:, k], act if act is not None else command(float(tk), sol.y[:, k]))
         held = new_held
-        if bar is not None:
-            bar.update(bar.task_ids[0], completed=b)
         if sol.status == 1:
             hit = [k for k, te in enumerate(sol.t_events) if len(te)]
             t_ev = float(sol.t_events[hit[0]][0])
             y_ev = sol.y_events[hit[0]][0]
             rec.add(t_ev, y_ev, held if held is not None else command(t_ev, y_ev))
-            return "event", f"event {hit[0]} at t = {t_ev:.6g} s"
-    return "finished", ""
+            return f"event {hit[0]} at t = {t_ev:.6g} s", x, held
+    return "", x, held
+
+
+def _stop_events(model: Model, stops: Any) -> list[Any]:
+    """Terminal events at each finite limit of the joints not resting on a stop (upper: rising, lower: falling)."""
+    found = []
+    for i in range(model.n_joints):
+        if i in stops.resting:
+            continue
+        for limit, direction in ((stops.upper[i], 1.0), (stops.lower[i], -1.0)):
+            if np.isfinite(limit):
+
+                def crossing(t: float, y: np.ndarray, index: int = 13 + i, limit: float = float(limit)) -> float:
+                    return float(y[index] - limit)
+
+                crossing.terminal = True  # type: ignore[attr-defined]
+                crossing.direction = direction  # type: ignore[attr-defined]
+                crossing.joint = i  # type: ignore[attr-defined]
+                found.append(crossing)
+    return found
+
+
+def _solve(
+    rhs: Any, a: float, b: float, x: np.ndarray, t_eval: np.ndarray, method: str, rtol: float, atol: float, events: list[Any], stops: Any
+) -> Any:
+    """``solve_ivp`` over (a, b); with joint stops, restarted at each crossing of a limit after the stop acted there."""
+    if not stops.active:
+        return solve_ivp(rhs, (a, b), x, method=method, rtol=rtol, atol=atol, t_eval=t_eval, events=events or None)
+    ts: list[float] = []
+    ys: list[np.ndarray] = []
+    t0, y0 = a, x
+    while True:
+        stops.release(y0)
+        limits = _stop_events(stops.model, stops)
+        todo = t_eval[t_eval > t0 + 1e-12 * max(1.0, abs(t0))]
+        sol = solve_ivp(rhs, (t0, b), y0, method=method, rtol=rtol, atol=atol, t_eval=todo, events=[*events, *limits] or None)
+        if sol.status == -1:
+            return sol
+        ts += [float(t) for t in np.asarray(sol.t)]
+        ys += [np.asarray(sol.y)[:, k].copy() for k in range(len(sol.t))]
+        hits = [k for k, te in enumerate(sol.t_events or []) if len(te)] if sol.status == 1 else []
+        if hits and hits[0] < len(events):  # a user's event: stop there
+            return SimpleNamespace(
+                status=1, message=sol.message, t=np.array(ts), y=np.stack(ys, axis=1), t_events=sol.t_events[: len(events)],
+                y_events=sol.y_events[: len(events)],
+            )  # fmt: skip
+        if not hits:
+            break
+        t_hit = float(sol.t_events[hits[0]][0])
+        joint = limits[hits[0] - len(events)].joint
+        if t_hit <= t0 + 1e-12 * max(1.0, abs(t0)):  # no progress: a bounce shorter than a step, at the limit
+            stops.resting.add(joint)  # on its stop until the piece ends (put back there)
+        t0, y0 = t_hit, sol.y_events[hits[0]][0].copy()
+        stops.apply(t0, y0, joints=[joint])
+        if b - t0 <= 1e-12 * max(1.0, abs(b)):
+            ts.append(b)
+            ys.append(y0)
+            break
+    end = ys[-1].copy()
+    if stops.beyond(end):  # a joint resting on its stop: back on it at the end of the piece
+        stops.apply(b, end)
+        ys[-1] = end
+    return SimpleNamespace(status=0, message="", t=np.array(ts), y=np.stack(ys, axis=1), t_events=None, y_events=None)

@@ -18,16 +18,20 @@ without it, it is evaluated continuously (adaptive) or once per step (RK4).
 
 from __future__ import annotations
 
+import dataclasses
+import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
-from ..core.errors import FreeflyerError, ShapeError, SimulationError
+from ..core.errors import FreeflyerError, LongRunWarning, ShapeError, SimulationError
 from ..core.model import Model
 from ..core.state import Actuation, ActuatorLimits, State, pack_state, unpack_state
 from ..mechanics import _engine
+from ._guard import DivergenceGuard, Progress, check_pd_gains, estimate_run
 from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory
+from ._stops import JointStops, limit_violations
 from .pd import JointPD
 from .trajectory import Trajectory
 
@@ -97,18 +101,6 @@ def _call_controller(controller: Controller, model: Model, t: float, x: np.ndarr
         raise SimulationError(f"bad controller output at t = {t:.6g} s: {exc}") from exc
 
 
-def _progress(enabled: bool, duration: float) -> Any:
-    if not enabled:
-        return None
-    from rich.console import Console
-    from rich.progress import Progress
-
-    bar = Progress(console=Console(stderr=True), transient=True)
-    bar.start()
-    bar.add_task("simulating", total=duration)
-    return bar
-
-
 def simulate(
     model: Model,
     initial_state: State,
@@ -124,7 +116,11 @@ def simulate(
     limits: ActuatorLimits | None = None,
     events: Sequence[Callable[[float, State], float]] = (),
     external: Any = (),
-    progress: bool = False,
+    progress: bool | Callable[[float, float], Any] | None = None,
+    warn_after: float | None = 60.0,
+    divergence_guard: bool = True,
+    joint_limits: str = "stop",
+    restitution: float = 0.0,
 ) -> Trajectory:
     """Simulate ``model`` from ``initial_state`` for ``duration`` seconds.
 
@@ -141,8 +137,32 @@ def simulate(
     runs of RK4 steps between controller samples are one compiled call.
 
     A failure part-way (controller error, non-finite state, integrator
-    failure) raises :class:`SimulationError` whose ``trajectory`` holds the
-    states computed up to the failure.
+    failure, divergence) raises :class:`SimulationError` whose ``trajectory``
+    holds the states computed up to the failure.
+
+    Joint limits (``model.joint_lower`` / ``joint_upper``): ``joint_limits="stop"``
+    (default) makes them hard stops, momentum-conserving joint impulses with
+    coefficient of ``restitution`` e in [0, 1] (the rate after = -e x the rate
+    before; :mod:`freeflyer.simulation._stops`), recorded as impacts in
+    ``traj.joint_limit_events``; ``"flag"`` applies no stops and records each
+    span of time beyond a limit there instead (``traj.joint_limits_violated``).
+
+    Runs cannot hang unnoticed:
+
+    - before the run, its steps, samples, outputs and wall time are estimated
+      (:func:`freeflyer.simulation.estimate_run`); above ``warn_after`` seconds
+      (None: never) a :class:`~freeflyer.core.errors.LongRunWarning` says so;
+    - a :class:`JointPD` sampled every ``sample_period`` (or RK4 step) whose
+      gains are unstable on a joint's free-floating effective inertia gets a
+      :class:`~freeflyer.core.errors.StiffGainsWarning` naming the joint and
+      the largest stable gains;
+    - ``divergence_guard``: a state growing without bound or an adaptive step
+      collapsing stops the run with a :class:`SimulationError` naming the
+      joint (see :class:`freeflyer.simulation._guard.DivergenceGuard`);
+    - ``progress``: True a bar on stderr, None (default) a bar once the run
+      has lasted 2 s, False none, or a callable ``progress(t, duration)``;
+    - Ctrl-C (KeyboardInterrupt) returns the trajectory computed so far with
+      ``status == "interrupted"``.
     """
     if not isinstance(initial_state, State):
         raise TypeError(f"initial_state: expected a freeflyer.State, got {type(initial_state).__name__}")
@@ -164,6 +184,8 @@ def simulate(
         raise TypeError(f"controller: expected a callable (t, state) -> joint torques or Actuation, got {type(controller).__name__}")
     limits = limits or ActuatorLimits()
     _engine_inputs(model, external)  # a clear error now for bad wrenches
+    stops = JointStops(model, joint_limits, restitution)
+    stops.check_initial(np.asarray(state.q, dtype=float))
     period = output_period or max(0.01, fixed_step or 0.0)
     x0 = pack_state(state)
     rec = _Recorder(model)
@@ -175,23 +197,49 @@ def simulate(
         tau, force, torque = _call_controller(controller, model, t, x, ())
         return limits.apply(tau, force, torque)
 
-    bar = _progress(progress, duration)
+    if warn_after is not None:
+        estimate = estimate_run(model, duration, fixed_step=fixed_step, sample_period=sample_period, output_period=output_period)
+        if estimate.seconds > warn_after:
+            warnings.warn(
+                f"this simulation will take long: {estimate.describe()} (over warn_after = {warn_after:g} s); "
+                "it shows progress and Ctrl-C returns what was computed",
+                LongRunWarning,
+                stacklevel=2,
+            )
+    h = sample_period or fixed_step
+    check_pd_gains(model, controller, np.asarray(state.q, dtype=float), h)
+    pd = controller if not external else None  # the energy test of a joint PD holds without external wrenches
+    what = "controller sample" if sample_period else "RK4 step"
+    guard = DivergenceGuard(model, x0, min(duration, period), h, what, divergence_guard, pd)
+    bar = Progress(progress, duration)
     try:
         if fixed_step is not None:
-            status = _run_rk4(model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar)
+            status = _run_rk4(
+                model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar, guard, stops
+            )
         else:
-            status = _run_adaptive(model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar)
+            status = _run_adaptive(
+                model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar, guard, stops
+            )
+    except KeyboardInterrupt:
+        t_stop = rec.t[-1] if rec.t else 0.0
+        return _with_limits(rec.trajectory("interrupted", f"interrupted (Ctrl-C) after t = {t_stop:.6g} s of {duration:g} s"), stops)
     except SimulationError as exc:
-        exc.trajectory = rec.trajectory("failed", str(exc))
+        exc.trajectory = _with_limits(rec.trajectory("failed", str(exc)), stops)
         raise
     except (FreeflyerError, ValueError, ArithmeticError, RuntimeError, TypeError, KeyError, IndexError) as exc:
         t_fail = rec.t[-1] if rec.t else 0.0
         message = f"simulation failed after t = {t_fail:.6g} s: {type(exc).__name__}: {exc}"
-        raise SimulationError(message, rec.trajectory("failed", message)) from exc
+        raise SimulationError(message, _with_limits(rec.trajectory("failed", message), stops)) from exc
     finally:
-        if bar is not None:
-            bar.stop()
-    return rec.trajectory(*status)
+        bar.close()
+    return _with_limits(rec.trajectory(*status), stops)
+
+
+def _with_limits(traj: Trajectory, stops: JointStops) -> Trajectory:
+    """The trajectory with its joint-limit events: the stops' impacts, or (stops off) the spans beyond a limit."""
+    found = stops.events if stops.active else (limit_violations(stops.model, traj.t, traj.q) if len(traj) else [])
+    return dataclasses.replace(traj, joint_limit_events=tuple(found)) if found else traj
 
 
 def _positive(name: str, value: Any) -> float:
@@ -231,6 +279,10 @@ def rollout(
     :class:`freeflyer.simulation.pd.JointPD` (gains per trajectory, open-loop
     feed-forward) runs compiled too, with no Python per step (one call for
     the whole rollout).
+
+    Rollouts apply no joint stops: each span of a trajectory beyond a joint
+    limit is recorded in ``joint_limit_events`` (``kind == "violation"``,
+    with the ``trajectory`` index).
     """
     state = initial_states.resolve(model)
     x = pack_state(state)
@@ -255,7 +307,7 @@ def rollout(
     if controller is None or isinstance(controller, JointPD):
         compiled = _rollout_pd(model, x, dt, steps, hold, stride, controller, limits, external)
         if compiled is not None:
-            return _trajectory(model, *compiled, copy=False)  # the kernels keep the quaternions normalised
+            return _batch_limits(_trajectory(model, *compiled, copy=False))  # the kernels keep the quaternions normalised
     step = _stepper(model, dt, external)
     act = command(0.0, x)
     rec.add(0.0, x, act)
@@ -266,7 +318,19 @@ def rollout(
             act = command(i * dt, x)
         if i % stride == 0 or i == steps:
             rec.add(i * dt, x, act)
-    return rec.trajectory()
+    return _batch_limits(rec.trajectory())
+
+
+def _batch_limits(traj: Trajectory) -> Trajectory:
+    """A rollout's joint-limit violations (rollouts apply no stops), each with its trajectory index."""
+    model = traj.model
+    if model is None or not len(traj):
+        return traj
+    beyond = np.any((traj.q > model.joint_upper) | (traj.q < model.joint_lower), axis=(0, 2))
+    found = []
+    for b in np.flatnonzero(beyond):
+        found += [dataclasses.replace(e, trajectory=int(b)) for e in limit_violations(model, traj.t, traj.q[:, b])]
+    return dataclasses.replace(traj, joint_limit_events=tuple(found)) if found else traj
 
 
 def _rollout_pd(

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import csv
 import json
-from dataclasses import dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -21,7 +21,7 @@ from ..core.state import State
 from ..mechanics.kinematics import end_effector_positions, end_effector_rotations, point_positions
 from ..mechanics.momentum import angular_momentum, kinetic_energy
 
-__all__ = ["Trajectory"]
+__all__ = ["JointLimitEvent", "Trajectory"]
 
 _ARRAYS = (
     "t",
@@ -38,6 +38,27 @@ _ARRAYS = (
 )
 
 
+@dataclass(frozen=True)
+class JointLimitEvent:
+    """A joint at one of its limits (``model.joint_lower`` / ``joint_upper``) during a simulation.
+
+    ``kind == "impact"`` (hard stops on): the stop acted at ``t`` (``t_end == t``); ``value`` is
+    the joint rate just before (rad/s), the rate after is ``-restitution * value``.
+    ``kind == "violation"`` (stops off, ``joint_limits="flag"``): the joint was beyond ``limit``
+    from the output time ``t`` to ``t_end`` (None: still beyond at the end); ``value`` is the
+    furthest angle reached (rad). ``trajectory``: the index in a batched rollout (None: one run).
+    """
+
+    joint: str
+    bound: str
+    limit: float
+    kind: str
+    t: float
+    t_end: float | None
+    value: float
+    trajectory: int | None = None
+
+
 @dataclass(frozen=True, eq=False)
 class Trajectory:
     """States at the output times ``t`` (T,), and the actuation held over each output instant.
@@ -45,9 +66,11 @@ class Trajectory:
     Batched rollouts (:func:`freeflyer.rollout`) carry a batch axis after time:
     ``q`` is (T, B, N), ``r_cm`` (T, B, 3), and so on.
 
-    ``status`` is ``"finished"``, ``"event"`` (a terminal event stopped it) or
-    ``"failed"`` (then ``message`` says why and the arrays hold what was
-    computed before the failure). Derived quantities need ``model``.
+    ``status`` is ``"finished"``, ``"event"`` (a terminal event stopped it),
+    ``"interrupted"`` (Ctrl-C) or ``"failed"`` (then ``message`` says why and
+    the arrays hold what was computed before the failure). Derived quantities
+    need ``model``. ``joint_limit_events``: the hard-stop impacts, or the limit
+    violations when stops are off (:class:`JointLimitEvent`).
     """
 
     t: np.ndarray
@@ -65,6 +88,12 @@ class Trajectory:
     message: str = ""
     model_name: str = ""
     model: Model | None = field(default=None, repr=False)
+    joint_limit_events: tuple[JointLimitEvent, ...] = ()
+
+    @property
+    def joint_limits_violated(self) -> bool:
+        """True when a joint went beyond a limit (stops off); the times are in :attr:`joint_limit_events`."""
+        return any(e.kind == "violation" for e in self.joint_limit_events)
 
     # ----------------------------------------------------------- derived
     def _need_model(self) -> Model:
@@ -147,26 +176,35 @@ class Trajectory:
 
     # ----------------------------------------------------------- files
     def save(self, path: str | Path, *, overwrite: bool = False) -> Path:
-        """Write ``.npz`` (all arrays and metadata) or ``.csv`` (one row per time). Never overwrites unless asked."""
+        """Write ``.npz`` (all arrays and metadata) or ``.csv`` (one row per time). Never overwrites unless asked.
+
+        The CSV has one header row of plain column names (``t``, ``q_0``, ``q_1``, ...,
+        ``attitude_3``, ..., ``saturated``) that ``pandas.read_csv`` reads as is; its metadata
+        (status, message, model name, array shapes) go to the sidecar ``PATH.json``
+        (``trajectory.csv`` -> ``trajectory.csv.json``).
+        """
         path = Path(path)
         if path.suffix not in (".npz", ".csv"):
             raise ValueError(f"{path}: unknown trajectory file type {path.suffix!r}; use .npz or .csv")
-        if path.exists() and not overwrite:
-            raise FileExistsError(f"{path}: exists; freeflyer does not overwrite files (pass overwrite=True or choose another name)")
+        sidecar = _sidecar(path)
+        for target in (path, sidecar) if path.suffix == ".csv" else (path,):
+            if target.exists() and not overwrite:
+                raise FileExistsError(f"{target}: exists; freeflyer does not overwrite files (pass overwrite=True or choose another name)")
         path.parent.mkdir(parents=True, exist_ok=True)
         meta: dict[str, Any] = {
             "status": self.status,
             "message": self.message,
             "model_name": self.model_name or (self.model.name if self.model else ""),
             "shapes": {name: list(np.shape(getattr(self, name))[1:]) for name in _ARRAYS},
+            "joint_limit_events": [asdict(e) for e in self.joint_limit_events],
         }
         if path.suffix == ".npz":
             with path.open("wb") as fh:
                 np.savez(fh, **{name: getattr(self, name) for name in _ARRAYS}, meta=json.dumps(meta))
         elif path.suffix == ".csv":
             header, columns = self._columns()
+            sidecar.write_text(json.dumps({"freeflyer_trajectory": meta, "columns": header}, indent=2) + "\n", encoding="utf-8")
             with path.open("w", newline="", encoding="utf-8") as fh:
-                fh.write(f"# freeflyer trajectory {json.dumps(meta)}\n")
                 writer = csv.writer(fh)
                 writer.writerow(header)
                 writer.writerows(np.column_stack(columns).tolist())
@@ -180,7 +218,7 @@ class Trajectory:
         for name in _ARRAYS:
             arr = np.asarray(getattr(self, name), dtype=float)
             arr2 = arr.reshape(arr.shape[0], -1)
-            header += [name] if arr.ndim == 1 else [f"{name}[{i}]" for i in range(arr2.shape[1])]
+            header += [name] if arr.ndim == 1 else [f"{name}_{i}" for i in range(arr2.shape[1])]
             columns.append(arr2)
         return header, columns
 
@@ -205,6 +243,7 @@ class Trajectory:
             message=meta.get("message", ""),
             model_name=meta.get("model_name", ""),
             model=model,
+            joint_limit_events=tuple(JointLimitEvent(**e) for e in meta.get("joint_limit_events", [])),
         )
 
     def state(self, index: int = -1) -> State:
@@ -228,14 +267,29 @@ class Trajectory:
         )
 
 
+_OLD_CSV_PREFIX = "# freeflyer trajectory "
+
+
+def _sidecar(path: Path) -> Path:
+    """The metadata file of a trajectory CSV: ``run.csv`` -> ``run.csv.json``."""
+    return path.with_name(path.name + ".json")
+
+
 def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """Arrays and metadata of a CSV written by :meth:`Trajectory.save` (errors name what is wrong)."""
+    sidecar = _sidecar(path)
+    meta: dict[str, Any] = {}
+    if sidecar.is_file():
+        try:
+            meta = json.loads(sidecar.read_text(encoding="utf-8"))["freeflyer_trajectory"]
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ValueError(f"{sidecar}: not the metadata of a freeflyer trajectory CSV ({exc})") from exc
     with path.open(encoding="utf-8") as fh:
         first = fh.readline()
-        if not first.startswith("# freeflyer trajectory "):
-            raise ValueError(f"{path}: not a freeflyer trajectory CSV (the first line must be '# freeflyer trajectory {{...}}')")
-        meta = json.loads(first[len("# freeflyer trajectory ") :])
-        header = next(csv.reader([fh.readline()]), [])
+        if first.startswith(_OLD_CSV_PREFIX):  # written by freeflyer 0.1 before the sidecar: metadata in a comment line
+            meta = meta or json.loads(first[len(_OLD_CSV_PREFIX) :])
+            first = fh.readline().replace("[", "_").replace("]", "")
+        header = next(csv.reader([first]), [])
         rows = [line for line in fh if line.strip()]
     table = np.loadtxt(rows, delimiter=",", ndmin=2) if rows else np.zeros((0, len(header)))
     if table.shape[1] != len(header):
@@ -243,9 +297,11 @@ def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     shapes = meta.get("shapes", {})
     arrays = {}
     for name in _ARRAYS:
-        cols = [i for i, h in enumerate(header) if h == name or h.startswith(f"{name}[")]
+        cols = [i for i, h in enumerate(header) if h == name or (h.startswith(f"{name}_") and h[len(name) + 1 :].isdigit())]
         if not cols:
-            raise ValueError(f"{path}: no column {name!r} (or {name}[i]); was it written by Trajectory.save?")
+            raise ValueError(
+                f"{path}: not a freeflyer trajectory CSV: no column {name!r} (or {name}_0, {name}_1, ...); write it with Trajectory.save"
+            )
         shape = tuple(shapes.get(name, [] if header[cols[0]] == name else [len(cols)]))
         arrays[name] = table[:, cols].reshape((table.shape[0], *shape))
     arrays["saturated"] = arrays["saturated"].astype(bool)

@@ -1,0 +1,176 @@
+"""Outputs never clobber (issue 11 item 5): ``--out`` refusal, the manifest, ``--overwrite``, ``--out ""``.
+
+Every command that writes files (simulate, workspace, capture, reproduce, demo) writes through
+:mod:`freeflyer.io.outputs`; these tests run the cheap ones end to end and the helper directly.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from freeflyer.cli import app
+from freeflyer.io.outputs import MANIFEST, check_targets, staged_outputs
+
+EXAMPLES = Path(__file__).parents[2] / "examples"
+
+SCENARIO = (
+    'model = "papadopoulos1992"\nduration = 0.1\n[initial]\nq = [0.1, 0.2, 0.3, 0.4]\n'
+    '[integrator]\nmethod = "RK4"\nfixed_step = 0.01\n[outputs]\nplots = false\n'
+)
+
+
+def invoke(*args: str):
+    return CliRunner().invoke(app, list(args))
+
+
+def digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def tree(folder: Path) -> dict[str, str]:
+    return {p.relative_to(folder).as_posix(): digest(p) for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture
+def scenario(tmp_path: Path) -> Path:
+    path = tmp_path / "scen.toml"
+    path.write_text(SCENARIO)
+    return path
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["simulate", "SCEN", "--out", ""],
+        ["reproduce", "1991", "--out", ""],
+        ["demo", "--out", ""],
+        ["workspace", "papadopoulos1992", "--out", ""],
+        ["capture", str(EXAMPLES / "scenarios" / "papadopoulos1992_capture.toml"), "--out", ""],
+    ],
+    ids=lambda a: a[0],
+)
+def test_empty_out_is_an_error(args: list[str], scenario: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "trajectory.csv").write_text("precious\n")
+    before = tree(tmp_path)
+    result = invoke(*[str(scenario) if a == "SCEN" else a for a in args])
+    assert result.exit_code == 1, result.output
+    lines = [line for line in result.output.splitlines() if line.startswith("error:")]
+    assert len(lines) == 1 and "empty path" in lines[0] and "--out" in lines[0]
+    assert tree(tmp_path) == before  # nothing written into the current directory
+
+
+def test_simulate_refuses_a_file_it_would_replace(scenario: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    mine = out / "trajectory.csv"
+    mine.write_text("my own data\n")
+    for extra in ([], ["--overwrite"]):  # not in a manifest: never replaced, even with --overwrite
+        result = invoke("simulate", str(scenario), "--out", str(out), "--no-progress", *extra)
+        assert result.exit_code == 1
+        assert "trajectory.csv" in result.output and "nothing was run" in result.output
+        assert ("not written by freeflyer" in result.output) == bool(extra)
+        assert mine.read_text() == "my own data\n" and sorted(p.name for p in out.iterdir()) == ["trajectory.csv"]
+
+
+def test_rerun_needs_overwrite_and_replaces_only_manifest_files(scenario: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    first = invoke("simulate", str(scenario), "--out", str(out), "--no-progress")
+    assert first.exit_code == 0, first.output
+    manifest = json.loads((out / MANIFEST).read_text())["files"]
+    assert set(manifest) == {"trajectory.json", "trajectory.npz", "trajectory.csv", "trajectory.csv.json"}
+    assert all(manifest[name]["sha256"] == digest(out / name) for name in manifest)
+    notes = out / "notes.txt"
+    notes.write_text("user notes\n")
+    before = tree(out)
+
+    again = invoke("simulate", str(scenario), "--out", str(out), "--no-progress")
+    assert again.exit_code == 1 and "--overwrite" in again.output and tree(out) == before
+
+    scenario.write_text(SCENARIO.replace("duration = 0.1", "duration = 0.2"))
+    replaced = invoke("simulate", str(scenario), "--out", str(out), "--no-progress", "--overwrite")
+    assert replaced.exit_code == 0, replaced.output
+    after = tree(out)
+    assert after["notes.txt"] == before["notes.txt"]  # not an output: untouched
+    assert after["trajectory.json"] != before["trajectory.json"]  # the outputs of the first run: replaced
+    assert json.loads((out / "trajectory.json").read_text())["t_end"] == pytest.approx(0.2)
+    manifest = json.loads((out / MANIFEST).read_text())["files"]
+    assert manifest["trajectory.json"]["sha256"] == after["trajectory.json"] and "notes.txt" not in manifest
+    assert not list(out.glob(".freeflyer-staging-*"))
+
+
+def test_a_manifest_file_the_user_changed_is_not_replaced(scenario: Path, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    assert invoke("simulate", str(scenario), "--out", str(out), "--no-progress").exit_code == 0
+    edited = out / "trajectory.csv"
+    edited.write_text(edited.read_text() + "# my annotation\n")
+    before = tree(out)
+    result = invoke("simulate", str(scenario), "--out", str(out), "--no-progress", "--overwrite")
+    assert result.exit_code == 1 and "changed after freeflyer wrote it" in result.output
+    assert tree(out) == before
+
+
+def test_workspace_outputs_are_checked_when_the_run_ends(tmp_path: Path) -> None:
+    """Names known only after the run (plots per end effector): the staged files are checked at commit."""
+    out = tmp_path / "ws"
+    out.mkdir()
+    plot = out / "workspace_papadopoulos1992_one_arm_arm1_ee.png"
+    plot.write_bytes(b"not a png of ours")
+    result = invoke("workspace", "papadopoulos1992-one-arm", "--out", str(out), "--no-piw")
+    assert result.exit_code == 1 and "outputs were discarded" in result.output and plot.name in result.output
+    assert sorted(p.name for p in out.iterdir()) == [plot.name] and plot.read_bytes() == b"not a png of ours"
+
+
+def test_staged_outputs_helper(tmp_path: Path) -> None:
+    out = tmp_path / "o"
+    with staged_outputs(out, overwrite=False, command="test") as target:
+        (target.stage / "sub").mkdir()
+        (target.stage / "sub" / "a.txt").write_text("1")
+    assert (out / "sub" / "a.txt").read_text() == "1" and target.final([target.stage / "sub" / "a.txt"]) == [out / "sub" / "a.txt"]
+    with pytest.raises(FileExistsError, match=r"sub/a\.txt exists"):
+        check_targets(out, ["sub/a.txt"], overwrite=False)
+    check_targets(out, ["sub/a.txt", "new.txt"], overwrite=True)  # listed and unchanged: may be replaced
+    with pytest.raises(RuntimeError), staged_outputs(out, overwrite=True, command="test") as target:
+        (target.stage / "sub").mkdir()
+        (target.stage / "sub" / "a.txt").write_text("2")
+        raise RuntimeError("the run failed")
+    assert (out / "sub" / "a.txt").read_text() == "1"  # a failed run commits nothing
+    with pytest.raises(ValueError, match="empty path"), staged_outputs("", overwrite=False, command="test"):
+        pass
+
+
+def test_a_manifest_above_the_output_directory_vouches_for_its_files(tmp_path: Path) -> None:
+    """What `demo --out out` wrote into out/1992 may be replaced by `reproduce 1992 --out out/1992 --overwrite`."""
+    out = tmp_path / "out"
+    with staged_outputs(out, overwrite=False, command="demo") as target:
+        (target.stage / "1992").mkdir()
+        (target.stage / "1992" / "report.json").write_text("{}")
+    inner = out / "1992"
+    with pytest.raises(FileExistsError, match="exists"):
+        check_targets(inner, ["report.json"], overwrite=False)
+    with staged_outputs(inner, overwrite=True, command="reproduce 1992") as target:
+        (target.stage / "report.json").write_text('{"new": 1}')
+        (target.stage / "extra.png").write_text("png")
+    outer = json.loads((out / MANIFEST).read_text())["files"]
+    assert outer["1992/report.json"]["sha256"] == digest(inner / "report.json")  # one entry per file, kept up to date
+    assert set(json.loads((inner / MANIFEST).read_text())["files"]) == {"extra.png"}
+    with staged_outputs(out, overwrite=True, command="demo") as target:  # and the demo again over both
+        (target.stage / "1992").mkdir()
+        (target.stage / "1992" / "report.json").write_text("{}")
+        (target.stage / "1992" / "extra.png").write_text("png2")
+    assert (inner / "extra.png").read_text() == "png2"
+
+
+def test_reproduce_never_replaces_a_user_file(tmp_path: Path) -> None:
+    out = tmp_path / "r"
+    out.mkdir()
+    notes = out / "report.md"
+    notes.write_text("my notes on the paper\n")
+    result = invoke("reproduce", "1991", "--out", str(out), "--overwrite")  # even with --overwrite: not a file freeflyer wrote
+    assert result.exit_code == 1 and "report.md was not written by freeflyer" in result.output and "outputs were discarded" in result.output
+    assert notes.read_text() == "my notes on the paper\n" and sorted(p.name for p in out.iterdir()) == ["report.md"]
