@@ -53,26 +53,31 @@ app = typer.Typer(
 def user_errors() -> Iterator[None]:
     """Turn bad input into one ``error: ...`` line on stderr and exit code 1; corrections of a model
     file (:class:`~freeflyer.core.errors.ModelCorrectionWarning`) into ``warning: ...`` lines."""
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", ModelCorrectionWarning)
+    others: list[warnings.WarningMessage] = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ModelCorrectionWarning)
 
-        def flush() -> None:
-            while caught:
-                w = caught.pop(0)
-                if issubclass(w.category, ModelCorrectionWarning):
-                    typer.echo(f"warning: {' '.join(str(w.message).split())}", err=True)
-                else:
-                    warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+            def flush() -> None:
+                for w in caught:
+                    if issubclass(w.category, ModelCorrectionWarning):
+                        typer.echo(f"warning: {' '.join(str(w.message).split())}", err=True)
+                    else:
+                        others.append(w)  # re-issued below, outside the recording
+                caught.clear()
 
-        try:
-            yield
-        except (FreeflyerError, OSError, ValueError) as exc:
-            flush()
-            message = " ".join(str(exc).split()) or type(exc).__name__
-            typer.echo(f"error: {message}", err=True)
-            raise typer.Exit(1) from None
-        finally:
-            flush()
+            try:
+                yield
+            except (FreeflyerError, OSError, ValueError) as exc:
+                flush()
+                message = " ".join(str(exc).split()) or type(exc).__name__
+                typer.echo(f"error: {message}", err=True)
+                raise typer.Exit(1) from None
+            finally:
+                flush()
+    finally:
+        for w in others:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
 
 
 def _inertia(text: str) -> Any:

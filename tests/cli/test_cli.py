@@ -360,3 +360,15 @@ def test_inspect_reads_all_three_formats(tmp_path: Path) -> None:
     again = inspect_json(str(toml))
     assert [j["name"] for j in again["joints"]] == [j["name"] for j in info["joints"]]
     assert again["total_mass"] == pytest.approx(info["total_mass"], rel=1e-15)
+
+
+def test_user_errors_passes_other_warnings_through_once() -> None:
+    """Only ModelCorrectionWarning becomes a 'warning:' line; any other warning is re-issued, once (no loop)."""
+    import warnings
+
+    from freeflyer.cli import user_errors
+
+    with pytest.warns(RuntimeWarning, match="something else") as record:
+        with user_errors():
+            warnings.warn("something else", RuntimeWarning, stacklevel=1)
+    assert len(record) == 1

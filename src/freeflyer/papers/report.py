@@ -12,6 +12,7 @@ barycentric vectors of 1992 eqs. 5-9 in the frame of the body they belong to.
 from __future__ import annotations
 
 import json
+import warnings
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -80,7 +81,7 @@ def model_info(model: Model) -> dict[str, Any]:
                 "child": model.body_names[k],
                 "origin": _vec(model.joint_origin[k]),
                 "rotation": [_vec(row) for row in model.joint_rotation[k]],
-                "rpy_deg": _vec(Rotation.from_matrix(model.joint_rotation[k]).as_euler("xyz", degrees=True)),
+                "rpy_deg": _rpy_deg(model.joint_rotation[k]),
                 "axis": _vec(model.joint_axis[k]),
                 "axis_parent": _vec(model.joint_rotation[k] @ model.joint_axis[k]),
                 "limits": None if raw == [None, None] else raw,
@@ -152,6 +153,14 @@ def model_info(model: Model) -> dict[str, Any]:
         "bodies": bodies,
         "barycentric": barycentric,
     }
+
+
+def _rpy_deg(rotation: np.ndarray) -> list[float]:
+    """URDF roll, pitch, yaw (deg) of a joint frame; at ±90° pitch (gimbal lock) yaw is set to 0 and roll
+    carries the rest, a valid rpy of the same rotation (scipy says so with a warning, not needed here)."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Gimbal lock detected", category=UserWarning)
+        return _vec(Rotation.from_matrix(rotation).as_euler("xyz", degrees=True))
 
 
 def _jsonable(value: Any) -> Any:
