@@ -451,6 +451,8 @@ def simulate_command(
         if isinstance(out, _EmptyPath):
             output_directory("")
         check_targets(out, output_names(loaded), overwrite=overwrite)
+        if animate is not None and Path(animate).exists():  # refused before the run (and before its estimate)
+            raise FileExistsError(f"--animate {animate}: exists; freeflyer never overwrites a file (choose another name)")
         estimate = estimate_scenario(loaded)
         typer.echo(f"{loaded.source}: {estimate.describe()}", err=True)
         if estimate.seconds > LONG_RUN_S and not yes:

@@ -118,7 +118,9 @@ def free_floating_replay(plan: CapturePlan, duration: float = 8.0, dt: float = 2
         return h[6:, :6] @ base + h[6:, 6:] @ qdd + c[6:]
 
     state0 = ff.State(q=plan.posture.q, attitude=plan.posture.attitude, r_cm=motion.cm)
-    return ff.simulate(model, state0, duration, controller=controller, fixed_step=dt, output_period=0.02)
+    traj = ff.simulate(model, state0, duration, controller=controller, fixed_step=dt, output_period=0.02, joint_limits="flag")
+    assert not traj.joint_limits_violated, traj.joint_limit_events  # the plan keeps the joints within their limits
+    return traj
 
 
 def check_replay(plan: CapturePlan) -> tuple[float, float]:
@@ -149,7 +151,7 @@ def test_user_arm_full_jacobian_has_no_piw_for_the_path(user_arm: ff.Model) -> N
 def test_user_arm_6dof_capture_plan_replays_without_singularity(user_arm: ff.Model) -> None:
     plan = plan_capture(user_arm, 0, PATH_3D, mass=50.0, inertia=2.0, samples=1 << 14, criterion=POSITION)
     assert plan.method == "path"  # no PIW annulus fits: the placement was checked along the path
-    assert plan.motion is not None and plan.motion.singularity_free
+    assert plan.motion is not None and plan.motion.singularity_free and plan.motion.within_limits
     assert plan.motion.min_measure > POSITION.threshold
     posture = plan.posture
     np.testing.assert_allclose(
@@ -170,7 +172,7 @@ def test_7dof_benchmark_arm_capture_plan_replays_without_singularity() -> None:
     plan = plan_capture(model, 0, PATH_3D, mass=100.0, inertia=5.0, samples=1 << 14, criterion=POSITION)
     assert plan.method == "piw"  # the path lies in the PIW of the translational J*
     assert plan.piw.R_min is not None and plan.piw.R_min <= plan.placement.R_plus <= plan.piw.R_max
-    assert plan.motion is not None and plan.motion.singularity_free
+    assert plan.motion is not None and plan.motion.singularity_free and plan.motion.within_limits
     min_measure, deviation = check_replay(plan)
     print(
         f"7-DOF: R+ = {plan.placement.R_plus:.4f} m, PIW {plan.piw.piw}, replay min σ_min = {min_measure:.4f} m/rad, "

@@ -65,6 +65,7 @@ def test_capture_user_arm_6dof_position_rows_returns_a_plan(tmp_path: Path) -> N
     assert data["singularity"]["rows"] == "position" and data["singularity"]["threshold"] == 0.02
     assert data["R_plus"] == 1.0
     assert data["motion"]["singularity_free"] and data["motion"]["min_measure"] > 0.02
+    assert data["motion"]["within_joint_limits"]
     # the posture and attitude in the JSON put the end effector on A, and σ_min there is what the JSON says
     model = ff.load(USER_ARM).with_payload(0, mass=50.0, inertia=2.0)
     q = np.array(data["posture"]["q"])

@@ -50,7 +50,10 @@ class PathMotion:
     ``deviation``: the largest distance of the end effector from the path
     point it should be at, m. ``criterion`` describes the measure and
     ``threshold`` is its threshold: the motion is ``singularity_free`` when
-    it follows the path and |measure| > threshold everywhere.
+    it follows the path and |measure| > threshold everywhere. ``limit_margin``:
+    the smallest distance of any joint from its limits along the motion (rad or
+    m; negative: a limit is crossed); ``usable`` when singularity-free and
+    within the joint limits.
     """
 
     s: np.ndarray
@@ -63,6 +66,7 @@ class PathMotion:
     tolerance: float
     criterion: str
     threshold: float
+    limit_margin: float = float("inf")
 
     def __post_init__(self) -> None:
         _freeze(self)
@@ -81,6 +85,16 @@ class PathMotion:
     def singularity_free(self) -> bool:
         """True when the motion follows the path and never reaches |measure| <= threshold."""
         return self.follows_path and self.min_measure > self.threshold
+
+    @property
+    def within_limits(self) -> bool:
+        """True when no joint leaves its limits along the motion."""
+        return self.limit_margin >= 0.0
+
+    @property
+    def usable(self) -> bool:
+        """Singularity-free and within the joint limits: a motion the arm can make."""
+        return self.singularity_free and self.within_limits
 
 
 def resample_path(path: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
@@ -162,6 +176,9 @@ def free_floating_path_motion(
     ee_all = np.stack(ees, axis=1)
     measure = crit.evaluate(model, q_all)
     dev = np.max(np.linalg.norm(ee_all - targets[None], axis=-1), axis=1)
+    with np.errstate(invalid="ignore"):  # inf - inf of unlimited joints: no limit
+        margin = np.minimum(q_all - model.joint_lower, model.joint_upper - q_all)
+    margin = np.where(np.isnan(margin), np.inf, margin).min(axis=(1, 2))
     tol = max(FOLLOW_TOLERANCE * length, 1e-3)
     text = crit.describe(model)
     return [
@@ -176,6 +193,7 @@ def free_floating_path_motion(
             tolerance=tol,
             criterion=text,
             threshold=crit.threshold,
+            limit_margin=float(margin[b]),
         )
         for b in range(n_b)
     ]
@@ -192,8 +210,8 @@ class CheckedCandidate:
     motion: PathMotion
 
     def score(self) -> tuple[bool, float]:
-        """Sort key: singularity-free first, then the largest smallest measure."""
-        return (self.motion.singularity_free, self.motion.min_measure if self.motion.follows_path else -np.inf)
+        """Sort key: usable (singularity-free, within the joint limits) first, then the largest smallest measure."""
+        return (self.motion.usable, self.motion.min_measure if self.motion.follows_path else -np.inf)
 
 
 def _attitudes(r0: np.ndarray, d: np.ndarray, planar: bool, twists: int) -> list[np.ndarray]:
@@ -249,7 +267,8 @@ def path_checked_candidates(
 def refine_candidates(
     model: Model, end_effector: int, path: np.ndarray, candidates: list[CheckedCandidate], *, criterion: SingularityCriterion
 ) -> CheckedCandidate | None:
-    """Integrate the best screened candidates again at the default (fine) step; the best singularity-free one, or None."""
+    """Integrate the best screened candidates again at the default (fine) step; the best usable one (singularity-free,
+    within the joint limits), or None."""
     if not candidates:
         return None
     motions = free_floating_path_motion(
@@ -263,4 +282,4 @@ def refine_candidates(
     )
     fine = [CheckedCandidate(c.cm_plus, c.R_plus, c.q, c.attitude, m) for c, m in zip(candidates, motions, strict=True)]
     best = max(fine, key=CheckedCandidate.score)
-    return best if best.motion.singularity_free else None
+    return best if best.motion.usable else None

@@ -378,6 +378,8 @@ class CaptureResult:
                 f"  along the path     min |measure| {m.min_measure:.6g} over {m.s.size} points (threshold {m.threshold:g}), "
                 f"max deviation {m.deviation:.2e} m: {'singularity-free' if m.singularity_free else 'MEETS A SINGULARITY'}"
             )
+            margin = "no limits" if not np.isfinite(m.limit_margin) else f"closest approach {m.limit_margin:.4g}"
+            lines.append(f"  joint limits       {'kept' if m.within_limits else 'CROSSED'} along the path ({margin})")
         if p.method == "path":
             lines.append("  capture posture    the most dexterous checked posture on |r_E| = R+ within the joint limits:")
         else:
@@ -404,6 +406,8 @@ def _motion_dict(motion: PathMotion) -> dict[str, Any]:
         "threshold": motion.threshold,
         "max_deviation": motion.deviation,
         "singularity_free": motion.singularity_free,
+        "within_joint_limits": motion.within_limits,
+        "joint_limit_margin": motion.limit_margin if np.isfinite(motion.limit_margin) else None,
         "q_end": motion.q[-1].tolist(),
         "attitude_end_xyzw": motion.attitude[-1].tolist(),
     }
