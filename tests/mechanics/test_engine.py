@@ -323,3 +323,34 @@ def test_scratch_buffers_are_always_kernel_arguments() -> None:
                 arg = call.args[0]
                 assert isinstance(arg, ast.Name) and arg.id in params | sliced, f"{name}::{func.name}: scratch({ast.unparse(arg)})"
     assert calls >= 10
+
+
+def test_rollout_shows_progress_and_ctrl_c_keeps_the_finished_trajectories(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A compiled rollout runs in chunks of trajectories: progress after each, Ctrl-C returns the finished ones."""
+    from freeflyer.mechanics import _engine as engine
+
+    model = ff.models.papadopoulos1992(arms=2)
+    states, _ = batch_setup(model, 300)
+    pd = JointPD(kp=20.0, kd=5.0, q_ref=0.3)  # compiled in the loop
+    seen: list[float] = []
+    whole = rollout(model, states, 0.02, dt=1e-3, controller=pd, progress=lambda t, d: seen.append(t / d))
+    assert whole.status == "finished" and whole.q.shape[1] == 300
+    assert len(seen) >= 3 and seen == sorted(seen) and seen[-1] == pytest.approx(1.0)
+    real, calls = engine.rollout, []
+
+    def interrupted_second_chunk(*args: object, **kwargs: object) -> object:
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(engine, "rollout", interrupted_second_chunk)
+    part = rollout(model, states, 0.02, dt=1e-3, controller=pd, progress=False)
+    assert part.status == "interrupted" and "of 300 trajectories" in part.message
+    k = part.q.shape[1]
+    assert 0 < k < 300
+    np.testing.assert_array_equal(part.q, whole.q[:, :k])  # the finished trajectories are the same
+    # a controller in Python (here the feed-forward of batch_setup): every trajectory up to the last step done
+    calls.clear()
+    stepped = rollout(model, states, 0.02, dt=1e-3, controller=batch_setup(model, 300)[1], progress=False)
+    assert stepped.status == "interrupted" and stepped.t[-1] == pytest.approx(0.002) and stepped.q.shape[1] == 300

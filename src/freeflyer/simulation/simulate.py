@@ -264,6 +264,7 @@ def rollout(
     output_period: float | None = None,
     limits: ActuatorLimits | None = None,
     external: Any = (),
+    progress: bool | Callable[[float, float], Any] | None = None,
 ) -> Trajectory:
     """Simulate a batch of initial states at once with fixed-step RK4.
 
@@ -283,6 +284,12 @@ def rollout(
     Rollouts apply no joint stops: each span of a trajectory beyond a joint
     limit is recorded in ``joint_limit_events`` (``kind == "violation"``,
     with the ``trajectory`` index).
+
+    ``progress`` as in :func:`simulate` (a bar once the run has lasted 2 s, True, False, or a
+    callable ``progress(t, duration)``; for a compiled rollout, t is the duration times the
+    fraction of trajectories finished). Ctrl-C returns what was computed, with status
+    ``"interrupted"``: the finished trajectories of a compiled rollout (in chunks of
+    trajectories), or every trajectory up to the last step of a Python-controlled one.
     """
     state = initial_states.resolve(model)
     x = pack_state(state)
@@ -304,21 +311,36 @@ def rollout(
         return limits.apply(*_call_controller(controller, model, t, xx, batch))
 
     rec = _Recorder(model)
-    if controller is None or isinstance(controller, JointPD):
-        compiled = _rollout_pd(model, x, dt, steps, hold, stride, controller, limits, external)
-        if compiled is not None:
-            return _batch_limits(_trajectory(model, *compiled, copy=False))  # the kernels keep the quaternions normalised
-    step = _stepper(model, dt, external)
-    act = command(0.0, x)
-    rec.add(0.0, x, act)
-    for i in range(1, steps + 1):
-        tau, force, torque, _ = act
-        x = step(x, tau, force, torque)
-        if i % hold == 0 and i < steps:
-            act = command(i * dt, x)
-        if i % stride == 0 or i == steps:
-            rec.add(i * dt, x, act)
-    return _batch_limits(rec.trajectory())
+    bar = Progress(progress, float(duration))
+    try:
+        if controller is None or isinstance(controller, JointPD):
+            compiled = _rollout_pd(model, x, dt, steps, hold, stride, controller, limits, external, bar)
+            if compiled is not None:
+                times, xs, acts, status, message = compiled
+                return _batch_limits(_trajectory(model, times, xs, acts, status, message, copy=False))  # quaternions kept unit
+        step = _stepper(model, dt, external)
+        act = command(0.0, x)
+        rec.add(0.0, x, act)
+        try:
+            for i in range(1, steps + 1):
+                tau, force, torque, _ = act
+                x = step(x, tau, force, torque)
+                if i % hold == 0 and i < steps:
+                    act = command(i * dt, x)
+                if i % stride == 0 or i == steps:
+                    rec.add(i * dt, x, act)
+                bar.update(i * dt)
+        except KeyboardInterrupt:
+            if rec.t[-1] != i * dt:
+                rec.add(i * dt, x, act)
+            return _batch_limits(rec.trajectory("interrupted", f"interrupted (Ctrl-C) at t = {i * dt:.6g} s"))
+        return _batch_limits(rec.trajectory())
+    finally:
+        bar.close()
+
+
+#: A compiled rollout of more trajectories than this runs in chunks (progress, Ctrl-C) of at least this many.
+ROLLOUT_CHUNK_MIN = 64
 
 
 def _batch_limits(traj: Trajectory) -> Trajectory:
@@ -343,13 +365,16 @@ def _rollout_pd(
     controller: JointPD | None,
     limits: ActuatorLimits,
     external: Any,
-) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] | None:
-    """A whole batched rollout with a joint PD (or none) in one compiled call.
+    bar: Progress,
+) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], str, str] | None:
+    """A whole batched rollout with a joint PD (or none), compiled, in chunks of trajectories.
 
-    Returns the output times (T,), the states (T, B, S) and the actuation (tau, f_S, n_S,
-    saturated), or None when the controller needs Python (a feed-forward sampled at another
-    period than the controller, or gains that do not broadcast: the Python path reports those).
-    A trajectory that fails (H+ not positive definite, a non-finite state) raises a SimulationError.
+    Returns the output times (T,), the states (T, B, S), the actuation (tau, f_S, n_S,
+    saturated), the status and message; or None when the controller needs Python (a feed-forward
+    sampled at another period than the controller, or gains that do not broadcast: the Python
+    path reports those). A trajectory that fails (H+ not positive definite, a non-finite state)
+    raises a SimulationError. The trajectories run in chunks (about 20 for a large batch) so that
+    ``bar`` shows progress and Ctrl-C keeps the finished chunks (status "interrupted").
     """
     n = model.n_joints
     batch = x0.shape[0]
@@ -376,7 +401,23 @@ def _rollout_pd(
         arrays = tuple(np.broadcast_to(np.asarray(g, dtype=float), (batch, n)) for g in gains)
     except ValueError:
         return None
-    xs, us, sat, done = _engine.rollout(model, x0, dt, steps, hold, stride, arrays, feed, lim, _engine_inputs(model, external))  # type: ignore[arg-type]
+    ext = _engine_inputs(model, external)
+    chunk = batch if batch <= ROLLOUT_CHUNK_MIN else max(ROLLOUT_CHUNK_MIN, -(-batch // 20))
+    parts: list[tuple[np.ndarray, ...]] = []
+    status, message = "finished", ""
+    try:
+        for start in range(0, batch, chunk):
+            rows = slice(start, min(batch, start + chunk))
+            gains_c = tuple(g[rows] for g in arrays)
+            parts.append(_engine.rollout(model, x0[rows], dt, steps, hold, stride, gains_c, feed[:, rows], lim, ext))  # type: ignore[arg-type]
+            bar.update(steps * dt * rows.stop / batch)
+    except KeyboardInterrupt:
+        if not parts:
+            raise
+        finished = sum(p[0].shape[1] for p in parts)
+        status, message = "interrupted", f"interrupted (Ctrl-C): the first {finished} of {batch} trajectories are complete"
+    xs, us, sat = (np.concatenate([p[i] for p in parts], axis=1) for i in range(3))
+    done = np.concatenate([p[3] for p in parts])
     times = np.array([0.0] + [i * dt for i in range(1, steps + 1) if i % stride == 0 or i == steps])
     if np.any(done < steps):
         first = int(np.argmin(done))
@@ -387,4 +428,4 @@ def _rollout_pd(
         )
         traj = _trajectory(model, times, xs, (us[:, :, :n], us[:, :, n : n + 3], us[:, :, n + 3 :], sat), "failed", message, copy=False)
         raise SimulationError(message, traj)
-    return times, xs, (us[:, :, :n], us[:, :, n : n + 3], us[:, :, n + 3 :], sat)
+    return times, xs, (us[:, :, :n], us[:, :, n : n + 3], us[:, :, n + 3 :], sat), status, message
