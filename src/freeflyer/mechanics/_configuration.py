@@ -308,13 +308,14 @@ def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     """The model, its external wrenches and the scratch of one trajectory from the two buffers of
     :func:`~._engine.Stepper` (fewer arguments: numba unboxes each array argument at ~0.1 us a call).
 
-    ints = [B, W, NF, parent (B), ancestor (B x B), ext_i (W x 2)];
-    floats = [total mass, body (B x NF), ext_f (W x 9), work (work_size(B) + N)].
+    ints = [B, W, NF, WATCH, REASON, parent (B), ancestor (B x B), ext_i (W x 2)];
+    floats = [total mass, body (B x NF), ext_f (W x 9), watch (1 + 2N), work (work_size(B) + N)].
+    WATCH 1: :func:`rk4_steps` watches the state (see there); REASON: why it stopped early.
     """
     ints = unowned_ints(ints)  # views without reference counting: the caller holds both buffers
     floats = unowned_floats(floats)
     nb, nw, nf = ints[0], ints[1], ints[2]
-    o = 3
+    o = 5
     parent = ints[o : o + nb]
     o += nb
     ancestor = ints[o : o + nb * nb].reshape((nb, nb))
@@ -326,8 +327,31 @@ def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     f += nb * nf
     ext_f = floats[f : f + 9 * nw].reshape((nw, 9))
     f += 9 * nw
+    watch = floats[f : f + 2 * nb - 1]
+    f += 2 * nb - 1
     work = floats[f:]
-    return parent, ancestor, ext_i, total_mass, body, ext_f, work, scratch(work, nb), work[work.shape[0] - (nb - 1) :]
+    return parent, ancestor, ext_i, total_mass, body, ext_f, watch, ints, scratch(work, nb), work[work.shape[0] - (nb - 1) :]
+
+
+@kernel(inline="always")
+def watched(x: np.ndarray, watch: np.ndarray) -> int:  # pragma: no cover - compiled
+    """Why x needs a look from Python (0: it does not): 1 a rate above watch[0] (joint rates, or sqrt(3) times a
+    spacecraft rate component: a bound on |omega0|), 2 a joint beyond [watch[1 + j], watch[1 + N + j]], 3 both."""
+    n = (watch.shape[0] - 1) // 2
+    fast = watch[0]
+    reason = 0
+    for i in range(3):
+        if 1.7320508075688772 * abs(x[10 + i]) > fast:
+            reason = 1
+    for j in range(n):
+        if abs(x[13 + n + j]) > fast:
+            reason = 1
+    for j in range(n):
+        v = x[13 + j]
+        if v < watch[1 + j] or v > watch[1 + n + j]:
+            reason |= 2
+            break
+    return reason
 
 
 @kernel()
@@ -337,9 +361,12 @@ def rk4_steps(
     """``nsteps`` RK4 steps of one state x in place under the held u (the model in the buffers of :func:`unpack`).
 
     Returns ``nsteps``; or k < nsteps when H+ was not positive definite in step k (k steps done);
-    or -(k + 1) when x became non-finite in step k (k + 1 steps done).
+    or -(k + 1) when x became non-finite in step k (k + 1 steps done). When the buffers say WATCH,
+    it also stops after the step k whose state needs a look (:func:`watched`: a fast rate, a joint
+    beyond a limit), returns k + 1 and leaves the reason in ints[4] (0 otherwise).
     """
-    parent, ancestor, ext_i, total_mass, body, ext_f, _, s, q = unpack(ints, floats)
+    parent, ancestor, ext_i, total_mass, body, ext_f, watch, header, s, q = unpack(ints, floats)
+    header[4] = 0
     for step in range(nsteps):
         if not rk4_step(x, u, dt, parent, body, ancestor, total_mass, ext_i, ext_f, s, q):
             return step
@@ -348,6 +375,11 @@ def rk4_steps(
             total += x[i]
         if not math.isfinite(total):
             return -(step + 1)
+        if header[3] != 0:
+            reason = watched(x, watch)
+            if reason != 0:
+                header[4] = reason
+                return step + 1
     return nsteps
 
 
@@ -356,5 +388,5 @@ def state_derivative(
     ints: np.ndarray, floats: np.ndarray, x: np.ndarray, u: np.ndarray, dx: np.ndarray
 ) -> bool:  # pragma: no cover - compiled
     """:func:`state_derivative_one` from Python (the model in the buffers of :func:`unpack`)."""
-    parent, ancestor, ext_i, total_mass, body, ext_f, _, s, q = unpack(ints, floats)
+    parent, ancestor, ext_i, total_mass, body, ext_f, _, _, s, q = unpack(ints, floats)
     return state_derivative_one(x, u, parent, body, ancestor, total_mass, ext_i, ext_f, s, q, dx.reshape((1, dx.shape[0])), 0)

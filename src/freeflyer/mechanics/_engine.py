@@ -300,11 +300,29 @@ class Stepper:
         ext_i = np.asarray(ext[0], dtype=np.int64).reshape(-1, 2)
         ext_f = np.asarray(ext[1], dtype=np.float64).reshape(-1, 9)
         nb = t.parent.shape[0]
-        header = [nb, ext_i.shape[0], t.body.shape[1]]
+        header = [nb, ext_i.shape[0], t.body.shape[1], 0, 0]  # B, W, NF, WATCH, REASON (see _configuration.unpack)
         self.ints = np.concatenate([header, t.parent, t.ancestor.ravel(), ext_i.ravel()]).astype(np.int64)
         work = np.empty(work_size(nb) + t.n_joints)
-        self.floats = np.concatenate([[t.total_mass], t.body.ravel(), ext_f.ravel(), work])
+        self._watch_at = 1 + t.body.size + ext_f.size
+        watch = np.full(1 + 2 * t.n_joints, np.inf)
+        watch[1 : 1 + t.n_joints] = -np.inf
+        self.floats = np.concatenate([[t.total_mass], t.body.ravel(), ext_f.ravel(), watch, work])
         self.rk4: Callable[[np.ndarray, np.ndarray, float, int], int] = functools.partial(_configuration.rk4_steps, self.ints, self.floats)
+
+    def watch(self, rate: float = np.inf, lower: Any = None, upper: Any = None) -> None:
+        """Make :attr:`rk4` stop after a step that leaves a joint rate (or sqrt(3) |omega0_i|) above ``rate`` or a
+        joint outside [lower, upper]; :attr:`reason` then says which (1 rate, 2 limit, 3 both)."""
+        n = self.tree.n_joints
+        w = self.floats[self._watch_at : self._watch_at + 1 + 2 * n]
+        w[0] = rate
+        w[1 : 1 + n] = -np.inf if lower is None else lower
+        w[1 + n :] = np.inf if upper is None else upper
+        self.ints[3] = int(np.isfinite(w).any())
+
+    @property
+    def reason(self) -> int:
+        """Why the last :attr:`rk4` call stopped early under :meth:`watch` (0: it did not)."""
+        return int(self.ints[4])
 
     def derivative(self, x: np.ndarray, u: np.ndarray, out: np.ndarray) -> bool:
         """out = d/dt x under u; False if H+ is not positive definite."""

@@ -364,6 +364,22 @@ class DivergenceGuard:
             return f"joint {self.model.joint_names[i]!r}", float(rates[i])
         return "the spacecraft", spin
 
+    @property
+    def rate_limit(self) -> float:
+        """The joint rate (rad/s) above which :meth:`check` must look (inf: never)."""
+        return DIVERGENCE_ANGLE / self.h if self.enabled and self.h else float("inf")
+
+    def quiet(self, values: list[float]) -> bool:
+        """True when the flat state ``values`` (a list: plain floats are cheaper than numpy for a few joints)
+        cannot fail :meth:`check`: no energy test to make and every rate too slow for the growth test."""
+        if not self.enabled or self.h is None:
+            return True
+        if self.budget is not None:
+            return False
+        rates, spin = values[13 + self.n :], values[10:13]
+        bound = max(max(rates, default=0.0), -min(rates, default=0.0), 1.7320508075688772 * max(max(spin), -min(spin)))
+        return bound * self.h <= DIVERGENCE_ANGLE
+
     def check(self, t: float, x: np.ndarray) -> None:
         """Raise if the state at ``t`` has grown without bound (the growth and energy tests)."""
         if not self.enabled:
@@ -379,6 +395,11 @@ class DivergenceGuard:
                     "or shorten the sample period"
                 )
         if self.h is None:
+            return
+        # fast path, every step: a bound on the fastest rate in plain floats (the spin norm <= sqrt(3) max |omega_i|)
+        rates, spin = x[13 + self.n :].tolist(), x[10:13].tolist()
+        bound = max(max(rates, default=0.0), -min(rates, default=0.0), 1.7320508075688772 * max(max(spin), -min(spin)))
+        if bound * self.h <= DIVERGENCE_ANGLE:
             return
         who, rate = self._fastest(x)
         if rate * self.h <= DIVERGENCE_ANGLE:

@@ -59,6 +59,8 @@ class JointStops:
         self.lower = np.asarray(model.joint_lower, dtype=float)
         self.upper = np.asarray(model.joint_upper, dtype=float)
         self.active = mode == "stop" and bool(np.any(np.isfinite(self.lower) | np.isfinite(self.upper)))
+        self._n = int(model.n_joints)
+        self._bounds = list(zip(self.lower.tolist(), self.upper.tolist(), strict=True))  # the per-step test in plain floats
         self.events: list[JointLimitEvent] = []
         self.at_stop: set[int] = set()  # at a stop since the last recorded impact
         self.resting: set[int] = set()  # at a stop with (almost) no rate: put back at each step or piece end
@@ -84,11 +86,14 @@ class JointStops:
                     f"{limit:.6g} rad; start inside the limits, or pass joint_limits='flag' to simulate without stops"
                 )
 
-    def beyond(self, x: np.ndarray) -> bool:
-        """Whether a joint of the flat state x is beyond a limit."""
-        n = self.model.n_joints
-        q = x[13 : 13 + n]
-        return bool(np.any(q > self.upper) or np.any(q < self.lower))
+    def beyond(self, x: np.ndarray | list[float]) -> bool:
+        """Whether a joint of the flat state x (an array, or its ``tolist()``) is beyond a limit."""
+        # plain floats: ~0.5 us for a few joints, against ~4 us for numpy's reductions (this runs every step)
+        values = x[13 : 13 + self._n]
+        for value, (low, high) in zip(values if isinstance(values, list) else values.tolist(), self._bounds, strict=True):
+            if value > high or value < low:
+                return True
+        return False
 
     def apply(self, t: float, x: np.ndarray, joints: list[int] | None = None) -> None:
         """Put every joint beyond its limit (or the ``joints`` given, at their limit) back on it and apply its impulse."""
