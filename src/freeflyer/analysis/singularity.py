@@ -362,29 +362,23 @@ def jacobian_determinant_map(
     q = np.broadcast_to(base, (n_x, n_y, model.n_joints)).copy()
     q[..., i] = angles_x[:, None]
     q[..., j] = angles_y[None, :]
+    grid: dict[str, Any] = {
+        "model_name": model.name,
+        "joints": (i, j),
+        "joint_names": (model.joint_names[i], model.joint_names[j]),
+        "angles_x": angles_x,
+        "angles_y": angles_y,
+        "q_fixed": base,
+    }
     if criterion is not None:
         measure = criterion.resolved_measure(model)
         names = {"det": "det ⁰J*", "sigma_min": "σ_min(⁰J*)", "manipulability": "sqrt det(⁰J* ⁰J*ᵀ)"}
         return DeterminantMap(
-            model_name=model.name,
-            joints=(i, j),
-            joint_names=(model.joint_names[i], model.joint_names[j]),
-            angles_x=angles_x,
-            angles_y=angles_y,
+            **grid,
             values=criterion.evaluate(model, q),
-            q_fixed=base,
             measure=names[measure],
             threshold=criterion.threshold,
             criterion=criterion.describe(model),
         )
-    values = jacobian_determinant(model, q)
-    return DeterminantMap(
-        model_name=model.name,
-        joints=(i, j),
-        joint_names=(model.joint_names[i], model.joint_names[j]),
-        angles_x=angles_x,
-        angles_y=angles_y,
-        values=values,
-        q_fixed=base,
-        unit=f"m{str(model.n_joints).translate(_SUPERSCRIPT)}" if model.is_planar else "",
-    )
+    unit = f"m{str(model.n_joints).translate(_SUPERSCRIPT)}" if model.is_planar else ""
+    return DeterminantMap(**grid, values=jacobian_determinant(model, q), unit=unit)
