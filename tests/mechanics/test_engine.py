@@ -326,7 +326,8 @@ def test_scratch_buffers_are_always_kernel_arguments() -> None:
 
 
 def test_rollout_shows_progress_and_ctrl_c_keeps_the_finished_trajectories(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A compiled rollout runs in chunks of trajectories: progress after each, Ctrl-C returns the finished ones."""
+    """A compiled rollout that reports progress (asked for, or a long run) runs in chunks of trajectories:
+    progress after each, Ctrl-C returns the finished ones. A short one without a callback is one call."""
     from freeflyer.mechanics import _engine as engine
 
     model = ff.models.papadopoulos1992(arms=2)
@@ -345,7 +346,7 @@ def test_rollout_shows_progress_and_ctrl_c_keeps_the_finished_trajectories(monke
         return real(*args, **kwargs)
 
     monkeypatch.setattr(engine, "rollout", interrupted_second_chunk)
-    part = rollout(model, states, 0.02, dt=1e-3, controller=pd, progress=False)
+    part = rollout(model, states, 0.02, dt=1e-3, controller=pd, progress=lambda t, d: None)  # chunked: progress asked
     assert part.status == "interrupted" and "of 300 trajectories" in part.message
     k = part.q.shape[1]
     assert 0 < k < 300

@@ -19,6 +19,7 @@ without it, it is evaluated continuously (adaptive) or once per step (RK4).
 from __future__ import annotations
 
 import dataclasses
+import os
 import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -29,7 +30,7 @@ from ..core.errors import FreeflyerError, LongRunWarning, ShapeError, Simulation
 from ..core.model import Model
 from ..core.state import Actuation, ActuatorLimits, State, pack_state, unpack_state
 from ..mechanics import _engine
-from ._guard import DivergenceGuard, Progress, check_pd_gains, estimate_run
+from ._guard import PROGRESS_DELAY, DivergenceGuard, Progress, _derivative_cost, check_pd_gains, estimate_run
 from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory
 from ._stops import JointStops, limit_violations
 from .pd import JointPD
@@ -402,7 +403,11 @@ def _rollout_pd(
     except ValueError:
         return None
     ext = _engine_inputs(model, external)
-    chunk = batch if batch <= ROLLOUT_CHUNK_MIN else max(ROLLOUT_CHUNK_MIN, -(-batch // 20))
+    # chunks only for a long rollout (progress, Ctrl-C): joining the chunks copies every output once
+    threads = max(1, os.cpu_count() or 1)
+    seconds = _derivative_cost(model) * 4 * steps * batch / threads
+    long_run = bar.enabled and (bar.callback is not None or bar.delay == 0.0 or seconds > PROGRESS_DELAY)
+    chunk = batch if batch <= ROLLOUT_CHUNK_MIN or not long_run else max(ROLLOUT_CHUNK_MIN, -(-batch // 20))
     parts: list[tuple[np.ndarray, ...]] = []
     status, message = "finished", ""
     try:
