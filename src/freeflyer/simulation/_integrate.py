@@ -237,13 +237,22 @@ def _run_rk4(
 
 
 def _pieces(duration: float, sample_period: float | None, period: float) -> Iterator[tuple[float, float]]:
-    """The integration pieces (a, b): between sample instants k * sample_period (no accumulated rounding),
-    each one a restart of the integrator; without a sample period, hundredths of the duration (or
-    shorter, 10,000 outputs at most each). Lazy: a run of 1e12 samples costs no memory up front."""
-    count = int(np.ceil(duration / sample_period - 1e-9)) if sample_period is not None else max(100, int(np.ceil(duration / period / 1e4)))
-    step = sample_period if sample_period is not None else duration / count
-    for k in range(count):
-        yield k * step, (k + 1) * step if k + 1 < count else duration
+    """The integration pieces (a, b), each one a restart of the integrator: between sample instants
+    k * sample_period (no accumulated rounding); without a sample period, pieces that double from 1 %
+    of the duration (1, 2, 4, ... %: few restarts, and Ctrl-C keeps all but the last piece), each at
+    most 10,000 output periods long. Lazy: a run of 1e12 samples costs no memory up front."""
+    if sample_period is not None:
+        count = int(np.ceil(duration / sample_period - 1e-9))
+        for k in range(count):
+            yield k * sample_period, (k + 1) * sample_period if k + 1 < count else duration
+        return
+    a, length, longest = 0.0, 0.01 * duration, 1e4 * period
+    while a < duration:
+        b = a + min(length, longest)
+        if b >= duration * (1.0 - 1e-9):
+            b = duration
+        yield a, b
+        a, length = b, 2.0 * length
 
 
 def _outputs_in(a: float, b: float, period: float, n_out: int, extra: float | None) -> np.ndarray:
@@ -301,7 +310,9 @@ def _run_adaptive(
         else:
             bounds = [a, b]
         outputs = (period, n_out, duration, end_extra)
-        status = _adaptive_piece(model, bounds, x, held, command, derivative, guard, method, rtol, atol, ivp_events, stops, rec, outputs)
+        status = _adaptive_piece(
+            model, bounds, x, held, command, derivative, guard, method, rtol, atol, ivp_events, stops, rec, outputs, bar
+        )
         x, held = status[1], status[2]
         bar.update(b)
         if status[0]:
@@ -324,6 +335,7 @@ def _adaptive_piece(
     stops: Any,
     rec: _Recorder,
     outputs: tuple[float, int, float, bool],
+    bar: Any,
 ) -> tuple[str, np.ndarray, Any]:
     """One controller sample (held actuation) over ``bounds``; returns (event message or "", end state, next actuation).
 
@@ -335,6 +347,7 @@ def _adaptive_piece(
 
         def rhs(t: float, y: np.ndarray, held: Any = held) -> np.ndarray:
             guard.tick(t, y)
+            bar.update(t)  # progress inside a piece (a clock read between redraws)
             tau, force, torque, _ = held if held is not None else command(t, y)
             return derivative(y, tau, force, torque)
 
