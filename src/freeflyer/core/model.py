@@ -245,6 +245,7 @@ class Model:
                 raise ModelError(
                     f"joints[{j}] ({self.joint_names[j]}).type", f"unknown joint type {kind!r}", f"use one of {', '.join(JOINT_TYPES)}"
                 )
+        object.__setattr__(self, "_prismatic", _frozen([t == "prismatic" for t in self.joint_type], bool))
         n = len(self.body_names)
         subtree = np.zeros((n, n), dtype=bool)
         for k in range(n):
@@ -283,8 +284,8 @@ class Model:
 
     @property
     def prismatic(self) -> np.ndarray:
-        """(N,) bool: True where joint j is prismatic (q_j in m), False where it is revolute (rad)."""
-        return np.array([t == "prismatic" for t in self.joint_type], dtype=bool)
+        """(N,) bool, read-only: True where joint j is prismatic (q_j in m), False where it is revolute (rad)."""
+        return self._prismatic  # type: ignore[attr-defined]  # made once in __post_init__
 
     @property
     def has_prismatic(self) -> bool:
