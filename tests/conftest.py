@@ -14,6 +14,16 @@ settings.register_profile("freeflyer", derandomize=True, deadline=None, print_bl
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "freeflyer"))
 
 
+@pytest.fixture(autouse=True, scope="session")
+def _generic_kernels() -> Iterator[None]:
+    """Tests run on the generic kernels even where this machine has specialised ones (``make bench`` makes
+    some); ``tests/mechanics/test_specialise.py`` turns them on in a folder of its own."""
+    from freeflyer.mechanics import _specialise
+
+    with _specialise.generic():
+        yield
+
+
 @pytest.fixture(autouse=True)
 def _close_pyplot_figures() -> Iterator[None]:
     """Every ``plot()`` makes a pyplot figure (so scripts and notebooks show it); close them after each test."""

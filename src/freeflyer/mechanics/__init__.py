@@ -10,7 +10,10 @@ namespace gathers all of them, including the less common ones
 :mod:`._tree` (the model as arrays), :mod:`._recursions` (the O(N) recursions
 of one configuration), :mod:`._configuration` (J*, J+, H+, forward dynamics,
 RK4), :mod:`._drivers` (batch loops, serial and threaded) and :mod:`._engine`
-(the Python side), compiled once per machine (:mod:`._numba_cache`). The
+(the Python side), compiled once per machine (:mod:`._numba_cache`). For large
+batches on one robot, :func:`specialise` compiles J* and rollouts for the
+model's structure from the same recursions (:mod:`._trace` runs them on
+symbols, :mod:`._specialise` emits SIMD code, :mod:`._lanes` drives it). The
 papers' barycentric closed forms (``method="barycentric"``) check it.
 
 Layer: imports :mod:`freeflyer.core` only.
@@ -57,6 +60,7 @@ from .momentum import (
     linear_momentum,
     system_inertia_matrix,
 )
+from .specialised import is_specialised, specialise
 
 __all__ = [
     "ExternalWrench",
@@ -77,6 +81,7 @@ __all__ = [
     "generalized_jacobian_drift",
     "inertia_blocks",
     "inverse_dynamics",
+    "is_specialised",
     "jacobian_determinant",
     "joint_axes",
     "kinetic_energy",
@@ -88,6 +93,7 @@ __all__ = [
     "point_jacobian",
     "point_positions",
     "spacecraft_fixed_dynamics",
+    "specialise",
     "system_cm",
     "system_inertia_matrix",
     "system_inertia_matrix_rate",

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _configuration, _drivers
+from . import _configuration, _drivers, _specialise
 from ._tree import Tree, tree, work_size
 
 __all__ = [
@@ -34,6 +34,10 @@ __all__ = [
 
 #: No external wrenches: (ext_i (0, 2), ext_f (0, 9)).
 NO_WRENCHES: tuple[np.ndarray, np.ndarray] = (np.zeros((0, 2), dtype=np.int64), np.zeros((0, 9)))
+
+
+#: Batches of J* at least this large use the specialised kernels of the model's structure, when made.
+_SPECIALISED_MIN = 64
 
 
 def _own(arr: Any, dtype: Any = np.float64) -> np.ndarray:
@@ -111,6 +115,10 @@ def generalized_jacobian(model: Any, q: np.ndarray) -> np.ndarray:
     flat = _flat(q, batch, (t.n_joints,))
     rows = 6 * t.ee_body.shape[0]
     out = np.empty((flat.shape[0], rows, t.n_joints))
+    fast = _specialise.find(t, "jstar") if flat.shape[0] >= _SPECIALISED_MIN else None
+    if fast is not None:
+        _specialise.jstar(fast, t, flat, out.reshape((flat.shape[0], rows * t.n_joints)))
+        return out.reshape((*batch, rows, t.n_joints))
     _drivers.jstar_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, t.ee_body, t.ee_point, out)
     return out.reshape((*batch, rows, t.n_joints))
 
@@ -246,6 +254,11 @@ def rollout(
     done = np.empty(k, dtype=np.int64)
     kp, kd, qref, vref = (_own(np.broadcast_to(g, (k, n))) for g in gains)
     ext_i, ext_f = _wrench_data(ext, (k,))
+    fast = _specialise.find(t, "rollout") if ext_i.shape[0] == 0 else None
+    if fast is not None:
+        timing = (float(dt), int(steps), int(hold), int(stride))
+        _specialise.rollout(fast, t, _own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), xs, us, sat, done)
+        return xs, us, sat, done
     _drivers.rollout_batch(
         k,
         t.parent.shape[0],

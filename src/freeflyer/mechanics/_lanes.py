@@ -1,0 +1,175 @@
+"""Batch drivers of the specialised lane kernels (:mod:`._specialise`): blocks of :data:`LANES` configurations.
+
+A lane kernel ``lane(W, P)`` computes one result for :data:`LANES` configurations at once: W is a
+flat buffer of rows of LANES values (its inputs first, then its outputs), P the model's data
+(mass properties, end-effector points). The rows make the loop over configurations a loop over
+adjacent memory with constant offsets, which the compiler turns into SIMD instructions (eight
+float64 lanes on AVX-512). These drivers copy each block of a user's batch into W (rows), call the
+lane kernel, and copy the outputs back; they hold no physics: J* and the state derivative are the
+traced recursions of :mod:`._recursions`, and the rollout below repeats, per lane, what the generic
+rollout kernel (:func:`~._drivers._rollout_range`) does per trajectory (RK4, the joint PD, the
+records). They are inlined into the kernels of each generated module (:func:`~._specialise.load`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numba
+import numpy as np
+
+__all__ = ["LANES", "map_blocks", "rollout_blocks"]
+
+#: Configurations per lane block (a multiple of the SIMD width; 64 measured best of 8-128).
+LANES = 64
+
+
+@numba.njit(inline="always", nogil=True, error_model="numpy")
+def map_blocks(lane: Any, Q: np.ndarray, P: np.ndarray, OUT: np.ndarray, W: np.ndarray, first: int, last: int) -> None:  # pragma: no cover
+    """OUT[b] = f(Q[b]) for the blocks first..last (rows LANES * block on), f the lane kernel (inputs then outputs in W)."""
+    size = Q.shape[0]
+    n_in = Q.shape[1]
+    n_out = OUT.shape[1]
+    off = n_in * LANES
+    for block in range(first, last):
+        b0 = block * LANES
+        count = min(LANES, size - b0)
+        for lane_ in range(LANES):
+            src = b0 + (lane_ if lane_ < count else count - 1)  # a short last block repeats its last row
+            for j in range(n_in):
+                W[j * LANES + lane_] = Q[src, j]
+        lane(W, P)
+        for lane_ in range(count):
+            for r in range(n_out):
+                OUT[b0 + lane_, r] = W[off + r * LANES + lane_]
+
+
+@numba.njit(inline="always", nogil=True, error_model="numpy")
+def rollout_blocks(
+    lane: Any,
+    P: np.ndarray,
+    first: int,
+    last: int,
+    X0: np.ndarray,
+    dt: float,
+    steps: int,
+    hold: int,
+    stride: int,
+    kp: np.ndarray,
+    kd: np.ndarray,
+    qref: np.ndarray,
+    vref: np.ndarray,
+    ff: np.ndarray,
+    lim: np.ndarray,
+    XS: np.ndarray,
+    US: np.ndarray,
+    SAT: np.ndarray,
+    DONE: np.ndarray,
+    W: np.ndarray,
+) -> None:  # pragma: no cover
+    """:func:`~._drivers._rollout_range` on the trajectories of blocks first..last, LANES at a time.
+
+    W = [y (S rows), u (N + 6 rows), dy/dt (S rows), ok (1 row), x (S rows), sum of the stage
+    derivatives (S rows), failed (1 row), saturated (1 row)]: the lane kernel reads y and u and writes dy/dt and ok
+    (1.0 when H+ was positive definite in every lane's factorisation).
+    """
+    size = X0.shape[1]
+    n = (size - 13) // 2
+    nu = n + 6
+    width = ff.shape[2]
+    k_total = X0.shape[0]
+    o_u = size * LANES
+    o_k = o_u + nu * LANES
+    o_ok = o_k + size * LANES
+    o_x = o_ok + LANES
+    o_acc = o_x + size * LANES
+    o_fail = o_acc + size * LANES
+    o_flag = o_fail + LANES
+    for block in range(first, last):
+        b0 = block * LANES
+        count = min(LANES, k_total - b0)
+        for lane_ in range(LANES):
+            src = b0 + (lane_ if lane_ < count else count - 1)
+            for i in range(size):
+                W[o_x + i * LANES + lane_] = X0[src, i]
+            W[o_fail + lane_] = 0.0
+        for lane_ in range(count):
+            DONE[b0 + lane_] = steps
+        row = 0
+        sample = 0
+        for step in range(steps + 1):
+            if step > 0:
+                for i in range(size * LANES):
+                    W[i] = W[o_x + i]
+                    W[o_acc + i] = 0.0
+                for lane_ in range(LANES):
+                    W[o_ok + lane_] = 1.0
+                for stage in range(4):
+                    lane(W, P)
+                    weight = 1.0 if stage == 0 or stage == 3 else 2.0
+                    c = dt if stage == 2 else 0.5 * dt
+                    for i in range(size * LANES):
+                        W[o_acc + i] += weight * W[o_k + i]
+                        if stage < 3:
+                            W[i] = W[o_x + i] + c * W[o_k + i]
+                c = dt / 6.0
+                for i in range(size * LANES):
+                    W[o_x + i] += c * W[o_acc + i]
+                for lane_ in range(LANES):  # the quaternion renormalised
+                    a = W[o_x + 6 * LANES + lane_]
+                    b = W[o_x + 7 * LANES + lane_]
+                    cc = W[o_x + 8 * LANES + lane_]
+                    d = W[o_x + 9 * LANES + lane_]
+                    norm = math.sqrt(a * a + b * b + cc * cc + d * d)
+                    for i in range(6, 10):
+                        W[o_x + i * LANES + lane_] /= norm
+                for lane_ in range(count):
+                    if W[o_fail + lane_] != 0.0:
+                        continue
+                    total = 0.0
+                    for i in range(size):
+                        total += W[o_x + i * LANES + lane_]
+                    ok = W[o_ok + lane_] != 0.0
+                    if not ok or not math.isfinite(total):
+                        DONE[b0 + lane_] = step - 1 if not ok else step
+                        W[o_fail + lane_] = 1.0
+            if step == 0 or (step % hold == 0 and step < steps):
+                sk = min(sample, ff.shape[0] - 1)
+                for lane_ in range(count):
+                    b = b0 + lane_
+                    sat = False
+                    for j in range(nu):
+                        val = ff[sk, b, j] if j < width else 0.0
+                        if j < n:
+                            val += kp[b, j] * (qref[b, j] - W[o_x + (13 + j) * LANES + lane_]) + kd[b, j] * (
+                                vref[b, j] - W[o_x + (13 + n + j) * LANES + lane_]
+                            )
+                        if val > lim[j]:
+                            val = lim[j]
+                            sat = True
+                        elif val < -lim[j]:
+                            val = -lim[j]
+                            sat = True
+                        W[o_u + j * LANES + lane_] = val
+                    W[o_flag + lane_] = 1.0 if sat else 0.0
+                for lane_ in range(count, LANES):  # lanes past the batch: copy lane 0's controls
+                    for j in range(nu):
+                        W[o_u + j * LANES + lane_] = W[o_u + j * LANES]
+                sample += 1
+            if step == 0 or step % stride == 0 or step == steps:
+                for lane_ in range(count):
+                    b = b0 + lane_
+                    if W[o_fail + lane_] != 0.0:
+                        for i in range(size):
+                            XS[row, b, i] = np.nan
+                        for j in range(nu):
+                            US[row, b, j] = np.nan
+                        SAT[row, b] = False
+                        continue
+                    for i in range(size):
+                        XS[row, b, i] = W[o_x + i * LANES + lane_]
+                    for j in range(nu):
+                        US[row, b, j] = W[o_u + j * LANES + lane_]
+                    SAT[row, b] = W[o_flag + lane_] != 0.0
+                row += 1

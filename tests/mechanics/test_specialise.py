@@ -1,0 +1,293 @@
+"""The specialiser (ff.mechanics.specialise): its tracing rules, the code it emits, its sin/cos, its kernels.
+
+The specialised kernels are the engine's own recursions traced on symbols (mechanics/_trace.py),
+emitted as SIMD code over blocks of configurations (mechanics/_specialise.py). Checked here: each
+folding rule, common-subexpression and dead-code elimination; the emitted code (run as plain
+Python) against the graph evaluated on floats and against the generic kernels, for random trees;
+the vectorisable sin/cos against the C library in ulp; and the compiled kernels against
+Pinocchio, against the generic kernels at batch sizes around the block size, on payload
+variants, through failures, and with a broken cache file.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from pathlib import Path
+
+import numba
+import numpy as np
+import pinocchio as pin
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import freeflyer as ff
+from freeflyer.io.oracles import pinocchio_configuration, to_pinocchio
+from freeflyer.mechanics import _engine, _lanes, _specialise
+from freeflyer.mechanics._numba_cache import CacheWarning, cache_dir
+from freeflyer.mechanics._trace import Graph, Sym
+from freeflyer.mechanics._tree import tree
+from trees import build_random_model, random_trees
+
+LANES = _lanes.LANES
+
+
+# ----------------------------------------------------------------- tracing rules
+def test_folding_rules() -> None:
+    g = Graph()
+    x, y = g.input("W", 0), g.input("W", 1)
+    assert x * 0.0 == 0.0 and 0.0 * x == 0.0 and 0.0 / x == 0.0
+    assert (x + 0.0).index == x.index and (0.0 + x).index == x.index and (x - 0.0).index == x.index
+    assert (x * 1.0).index == x.index and (x / 1.0).index == x.index
+    assert g.ops[(0.0 - x).index] == "neg" and g.ops[(x * -1.0).index] == "neg"
+    assert (-(-x)).index == x.index
+    assert (x - x) == 0.0
+    assert 2.0 * 3.0 + Sym.add(1.0, 2.0) == 9.0  # numbers fold to numbers
+    assert isinstance(x + y, Sym) and g.ops[(x + y).index] == "+"
+
+
+def test_common_subexpressions_are_one_node() -> None:
+    g = Graph()
+    x, y = g.input("W", 0), g.input("W", 1)
+    a = x * y
+    count = len(g.ops)
+    assert (y * x).index == a.index and (x * y).index == a.index  # + and * ordered: one node
+    assert (x + y).index == (y + x).index
+    assert (x - y).index != (y - x).index  # not commutative
+    assert len(g.ops) == count + 3
+    assert g.input("W", 0).index == x.index
+
+
+def test_dead_code_is_dropped() -> None:
+    g = Graph()
+    x, y = g.input("W", 0), g.input("W", 1)
+    used = x * y + 1.0
+    unused = x / y
+    keep = g.live([used.index])
+    assert keep[used.index] and keep[x.index] and keep[y.index]
+    assert not keep[unused.index]
+    source, _ = _specialise.emit(g, [used], 2)
+    assert " / " not in source
+
+
+def test_branches_on_symbols_are_guards_or_errors() -> None:
+    g = Graph()
+    x = g.input("W", 0)
+    if not x > 0.0:  # the Cholesky pivot test: assumed true, recorded
+        raise AssertionError
+    assert len(g.guards) == 1 and g.ops[g.guards[0]] == ">"
+    with pytest.raises(TypeError, match="branch on a traced value"):
+        bool(x)
+    with pytest.raises(TypeError):
+        float(x)
+
+
+# ----------------------------------------------------------------- emitted code, run as Python
+def _run_emitted(source: str, w: np.ndarray, data: np.ndarray) -> np.ndarray:
+    namespace: dict = {"math": math}
+    exec(source, namespace)
+    w = w.copy()
+    namespace["lane"](w, data)
+    return w
+
+
+@settings(max_examples=4)
+@given(model=random_trees(max_arms=2, max_joints=3, prismatic=0.3), seed=st.integers(0, 2**16))
+def test_emitted_code_equals_the_graph_and_the_generic_kernels_on_random_trees(model: ff.Model, seed: int) -> None:
+    """The emitted lane code (plain Python, its sin/cos) = the graph on floats (math.sin) = the generic kernels."""
+    rng = np.random.default_rng(seed)
+    t = tree(model)
+    n = model.n_joints
+    data = _specialise.data_vector(t)
+    # J*
+    g, outputs, n_in = _specialise.trace(t, "jstar")
+    source, slots = _specialise.emit(g, outputs, n_in)
+    q = rng.uniform(-3.0, 3.0, (LANES, n))
+    w = np.zeros((n_in + len(outputs)) * LANES)
+    w[: n * LANES] = q.T.ravel()
+    lanes = _run_emitted(source, w, data[slots]).reshape(-1, LANES)[n_in:].T
+    with _specialise.generic():
+        generic = ff.generalized_jacobian(model, q).reshape(LANES, -1)
+    roots = [o.index for o in outputs if isinstance(o, Sym)]
+    for lane in (0, LANES - 1):
+        val = g.evaluate({"W": q[lane], "data": data}, roots)
+        graph = np.array([val[o.index] if isinstance(o, Sym) else o for o in outputs])
+        np.testing.assert_allclose(lanes[lane], graph, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(lanes, generic, rtol=1e-12, atol=1e-12)
+    # the state derivative of the rollouts, with its Cholesky guards
+    g, outputs, n_in = _specialise.trace(t, "rollout")
+    assert len(g.guards) == 3 + n  # one positive pivot per row of the [omega0, q] block
+    source, slots = _specialise.emit(g, outputs, n_in)
+    x = np.zeros((LANES, 13 + 2 * n))
+    x[:, 6:10] = rng.normal(size=(LANES, 4))
+    x[:, 10:] = rng.uniform(-1.0, 1.0, (LANES, 3 + 2 * n))
+    u = rng.normal(size=(LANES, n + 6))
+    w = np.zeros((n_in + len(outputs) + 1) * LANES)
+    w[: n_in * LANES] = np.hstack([x, u]).T.ravel()
+    w[-LANES:] = 1.0
+    out = _run_emitted(source, w, data[slots]).reshape(-1, LANES)
+    with _specialise.generic():
+        generic_dx, ok = _engine.state_derivative(model, x, u)
+    assert ok.all() and (out[-1] == 1.0).all()
+    np.testing.assert_allclose(out[n_in:-1].T, generic_dx, rtol=1e-11, atol=1e-11)
+
+
+# ----------------------------------------------------------------- sin and cos
+def test_sincos_is_within_its_ulp_bound_of_the_c_library() -> None:
+    """The emitted sin/cos: <= 1 ulp of libm over |q| <= 7 rad (two turns each way), <= 2 ulp over |q| <= 1e5 rad."""
+    code = _specialise.SINCOS.format(x="x", t="t", sin="s", cos="c").splitlines()
+    source = "def f(X, S, C):\n    for i in range(X.shape[0]):\n        x = X[i]\n" + "".join(f"        {line}\n" for line in code)
+    source += "        S[i] = s\n        C[i] = c\n"
+    namespace: dict = {"math": math}
+    exec(source, namespace)
+    f = numba.njit(error_model="numpy", fastmath={"contract"})(namespace["f"])  # as in the kernels
+    rng = np.random.default_rng(0)
+    k = rng.integers(-60_000, 60_000, 200_000)
+    ranges = {
+        "joint": (np.concatenate([rng.uniform(-7.0, 7.0, 400_000), np.arange(-4, 5) * np.pi / 4, k[:1000] % 5 * np.pi / 2]), 1.0),
+        "wide": (np.concatenate([rng.uniform(-1e5, 1e5, 400_000), k * (np.pi / 2), k * (np.pi / 2) + rng.normal(scale=1e-9, size=k.size)]), 2.0),
+    }
+    for name, (x, bound) in ranges.items():
+        s, c = np.empty_like(x), np.empty_like(x)
+        f(x, s, c)
+        for got, ref in ((s, np.array([math.sin(v) for v in x])), (c, np.array([math.cos(v) for v in x]))):
+            ulp = np.abs(got - ref) / np.spacing(np.abs(ref))
+            assert ulp.max() <= bound, (name, ulp.max(), x[np.argmax(ulp)])
+
+
+# ----------------------------------------------------------------- the compiled kernels
+@pytest.fixture(scope="module")
+def specialised() -> Iterator[Path]:
+    """Specialised kernels on, kept in a test folder of their own (compiled once per machine, like the real ones)."""
+    folder = cache_dir().parent / "specialised-tests"
+    before = _specialise.FOLDER[0]
+    _specialise.FOLDER[0] = folder
+    _specialise._LOADED.clear()
+    _specialise._ENABLED[0] = True
+    _specialise._FOUND.clear()
+    try:
+        yield folder
+    finally:
+        _specialise.FOLDER[0] = before
+        _specialise._ENABLED[0] = False
+        _specialise._LOADED.clear()
+        _specialise._FOUND.clear()
+
+
+def _prismatic_tree() -> ff.Model:
+    return build_random_model(np.random.default_rng(3), [3, 2], [1, None], [None, 0], prismatic=0.4)
+
+
+def test_nothing_is_compiled_unless_asked(specialised: Path) -> None:
+    model = build_random_model(np.random.default_rng(99), [2, 2, 1], [None, None, None], [None, None, None])
+    assert not ff.mechanics.is_specialised(model, "jstar")
+    ff.generalized_jacobian(model, np.zeros((500, model.n_joints)))
+    assert not (specialised / f"{_specialise.structure_key(tree(model), 'jstar')}.py").exists()
+
+
+@pytest.mark.parametrize("which", ["papadopoulos1992", "prismatic-tree"])
+def test_specialised_jstar_matches_pinocchio_and_the_generic_kernels(specialised: Path, which: str) -> None:
+    model = ff.models.papadopoulos1992() if which == "papadopoulos1992" else _prismatic_tree()
+    ff.mechanics.specialise(model, ["jstar"])
+    assert ff.mechanics.is_specialised(model, "jstar")
+    rng = np.random.default_rng(5)
+    n = model.n_joints
+    for size in (1, 63, 64, 65, 129, 700):  # around the block size; serial and threaded
+        q = rng.uniform(-np.pi, np.pi, (size, n))
+        fast = ff.generalized_jacobian(model, q)
+        with _specialise.generic():
+            slow = ff.generalized_jacobian(model, q)
+        np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-12 * np.abs(slow).max())
+    # against Pinocchio (J* from its centroidal map and frame Jacobians), spacecraft frame
+    pin_model = to_pinocchio(model)
+    frames = model.end_effector_names
+    data = pin_model.createData()
+    for i in range(0, 700, 97):
+        pq = pinocchio_configuration(model, q[i], np.array([0.0, 0.0, 0.0, 1.0]), np.zeros(3))
+        ag = pin.computeCentroidalMap(pin_model, data, pq)
+        pin.computeJointJacobians(pin_model, data, pq)
+        pin.updateFramePlacements(pin_model, data)
+        rows = []
+        for f in frames:
+            jac = pin.getFrameJacobian(pin_model, data, pin_model.getFrameId(f), pin.LOCAL_WORLD_ALIGNED)
+            rows.append(jac)
+        jac = np.vstack(rows)
+        jstar = jac[:, 6:] - jac[:, :6] @ np.linalg.solve(ag[:, :6], ag[:, 6:])
+        np.testing.assert_allclose(fast[i], jstar, rtol=0, atol=1e-12 * np.abs(jstar).max())
+
+
+def test_a_payload_variant_shares_the_kernels(specialised: Path) -> None:
+    model = ff.models.papadopoulos1992()
+    ff.mechanics.specialise(model, ["jstar"])
+    heavy = model.with_payload(mass=150.0, inertia=np.diag([5.0, 6.0, 7.0]))
+    assert _specialise.structure_key(tree(heavy), "jstar") == _specialise.structure_key(tree(model), "jstar")
+    assert ff.mechanics.is_specialised(heavy, "jstar")
+    q = np.random.default_rng(8).uniform(-3, 3, (300, model.n_joints))
+    fast = ff.generalized_jacobian(heavy, q)
+    with _specialise.generic():
+        slow = ff.generalized_jacobian(heavy, q)
+        other = ff.generalized_jacobian(model, q)
+    np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-12)
+    assert np.abs(fast - other).max() > 1e-3  # the payload's mass is read, not folded
+
+
+@pytest.mark.parametrize("which", ["papadopoulos1992", "prismatic-tree"])
+def test_specialised_rollouts_match_the_generic_kernels(specialised: Path, which: str) -> None:
+    model = ff.models.papadopoulos1992() if which == "papadopoulos1992" else _prismatic_tree()
+    ff.mechanics.specialise(model, ["rollout"])
+    n = model.n_joints
+    rng = np.random.default_rng(4)
+    k = 70  # two blocks, the second short
+    state = ff.State(q=rng.uniform(-1, 1, (k, n)), qdot=rng.uniform(-0.3, 0.3, (k, n)), omega=rng.normal(scale=0.05, size=(k, 3)))
+    ctrl = ff.JointPD(kp=rng.uniform(1, 5, (k, n)), kd=1.0, q_ref=0.2)
+    limits = ff.ActuatorLimits(joint_torque=np.full(n, 3.0))
+    fast = ff.rollout(model, state, 0.3, dt=1e-3, controller=ctrl, sample_period=5e-3, limits=limits, output_period=7e-3)
+    with _specialise.generic():
+        slow = ff.rollout(model, state, 0.3, dt=1e-3, controller=ctrl, sample_period=5e-3, limits=limits, output_period=7e-3)
+    np.testing.assert_allclose(fast.q, slow.q, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(fast.joint_torque, slow.joint_torque, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(fast.saturated, slow.saturated)
+    assert fast.saturated.any() and not fast.saturated.all()
+
+
+def test_a_failing_trajectory_stops_alone_as_in_the_generic_kernel(specialised: Path) -> None:
+    model = ff.models.papadopoulos1992()
+    ff.mechanics.specialise(model, ["rollout"])
+    n = model.n_joints
+    t = tree(model)
+    x0 = np.zeros((66, 13 + 2 * n))
+    x0[:, 9] = 1.0
+    feed = np.zeros((1, 66, n))
+    feed[0, 3] = 1e200  # trajectory 3 overflows
+    zero = np.zeros((66, n))
+    args = (x0, 1e-3, 20, 1, 3, (zero, zero, zero, zero), feed, np.full(n + 6, np.inf))
+    fast = _engine.rollout(model, *args)
+    assert _specialise.find(t, "rollout") is not None
+    with _specialise.generic():
+        slow = _engine.rollout(model, *args)
+    np.testing.assert_array_equal(fast[3], slow[3])
+    assert fast[3][3] < 20 and (np.delete(fast[3], 3) == 20).all()
+    np.testing.assert_array_equal(np.isnan(fast[0]), np.isnan(slow[0]))
+    np.testing.assert_allclose(np.nan_to_num(fast[0]), np.nan_to_num(slow[0]), rtol=0, atol=1e-12)
+
+
+def test_a_broken_cache_file_warns_and_is_rebuilt(specialised: Path) -> None:
+    model = build_random_model(np.random.default_rng(12), [2], [None], [None])
+    t = tree(model)
+    ff.mechanics.specialise(model, ["jstar"])
+    path = specialised / f"{_specialise.structure_key(t, 'jstar')}.py"
+    path.write_text("def lane(W, P:\n")  # truncated
+    _specialise._LOADED.clear()
+    _specialise._FOUND.clear()
+    with pytest.warns(CacheWarning, match="is broken"):
+        assert not ff.mechanics.is_specialised(model, "jstar")  # the generic kernels serve meanwhile
+    q = np.zeros((100, model.n_joints))
+    np.testing.assert_allclose(ff.generalized_jacobian(model, q)[0], ff.generalized_jacobian(model, q[:1])[0])
+    ff.mechanics.specialise(model, ["jstar"])  # rebuilt
+    assert ff.mechanics.is_specialised(model, "jstar") and path.read_text().startswith('"""freeflyer')
+
+
+def test_unknown_kind_is_refused() -> None:
+    with pytest.raises(ff.UnknownNameError, match="kind of specialised kernel"):
+        ff.mechanics.specialise(ff.models.papadopoulos1992(), ["hplus"])
