@@ -20,6 +20,7 @@ the ratios freeflyer / Pinocchio loop, machine information, as a dict for ``run.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import platform
 import time
@@ -31,6 +32,7 @@ import numpy as np
 
 import freeflyer as ff
 from freeflyer.io.oracles import pinocchio_configuration, to_pinocchio
+from freeflyer.mechanics._specialise import generic
 from freeflyer.mechanics.jacobians import _singularity_row_indices
 
 #: Agreement required between freeflyer and Pinocchio before timing (relative to the largest entry).
@@ -242,13 +244,20 @@ def bench_system(system: System, configs: int, pinocchio_configs: int, repeats: 
         "jstar_shape": [6 * model.n_end_effectors, model.n_joints],
         "det": system.det_name,
     }
-    # first calls of this model in this process (loads the engine's cached kernels; compiles them if the cache is empty)
+    # first calls of this model in this process, generic kernels (loads the engine's cached kernels; compiles them if the cache is empty)
     t0 = time.perf_counter()
-    ff.generalized_jacobian(model, q)
-    system.freeflyer_det(q)
+    with generic():
+        ff.generalized_jacobian(model, q)
+        system.freeflyer_det(q)
     result["freeflyer_first_call_s"] = time.perf_counter() - t0
-    log(f"[{system.key}] verifying against Pinocchio")
+    # the specialised kernels of this structure (compiled once per machine; loaded from the cache afterwards)
+    t0 = time.perf_counter()
+    ff.mechanics.specialise(model, ["jstar"])
+    result["specialise_s"] = time.perf_counter() - t0
+    log(f"[{system.key}] specialised J* ready in {result['specialise_s']:.2f} s; verifying both engines against Pinocchio")
     result["verification"] = verify(system, loop, q, configs)
+    with generic():
+        result["verification_generic"] = verify(system, loop, q, configs)
 
     calls = {"jstar": lambda: ff.generalized_jacobian(model, q), "det": lambda: system.freeflyer_det(q)}
     sub = q[:pinocchio_configs]
@@ -258,18 +267,20 @@ def bench_system(system: System, configs: int, pinocchio_configs: int, repeats: 
         "det": rate(best_of(lambda: loop.loop("det", sub), repeats), len(sub)),
     }
     result["pinocchio_loop"] = theirs
-    for threads in thread_counts():
-        old = set_threads(threads)
-        try:
-            log(f"[{system.key}] freeflyer, {len(q):,} configurations, {threads} thread(s), best of {repeats}")
-            ours = {key: rate(best_of(fn, repeats), len(q)) for key, fn in calls.items()}
-        finally:
-            set_threads(old)
-        result[f"threads_{threads}"] = {
-            "freeflyer": ours,
-            "ratio": {k: ours[k]["configs_per_s"] / theirs[k]["configs_per_s"] for k in ours},
-            "ratio_cpu": {k: ours[k]["cpu_configs_per_s"] / theirs[k]["cpu_configs_per_s"] for k in ours},
-        }
+    for engine in ("specialised", "generic"):
+        for threads in thread_counts():
+            old = set_threads(threads)
+            try:
+                log(f"[{system.key}] freeflyer ({engine}), {len(q):,} configurations, {threads} thread(s), best of {repeats}")
+                with generic() if engine == "generic" else contextlib.nullcontext():
+                    ours = {key: rate(best_of(fn, repeats), len(q)) for key, fn in calls.items()}
+            finally:
+                set_threads(old)
+            result[f"{'' if engine == 'specialised' else 'generic_'}threads_{threads}"] = {
+                "freeflyer": ours,
+                "ratio": {k: ours[k]["configs_per_s"] / theirs[k]["configs_per_s"] for k in ours},
+                "ratio_cpu": {k: ours[k]["cpu_configs_per_s"] / theirs[k]["cpu_configs_per_s"] for k in ours},
+            }
     return result
 
 
@@ -285,8 +296,9 @@ def run_core(configs: int, pinocchio_configs: int, repeats: int, log: Callable[[
             "(with 2 threads it adds both threads' time).",
             "ratio = freeflyer configs/s / Pinocchio-loop configs/s, both measured in this run; threads_<k>: freeflyer's "
             "engine on k numba threads (numba.set_num_threads); the Pinocchio loop is one Python thread, as a user writes it.",
-            "freeflyer has one engine: generic numba kernels taking the model as arrays, compiled once per machine and cached on "
-            "disk; freeflyer_first_call_s is this model's first call in the process (loading the cached kernels).",
+            "threads_<k>: the kernels specialised to the model's structure (ff.mechanics.specialise; specialise_s: their compile, "
+            "or their load when the cache has them); generic_threads_<k>: the generic kernels (the model as arrays, nothing "
+            "compiled per model), timed in the same run; freeflyer_first_call_s is this model's first generic call in the process.",
             "freeflyer's batched J* is returned with the batch axis innermost in memory (a transposed view) when the "
             "engine produces it so; values and shape are the documented ones.",
         ],
@@ -313,11 +325,13 @@ def table(report: dict[str, Any]) -> str:
             label = "J*" if name == "jstar" else res["det"]
             err = res["verification"]["max_rel_err_jstar" if name == "jstar" else "max_rel_err_det"]
             for sub_key, sub in res.items():
-                if not sub_key.startswith("threads_"):
+                if "threads_" not in sub_key:
                     continue
                 ours, theirs = sub["freeflyer"][name], res["pinocchio_loop"][name]
+                tag = ("generic " if sub_key.startswith("generic") else "") + label
                 lines.append(
-                    f"{key:18s} {label[:36]:36s} {sub_key[8:]:>3s} {ours['configs_per_s']:16,.0f} {theirs['configs_per_s']:16,.0f} "
+                    f"{key:18s} {tag[:36]:36s} {sub_key.rsplit('_', 1)[1]:>3s} "
+                    f"{ours['configs_per_s']:16,.0f} {theirs['configs_per_s']:16,.0f} "
                     f"{sub['ratio'][name]:7.0f}x {sub['ratio_cpu'][name]:11.0f}x {err:12.1e}"
                 )
     lines.append("")

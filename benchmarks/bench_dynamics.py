@@ -24,7 +24,9 @@ rates; ratios are freeflyer / reference, both measured in this run.
 
 from __future__ import annotations
 
+import contextlib
 import os
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -35,6 +37,7 @@ from bench_core import best_of, machine_info, machine_line, panda_model, set_thr
 from freeflyer.core.state import State
 from freeflyer.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
 from freeflyer.io.oracles import acceleration_from_pinocchio, pinocchio_configuration, pinocchio_velocity, to_pinocchio
+from freeflyer.mechanics._specialise import generic
 from freeflyer.simulation.pd import JointPD
 from freeflyer.simulation.simulate import rollout, simulate
 
@@ -245,14 +248,24 @@ def batched_rollouts(model: ff.Model, batch: int, steps: int, repeats: int, log:
 
         return go
 
-    # verification: final joint angles of the two engines
+    # the specialised rollout kernel of this structure (compiled once per machine; loaded from the cache afterwards)
+    t0 = time.perf_counter()
+    ff.mechanics.specialise(model, ["rollout"])
+    specialise_s = time.perf_counter() - t0
+    log(f"[{model.name}] specialised rollouts ready in {specialise_s:.2f} s")
+    # verification: final joint angles of the two engines (specialised and generic freeflyer)
     mj_state, _ = run_mujoco(counts[0])()
-    ours = run_freeflyer(counts[0])()
     nq = m.nq
-    err = float(np.max(np.abs(mj_state[:, -1, 1 + 7 : 1 + nq] - ours.q[-1])))
+    errs = []
+    for engine in (contextlib.nullcontext(), generic()):
+        with engine:
+            ours = run_freeflyer(counts[0])()
+        errs.append(float(np.max(np.abs(mj_state[:, -1, 1 + 7 : 1 + nq] - ours.q[-1]))))
+    err = max(errs)
     if err > 1e-6:
         raise AssertionError(f"{model.name}: freeflyer and mujoco.rollout disagree by {err:.1e} rad")
     out: dict[str, Any] = {
+        "specialise_s": specialise_s,
         "batch": batch,
         "steps": steps,
         "threads": counts,
@@ -265,10 +278,17 @@ def batched_rollouts(model: ff.Model, batch: int, steps: int, repeats: int, log:
         log(f"[{model.name}] rollouts, {batch} x {steps} steps, {threads} thread(s), best of {repeats}")
         mj = rate(best_of(run_mujoco(threads), repeats), items, "trajectory_steps")
         pub = rate(best_of(run_freeflyer(threads), repeats), items, "trajectory_steps")
+        with generic():
+            gen = rate(best_of(run_freeflyer(threads), repeats), items, "trajectory_steps")
         out[f"threads_{threads}"] = {
             "mujoco_rollout": mj,
             "freeflyer_rollout": pub,
             "ratio": pub["trajectory_steps_per_s"] / mj["trajectory_steps_per_s"],
+        }
+        out[f"generic_threads_{threads}"] = {
+            "mujoco_rollout": mj,
+            "freeflyer_rollout": gen,
+            "ratio": gen["trajectory_steps_per_s"] / mj["trajectory_steps_per_s"],
         }
     out["ratio"] = out[f"threads_{counts[0]}"]["ratio"]
     return out
@@ -297,13 +317,15 @@ def run(quick: bool, log: Callable[[str], None]) -> dict[str, Any]:
         "targets": {"simulation_ratio": TARGET_SIMULATION, "rollout_ratio": TARGET_ROLLOUT},
         "notes": [
             "*_per_s: items / best wall-clock time of `repeats` calls; ratios = freeflyer / reference, both measured in this run.",
-            "freeflyer: the public calls, which all run one engine (generic numba kernels taking the model as arrays, "
-            "compiled once per machine and cached on disk).",
+            "freeflyer: the public calls. H+, C+, FD and one simulation run the generic kernels (the model as arrays, compiled "
+            "once per machine and cached on disk); rollouts also the kernels specialised to the structure (below).",
             "Per configuration: freeflyer's batched calls on numba's threads (all of them); the Pinocchio loop is one Python thread.",
             "One simulation: ff.simulate(..., fixed_step=1e-3) with the controller in Python every step (the RK4 steps compiled) vs "
             "MuJoCo mj_step with the same Python controller; single-threaded on both sides.",
             "Rollouts: mujoco.rollout with one MjData per thread (persistent pool when > 1 thread) vs ff.rollout "
-            "(JointPD compiled in the loop, trajectories on numba threads), both recording every state; threads_<k>: k threads each.",
+            "(JointPD compiled in the loop, trajectories on numba threads), both recording every state; threads_<k>: k threads each, "
+            "the rollout kernel specialised to the model's structure (ff.mechanics.specialise; specialise_s its compile or load); "
+            "generic_threads_<k>: the generic kernels, same run.",
         ],
         "systems": {},
     }
@@ -343,9 +365,10 @@ def table(report: dict[str, Any]) -> str:
         )
         ro = res["rollout"]
         for name, sub in ro.items():
-            if not name.startswith("threads_"):
+            if "threads_" not in name:
                 continue
-            label = f"rollout {ro['batch']}x{ro['steps']} (traj-steps) {name.replace('_', '=')}"
+            engine = "generic " if name.startswith("generic") else ""
+            label = f"{engine}rollout {ro['batch']}x{ro['steps']} (traj-steps) thr={name.rsplit('_', 1)[1]}"
             ours = sub["freeflyer_rollout"]["trajectory_steps_per_s"]
             theirs = sub["mujoco_rollout"]["trajectory_steps_per_s"]
             lines.append(

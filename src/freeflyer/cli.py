@@ -260,6 +260,27 @@ def inspect_command(
     typer.echo(json.dumps(info, indent=2) if json_output else render_text(info).rstrip("\n"))
 
 
+@app.command("specialise")
+def specialise_command(
+    model: ModelArg,
+    kind: Annotated[
+        list[str] | None,
+        typer.Option("--kind", help="jstar (batched J*) or rollout (batched RK4 rollouts); repeatable (default: both)."),
+    ] = None,
+    end_effector: EndEffectorOption = None,
+    strict: StrictOption = False,
+) -> None:
+    """Compile J* and the rollouts for the structure of MODEL, once per machine (seconds), for sweeps and
+    campaigns: later J* batches and rollouts of this robot, in every process, run 3-10x faster (docs/performance.md)."""
+    from .mechanics.specialised import specialise
+
+    with user_errors():
+        loaded = load_model(model, end_effectors=end_effector or None, strict=strict)
+        took = specialise(loaded, kind or ("jstar", "rollout"), progress=lambda k: typer.echo(f"specialising {k} ...", err=True))
+    for k, seconds in took.items():
+        typer.echo(f"{k}: ready in {seconds:.1f} s (compiled once per machine; loaded from the cache afterwards)")
+
+
 DETJ_MAP_PNG = "detJ_map_1992_one_arm_captured.png"
 #: ``freeflyer simulate`` asks for confirmation (or --yes) before a run estimated to take longer (s).
 LONG_RUN_S = 60.0
