@@ -307,3 +307,24 @@ def test_cli_specialise(specialised: Path) -> None:
     bad = runner.invoke(app, ["specialise", "papadopoulos1992", "--kind", "hplus"])
     assert bad.exit_code == 1 and bad.stderr.startswith("error: ") and "kind of specialised kernel" in bad.stderr
     assert "Traceback" not in bad.output
+
+
+def test_an_unwritable_cache_folder_warns_and_still_specialises(specialised: Path, tmp_path: Path) -> None:
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    _specialise.FOLDER[0] = blocker / "specialised"  # cannot be made: its parent is a file
+    _specialise._LOADED.clear()
+    _specialise._FOUND.clear()
+    try:
+        model = build_random_model(np.random.default_rng(13), [1, 1], [None, None], [None, None])
+        with pytest.warns(CacheWarning, match="cannot write the specialised kernel"):
+            ff.mechanics.specialise(model, ["jstar"])
+        q = np.random.default_rng(1).uniform(-3, 3, (200, model.n_joints))
+        fast = ff.generalized_jacobian(model, q)
+        with _specialise.generic():
+            slow = ff.generalized_jacobian(model, q)
+        np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-12)
+    finally:
+        _specialise.FOLDER[0] = specialised
+        _specialise._LOADED.clear()
+        _specialise._FOUND.clear()

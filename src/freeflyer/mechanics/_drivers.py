@@ -19,6 +19,7 @@ import numpy as np
 from numba import prange
 
 from ._configuration import accelerations_one, hplus_one, jstar_one, point_jacobian_one, points_one, rk4_step, state_derivative_one
+from ._lanes import joint_pd
 from ._numba_cache import kernel
 from ._recursions import kinematics, newton_euler, prepare, scratch
 from ._tree import work_size
@@ -456,7 +457,6 @@ def _rollout_range(
     nb = parent.shape[0]
     n = nb - 1
     size = X0.shape[1]
-    width = ff.shape[2]
     s = scratch(work, nb)
     q = np.empty(n)
     x = np.empty(size)
@@ -484,21 +484,8 @@ def _rollout_range(
                         SAT[r, b] = False
                     break
             if step == 0 or (step % hold == 0 and step < steps):
-                k = min(sample, ff.shape[0] - 1)
-                sat = False
-                for j in range(n + 6):
-                    val = ff[k, b, j] if j < width else 0.0
-                    if j < n:
-                        val += kp[b, j] * (qref[b, j] - x[13 + j]) + kd[b, j] * (vref[b, j] - x[13 + n + j])
-                    if val > lim[j]:
-                        val = lim[j]
-                        sat = True
-                    elif val < -lim[j]:
-                        val = -lim[j]
-                        sat = True
-                    u[j] = val
+                flag = joint_pd(ff, min(sample, ff.shape[0] - 1), b, kp, kd, qref, vref, lim, x, 0, u, 0, 1)
                 sample += 1
-                flag = sat
             if step == 0 or step % stride == 0 or step == steps:
                 for i in range(size):
                     XS[row, b, i] = x[i]

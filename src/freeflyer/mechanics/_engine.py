@@ -2,8 +2,11 @@
 
 Each call takes a model and arrays with any leading batch shape (broadcast against each other),
 flattens them, runs one batch driver of :mod:`._drivers` (serial for small batches, numba's
-threads for large ones: the same compiled source) and gives the batch shape back. Inputs are
-checked by the public functions that call these; here they are only made contiguous float64.
+threads for large ones: the same compiled source) and gives the batch shape back. J* batches and
+rollouts take the kernels specialised to the model's structure instead when
+:func:`~freeflyer.mechanics.specialise` made them (:mod:`._specialise`; the same recursions,
+traced). Inputs are checked by the public functions that call these; here they are only made
+contiguous float64.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ __all__ = [
     "residual_rows",
     "rk4_batch",
     "rollout",
+    "specialised_rollouts",
     "state_derivative",
 ]
 
@@ -38,6 +42,8 @@ NO_WRENCHES: tuple[np.ndarray, np.ndarray] = (np.zeros((0, 2), dtype=np.int64), 
 
 #: Batches of J* at least this large use the specialised kernels of the model's structure, when made.
 _SPECIALISED_MIN = 64
+#: Rollouts of at least this many trajectories use them (a lane block computes 64; about 8 pay for it).
+_SPECIALISED_ROLLOUTS_MIN = 8
 
 
 def _own(arr: Any, dtype: Any = np.float64) -> np.ndarray:
@@ -254,7 +260,7 @@ def rollout(
     done = np.empty(k, dtype=np.int64)
     kp, kd, qref, vref = (_own(np.broadcast_to(g, (k, n))) for g in gains)
     ext_i, ext_f = _wrench_data(ext, (k,))
-    fast = _specialise.find(t, "rollout") if ext_i.shape[0] == 0 else None
+    fast = _specialise.find(t, "rollout") if ext_i.shape[0] == 0 and k >= _SPECIALISED_ROLLOUTS_MIN else None
     if fast is not None:
         timing = (float(dt), int(steps), int(hold), int(stride))
         _specialise.rollout(fast, t, _own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), xs, us, sat, done)
@@ -285,6 +291,11 @@ def rollout(
         done,
     )
     return xs, us, sat, done
+
+
+def specialised_rollouts(model: Any, batch: int) -> bool:
+    """True when :func:`rollout` of ``batch`` trajectories without external wrenches runs the specialised kernels."""
+    return batch >= _SPECIALISED_ROLLOUTS_MIN and _specialise.find(tree(model), "rollout") is not None
 
 
 def rk4_batch(

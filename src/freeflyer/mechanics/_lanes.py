@@ -6,9 +6,11 @@ flat buffer of rows of LANES values (its inputs first, then its outputs), P the 
 adjacent memory with constant offsets, which the compiler turns into SIMD instructions (eight
 float64 lanes on AVX-512). These drivers copy each block of a user's batch into W (rows), call the
 lane kernel, and copy the outputs back; they hold no physics: J* and the state derivative are the
-traced recursions of :mod:`._recursions`, and the rollout below repeats, per lane, what the generic
-rollout kernel (:func:`~._drivers._rollout_range`) does per trajectory (RK4, the joint PD, the
-records). They are inlined into the kernels of each generated module (:func:`~._specialise.load`).
+traced recursions of :mod:`._recursions`. The rollout below does per lane what the generic rollout
+kernel (:func:`~._drivers._rollout_range`) does per trajectory: the joint PD is one function for
+both (:func:`joint_pd`); the RK4 combination of the four stage derivatives and the records are
+written for rows of lanes here. They are inlined into the kernels of each generated module
+(:func:`~._specialise.load`), and :func:`joint_pd` into the generic rollout kernel.
 """
 
 from __future__ import annotations
@@ -19,10 +21,50 @@ from typing import Any
 import numba
 import numpy as np
 
-__all__ = ["LANES", "map_blocks", "rollout_blocks"]
+__all__ = ["LANES", "joint_pd", "map_blocks", "rollout_blocks"]
 
-#: Configurations per lane block (a multiple of the SIMD width; 64 measured best of 8-128).
+#: Configurations per lane block (a multiple of the SIMD width). Measured on the 7-DOF arm: 16 is 10-20% slower,
+#: 32, 64 and 128 within the machine's noise of each other.
 LANES = 64
+
+
+@numba.njit(inline="always", nogil=True, error_model="numpy")
+def joint_pd(
+    ff: np.ndarray,
+    sample: int,
+    b: int,
+    kp: np.ndarray,
+    kd: np.ndarray,
+    qref: np.ndarray,
+    vref: np.ndarray,
+    lim: np.ndarray,
+    x: np.ndarray,
+    x0: int,
+    u: np.ndarray,
+    u0: int,
+    step: int,
+) -> bool:  # pragma: no cover
+    """The joint PD of the rollouts at one sample of trajectory b: u = ff[sample, b] + kp (qref - q) + kd (vref - qdot), clipped to +-lim.
+
+    The state is x[x0 + i * step] (i = 0 .. 13 + 2N) and u is written to u[u0 + j * step] (j = 0 .. N + 6):
+    step 1 for one trajectory (:func:`~._drivers._rollout_range`), LANES for a lane of a block. True if any
+    component was clipped.
+    """
+    n = kp.shape[1]
+    width = ff.shape[2]
+    sat = False
+    for j in range(n + 6):
+        val = ff[sample, b, j] if j < width else 0.0
+        if j < n:
+            val += kp[b, j] * (qref[b, j] - x[x0 + (13 + j) * step]) + kd[b, j] * (vref[b, j] - x[x0 + (13 + n + j) * step])
+        if val > lim[j]:
+            val = lim[j]
+            sat = True
+        elif val < -lim[j]:
+            val = -lim[j]
+            sat = True
+        u[u0 + j * step] = val
+    return sat
 
 
 @numba.njit(inline="always", nogil=True, error_model="numpy")
@@ -77,7 +119,6 @@ def rollout_blocks(
     size = X0.shape[1]
     n = (size - 13) // 2
     nu = n + 6
-    width = ff.shape[2]
     k_total = X0.shape[0]
     o_u = size * LANES
     o_k = o_u + nu * LANES
@@ -137,21 +178,7 @@ def rollout_blocks(
             if step == 0 or (step % hold == 0 and step < steps):
                 sk = min(sample, ff.shape[0] - 1)
                 for lane_ in range(count):
-                    b = b0 + lane_
-                    sat = False
-                    for j in range(nu):
-                        val = ff[sk, b, j] if j < width else 0.0
-                        if j < n:
-                            val += kp[b, j] * (qref[b, j] - W[o_x + (13 + j) * LANES + lane_]) + kd[b, j] * (
-                                vref[b, j] - W[o_x + (13 + n + j) * LANES + lane_]
-                            )
-                        if val > lim[j]:
-                            val = lim[j]
-                            sat = True
-                        elif val < -lim[j]:
-                            val = -lim[j]
-                            sat = True
-                        W[o_u + j * LANES + lane_] = val
+                    sat = joint_pd(ff, sk, b0 + lane_, kp, kd, qref, vref, lim, W, o_x + lane_, W, o_u + lane_, LANES)
                     W[o_flag + lane_] = 1.0 if sat else 0.0
                 for lane_ in range(count, LANES):  # lanes past the batch: copy lane 0's controls
                     for j in range(nu):

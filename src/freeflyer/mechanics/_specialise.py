@@ -277,8 +277,35 @@ def _import(path: Path, key: str) -> types.ModuleType:
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # numba's cache finds the kernels' module by name
-    spec.loader.exec_module(module)
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[spec.name]
+        raise
     return module
+
+
+def _write(path: Path, text: str) -> Path:
+    """Write a generated module to ``path`` atomically (a temporary file renamed: a process starting at the same
+    time sees no file or the whole one); if the cache folder cannot be written, to a private temporary folder
+    (with a warning: it is then compiled again in every process)."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+        return path
+    except OSError as exc:
+        warnings.warn(
+            f"freeflyer: cannot write the specialised kernel to {path.parent} ({type(exc).__name__}: {exc}); "
+            "compiling it from a temporary folder (again in every process; set FREEFLYER_CACHE_DIR to a writable folder)",
+            CacheWarning,
+            stacklevel=4,
+        )
+        other = Path(tempfile.mkdtemp(prefix="freeflyer-specialised-")) / path.name
+        other.write_text(text)
+        return other
 
 
 def load(t: Tree, kind: str, *, build: bool) -> types.ModuleType | None:
@@ -310,12 +337,7 @@ def load(t: Tree, kind: str, *, build: bool) -> types.ModuleType | None:
             if not build:
                 return None
             text, _, _ = source(t, kind)
-            path.parent.mkdir(parents=True, exist_ok=True)
-            fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-            with os.fdopen(fd, "w") as f:
-                f.write(text)
-            os.replace(tmp, path)  # atomic: a process starting at the same time sees the old file or the whole new one
-            module = _import(path, key)
+            module = _import(_write(path, text), key)
         _LOADED[key] = module
         return module
 

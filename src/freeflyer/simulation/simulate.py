@@ -342,6 +342,8 @@ def rollout(
 
 #: A compiled rollout of more trajectories than this runs in chunks (progress, Ctrl-C) of at least this many.
 ROLLOUT_CHUNK_MIN = 64
+#: How much faster the kernels specialised to a structure run rollouts (measured 3-7x, docs/performance.md): for the estimate.
+SPECIALISED_SPEEDUP = 5.0
 
 
 def _batch_limits(traj: Trajectory) -> Trajectory:
@@ -405,9 +407,11 @@ def _rollout_pd(
     ext = _engine_inputs(model, external)
     # chunks only for a long rollout (progress, Ctrl-C): joining the chunks copies every output once
     threads = max(1, os.cpu_count() or 1)
-    seconds = _derivative_cost(model) * 4 * steps * batch / threads
+    fast = _engine.specialised_rollouts(model, batch)
+    seconds = _derivative_cost(model) * 4 * steps * batch / threads / (SPECIALISED_SPEEDUP if fast else 1.0)
     long_run = bar.enabled and (bar.callback is not None or bar.delay == 0.0 or seconds > PROGRESS_DELAY)
-    chunk = batch if batch <= ROLLOUT_CHUNK_MIN or not long_run else max(ROLLOUT_CHUNK_MIN, -(-batch // 20))
+    least = ROLLOUT_CHUNK_MIN * threads if fast else ROLLOUT_CHUNK_MIN  # specialised: a lane block per thread at least
+    chunk = batch if batch <= least or not long_run else least * -(-max(least, -(-batch // 20)) // least)
     parts: list[tuple[np.ndarray, ...]] = []
     status, message = "finished", ""
     try:
