@@ -18,6 +18,20 @@ CHUNK = 4096
 PAIR_BUDGET = 1 << 17
 
 
+def new_output(shape: tuple[int, ...], dtype: Any = np.float64) -> np.ndarray:
+    """``np.empty(shape)`` for a kernel's output, its memory pages written once here when it is large (>= 4 MB).
+
+    Measured on the project's 2-core VM: two numba threads taking the first-touch page faults of a
+    fresh 38 MB output at once ran J* at 1.6-33 M configurations/s from call to call (the faults
+    contend); touched here first, in one thread, the threaded kernels run at the same rate every call.
+    """
+    arr = np.empty(shape, dtype=dtype)
+    if arr.nbytes >= 1 << 22:
+        flat = arr.reshape(-1)
+        flat[:: max(1, 4096 // flat.itemsize)] = 0
+    return arr
+
+
 def joint_array(model: Model, q: Any, name: str = "q") -> np.ndarray:
     """``q`` as a float array of shape (..., N); a clear error otherwise."""
     arr = np.asarray(q, dtype=float)

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from . import _configuration, _drivers, _specialise
+from ._arrays import new_output
 from ._tree import Tree, tree, work_size
 
 __all__ = [
@@ -80,8 +81,8 @@ def frames(model: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
     n_b = t.parent.shape[0]
-    rot = np.empty((flat.shape[0], n_b, 3, 3))
-    pos = np.empty((flat.shape[0], n_b, 3))
+    rot = new_output((flat.shape[0], n_b, 3, 3))
+    pos = new_output((flat.shape[0], n_b, 3))
     _drivers.frames_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, rot, pos)
     return rot.reshape((*batch, n_b, 3, 3)), pos.reshape((*batch, n_b, 3))
 
@@ -98,7 +99,7 @@ def points(model: Any, q: np.ndarray, bodies: Any, pts: Any) -> np.ndarray:
     b, p = _point_data(bodies, pts)
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
-    out = np.empty((flat.shape[0], b.shape[0], 3))
+    out = new_output((flat.shape[0], b.shape[0], 3))
     _drivers.points_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.total_mass, b, p, out)
     return out.reshape((*batch, b.shape[0], 3))
 
@@ -109,7 +110,7 @@ def point_jacobians(model: Any, q: np.ndarray, bodies: Any, pts: Any) -> np.ndar
     b, p = _point_data(bodies, pts)
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
-    out = np.empty((flat.shape[0], b.shape[0], 6, 6 + t.n_joints))
+    out = new_output((flat.shape[0], b.shape[0], 6, 6 + t.n_joints))
     _drivers.point_jacobian_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, b, p, out)
     return out.reshape((*batch, b.shape[0], 6, 6 + t.n_joints))
 
@@ -120,7 +121,7 @@ def generalized_jacobian(model: Any, q: np.ndarray) -> np.ndarray:
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
     rows = 6 * t.ee_body.shape[0]
-    out = np.empty((flat.shape[0], rows, t.n_joints))
+    out = new_output((flat.shape[0], rows, t.n_joints))
     fast = _specialise.find(t, "jstar") if flat.shape[0] >= _SPECIALISED_MIN else None
     if fast is not None:
         _specialise.jstar(fast, t, flat, out.reshape((flat.shape[0], rows * t.n_joints)))
@@ -135,7 +136,7 @@ def inertia_matrix(model: Any, q: np.ndarray) -> np.ndarray:
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
     size = 6 + t.n_joints
-    out = np.empty((flat.shape[0], size, size))
+    out = new_output((flat.shape[0], size, size))
     _drivers.hplus_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, out)
     return out.reshape((*batch, size, size))
 
@@ -187,7 +188,7 @@ def residual_rows(
     n = t.n_joints
     acc_in = np.zeros(6 + n) if acceleration is None else acceleration
     batch, (qf, vf, af, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext, acc_in)
-    out = np.empty((qf.shape[0], 3 + n))
+    out = new_output((qf.shape[0], 3 + n))
     _drivers.inverse_batch(
         qf.shape[0], t.parent.shape[0], qf, vf, af, uf, t0f, t.parent, t.body, t.total_mass, ext_i, ext_f, acceleration is not None, out
     )
@@ -206,7 +207,7 @@ def accelerations(
     t = tree(model)
     n = t.n_joints
     batch, (qf, vf, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext)
-    out = np.empty((qf.shape[0], 6 + n))
+    out = new_output((qf.shape[0], 6 + n))
     ok = np.empty(qf.shape[0], dtype=np.bool_)
     _drivers.forward_batch(
         qf.shape[0], t.parent.shape[0], qf, vf, uf, t0f, t.parent, t.body, t.ancestor, t.total_mass, ext_i, ext_f, out, ok
@@ -254,8 +255,8 @@ def rollout(
     n = t.n_joints
     k = x0.shape[0]
     rows = 1 + sum(1 for i in range(1, steps + 1) if i % stride == 0 or i == steps)
-    xs = np.empty((rows, k, x0.shape[1]))
-    us = np.empty((rows, k, n + 6))
+    xs = new_output((rows, k, x0.shape[1]))
+    us = new_output((rows, k, n + 6))
     sat = np.empty((rows, k), dtype=np.bool_)
     done = np.empty(k, dtype=np.int64)
     kp, kd, qref, vref = (_own(np.broadcast_to(g, (k, n))) for g in gains)

@@ -412,19 +412,6 @@ def specialise(t: Tree, kinds: tuple[str, ...] = KINDS, progress: Callable[[str]
 
 
 # ----------------------------------------------------------------- calls
-def _touch(*arrays: np.ndarray) -> None:
-    """Write one value per memory page of each large new output, in this thread, before the threaded kernel writes it.
-
-    Measured on the 2-core VM: two threads taking the first-touch page faults of a fresh 38 MB output
-    at once ran the 1992 system's J* at 1.6-33 M configurations/s from call to call (the faults
-    contend); touched here first, 21-26 M/s every call.
-    """
-    for arr in arrays:
-        if arr.nbytes >= 1 << 22 and arr.flags.c_contiguous:
-            flat = arr.reshape(-1)
-            flat[:: max(1, 4096 // flat.itemsize)] = 0
-
-
 def parallel_worth(size: int) -> bool:
     import numba
 
@@ -435,7 +422,6 @@ def jstar(module: types.ModuleType, t: Tree, q: np.ndarray, out: np.ndarray) -> 
     """J* of the rows of q (C, N) into out (C, 6E * N) by the specialised kernel."""
     data = data_vector(t)[module.SLOTS]
     if parallel_worth(q.shape[0]):
-        _touch(out)
         module.parallel(q, data, out, np.empty((_threads(), module.ROWS * LANES)))
     else:
         module.serial(q, data, out, np.empty(module.ROWS * LANES))
@@ -445,7 +431,6 @@ def rollout(module: types.ModuleType, t: Tree, *args: Any) -> None:
     """:func:`~._drivers._rollout_range`'s work (same arguments less the model and wrenches) by the specialised kernel."""
     data = data_vector(t)[module.SLOTS]
     if args[0].shape[0] > LANES and parallel_worth(4 * args[0].shape[0]):
-        _touch(*args[-4:])
         module.parallel(data, *args, np.empty((_threads(), module.ROWS * LANES)))
     else:
         module.serial(data, *args, np.empty(module.ROWS * LANES))
