@@ -271,7 +271,7 @@ def specialise_command(
     strict: StrictOption = False,
 ) -> None:
     """Compile J* and the rollouts for the structure of MODEL, once per machine (seconds), for sweeps and
-    campaigns: later J* batches and rollouts of this robot, in every process, run 3-10x faster (docs/performance.md)."""
+    campaigns: later J* batches and rollouts of this robot, in every process, run 4-8x faster (docs/performance.md)."""
     from .mechanics.specialised import specialise
 
     with user_errors():

@@ -60,6 +60,18 @@ def test_common_subexpressions_are_one_node() -> None:
     assert g.input("W", 0).index == x.index
 
 
+def test_numbers_and_nodes_are_told_apart() -> None:
+    """Python has 2 == 2.0 and 0.0 == -0.0: the hash-consing key must not, or x * 2.0 would be x * (node 2)."""
+    g = Graph()
+    x, _, z = g.input("W", 0), g.input("W", 1), g.input("W", 2)
+    assert z.index == 2
+    by_node, by_number = x * z, x * 2.0
+    assert by_node.index != by_number.index
+    val = g.evaluate({"W": np.array([3.0, 0.0, 7.0])}, [by_node.index, by_number.index])
+    assert val[by_node.index] == 21.0 and val[by_number.index] == 6.0
+    assert (x / 0.0).index != (x / -0.0).index
+
+
 def test_dead_code_is_dropped() -> None:
     g = Graph()
     x, y = g.input("W", 0), g.input("W", 1)
@@ -82,6 +94,10 @@ def test_branches_on_symbols_are_guards_or_errors() -> None:
         bool(x)
     with pytest.raises(TypeError):
         float(x)
+    with pytest.raises(TypeError, match="== on a traced value"):
+        _ = x == 1.0
+    with pytest.raises(TypeError):
+        _ = x >= 1.0
 
 
 # ----------------------------------------------------------------- emitted code, run as Python
@@ -285,7 +301,9 @@ def test_a_broken_cache_file_warns_and_is_rebuilt(specialised: Path) -> None:
         assert not ff.mechanics.is_specialised(model, "jstar")  # the generic kernels serve meanwhile
     q = np.zeros((100, model.n_joints))
     np.testing.assert_allclose(ff.generalized_jacobian(model, q)[0], ff.generalized_jacobian(model, q[:1])[0])
-    ff.mechanics.specialise(model, ["jstar"])  # rebuilt
+    assert path.read_text() == "def lane(W, P:\n"  # a process that only reads never deletes the shared file
+    with pytest.warns(CacheWarning, match="generating it again"):
+        ff.mechanics.specialise(model, ["jstar"])  # rebuilt
     assert ff.mechanics.is_specialised(model, "jstar") and path.read_text().startswith('"""freeflyer')
 
 

@@ -8,15 +8,18 @@ joint types, placements and axes: folded) and the data as symbols (masses, CMs, 
 total mass, end-effector points: read at run time, so :meth:`~freeflyer.Model.with_payload`
 variants share the kernels). :func:`emit` writes the graph as straight-line code over one block
 of :data:`~._lanes.LANES` configurations (rows of a flat buffer), which LLVM vectorises; sin and
-cos become :data:`SINCOS` (a vectorisable sin/cos, within 1 ulp of the C library's over
-|q| <= 1e5 rad, checked by ``tests/mechanics/test_specialise.py``). :mod:`._lanes` drives the blocks.
+cos become :data:`SINCOS` (a vectorisable sin/cos: within 1 ulp of the C library's over
+|q| <= 7 rad and 2 ulp over |q| <= 1e5 rad, checked by ``tests/mechanics/test_specialise.py``;
+beyond about 1e6 rad the reduction is no longer exact). :mod:`._lanes` drives the blocks.
 
-Nothing compiles unless asked (:func:`specialise`, public as :func:`freeflyer.specialise`): a
-structure takes 2-10 s to compile once per machine; the generated source and numba's machine code
-are then kept in the user's cache folder (next to the generic kernels', keyed by the structure and
-the engine source) and found by every later process, which then uses them for J* batches and
-rollouts of every model of that structure. Everything else, and every model not specialised, runs
-on the generic kernels. Rollouts with external wrenches stay generic.
+Nothing compiles unless asked (:func:`specialise`, public as ``ff.mechanics.specialise``): a
+structure takes 2-5 s (J*) and 9-18 s (rollouts) to compile once per machine, measured on the paper
+systems; the generated source and numba's machine code are then kept in the user's cache folder
+(inside the generic kernels' folder for this numba version and engine source, keyed by the
+structure) and found by every later process, which then uses them for J* batches and rollouts of
+every model of that structure. Everything else, and every model not specialised, runs on the
+generic kernels. Rollouts with external wrenches stay generic. Two processes specialising the same
+structure at once both compile; the file each writes is the same and replaced atomically.
 """
 
 from __future__ import annotations
@@ -118,6 +121,8 @@ def trace(t: Tree, kind: str) -> tuple[Graph, list[Any], int]:
         q = np.array([g.input("W", j) for j in range(n)], dtype=object)
         out = np.full((6 * t.ee_body.shape[0], n), 0.0, dtype=object)
         mod.configuration.jstar_one(q, parent, body, ancestor, total, _ints(t.ee_body), points, s, out)
+        if g.guards:  # map_blocks has no row to report a failed configuration
+            raise AssertionError("freeflyer: J* traced with guards; give the J* lane driver a row for them")
         return g, list(out.ravel()), n
     if kind == "rollout":
         size = 13 + 2 * n
@@ -126,7 +131,9 @@ def trace(t: Tree, kind: str) -> tuple[Graph, list[Any], int]:
         dx = np.full((1, size), 0.0, dtype=object)
         none_i, none_f = np.zeros((0, 2), dtype=object), np.zeros((0, 9), dtype=object)
         q = np.full(n, 0.0, dtype=object)
-        mod.configuration.state_derivative_one(x, u, parent, body, ancestor, total, none_i, none_f, s, q, dx, 0)
+        ok = mod.configuration.state_derivative_one(x, u, parent, body, ancestor, total, none_i, none_f, s, q, dx, 0)
+        if ok is not True:  # a pivot that folded to a number <= 0: the structure itself is singular
+            raise AssertionError("freeflyer: the traced state derivative failed on numbers alone")
         return g, list(dx.ravel()), size + n + 6
     raise ValueError(f"freeflyer: no specialised kernel of kind {kind!r}; the kinds are {KINDS}")
 
@@ -265,7 +272,7 @@ FOLDER: list[Path | None] = [None]
 
 
 def _folder() -> Path:
-    return FOLDER[0] or cache_dir().parent / "specialised"
+    return FOLDER[0] or cache_dir() / "specialised"  # per numba version and engine source, like the generic kernels
 
 
 _LOADED: dict[str, types.ModuleType] = {}
@@ -283,6 +290,12 @@ def _import(path: Path, key: str) -> types.ModuleType:
         del sys.modules[spec.name]
         raise
     return module
+
+
+@functools.cache
+def _private_folder() -> Path:
+    """One temporary folder per process for generated modules when the cache folder cannot be written."""
+    return Path(tempfile.mkdtemp(prefix="freeflyer-specialised-"))
 
 
 def _write(path: Path, text: str) -> Path:
@@ -303,7 +316,7 @@ def _write(path: Path, text: str) -> Path:
             CacheWarning,
             stacklevel=4,
         )
-        other = Path(tempfile.mkdtemp(prefix="freeflyer-specialised-")) / path.name
+        other = _private_folder() / path.name
         other.write_text(text)
         return other
 
@@ -330,9 +343,7 @@ def load(t: Tree, kind: str, *, build: bool) -> types.ModuleType | None:
                     + ("generating it again" if build else "using the generic kernels (run specialise again to rebuild it)"),
                     CacheWarning,
                     stacklevel=3,
-                )
-                with contextlib.suppress(OSError):
-                    path.unlink()
+                )  # the file stays: only a process that builds replaces it (atomically), never one that reads
         if module is None:
             if not build:
                 return None
@@ -360,7 +371,10 @@ def find(t: Tree, kind: str) -> types.ModuleType | None:
 
 @contextlib.contextmanager
 def generic() -> Iterator[None]:
-    """Within: every call runs on the generic kernels, specialised or not (to compare the two)."""
+    """Within: every call runs on the generic kernels, specialised or not (to compare the two).
+
+    A switch of the whole process, for tests and benchmarks: not meant for threads that overlap.
+    """
     before = _ENABLED[0]
     _ENABLED[0] = False
     try:

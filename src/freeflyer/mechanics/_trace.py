@@ -7,14 +7,19 @@ properties, end-effector points, the state) as symbols, the same source yields t
 configuration for one model structure. Nothing of the physics is written here: this module only
 knows arithmetic.
 
-Rules applied while tracing (each is exact in IEEE arithmetic for finite operands):
+Rules applied while tracing:
 
 * constant folding: an operation on numbers is a number (Python floats, the same IEEE doubles);
-* identities: x + 0 = x, x - 0 = x, 0 - x = -x, x * 1 = x, x * -1 = -x, x / 1 = x, -(-x) = x;
-* zeros: x * 0 = 0 and 0 / x = 0 (exact for finite x; the specialised kernels assume a finite
-  state, as the generic ones report any non-finite one);
+* identities, exact in IEEE arithmetic: x + 0 = x, x - 0 = x, 0 - x = -x, x * 1 = x, x * -1 = -x,
+  x / 1 = x, -(-x) = x;
+* zeros: x * 0 = 0, 0 / x = 0 and x - x = 0. These hold for finite, non-zero x only: an
+  intermediate that overflows to inf (values near 1e154 and beyond) or a zero divisor gives NaN in
+  the generic kernels, which then report the configuration, and 0 in the specialised ones. The
+  engine divides only by the total mass, the determinant of the spacecraft-block of H+ and the
+  Cholesky pivots (guarded), none of which is zero for a valid model;
 * common subexpressions: an operation on the same operands is the same node (hash-consing; the
-  operands of + and * are ordered, which IEEE addition and multiplication do not mind);
+  operands of + and * are ordered, which IEEE addition and multiplication do not mind; numbers
+  and node indices are told apart in the key);
 * dead code: :meth:`Graph.live` keeps only the nodes the outputs (and guards) need.
 
 Branches on a symbol (the positive-pivot test of the Cholesky factorisation) cannot be taken while
@@ -54,7 +59,7 @@ class Graph:
         self.guards: list[int] = []
 
     def node(self, op: str, *args: Any) -> Sym:
-        key = (op, *args)
+        key = _memo_key(op, args)
         found = self._memo.get(key)
         if found is None:
             found = len(self.ops)
@@ -65,7 +70,7 @@ class Graph:
 
     def find(self, op: str, *args: Any) -> int | None:
         """The node of ``op`` on ``args`` if the trace made it, else None."""
-        return self._memo.get((op, *args))
+        return self._memo.get(_memo_key(op, args))
 
     def input(self, name: str, index: int) -> Sym:
         return self.node("in", name, index)
@@ -114,6 +119,11 @@ _BINARY = {
     "/": lambda x, y: x / y,
     ">": lambda x, y: float(x > y),
 }
+
+
+def _memo_key(op: str, args: tuple[Any, ...]) -> tuple[Any, ...]:
+    """The hash-consing key of a node: node indices and numbers tagged apart (Python has 2 == 2.0), and -0.0 apart from 0.0."""
+    return (op, *(("n", a) if isinstance(a, int) else ("c", a, math.copysign(1.0, a)) if isinstance(a, float) else a for a in args))
 
 
 def _key(a: Any) -> tuple[int, Any]:
@@ -241,6 +251,14 @@ class Sym:
     def __bool__(self) -> bool:
         raise TypeError("freeflyer: a branch on a traced value (only comparisons may be traced, as guards)")
 
+    def __eq__(self, o: object) -> bool:
+        raise TypeError("freeflyer: == on a traced value (only > and < may be traced, as guards)")
+
+    def __ne__(self, o: object) -> bool:
+        raise TypeError("freeflyer: != on a traced value (only > and < may be traced, as guards)")
+
+    __hash__ = None  # type: ignore[assignment]
+
     def __float__(self) -> float:
         raise TypeError("freeflyer: a traced value has no number")
 
@@ -278,22 +296,14 @@ def _identity(x: Any) -> Any:
     return x
 
 
-def _plain(*args: Any, **kwargs: Any) -> Any:
-    """``kernel(...)`` of :mod:`._numba_cache` for traced modules: the function itself, not compiled."""
-
-    def wrap(func: Any) -> Any:
-        return func
-
-    return wrap
-
-
 @functools.cache
 def traced() -> types.SimpleNamespace:
     """The modules :mod:`._recursions` and :mod:`._configuration` loaded again, as plain Python on :class:`Sym` values.
 
-    The same source files are executed with ``kernel`` returning the function undecorated, the
-    views without reference counting as the identity and ``math`` as above: the one source, run
-    by the interpreter instead of numba.
+    The same source files are executed as modules of their own; then every kernel name in them is
+    rebound to the kernel's Python function (``py_func``), the views without reference counting to
+    the identity and ``math`` to the shim above: the one source, run by the interpreter instead of
+    numba (nothing is compiled).
     """
     here = Path(__file__).parent
     package = __name__.rpartition(".")[0]

@@ -342,7 +342,7 @@ def rollout(
 
 #: A compiled rollout of more trajectories than this runs in chunks (progress, Ctrl-C) of at least this many.
 ROLLOUT_CHUNK_MIN = 64
-#: How much faster the kernels specialised to a structure run rollouts (measured 3-7x, docs/performance.md): for the estimate.
+#: How much faster the kernels specialised to a structure run rollouts (measured 4-8x, docs/performance.md): for the estimate.
 SPECIALISED_SPEEDUP = 5.0
 
 
