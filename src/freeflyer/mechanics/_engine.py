@@ -261,8 +261,9 @@ def rollout(
     done = np.empty(k, dtype=np.int64)
     kp, kd, qref, vref = (_own(np.broadcast_to(g, (k, n))) for g in gains)
     ext_i, ext_f = _wrench_data(ext, (k,))
-    fast = _specialise.find(t, "rollout") if ext_i.shape[0] == 0 and k >= _SPECIALISED_ROLLOUTS_MIN else None
-    if fast is not None:
+    if specialised_rollouts(model, k, ext):
+        fast = _specialise.find(t, "rollout")
+        assert fast is not None
         timing = (float(dt), int(steps), int(hold), int(stride))
         _specialise.rollout(fast, t, _own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), xs, us, sat, done)
         return xs, us, sat, done
@@ -294,9 +295,10 @@ def rollout(
     return xs, us, sat, done
 
 
-def specialised_rollouts(model: Any, batch: int) -> bool:
-    """True when :func:`rollout` of ``batch`` trajectories without external wrenches runs the specialised kernels."""
-    return batch >= _SPECIALISED_ROLLOUTS_MIN and _specialise.find(tree(model), "rollout") is not None
+def specialised_rollouts(model: Any, batch: int, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES) -> bool:
+    """True when :func:`rollout` of ``batch`` trajectories under the wrenches ``ext`` runs the specialised kernels
+    (made for the model's structure, at least 8 trajectories, no external wrenches)."""
+    return np.shape(ext[0])[0] == 0 and batch >= _SPECIALISED_ROLLOUTS_MIN and _specialise.find(tree(model), "rollout") is not None
 
 
 def rk4_batch(

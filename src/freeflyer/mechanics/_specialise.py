@@ -444,7 +444,7 @@ def jstar(module: types.ModuleType, t: Tree, q: np.ndarray, out: np.ndarray) -> 
 def rollout(module: types.ModuleType, t: Tree, *args: Any) -> None:
     """:func:`~._drivers._rollout_range`'s work (same arguments less the model and wrenches) by the specialised kernel."""
     data = data_vector(t)[module.SLOTS]
-    if args[0].shape[0] > LANES and parallel_worth(4 * args[0].shape[0]):
+    if args[0].shape[0] > LANES and parallel_worth(4 * LANES):  # threads pay from two blocks of trajectories
         module.parallel(data, *args, np.empty((_threads(), module.ROWS * LANES)))
     else:
         module.serial(data, *args, np.empty(module.ROWS * LANES))

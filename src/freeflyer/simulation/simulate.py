@@ -405,9 +405,9 @@ def _rollout_pd(
     except ValueError:
         return None
     ext = _engine_inputs(model, external)
+    fast = _engine.specialised_rollouts(model, batch, ext)
     # chunks only for a long rollout (progress, Ctrl-C): joining the chunks copies every output once
     threads = max(1, os.cpu_count() or 1)
-    fast = _engine.specialised_rollouts(model, batch)
     seconds = _derivative_cost(model) * 4 * steps * batch / threads / (SPECIALISED_SPEEDUP if fast else 1.0)
     long_run = bar.enabled and (bar.callback is not None or bar.delay == 0.0 or seconds > PROGRESS_DELAY)
     least = ROLLOUT_CHUNK_MIN * threads if fast else ROLLOUT_CHUNK_MIN  # specialised: a lane block per thread at least
