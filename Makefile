@@ -1,10 +1,10 @@
-# freeflyer: `make demo`, `make test`, `make bench` each create .venv and install on a fresh machine.
+# freefloat: `make demo`, `make test`, `make bench`, `make docs` each create .venv and install on a fresh machine.
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 OUT ?= out
 
-.PHONY: demo test bench lint clean
+.PHONY: demo test bench docs lint clean
 
 $(VENV)/.runtime: pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -15,23 +15,29 @@ $(VENV)/.runtime: pyproject.toml
 $(VENV)/.test: pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	$(PY) -m pip install -q -e ".[test]"
+	$(PY) -m pip install -q -e ".[test,docs]"
 	touch $(VENV)/.runtime $@
 
 demo: $(VENV)/.runtime
-	$(VENV)/bin/freeflyer demo --out $(OUT) --overwrite
+	$(VENV)/bin/freefloat demo --out $(OUT) --overwrite
 
 lint: $(VENV)/.test
-	$(VENV)/bin/ruff check src tests benchmarks examples
-	$(VENV)/bin/ruff format --check src tests benchmarks examples
+	$(VENV)/bin/ruff check src tests benchmarks examples docs/_site_hooks.py
+	$(VENV)/bin/ruff format --check src tests benchmarks examples docs/_site_hooks.py
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports --no-cache
 
+# The suite includes the wheel test (tests/test_release.py) and the strict documentation build (tests/test_docs_site.py).
 test: lint
 	$(PY) -m pytest
 
 bench: $(VENV)/.test
 	$(PY) benchmarks/run.py --out $(OUT)/bench
+
+# The documentation site into $(OUT)/site, with make demo's figures and tables (docs/_site_hooks.py);
+# --strict: a broken link or a public name without a docstring fails.
+docs: demo $(VENV)/.test
+	FREEFLOAT_DEMO_OUT=$(OUT) NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --site-dir $(OUT)/site
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache .mypy_cache .ruff_cache

@@ -1,8 +1,8 @@
-"""Core benchmark: J* and det J* over many random configurations, freeflyer against a Pinocchio loop.
+"""Core benchmark: J* and det J* over many random configurations, freefloat against a Pinocchio loop.
 
 For each system, in the same process and run:
 
-* freeflyer: one batched call ``ff.generalized_jacobian(model, Q)`` and one
+* freefloat: one batched call ``ff.generalized_jacobian(model, Q)`` and one
   ``ff.jacobian_determinant(model, Q)`` (``ff.manipulability`` for a redundant arm, whose J* is
   not square) on Q of shape (configs, N); best of ``repeats`` wall-clock times;
 * Pinocchio: a Python loop over a subsample, written the way a user would write it: per
@@ -10,12 +10,12 @@ For each system, in the same process and run:
   ``getFrameJacobian(..., LOCAL_WORLD_ALIGNED)`` per end effector, then
   J* = J_q - J_b A_b^-1 A_q with numpy and ``np.linalg.det`` (sqrt det(J* J*ᵀ) for the redundant
   arm); best of ``repeats`` as well;
-* freeflyer's one engine (generic numba kernels, compiled once per machine and cached on disk),
+* freefloat's one engine (generic numba kernels, compiled once per machine and cached on disk),
   on 2 numba threads and on 1 (``numba.set_num_threads``).
 
 Before timing, J* and the determinant of both agree on a sample of configurations to 1e-10
 (relative to the largest entry), else the benchmark stops. Results: configurations per second,
-the ratios freeflyer / Pinocchio loop, machine information, as a dict for ``run.py`` to write.
+the ratios freefloat / Pinocchio loop, machine information, as a dict for ``run.py`` to write.
 """
 
 from __future__ import annotations
@@ -30,12 +30,12 @@ from typing import Any
 
 import numpy as np
 
-import freeflyer as ff
-from freeflyer.io.oracles import pinocchio_configuration, to_pinocchio
-from freeflyer.mechanics._specialise import generic
-from freeflyer.mechanics.jacobians import _singularity_row_indices
+import freefloat as ff
+from freefloat.io.oracles import pinocchio_configuration, to_pinocchio
+from freefloat.mechanics._specialise import generic
+from freefloat.mechanics.jacobians import _singularity_row_indices
 
-#: Agreement required between freeflyer and Pinocchio before timing (relative to the largest entry).
+#: Agreement required between freefloat and Pinocchio before timing (relative to the largest entry).
 VERIFY_RTOL = 1e-10
 TARGET_RATIO = 100.0
 GOAL_RATIO = 500.0
@@ -52,7 +52,7 @@ class System:
     def det_name(self) -> str:
         return "det J*" if self.square else "manipulability sqrt(det(J* J*^T))"
 
-    def freeflyer_det(self, q: np.ndarray) -> np.ndarray:
+    def freefloat_det(self, q: np.ndarray) -> np.ndarray:
         return ff.jacobian_determinant(self.model, q) if self.square else ff.manipulability(self.model, q)
 
 
@@ -154,10 +154,10 @@ def rate(timing: dict[str, Any], n: int) -> dict[str, Any]:
 
 
 def verify(system: System, loop: PinocchioLoop, q: np.ndarray, batch: int) -> dict[str, float]:
-    """freeflyer (as benchmarked: one batch of ``batch`` configurations) against Pinocchio on a sample."""
+    """freefloat (as benchmarked: one batch of ``batch`` configurations) against Pinocchio on a sample."""
     model = system.model
     jstar = ff.generalized_jacobian(model, q[:batch])
-    dets = system.freeflyer_det(q[:batch])
+    dets = system.freefloat_det(q[:batch])
     picks = np.unique(np.concatenate([[0, batch - 1], np.random.default_rng(1).integers(0, batch, size=30)]))
     err_j = err_d = 0.0
     scale_d = 0.0
@@ -170,7 +170,7 @@ def verify(system: System, loop: PinocchioLoop, q: np.ndarray, batch: int) -> di
     err_d /= max(scale_d, 1e-300)
     if not (err_j <= VERIFY_RTOL and err_d <= VERIFY_RTOL):
         raise AssertionError(
-            f"{system.key}: freeflyer and Pinocchio disagree (J* {err_j:.1e}, {system.det_name} {err_d:.1e} > {VERIFY_RTOL})"
+            f"{system.key}: freefloat and Pinocchio disagree (J* {err_j:.1e}, {system.det_name} {err_d:.1e} > {VERIFY_RTOL})"
         )
     return {"max_rel_err_jstar": err_j, "max_rel_err_det": err_d, "configurations_checked": len(picks)}
 
@@ -184,7 +184,7 @@ def machine_info() -> dict[str, Any]:
         "machine": platform.machine(),
         "python": platform.python_version(),
         "numpy": numpy.__version__,
-        "freeflyer": ff.__version__,
+        "freefloat": ff.__version__,
     }
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as f:
@@ -248,8 +248,8 @@ def bench_system(system: System, configs: int, pinocchio_configs: int, repeats: 
     t0 = time.perf_counter()
     with generic():
         ff.generalized_jacobian(model, q)
-        system.freeflyer_det(q)
-    result["freeflyer_first_call_s"] = time.perf_counter() - t0
+        system.freefloat_det(q)
+    result["freefloat_first_call_s"] = time.perf_counter() - t0
     # the specialised kernels of this structure (compiled once per machine; loaded from the cache afterwards)
     t0 = time.perf_counter()
     ff.mechanics.specialise(model, ["jstar"])
@@ -259,7 +259,7 @@ def bench_system(system: System, configs: int, pinocchio_configs: int, repeats: 
     with generic():
         result["verification_generic"] = verify(system, loop, q, configs)
 
-    calls = {"jstar": lambda: ff.generalized_jacobian(model, q), "det": lambda: system.freeflyer_det(q)}
+    calls = {"jstar": lambda: ff.generalized_jacobian(model, q), "det": lambda: system.freefloat_det(q)}
     sub = q[:pinocchio_configs]
     log(f"[{system.key}] Pinocchio loop, {len(sub):,} configurations, best of {repeats}")
     theirs = {
@@ -271,13 +271,13 @@ def bench_system(system: System, configs: int, pinocchio_configs: int, repeats: 
         for threads in thread_counts():
             old = set_threads(threads)
             try:
-                log(f"[{system.key}] freeflyer ({engine}), {len(q):,} configurations, {threads} thread(s), best of {repeats}")
+                log(f"[{system.key}] freefloat ({engine}), {len(q):,} configurations, {threads} thread(s), best of {repeats}")
                 with generic() if engine == "generic" else contextlib.nullcontext():
                     ours = {key: rate(best_of(fn, repeats), len(q)) for key, fn in calls.items()}
             finally:
                 set_threads(old)
             result[f"{'' if engine == 'specialised' else 'generic_'}threads_{threads}"] = {
-                "freeflyer": ours,
+                "freefloat": ours,
                 "ratio": {k: ours[k]["configs_per_s"] / theirs[k]["configs_per_s"] for k in ours},
                 "ratio_cpu": {k: ours[k]["cpu_configs_per_s"] / theirs[k]["cpu_configs_per_s"] for k in ours},
             }
@@ -286,20 +286,20 @@ def bench_system(system: System, configs: int, pinocchio_configs: int, repeats: 
 
 def run_core(configs: int, pinocchio_configs: int, repeats: int, log: Callable[[str], None] = print) -> dict[str, Any]:
     report: dict[str, Any] = {
-        "benchmark": "core: J* and det J* over random configurations, freeflyer (one batched call) vs a Python loop over Pinocchio",
+        "benchmark": "core: J* and det J* over random configurations, freefloat (one batched call) vs a Python loop over Pinocchio",
         "machine": machine_info(),
         "settings": {"configs": configs, "pinocchio_configs": pinocchio_configs, "repeats": repeats, "threads": thread_counts()},
         "targets": {"min_ratio": TARGET_RATIO, "goal_ratio": GOAL_RATIO},
         "notes": [
-            "configs_per_s: configurations / best wall-clock time of one call over the whole batch (freeflyer) "
+            "configs_per_s: configurations / best wall-clock time of one call over the whole batch (freefloat) "
             "or of the loop over the subsample (Pinocchio); cpu_configs_per_s uses process CPU time instead "
             "(with 2 threads it adds both threads' time).",
-            "ratio = freeflyer configs/s / Pinocchio-loop configs/s, both measured in this run; threads_<k>: freeflyer's "
+            "ratio = freefloat configs/s / Pinocchio-loop configs/s, both measured in this run; threads_<k>: freefloat's "
             "engine on k numba threads (numba.set_num_threads); the Pinocchio loop is one Python thread, as a user writes it.",
             "threads_<k>: the kernels specialised to the model's structure (ff.mechanics.specialise; specialise_s: their compile, "
             "or their load when the cache has them); generic_threads_<k>: the generic kernels (the model as arrays, nothing "
-            "compiled per model), timed in the same run; freeflyer_first_call_s is this model's first generic call in the process.",
-            "freeflyer's batched J* is returned with the batch axis innermost in memory (a transposed view) when the "
+            "compiled per model), timed in the same run; freefloat_first_call_s is this model's first generic call in the process.",
+            "freefloat's batched J* is returned with the batch axis innermost in memory (a transposed view) when the "
             "engine produces it so; values and shape are the documented ones.",
         ],
         "systems": {},
@@ -315,7 +315,7 @@ def table(report: dict[str, Any]) -> str:
     """A readable table of the report."""
     lines = []
     head = (
-        f"{'system':18s} {'quantity':36s} {'thr':>3s} {'freeflyer cfg/s':>16s} {'Pinocchio cfg/s':>16s} {'ratio':>8s} "
+        f"{'system':18s} {'quantity':36s} {'thr':>3s} {'freefloat cfg/s':>16s} {'Pinocchio cfg/s':>16s} {'ratio':>8s} "
         f"{'ratio (cpu)':>12s} {'max rel err':>12s}"
     )
     lines.append(head)
@@ -327,7 +327,7 @@ def table(report: dict[str, Any]) -> str:
             for sub_key, sub in res.items():
                 if "threads_" not in sub_key:
                     continue
-                ours, theirs = sub["freeflyer"][name], res["pinocchio_loop"][name]
+                ours, theirs = sub["freefloat"][name], res["pinocchio_loop"][name]
                 tag = ("generic " if sub_key.startswith("generic") else "") + label
                 lines.append(
                     f"{key:18s} {tag[:36]:36s} {sub_key.rsplit('_', 1)[1]:>3s} "

@@ -1,10 +1,10 @@
-"""Dynamics and simulation benchmark: freeflyer against Pinocchio and MuJoCo, in one run.
+"""Dynamics and simulation benchmark: freefloat against Pinocchio and MuJoCo, in one run.
 
 For the 1992 two-arm system and the 7-DOF spacecraft (``ff.models.spacecraft_7dof``):
 
 1. **Per configuration** (batched): H+ (1991 eq. 15), C+ (eq. 19) and forward dynamics for
    ``configs`` random states, one batched public call each (``ff.system_inertia_matrix``,
-   ``ff.nonlinear_forces``, ``ff.forward_dynamics``: freeflyer's one engine), against the same
+   ``ff.nonlinear_forces``, ``ff.forward_dynamics``: freefloat's one engine), against the same
    quantities from Pinocchio in a Python loop (``pin.crba``, ``pin.nonLinearEffects``,
    ``pin.aba`` with a free-flyer root, one ``Data`` reused).
 2. **One simulation**, fixed-step RK4 at 1 ms with a joint PD controller written in numpy and
@@ -19,7 +19,7 @@ For the 1992 two-arm system and the 7-DOF spacecraft (``ff.models.spacecraft_7do
 
 Everything is verified before it is timed (forward dynamics == Pinocchio's ABA to 1e-9, the
 simulations and rollouts == MuJoCo's to 1e-6). Throughputs are best-of-``repeats`` wall-clock
-rates; ratios are freeflyer / reference, both measured in this run.
+rates; ratios are freefloat / reference, both measured in this run.
 """
 
 from __future__ import annotations
@@ -32,14 +32,14 @@ from typing import Any
 
 import numpy as np
 
-import freeflyer as ff
+import freefloat as ff
 from bench_core import best_of, machine_info, machine_line, panda_model, set_threads, thread_counts
-from freeflyer.core.state import State
-from freeflyer.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
-from freeflyer.io.oracles import acceleration_from_pinocchio, pinocchio_configuration, pinocchio_velocity, to_pinocchio
-from freeflyer.mechanics._specialise import generic
-from freeflyer.simulation.pd import JointPD
-from freeflyer.simulation.simulate import rollout, simulate
+from freefloat.core.state import State
+from freefloat.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
+from freefloat.io.oracles import acceleration_from_pinocchio, pinocchio_configuration, pinocchio_velocity, to_pinocchio
+from freefloat.mechanics._specialise import generic
+from freefloat.simulation.pd import JointPD
+from freefloat.simulation.simulate import rollout, simulate
 
 DT = 1e-3
 TARGET_SIMULATION = 1.0
@@ -137,10 +137,10 @@ def per_configuration(model: ff.Model, configs: int, pin_configs: int, repeats: 
         raise AssertionError(f"{model.name}: forward dynamics differs from Pinocchio's ABA by {worst:.1e}")
     out: dict[str, Any] = {"verification": {"fd_vs_pinocchio_aba": worst}, "configs": configs, "pinocchio_configs": pin_configs}
     for key in ("hplus", "cplus", "fd"):
-        log(f"[{model.name}] {key}: freeflyer ({configs:,}), Pinocchio loop ({pin_configs:,})")
+        log(f"[{model.name}] {key}: freefloat ({configs:,}), Pinocchio loop ({pin_configs:,})")
         a = rate(best_of(ours[key], repeats), configs, "configs")
         c = rate(best_of(lambda key=key: pin_loop.loop(key, items), repeats), pin_configs, "configs")
-        out[key] = {"freeflyer": a, "pinocchio_loop": c, "ratio": a["configs_per_s"] / c["configs_per_s"]}
+        out[key] = {"freefloat": a, "pinocchio_loop": c, "ratio": a["configs_per_s"] / c["configs_per_s"]}
     return out
 
 
@@ -184,26 +184,26 @@ def single_simulation(model: ff.Model, steps: int, repeats: int, log: Callable[[
     def controller(t: float, s: State) -> np.ndarray:
         return pd(s.q, s.qdot)
 
-    def run_freeflyer() -> ff.Trajectory:
-        # the MuJoCo model has no joint limits: both run without stops (freeflyer flags crossings only)
+    def run_freefloat() -> ff.Trajectory:
+        # the MuJoCo model has no joint limits: both run without stops (freefloat flags crossings only)
         return simulate(model, state, steps * DT, controller, fixed_step=DT, output_period=stride * DT, joint_limits="flag")
 
     # verification: the final joint angles of both engines
     kept = run_mujoco()
     final = from_mujoco_state(model, kept[-1][: m.nq], kept[-1][m.nq :])
-    traj = run_freeflyer()
+    traj = run_freefloat()
     err_mj = float(np.max(np.abs(traj.q[-1] - final.q)))
     if err_mj > 1e-6:
         raise AssertionError(f"{model.name}: ff.simulate and MuJoCo disagree by {err_mj:.1e} rad")
     log(f"[{model.name}] one simulation, {steps} steps of 1 ms, PD controller in Python, best of {repeats}")
     mj = rate(best_of(run_mujoco, repeats), steps, "steps")
-    ours = rate(best_of(run_freeflyer, repeats), steps, "steps")
+    ours = rate(best_of(run_freefloat, repeats), steps, "steps")
     return {
         "steps": steps,
         "controller": "tau = kp (q_ref - q) - kd qdot, numpy, every step (kp = 400 I_jj, kd = 28 I_jj: wn = 20 rad/s, zeta = 0.7)",
         "verification": {"max_abs_q_final_vs_mujoco": err_mj},
         "mujoco_python_controller": mj,
-        "freeflyer_simulate": ours,
+        "freefloat_simulate": ours,
         "ratio": ours["steps_per_s"] / mj["steps_per_s"],
     }
 
@@ -238,7 +238,7 @@ def batched_rollouts(model: ff.Model, batch: int, steps: int, repeats: int, log:
         datas = [mujoco.MjData(m) for _ in range(threads)]
         return lambda: mj_rollout.rollout(m, datas, init, torque, persistent_pool=threads > 1)
 
-    def run_freeflyer(threads: int) -> Callable[[], ff.Trajectory]:
+    def run_freefloat(threads: int) -> Callable[[], ff.Trajectory]:
         def go() -> ff.Trajectory:
             old = set_threads(threads)
             try:
@@ -253,17 +253,17 @@ def batched_rollouts(model: ff.Model, batch: int, steps: int, repeats: int, log:
     ff.mechanics.specialise(model, ["rollout"])
     specialise_s = time.perf_counter() - t0
     log(f"[{model.name}] specialised rollouts ready in {specialise_s:.2f} s")
-    # verification: final joint angles of the two engines (specialised and generic freeflyer)
+    # verification: final joint angles of the two engines (specialised and generic freefloat)
     mj_state, _ = run_mujoco(counts[0])()
     nq = m.nq
     errs = []
     for engine in (contextlib.nullcontext(), generic()):
         with engine:
-            ours = run_freeflyer(counts[0])()
+            ours = run_freefloat(counts[0])()
         errs.append(float(np.max(np.abs(mj_state[:, -1, 1 + 7 : 1 + nq] - ours.q[-1]))))
     err = max(errs)
     if err > 1e-6:
-        raise AssertionError(f"{model.name}: freeflyer and mujoco.rollout disagree by {err:.1e} rad")
+        raise AssertionError(f"{model.name}: freefloat and mujoco.rollout disagree by {err:.1e} rad")
     out: dict[str, Any] = {
         "specialise_s": specialise_s,
         "batch": batch,
@@ -277,17 +277,17 @@ def batched_rollouts(model: ff.Model, batch: int, steps: int, repeats: int, log:
     for threads in counts:
         log(f"[{model.name}] rollouts, {batch} x {steps} steps, {threads} thread(s), best of {repeats}")
         mj = rate(best_of(run_mujoco(threads), repeats), items, "trajectory_steps")
-        pub = rate(best_of(run_freeflyer(threads), repeats), items, "trajectory_steps")
+        pub = rate(best_of(run_freefloat(threads), repeats), items, "trajectory_steps")
         with generic():
-            gen = rate(best_of(run_freeflyer(threads), repeats), items, "trajectory_steps")
+            gen = rate(best_of(run_freefloat(threads), repeats), items, "trajectory_steps")
         out[f"threads_{threads}"] = {
             "mujoco_rollout": mj,
-            "freeflyer_rollout": pub,
+            "freefloat_rollout": pub,
             "ratio": pub["trajectory_steps_per_s"] / mj["trajectory_steps_per_s"],
         }
         out[f"generic_threads_{threads}"] = {
             "mujoco_rollout": mj,
-            "freeflyer_rollout": gen,
+            "freefloat_rollout": gen,
             "ratio": gen["trajectory_steps_per_s"] / mj["trajectory_steps_per_s"],
         }
     out["ratio"] = out[f"threads_{counts[0]}"]["ratio"]
@@ -316,10 +316,10 @@ def run(quick: bool, log: Callable[[str], None]) -> dict[str, Any]:
         },
         "targets": {"simulation_ratio": TARGET_SIMULATION, "rollout_ratio": TARGET_ROLLOUT},
         "notes": [
-            "*_per_s: items / best wall-clock time of `repeats` calls; ratios = freeflyer / reference, both measured in this run.",
-            "freeflyer: the public calls. H+, C+, FD and one simulation run the generic kernels (the model as arrays, compiled "
+            "*_per_s: items / best wall-clock time of `repeats` calls; ratios = freefloat / reference, both measured in this run.",
+            "freefloat: the public calls. H+, C+, FD and one simulation run the generic kernels (the model as arrays, compiled "
             "once per machine and cached on disk); rollouts also the kernels specialised to the structure (below).",
-            "Per configuration: freeflyer's batched calls on numba's threads (all of them); the Pinocchio loop is one Python thread.",
+            "Per configuration: freefloat's batched calls on numba's threads (all of them); the Pinocchio loop is one Python thread.",
             "One simulation: ff.simulate(..., fixed_step=1e-3) with the controller in Python every step (the RK4 steps compiled) vs "
             "MuJoCo mj_step with the same Python controller; single-threaded on both sides.",
             "Rollouts: mujoco.rollout with one MjData per thread (persistent pool when > 1 thread) vs ff.rollout "
@@ -342,7 +342,7 @@ def run(quick: bool, log: Callable[[str], None]) -> dict[str, Any]:
 
 def table(report: dict[str, Any]) -> str:
     lines = []
-    head = f"{'system':18s} {'item':40s} {'freeflyer /s':>14s} {'reference /s':>14s} {'ratio':>8s} {'check':>9s}"
+    head = f"{'system':18s} {'item':40s} {'freefloat /s':>14s} {'reference /s':>14s} {'ratio':>8s} {'check':>9s}"
     lines += [head, "-" * len(head)]
     for key, res in report["systems"].items():
         pc = res["per_configuration"]
@@ -354,12 +354,12 @@ def table(report: dict[str, Any]) -> str:
             r = pc[item]
             check = f"{pc['verification']['fd_vs_pinocchio_aba']:9.1e}" if item == "fd" else ""
             lines.append(
-                f"{key:18s} {label:40s} {r['freeflyer']['configs_per_s']:14,.0f} {r['pinocchio_loop']['configs_per_s']:14,.0f} "
+                f"{key:18s} {label:40s} {r['freefloat']['configs_per_s']:14,.0f} {r['pinocchio_loop']['configs_per_s']:14,.0f} "
                 f"{r['ratio']:7.1f}x {check:>9s}"
             )
         s = res["simulation"]
         lines.append(
-            f"{key:18s} {'ff.simulate + Py PD (steps) vs MuJoCo':40s} {s['freeflyer_simulate']['steps_per_s']:14,.0f} "
+            f"{key:18s} {'ff.simulate + Py PD (steps) vs MuJoCo':40s} {s['freefloat_simulate']['steps_per_s']:14,.0f} "
             f"{s['mujoco_python_controller']['steps_per_s']:14,.0f} {s['ratio']:7.2f}x "
             f"{s['verification']['max_abs_q_final_vs_mujoco']:9.1e}"
         )
@@ -369,7 +369,7 @@ def table(report: dict[str, Any]) -> str:
                 continue
             engine = "generic " if name.startswith("generic") else ""
             label = f"{engine}rollout {ro['batch']}x{ro['steps']} (traj-steps) thr={name.rsplit('_', 1)[1]}"
-            ours = sub["freeflyer_rollout"]["trajectory_steps_per_s"]
+            ours = sub["freefloat_rollout"]["trajectory_steps_per_s"]
             theirs = sub["mujoco_rollout"]["trajectory_steps_per_s"]
             lines.append(
                 f"{key:18s} {label:40s} {ours:14,.0f} {theirs:14,.0f} {sub['ratio']:7.1f}x "

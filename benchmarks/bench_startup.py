@@ -1,10 +1,10 @@
 """Start-up benchmark: what a user waits for in a fresh Python process.
 
 Every figure is measured in a fresh subprocess (``subprocess.run([sys.executable, "-c", code])``);
-the time is taken inside the child with ``time.perf_counter`` from before ``import freeflyer``
+the time is taken inside the child with ``time.perf_counter`` from before ``import freefloat``
 to the end of the work:
 
-* ``import``: ``import freeflyer`` alone;
+* ``import``: ``import freefloat`` alone;
 * ``new_model_warm_cache``: a model never seen before (``ff.models.spacecraft_7dof()`` with its
   masses and inertias scaled by a random factor) - J* of 10^5 configurations plus a 1.0 s
   simulation, RK4 at 1 ms with ``ff.JointPD`` - with the engine's on-disk kernel cache already
@@ -14,7 +14,7 @@ to the end of the work:
   on it is timed; target <= 1 s (the whole process time is reported too). (A 400 kg, 25 kg m²
   payload on this arm makes H+ so ill-conditioned (smallest eigenvalue ~0.01) that the diagonal
   joint PD used here is unstable at 1 ms: a property of the controller, not of the engine.)
-* ``fully_cold``: the same as ``new_model_warm_cache`` with ``FREEFLYER_CACHE_DIR`` set to a new
+* ``fully_cold``: the same as ``new_model_warm_cache`` with ``FREEFLOAT_CACHE_DIR`` set to a new
   empty folder (first use ever: the engine compiles every kernel it needs); only measured.
 """
 
@@ -37,7 +37,7 @@ TARGET_PAYLOAD_S = 1.0
 _PRELUDE = """
 import json, time
 t0 = time.perf_counter()
-import freeflyer as ff
+import freefloat as ff
 t_import = time.perf_counter() - t0
 import dataclasses
 import numpy as np
@@ -110,10 +110,10 @@ def run(quick: bool, log: Callable[[str], None], cold: bool | None = None) -> di
         "targets": {"new_model_warm_cache_s": TARGET_NEW_MODEL_S, "payload_variant_s": TARGET_PAYLOAD_S},
         "notes": [
             "Each figure: a fresh `python -c` process; seconds measured inside it with time.perf_counter from before "
-            "`import freeflyer` to the end (payload_variant: from model.with_payload to the end). best_s: best of `repeats` processes.",
+            "`import freefloat` to the end (payload_variant: from model.with_payload to the end). best_s: best of `repeats` processes.",
             "new_model_warm_cache: spacecraft_7dof with masses and inertias scaled by a random factor (a model never seen), "
             "J* of 1e5 configurations + a 1 s simulation at 1 ms; one identical run beforehand warms the on-disk cache.",
-            "fully_cold: the same with FREEFLYER_CACHE_DIR set to a new empty folder: every kernel it needs is compiled.",
+            "fully_cold: the same with FREEFLOAT_CACHE_DIR set to a new empty folder: every kernel it needs is compiled.",
         ],
     }
     log("[startup] warming the cache (one new-model run)")
@@ -126,10 +126,10 @@ def run(quick: bool, log: Callable[[str], None], cold: bool | None = None) -> di
         "payload_variant": report["payload_variant"]["best_s"] <= TARGET_PAYLOAD_S,
     }
     if cold:
-        log("[startup] fully cold (empty FREEFLYER_CACHE_DIR): compiles everything it needs")
+        log("[startup] fully cold (empty FREEFLOAT_CACHE_DIR): compiles everything it needs")
         with tempfile.TemporaryDirectory() as tmp:
             try:
-                report["fully_cold"] = child("new_model", env=dict(os.environ, FREEFLYER_CACHE_DIR=tmp), timeout=1800)
+                report["fully_cold"] = child("new_model", env=dict(os.environ, FREEFLOAT_CACHE_DIR=tmp), timeout=1800)
                 report["fully_cold"]["best_s"] = report["fully_cold"]["total_s"]
             except subprocess.TimeoutExpired:
                 report["fully_cold"] = {"error": "timed out after 1800 s"}
@@ -142,7 +142,7 @@ def table(report: dict[str, Any]) -> str:
     t = report["targets"]
     ok = report["pass"]
     lines = [f"{'figure (fresh process each)':58s} {'seconds':>9s} {'target':>8s} {'pass':>5s}", "-" * 83]
-    lines.append(f"{'import freeflyer':58s} {report['import']['best_s']:9.3f}")
+    lines.append(f"{'import freefloat':58s} {report['import']['best_s']:9.3f}")
     nm = report["new_model_warm_cache"]
     lines.append(
         f"{'new model, warm cache: import + J* 1e5 + 1 s sim':58s} {nm['best_s']:9.3f} {t['new_model_warm_cache_s']:8.1f} "
@@ -160,7 +160,7 @@ def table(report: dict[str, Any]) -> str:
     elif "error" in cold:
         lines.append(f"{'fully cold (empty cache)':58s} {cold['error']}")
     else:
-        lines.append(f"{'fully cold (empty FREEFLYER_CACHE_DIR): as new model':58s} {cold['best_s']:9.3f}")
+        lines.append(f"{'fully cold (empty FREEFLOAT_CACHE_DIR): as new model':58s} {cold['best_s']:9.3f}")
     lines.append(f"best of {report['settings']['repeats']} processes; warm-up run {report['warmup_run']['total_s']:.1f} s")
     lines.append(machine_line(report["machine"]))
     return "\n".join(lines)

@@ -26,12 +26,12 @@ from typing import Any
 
 import numpy as np
 
-import freeflyer as ff
+import freefloat as ff
 from bench_core import machine_info, machine_line
-from freeflyer.analysis._workspace_search import joint_box
-from freeflyer.analysis.capture import plan_capture
-from freeflyer.analysis.singularity import SingularityCriterion
-from freeflyer.analysis.workspace import path_independent_workspace, reachable_workspace
+from freefloat.analysis._workspace_search import joint_box
+from freefloat.analysis.capture import plan_capture
+from freefloat.analysis.singularity import SingularityCriterion
+from freefloat.analysis.workspace import path_independent_workspace, reachable_workspace
 
 MM = 1e-3
 

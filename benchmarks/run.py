@@ -1,4 +1,4 @@
-"""Run the freeflyer benchmarks and write their results as JSON.
+"""Run the freefloat benchmarks and write their results as JSON.
 
     python benchmarks/run.py --out out/bench                # everything (``make bench``)
     python benchmarks/run.py --out out/bench --quick        # smaller sizes, a smoke run
@@ -48,7 +48,7 @@ def warm_up() -> float:
     """
     import numpy as np
 
-    import freeflyer as ff
+    import freefloat as ff
 
     t0 = time.perf_counter()
     model = ff.models.papadopoulos1992()

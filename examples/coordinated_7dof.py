@@ -17,7 +17,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
+import freefloat as ff
 
 # the output folder is the first argument when this file is run as a script (not when a test runner imports it)
 run_directly = Path(sys.argv[0]).name == Path(__file__).name

@@ -7,7 +7,7 @@ end-effector velocities that result once the spacecraft's reaction (zero momentu
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
+import freefloat as ff
 
 model = ff.models.papadopoulos1992(arms=2)
 q = np.radians([30.0, 45.0, -20.0, 60.0])

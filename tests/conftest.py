@@ -10,15 +10,15 @@ from hypothesis import settings
 matplotlib.use("Agg")
 sys.path.insert(0, str(Path(__file__).parent))
 
-settings.register_profile("freeflyer", derandomize=True, deadline=None, print_blob=True)
-settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "freeflyer"))
+settings.register_profile("freefloat", derandomize=True, deadline=None, print_blob=True)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "freefloat"))
 
 
 @pytest.fixture(autouse=True, scope="session")
 def _generic_kernels() -> Iterator[None]:
     """Tests run on the generic kernels even where this machine has specialised ones (``make bench`` makes
     some); ``tests/mechanics/test_specialise.py`` turns them on in a folder of its own."""
-    from freeflyer.mechanics import _specialise
+    from freefloat.mechanics import _specialise
 
     with _specialise.generic():
         yield

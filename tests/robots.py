@@ -1,8 +1,8 @@
 """Real robot descriptions from the ``example-robot-data`` package, wrapped as space robots.
 
-Each URDF is used as shipped, with two edits made here in the XML (and nowhere in freeflyer):
+Each URDF is used as shipped, with two edits made here in the XML (and nowhere in freefloat):
 a 500 kg spacecraft link is added as the new root, holding the robot's root link by a fixed
-joint 0.5 m above its frame origin, and ``<mimic>`` elements are removed (freeflyer refuses
+joint 0.5 m above its frame origin, and ``<mimic>`` elements are removed (freefloat refuses
 mimic joints with a clear error, tests/io/test_model_corrections.py; Pinocchio's URDF parser,
 by default, also treats them as independent joints). A missing package fails the tests.
 """

@@ -14,9 +14,9 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-import freeflyer
+import freefloat
 
-PACKAGE = Path(freeflyer.__file__).parent
+PACKAGE = Path(freefloat.__file__).parent
 #: Layers that carry mass properties as data without computing H+, C+ or J* from them.
 CARRIERS = ("core", "io", "models", "scenarios")
 

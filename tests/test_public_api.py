@@ -9,14 +9,14 @@ from pathlib import Path
 
 import pytest
 
-import freeflyer as ff
+import freefloat as ff
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: The everyday names of ``import freeflyer as ff`` (the issue's list), and nothing else.
+#: The everyday names of ``import freefloat as ff`` (the issue's list), and nothing else.
 EVERYDAY = {
     "Model", "ModelBuilder", "load", "save", "State", "Actuation",
-    "FreeflyerError", "ModelError", "ShapeError", "UnknownNameError", "SingularConfigurationError",
+    "FreefloatError", "ModelError", "ShapeError", "UnknownNameError", "SingularConfigurationError",
     "NearSingularWarning", "SimulationError",
     "barycentric_vectors", "BarycentricVectors",
     "forward_kinematics", "end_effector_positions", "body_cm_positions", "point_positions", "body_rotations", "system_cm",
@@ -27,13 +27,13 @@ EVERYDAY = {
     "simulate", "rollout", "Trajectory", "ActuatorLimits", "JointPD",
 }  # fmt: skip
 
-#: The namespace modules, attributes of ``freeflyer``.
+#: The namespace modules, attributes of ``freefloat``.
 NAMESPACES = ("capture", "control", "conventions", "mechanics", "models", "papers", "planar", "scenarios", "workspace")
 
 #: The top level before it was trimmed: every one of these names must still be reachable.
 FORMER_TOP_LEVEL = (
     "Actuation ActuatorLimits BarycentricVectors CaptureFamilies CapturePlan CapturePosture CaptureScenario DesiredPoint "
-    "DeterminantMap ExternalWrench FreeflyerError FunctionTrajectory GuaranteedWorkspace InertiaBlocks JointPD MinimumJerk "
+    "DeterminantMap ExternalWrench FreefloatError FunctionTrajectory GuaranteedWorkspace InertiaBlocks JointPD MinimumJerk "
     "Model ModelBuilder ModelError NearSingularWarning OperationalSpaceController PathDoesNotFitError PathIndependentWorkspace "
     "PathPlacement PayloadEffect ReachableWorkspace Scenario SetPoint ShapeError SimulationError SingularConfigurationError "
     "State StraightLine TaskItem TaskSpace Trajectory TransposedJacobianController UnknownNameError WorkspaceLimits "
@@ -81,9 +81,9 @@ def test_namespaces_are_documented_modules() -> None:
         assert (module.__doc__ or "").strip(), f"ff.{name} has no module docstring"
 
 
-@pytest.mark.parametrize("where", ["freeflyer", *NAMESPACES])
+@pytest.mark.parametrize("where", ["freefloat", *NAMESPACES])
 def test_every_public_name_resolves_and_is_documented(where: str) -> None:
-    module = ff if where == "freeflyer" else _namespace(where)
+    module = ff if where == "freefloat" else _namespace(where)
     names = list(getattr(module, "__all__", ()))
     assert names, f"{where} has no __all__"
     missing = [n for n in names if not hasattr(module, n)]

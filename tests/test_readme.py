@@ -49,13 +49,13 @@ def shell_commands() -> list[str]:
             fence = line[3:].strip() if fence is None else None
             continue
         command = line.split("#", 1)[0].strip()
-        if fence == "" and command.startswith(("freeflyer ", "make ")):
+        if fence == "" and command.startswith(("freefloat ", "make ")):
             lines.append(command)
     return lines
 
 
 def make_recipe(target: str) -> list[str]:
-    """What ``make TARGET`` runs, read from the Makefile (the venv's own ``freeflyer``, OUT = out)."""
+    """What ``make TARGET`` runs, read from the Makefile (the venv's own ``freefloat``, OUT = out)."""
     text = MAKEFILE.read_text(encoding="utf-8")
     recipe = re.search(rf"^{target}:.*\n((?:\t.*\n)+)", text, flags=re.M)
     assert recipe, f"Makefile has no {target!r} target"
@@ -73,27 +73,27 @@ def test_readme_commands_run_top_to_bottom(tmp_path: Path) -> None:
     import subprocess
     import sys
 
-    cli = Path(sys.executable).parent / "freeflyer"
-    assert cli.is_file(), f"the installed `freeflyer` command is missing next to {sys.executable}: pip install -e ."
+    cli = Path(sys.executable).parent / "freefloat"
+    assert cli.is_file(), f"the installed `freefloat` command is missing next to {sys.executable}: pip install -e ."
     shutil.copytree(README.parent / "examples", tmp_path / "examples")
     commands = shell_commands()
-    assert commands[:2] == ["make demo", "make test"] and sum(c.startswith("freeflyer ") for c in commands) >= 7
+    assert commands[:2] == ["make demo", "make test"] and sum(c.startswith("freefloat ") for c in commands) >= 7
     ran = []
     for command in commands:
         if command == "make test":
             continue
         for line in make_recipe("demo") if command == "make demo" else [command]:
             argv = line.split()
-            assert argv[0] == "freeflyer", line
+            assert argv[0] == "freefloat", line
             result = subprocess.run([str(cli), *argv[1:]], cwd=tmp_path, capture_output=True, text=True, timeout=600)
             assert result.returncode == 0, f"`{line}` failed:\n{result.stderr[-2000:]}"
             ran.append((line, result.stdout))
     outputs = dict(ran)
-    urdf = json.loads(outputs["freeflyer inspect examples/models/six_dof_arm.urdf --json"])
+    urdf = json.loads(outputs["freefloat inspect examples/models/six_dof_arm.urdf --json"])
     assert urdf["n_joints"] == 6 and urdf["n_end_effectors"] == 1 and urdf["joints"][0]["rpy_deg"][2] == 90.0
     for path in ("out/README.md", "out/1991/report.json", "out/1992/report.json", "out/paper1992/report.json"):
         assert (tmp_path / path).is_file(), path
     assert (tmp_path / "out/joint_pd/trajectory.csv").is_file() and (tmp_path / "out/capture/capture.json").is_file()
-    assert "1 end effectors" not in outputs["freeflyer inspect papadopoulos1992"]
-    manifest = json.loads((tmp_path / "out" / "freeflyer-manifest.json").read_text())["files"]
+    assert "1 end effectors" not in outputs["freefloat inspect papadopoulos1992"]
+    manifest = json.loads((tmp_path / "out" / "freefloat-manifest.json").read_text())["files"]
     assert "1992/report.json" in manifest and all(entry["command"] == "demo" for entry in manifest.values())

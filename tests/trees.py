@@ -11,7 +11,7 @@ import numpy as np
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
+import freefloat as ff
 
 
 def random_inertia(rng: np.random.Generator, mass: float) -> np.ndarray:

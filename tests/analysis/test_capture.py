@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
-from freeflyer.analysis.capture import (
+import freefloat as ff
+from freefloat.analysis.capture import (
     PathDoesNotFitError,
     approach_distance,
     capture_families,
@@ -15,7 +15,7 @@ from freeflyer.analysis.capture import (
     place_path,
     plan_capture,
 )
-from freeflyer.analysis.workspace import end_effector_radius, path_independent_workspace, reachable_workspace
+from freefloat.analysis.workspace import end_effector_radius, path_independent_workspace, reachable_workspace
 from trees import build_random_model
 
 ONE = ff.models.papadopoulos1992(arms=1)

@@ -10,10 +10,10 @@ import pytest
 from scipy.interpolate import CubicSpline
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
-from freeflyer.analysis.capture import CapturePlan, PathDoesNotFitError, free_floating_path_motion, plan_capture
-from freeflyer.analysis.singularity import SingularityCriterion
-from freeflyer.analysis.workspace import path_independent_workspace, singularity_measure
+import freefloat as ff
+from freefloat.analysis.capture import CapturePlan, PathDoesNotFitError, free_floating_path_motion, plan_capture
+from freefloat.analysis.singularity import SingularityCriterion
+from freefloat.analysis.workspace import path_independent_workspace, singularity_measure
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 #: The issue's user-style arm: a 500 kg spacecraft with a 6-DOF arm whose wrist link has 0.005 kg m² inertia.

@@ -10,9 +10,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-import freeflyer as ff
-from freeflyer.analysis.capture import capture_families, optimal_capture_posture, place_path, plan_capture
-from freeflyer.analysis.workspace import (
+import freefloat as ff
+from freefloat.analysis.capture import capture_families, optimal_capture_posture, place_path, plan_capture
+from freefloat.analysis.workspace import (
     guaranteed_workspace,
     path_independent_workspace,
     payload_effect,

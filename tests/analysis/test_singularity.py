@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from matplotlib.figure import Figure
 
-import freeflyer as ff
-from freeflyer.analysis import singularity
+import freefloat as ff
+from freefloat.analysis import singularity
 
 
 @pytest.fixture(scope="module")

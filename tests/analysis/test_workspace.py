@@ -7,9 +7,9 @@ import pytest
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
-from freeflyer.analysis.capture import PathDoesNotFitError, place_path
-from freeflyer.analysis.workspace import (
+import freefloat as ff
+from freefloat.analysis.capture import PathDoesNotFitError, place_path
+from freefloat.analysis.workspace import (
     collinear_radii,
     collinear_radius_range,
     end_effector_radius,

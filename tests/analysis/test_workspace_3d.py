@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from PIL import Image
 
-import freeflyer as ff
-from freeflyer.analysis.capture import plan_capture
-from freeflyer.analysis.singularity import SingularityCriterion
-from freeflyer.analysis.workspace import (
+import freefloat as ff
+from freefloat.analysis.capture import plan_capture
+from freefloat.analysis.singularity import SingularityCriterion
+from freefloat.analysis.workspace import (
     guaranteed_workspace,
     path_independent_workspace,
     plot_workspace_sections,

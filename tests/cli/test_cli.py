@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner, Result
 
-import freeflyer as ff
-from freeflyer.cli import app
+import freefloat as ff
+from freefloat.cli import app
 
 runner = CliRunner()
 
@@ -297,16 +297,16 @@ def test_demo_out_is_a_file(tmp_path: Path) -> None:
     assert target.read_text(encoding="utf-8") == "keep me"
 
 
-# --------------------------------------------------------------------- python -m freeflyer
-def test_python_m_freeflyer() -> None:
+# --------------------------------------------------------------------- python -m freefloat
+def test_python_m_freefloat() -> None:
     done = subprocess.run(
-        [sys.executable, "-m", "freeflyer", "inspect", "papadopoulos1991"], capture_output=True, text=True, check=False, timeout=120
+        [sys.executable, "-m", "freefloat", "inspect", "papadopoulos1991"], capture_output=True, text=True, check=False, timeout=120
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.splitlines()[0] == "papadopoulos1991"
     assert "47 kg" in done.stdout and "Barycentric vectors" in done.stdout
     failed = subprocess.run(
-        [sys.executable, "-m", "freeflyer", "inspect", "no_such_model.urdf"], capture_output=True, text=True, check=False, timeout=120
+        [sys.executable, "-m", "freefloat", "inspect", "no_such_model.urdf"], capture_output=True, text=True, check=False, timeout=120
     )
     assert failed.returncode == 1
     assert failed.stdout == ""
@@ -366,7 +366,7 @@ def test_user_errors_passes_other_warnings_through_once() -> None:
     """Only ModelCorrectionWarning becomes a 'warning:' line; any other warning is re-issued, once (no loop)."""
     import warnings
 
-    from freeflyer.cli import user_errors
+    from freefloat.cli import user_errors
 
     with pytest.warns(RuntimeWarning, match="something else") as record:
         with user_errors():

@@ -1,4 +1,4 @@
-"""``freeflyer simulate SCENARIO --animate PATH`` (issue 11 item 4): a GIF of the run, never over an existing file."""
+"""``freefloat simulate SCENARIO --animate PATH`` (issue 11 item 4): a GIF of the run, never over an existing file."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 from PIL import Image
 from typer.testing import CliRunner
 
-from freeflyer.cli import app
+from freefloat.cli import app
 
 runner = CliRunner()
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "scenarios" / "papadopoulos1992_joint_pd.toml"

@@ -1,4 +1,4 @@
-"""``freeflyer capture`` and ``freeflyer workspace`` on spatial arms (issue 11 item 3): the singularity criterion
+"""``freefloat capture`` and ``freefloat workspace`` on spatial arms (issue 11 item 3): the singularity criterion
 chosen in the scenario or on the command line, and a plan on the user-style 6-DOF and the 7-DOF benchmark arm."""
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 from typer.testing import CliRunner, Result
 
-import freeflyer as ff
-from freeflyer.analysis.singularity import SingularityCriterion
-from freeflyer.cli import app
+import freefloat as ff
+from freefloat.analysis.singularity import SingularityCriterion
+from freefloat.cli import app
 
 runner = CliRunner()
 USER_ARM = Path(__file__).resolve().parents[1] / "data" / "user_arm_6dof.urdf"

@@ -1,7 +1,7 @@
 """Outputs never clobber (issue 11 item 5): ``--out`` refusal, the manifest, ``--overwrite``, ``--out ""``.
 
 Every command that writes files (simulate, workspace, capture, reproduce, demo) writes through
-:mod:`freeflyer.io.outputs`; these tests run the cheap ones end to end and the helper directly.
+:mod:`freefloat.io.outputs`; these tests run the cheap ones end to end and the helper directly.
 """
 
 from __future__ import annotations
@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from freeflyer.cli import app
-from freeflyer.io.outputs import MANIFEST, check_targets, staged_outputs
+from freefloat.cli import app
+from freefloat.io.outputs import MANIFEST, check_targets, staged_outputs
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 
@@ -74,7 +74,7 @@ def test_simulate_refuses_a_file_it_would_replace(scenario: Path, tmp_path: Path
         result = invoke("simulate", str(scenario), "--out", str(out), "--no-progress", *extra)
         assert result.exit_code == 1
         assert "trajectory.csv" in result.output and "nothing was run" in result.output
-        assert ("not written by freeflyer" in result.output) == bool(extra)
+        assert ("not written by freefloat" in result.output) == bool(extra)
         assert mine.read_text() == "my own data\n" and sorted(p.name for p in out.iterdir()) == ["trajectory.csv"]
 
 
@@ -101,7 +101,7 @@ def test_rerun_needs_overwrite_and_replaces_only_manifest_files(scenario: Path, 
     assert json.loads((out / "trajectory.json").read_text())["t_end"] == pytest.approx(0.2)
     manifest = json.loads((out / MANIFEST).read_text())["files"]
     assert manifest["trajectory.json"]["sha256"] == after["trajectory.json"] and "notes.txt" not in manifest
-    assert not list(out.glob(".freeflyer-staging-*"))
+    assert not list(out.glob(".freefloat-staging-*"))
 
 
 def test_a_manifest_file_the_user_changed_is_not_replaced(scenario: Path, tmp_path: Path) -> None:
@@ -111,7 +111,7 @@ def test_a_manifest_file_the_user_changed_is_not_replaced(scenario: Path, tmp_pa
     edited.write_text(edited.read_text() + "# my annotation\n")
     before = tree(out)
     result = invoke("simulate", str(scenario), "--out", str(out), "--no-progress", "--overwrite")
-    assert result.exit_code == 1 and "changed after freeflyer wrote it" in result.output
+    assert result.exit_code == 1 and "changed after freefloat wrote it" in result.output
     assert tree(out) == before
 
 
@@ -171,6 +171,6 @@ def test_reproduce_never_replaces_a_user_file(tmp_path: Path) -> None:
     out.mkdir()
     notes = out / "report.md"
     notes.write_text("my notes on the paper\n")
-    result = invoke("reproduce", "1991", "--out", str(out), "--overwrite")  # even with --overwrite: not a file freeflyer wrote
-    assert result.exit_code == 1 and "report.md was not written by freeflyer" in result.output and "outputs were discarded" in result.output
+    result = invoke("reproduce", "1991", "--out", str(out), "--overwrite")  # even with --overwrite: not a file freefloat wrote
+    assert result.exit_code == 1 and "report.md was not written by freefloat" in result.output and "outputs were discarded" in result.output
     assert notes.read_text() == "my notes on the paper\n" and sorted(p.name for p in out.iterdir()) == ["report.md"]

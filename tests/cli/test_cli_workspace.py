@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner, Result
 
-import freeflyer as ff
-from freeflyer.analysis.workspace_report import workspace_limits
-from freeflyer.cli import app
+import freefloat as ff
+from freefloat.analysis.workspace_report import workspace_limits
+from freefloat.cli import app
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "scenarios" / "papadopoulos1992_capture.toml"
@@ -65,7 +65,7 @@ def test_workspace_table_and_files(tmp_path: Path) -> None:
     assert "[0.368861, 0.775862] (widest)" in text
     assert "closed_form, accuracy" in text and "PIW method" in text
     written = {p.name for p in out.iterdir()}
-    assert written == {"workspace.json", "workspace_papadopoulos1992_one_arm_payload_arm1_ee.png", "freeflyer-manifest.json"}
+    assert written == {"workspace.json", "workspace_papadopoulos1992_one_arm_payload_arm1_ee.png", "freefloat-manifest.json"}
     data = json.loads((out / "workspace.json").read_text())
     assert data["payload_mass"] == 400.0
     assert data["end_effectors"][0]["piw"]["R_min"] == pytest.approx(0.368861, abs=1e-6)
@@ -119,7 +119,7 @@ def test_capture_example_scenario(tmp_path: Path) -> None:
     assert "family 1 (+acos)  q = [90.52, 92.29] deg" in text and "family 2 (-acos)  q = [-90.52, -92.29] deg" in text
     assert "θ = -123.00 deg" in text and "<- chosen" in text
     assert hashlib.sha256(EXAMPLE.read_bytes()).hexdigest() == before  # the input is never written
-    assert {p.name for p in out.iterdir()} == {"capture.json", "capture_plan.png", "capture_families.png", "freeflyer-manifest.json"}
+    assert {p.name for p in out.iterdir()} == {"capture.json", "capture_plan.png", "capture_families.png", "freefloat-manifest.json"}
     data = json.loads((out / "capture.json").read_text())
     assert data["approach_distance"] == pytest.approx(870.0 / 470.0 * data["R_plus"])
     q = np.array(data["posture"]["q"])

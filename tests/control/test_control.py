@@ -10,13 +10,13 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
-from freeflyer.control import OperationalSpaceController, TransposedJacobianController, gain_matrix
-from freeflyer.control.desired import MinimumJerk, SetPoint, StraightLine
-from freeflyer.control.tasks import TaskSpace
-from freeflyer.core.state import State
-from freeflyer.papers.paper1991 import analytic_error, section5_setup
-from freeflyer.simulation.simulate import ActuatorLimits, simulate
+import freefloat as ff
+from freefloat.control import OperationalSpaceController, TransposedJacobianController, gain_matrix
+from freefloat.control.desired import MinimumJerk, SetPoint, StraightLine
+from freefloat.control.tasks import TaskSpace
+from freefloat.core.state import State
+from freefloat.papers.paper1991 import analytic_error, section5_setup
+from freefloat.simulation.simulate import ActuatorLimits, simulate
 from trees import random_trees
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import freeflyer as ff
+import freefloat as ff
 
 INERTIA_FIX = "use the inertia of a real body about its CM"
 
@@ -32,7 +32,7 @@ def raises_model_error(field: str, *words: str) -> Iterator[None]:
     for word in words:
         assert word in message, f"{word!r} not in {message!r}"
     assert error.fix and message.endswith(error.fix), message
-    assert isinstance(error, ValueError) and isinstance(error, ff.FreeflyerError)
+    assert isinstance(error, ValueError) and isinstance(error, ff.FreefloatError)
 
 
 # ----------------------------------------------------------------- bodies

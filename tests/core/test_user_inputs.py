@@ -1,6 +1,6 @@
 """The smaller points of issue 11 item 6: each bad input a new user met gets a clear error.
 
-Physical bounds (``freeflyer.core.model``): a body's mass in (0, 1e9] kg, positions within 1e4 m,
+Physical bounds (``freefloat.core.model``): a body's mass in (0, 1e9] kg, positions within 1e4 m,
 principal inertias up to 1e15 kg m^2. Model names wherever a model is taken; NaN/inf joint angles;
 a workspace of a model without end effectors; no internal parameter name in a default's error;
 ``inspect`` shows each joint's rotation; singular grammar; a trajectory CSV that pandas reads.
@@ -17,9 +17,9 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-import freeflyer as ff
-from freeflyer.cli import app
-from freeflyer.core.model import MAX_INERTIA, MAX_LENGTH, MAX_MASS
+import freefloat as ff
+from freefloat.cli import app
+from freefloat.core.model import MAX_INERTIA, MAX_LENGTH, MAX_MASS
 
 ARM = Path(__file__).parents[2] / "examples" / "models" / "six_dof_arm.urdf"
 
@@ -63,7 +63,7 @@ def test_model_names_are_accepted_wherever_a_model_is() -> None:
     assert ff.barycentric_vectors(model=ff.models.papadopoulos1992(arms=1)).c_star.shape[0] == 3
     assert ff.simulate("papadopoulos1992-one-arm", ff.State(), 0.05).status == "finished"
     assert ff.load("papadopoulos1992").joint_names == model.joint_names
-    with pytest.raises(TypeError, match=r"model: expected a freeflyer\.Model, a built-in model name .* got int"):
+    with pytest.raises(TypeError, match=r"model: expected a freefloat\.Model, a built-in model name .* got int"):
         ff.generalized_jacobian(42, q)
     with pytest.raises(ff.ModelError, match="did you mean 'papadopoulos1992'"):
         ff.generalized_jacobian("papadopulos1992", q)
@@ -127,20 +127,20 @@ def test_trajectory_csv_reads_cleanly_with_pandas(tmp_path: Path) -> None:
     np.testing.assert_allclose(frame[["q_0", "q_1", "q_2", "q_3"]].to_numpy(), traj.q, rtol=1e-15)
     np.testing.assert_allclose(frame["t"].to_numpy(), traj.t)
     meta = json.loads((tmp_path / "run.csv.json").read_text())
-    assert meta["freeflyer_trajectory"]["model_name"] == "papadopoulos1992" and meta["columns"] == list(frame.columns)
+    assert meta["freefloat_trajectory"]["model_name"] == "papadopoulos1992" and meta["columns"] == list(frame.columns)
 
 
 def test_a_trajectory_csv_of_the_earlier_format_still_loads(tmp_path: Path) -> None:
     model = ff.models.papadopoulos1992(arms=2)
     traj = ff.simulate(model, ff.State(q=[0.1, 0.2, 0.3, 0.4]), 0.1, None, fixed_step=0.01)
     new = traj.save(tmp_path / "new.csv")
-    meta = json.loads((tmp_path / "new.csv.json").read_text())["freeflyer_trajectory"]
+    meta = json.loads((tmp_path / "new.csv.json").read_text())["freefloat_trajectory"]
     header, *rows = new.read_text().splitlines()
     old_header = ",".join(
         h if "_" not in h or not h.rsplit("_", 1)[1].isdigit() else f"{h.rsplit('_', 1)[0]}[{h.rsplit('_', 1)[1]}]"
         for h in header.split(",")
     )
-    (tmp_path / "old.csv").write_text("\n".join([f"# freeflyer trajectory {json.dumps(meta)}", old_header, *rows]) + "\n")
+    (tmp_path / "old.csv").write_text("\n".join([f"# freefloat trajectory {json.dumps(meta)}", old_header, *rows]) + "\n")
     assert "q[0]" in old_header and ff.Trajectory.load(tmp_path / "old.csv", model=model).equals(traj, atol=1e-12)
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 
-import freeflyer as ff
+import freefloat as ff
 from trees import random_trees
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "models"

@@ -21,8 +21,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
-from freeflyer.io.mujoco_bridge import mujoco_state
+import freefloat as ff
+from freefloat.io.mujoco_bridge import mujoco_state
 from io_files import HAND_WRITTEN
 from robots import REAL_ROBOTS, spacecraft_urdf
 
@@ -225,5 +225,5 @@ def test_mjcf_without_mujoco_says_how_to_install_it(tmp_path: Path, monkeypatch:
     import sys
 
     monkeypatch.setitem(sys.modules, "mujoco", None)  # as if the package were not installed
-    with pytest.raises(ff.ModelError, match=r'pip install "freeflyer\[mjcf\]"'):
+    with pytest.raises(ff.ModelError, match=r'pip install "freefloat\[mjcf\]"'):
         ff.load(write(tmp_path, HAND_WRITTEN))

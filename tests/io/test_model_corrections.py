@@ -12,9 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import freeflyer as ff
-from freeflyer.analysis.workspace import reachable_workspace
-from freeflyer.core.errors import ModelCorrectionWarning
+import freefloat as ff
+from freefloat.analysis.workspace import reachable_workspace
+from freefloat.core.errors import ModelCorrectionWarning
 from robots import REAL_ROBOTS, spacecraft_urdf
 
 

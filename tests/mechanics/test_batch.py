@@ -1,6 +1,6 @@
 """Batch first (STYLE.md): every batched function takes (..., N), an unbatched input gives an
 unbatched output, and a batch equals the loop over single configurations, also across the
-internal chunks of ``freeflyer.mechanics._arrays.CHUNK`` configurations."""
+internal chunks of ``freefloat.mechanics._arrays.CHUNK`` configurations."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
-import freeflyer.mechanics._arrays
+import freefloat as ff
+import freefloat.mechanics._arrays
 from trees import build_random_model
 
 PAPER = ff.models.papadopoulos1992()  # planar, two arms, square planar J* (4 x 4)
@@ -118,14 +118,14 @@ def test_batch_equals_loop(model: ff.Model, name: str) -> None:
 @pytest.mark.parametrize(("model", "name"), PARAMS)
 def test_batch_equals_loop_across_small_chunks(model: ff.Model, name: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """With CHUNK = 5 a (3, 4) batch runs in three pieces; the pieces must join in order."""
-    monkeypatch.setattr(freeflyer.mechanics._arrays, "CHUNK", 5)
+    monkeypatch.setattr(freefloat.mechanics._arrays, "CHUNK", 5)
     x = make_inputs(model, (3, 4), seed=3)
     assert_batch_equals_loop(ALL_CASES[name], model, x, [(a, b) for a in range(3) for b in range(4)])
 
 
 @pytest.mark.parametrize(("model", "name"), PARAMS)
 def test_batch_larger_than_the_chunk_equals_loop(model: ff.Model, name: str) -> None:
-    chunk = freeflyer.mechanics._arrays.CHUNK  # 4096
+    chunk = freefloat.mechanics._arrays.CHUNK  # 4096
     size = 2 * chunk + 7  # three chunks, the last one short
     x = make_inputs(model, (size,), seed=4)
     picks = {0, 1, chunk - 1, chunk, chunk + 1, 2 * chunk - 1, 2 * chunk, size - 1}
@@ -134,7 +134,7 @@ def test_batch_larger_than_the_chunk_equals_loop(model: ff.Model, name: str) -> 
 
 
 def test_two_dimensional_batch_across_the_chunk_boundary() -> None:
-    chunk = freeflyer.mechanics._arrays.CHUNK
+    chunk = freefloat.mechanics._arrays.CHUNK
     cols = chunk // 2 + 52  # 2 * cols > chunk: the boundary falls inside row 1, at column chunk - cols
     x = make_inputs(PAPER, (2, cols), seed=6)
     picks = [(0, 0), (0, cols - 1), (1, chunk - cols - 1), (1, chunk - cols), (1, cols - 1)]

@@ -17,13 +17,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
-from freeflyer.core.errors import ShapeError
-from freeflyer.core.state import Actuation, State
-from freeflyer.mechanics import _drivers
-from freeflyer.simulation.pd import JointPD
-from freeflyer.simulation.simulate import ActuatorLimits, rollout, simulate
-from freeflyer.simulation.trajectory import Trajectory
+import freefloat as ff
+from freefloat.core.errors import ShapeError
+from freefloat.core.state import Actuation, State
+from freefloat.mechanics import _drivers
+from freefloat.simulation.pd import JointPD
+from freefloat.simulation.simulate import ActuatorLimits, rollout, simulate
+from freefloat.simulation.trajectory import Trajectory
 from trees import build_random_model, random_trees
 
 RTOL = 1e-10
@@ -177,7 +177,7 @@ def trajectories_close(a: Trajectory, b: Trajectory, atol: float = 1e-9) -> None
 
 
 def flat(model: ff.Model, state: State) -> np.ndarray:
-    from freeflyer.core.state import pack_state
+    from freefloat.core.state import pack_state
 
     return pack_state(state.resolve(model))
 
@@ -328,7 +328,7 @@ def test_scratch_buffers_are_always_kernel_arguments() -> None:
 def test_rollout_shows_progress_and_ctrl_c_keeps_the_finished_trajectories(monkeypatch: pytest.MonkeyPatch) -> None:
     """A compiled rollout that reports progress (asked for, or a long run) runs in chunks of trajectories:
     progress after each, Ctrl-C returns the finished ones. A short one without a callback is one call."""
-    from freeflyer.mechanics import _engine as engine
+    from freefloat.mechanics import _engine as engine
 
     model = ff.models.papadopoulos1992(arms=2)
     states, _ = batch_setup(model, 300)

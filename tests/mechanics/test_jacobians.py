@@ -17,8 +17,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
-from freeflyer.core.conventions import euler321_from_matrix
+import freefloat as ff
+from freefloat.core.conventions import euler321_from_matrix
 from trees import build_random_model, random_trees
 
 SEEDS = st.integers(0, 2**32 - 1)

@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
+import freefloat as ff
 from trees import build_random_model, random_trees
 
 SEEDS = st.integers(0, 2**32 - 1)

@@ -14,8 +14,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
-from freeflyer.mechanics.momentum import _pair_inertias
+import freefloat as ff
+from freefloat.mechanics.momentum import _pair_inertias
 from trees import build_random_model, random_trees
 
 SEEDS = st.integers(0, 2**32 - 1)
@@ -169,7 +169,7 @@ def test_dqq_as_printed_in_1991_eq_16b_is_not_symmetric_and_differs_from_the_kin
 
     On a 3D chain D_j is not a symmetric 3x3 matrix, so the printed form is not
     even symmetric; the kinetic energy needs sum_ij F_i^T D_ij F_j, which is
-    what freeflyer uses (and what the finite-difference test above confirms).
+    what freefloat uses (and what the finite-difference test above confirms).
     """
     model = build_random_model(np.random.default_rng(5), [4], [None], [None])  # a 3D chain, as in the paper
     q = np.random.default_rng(6).uniform(-np.pi, np.pi, size=model.n_joints)

@@ -1,7 +1,7 @@
 """The engine's on-disk kernel cache: under the user's cache folder, safe for two processes at once,
 rebuilt with a warning (never a traceback) when broken.
 
-Each test runs fresh Python processes against an empty ``FREEFLYER_CACHE_DIR`` (a temporary folder),
+Each test runs fresh Python processes against an empty ``FREEFLOAT_CACHE_DIR`` (a temporary folder),
 so the kernels really compile, are written, and are loaded; numba's own counters say which.
 """
 
@@ -15,14 +15,14 @@ from pathlib import Path
 
 import pytest
 
-from freeflyer.mechanics import _numba_cache
+from freefloat.mechanics import _numba_cache
 
 PROBE = """
 import json, warnings
 import numpy as np
 warnings.simplefilter("default")
-import freeflyer as ff
-from freeflyer.mechanics import _drivers, _numba_cache
+import freefloat as ff
+from freefloat.mechanics import _drivers, _numba_cache
 m = ff.models.papadopoulos1991()
 j = ff.generalized_jacobian(m, np.linspace(-1.0, 1.0, m.n_joints))
 stats = _drivers._jstar_range.stats
@@ -33,7 +33,7 @@ print(json.dumps({"hits": sum(stats.cache_hits.values()), "misses": sum(stats.ca
 
 def run_probes(cache: Path, count: int) -> list[tuple[dict[str, object], str]]:
     """Start ``count`` probe processes at once; their results and stderr."""
-    env = {**os.environ, "FREEFLYER_CACHE_DIR": str(cache)}
+    env = {**os.environ, "FREEFLOAT_CACHE_DIR": str(cache)}
     procs = [
         subprocess.Popen([sys.executable, "-c", PROBE], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         for _ in range(count)
@@ -48,16 +48,16 @@ def run_probes(cache: Path, count: int) -> list[tuple[dict[str, object], str]]:
 
 
 def test_cache_folder_is_under_the_chosen_cache_dir_and_keyed_by_versions(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("FREEFLYER_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("FREEFLOAT_CACHE_DIR", str(tmp_path))
     folder = _numba_cache.cache_dir()
     assert folder.parent == tmp_path / "numba"
     import numba
 
     assert folder.name.startswith(numba.__version__ + "-")
-    monkeypatch.delenv("FREEFLYER_CACHE_DIR")
+    monkeypatch.delenv("FREEFLOAT_CACHE_DIR")
     import platformdirs
 
-    assert Path(platformdirs.user_cache_dir("freeflyer")) in _numba_cache.cache_dir().parents
+    assert Path(platformdirs.user_cache_dir("freefloat")) in _numba_cache.cache_dir().parents
 
 
 def test_two_processes_at_once_then_a_third_loads_from_the_cache(tmp_path: Path) -> None:

@@ -19,7 +19,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
+import freefloat as ff
 from trees import random_trees
 
 
@@ -68,7 +68,7 @@ class ClosedForm:
         self.masses = np.array([system.mass0] + [link.mass for link in links])
         self.inertias = np.array([system.inertia0] + [link.inertia for link in links])
         big_m = self.masses.sum()
-        # Body order: spacecraft, then each arm's links (the papers' and freeflyer's order).
+        # Body order: spacecraft, then each arm's links (the papers' and freefloat's order).
         self.arm_of = [-1] + [m for m, arm in enumerate(system.arms) for _ in arm]
         self.index_in_arm = [0] + [i for arm in system.arms for i in range(1, len(arm) + 1)]
         n_bodies = len(self.masses)

@@ -22,12 +22,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import freeflyer as ff
-from freeflyer.io.oracles import pinocchio_configuration, to_pinocchio
-from freeflyer.mechanics import _engine, _lanes, _specialise
-from freeflyer.mechanics._numba_cache import CacheWarning, cache_dir
-from freeflyer.mechanics._trace import Graph, Sym
-from freeflyer.mechanics._tree import tree
+import freefloat as ff
+from freefloat.io.oracles import pinocchio_configuration, to_pinocchio
+from freefloat.mechanics import _engine, _lanes, _specialise
+from freefloat.mechanics._numba_cache import CacheWarning, cache_dir
+from freefloat.mechanics._trace import Graph, Sym
+from freefloat.mechanics._tree import tree
 from trees import build_random_model, random_trees
 
 LANES = _lanes.LANES
@@ -304,7 +304,7 @@ def test_a_broken_cache_file_warns_and_is_rebuilt(specialised: Path) -> None:
     assert path.read_text() == "def lane(W, P:\n"  # a process that only reads never deletes the shared file
     with pytest.warns(CacheWarning, match="generating it again"):
         ff.mechanics.specialise(model, ["jstar"])  # rebuilt
-    assert ff.mechanics.is_specialised(model, "jstar") and path.read_text().startswith('"""freeflyer')
+    assert ff.mechanics.is_specialised(model, "jstar") and path.read_text().startswith('"""freefloat')
 
 
 def test_unknown_kind_is_refused() -> None:
@@ -315,7 +315,7 @@ def test_unknown_kind_is_refused() -> None:
 def test_cli_specialise(specialised: Path) -> None:
     from typer.testing import CliRunner
 
-    from freeflyer.cli import app
+    from freefloat.cli import app
 
     runner = CliRunner()
     result = runner.invoke(app, ["specialise", "papadopoulos1992", "--kind", "jstar"])

@@ -12,9 +12,9 @@ import warnings
 import numpy as np
 import pytest
 
-import freeflyer as ff
-from freeflyer.core.model import inertia_defect, nearest_physical_inertia
-from freeflyer.models import ZOO, provenance
+import freefloat as ff
+from freefloat.core.model import inertia_defect, nearest_physical_inertia
+from freefloat.models import ZOO, provenance
 from oracle.test_pinocchio_core import compare, pinocchio_of
 
 #: name -> (joints, end effectors) the published systems have

@@ -3,7 +3,7 @@
 On every paper system and on random 3D trees (``trees.random_trees``: 1-3
 arms, branches, fixed joints, 1-7 joints per arm, random masses, inertias,
 axes and placements), and on the same trees after a round trip through a URDF
-file read by both freeflyer and Pinocchio's own URDF parser, these agree to a
+file read by both freefloat and Pinocchio's own URDF parser, these agree to a
 relative 1e-10: total mass and system CM, end-effector positions relative to
 the CM, linear and angular momentum, kinetic energy and the whole H+,
 the generalized Jacobian J*, the point Jacobian of a random body point, and
@@ -11,7 +11,7 @@ end-effector velocities with nonzero momentum (J* plus the drift term). Both
 algorithms of each quantity are checked: the engine (the default) and the
 barycentric closed forms (``method="barycentric"``).
 
-Nothing on the Pinocchio side goes through freeflyer's formulas: freeflyer's
+Nothing on the Pinocchio side goes through freefloat's formulas: freefloat's
 zdot0 = [rdot_cm, omega0, qdot] is related to Pinocchio's v = [v_local,
 w_local, qdot] by zdot0 = T v with T built from Pinocchio's own CM Jacobian
 (rdot_cm = J_com v, omega0 = w_local), so that H+ = T^-T M T^-1 and any
@@ -35,8 +35,8 @@ from hypothesis import strategies as st
 from scipy.linalg import block_diag
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
-from freeflyer.io.oracles import pinocchio_configuration, pinocchio_velocity, to_pinocchio
+import freefloat as ff
+from freefloat.io.oracles import pinocchio_configuration, pinocchio_root_joint, pinocchio_velocity, to_pinocchio
 from trees import build_random_model, random_trees
 
 RTOL = 1e-10
@@ -75,16 +75,16 @@ def teardown_module() -> None:
 
 
 class PinocchioSystem:
-    """A Pinocchio model of a freeflyer model: joints matched by name, end effectors by frame name."""
+    """A Pinocchio model of a freefloat model: joints matched by name, end effectors by frame name."""
 
     def __init__(self, model: ff.Model, pin_model: pin.Model, frame_names: tuple[str, ...]) -> None:
         self.model, self.pm, self.data = model, pin_model, pin_model.createData()
         n = model.n_joints
-        assert pin_model.nv == 6 + n, f"Pinocchio has nv = {pin_model.nv}, freeflyer 6 + {n}"
-        assert pin_model.names[1] == "root_joint" and pin_model.joints[1].shortname() == "JointModelFreeFlyer"
+        assert pin_model.nv == 6 + n, f"Pinocchio has nv = {pin_model.nv}, freefloat 6 + {n}"
+        assert pin_model.names[1] == "root_joint" and pin_model.joints[1].shortname() == pinocchio_root_joint().shortname()
         ids = [pin_model.getJointId(name) for name in model.joint_names]
-        assert all(0 < i < pin_model.njoints for i in ids), "a freeflyer joint is missing in Pinocchio"
-        self.body_joint = [1, *ids]  # the Pinocchio joint that moves freeflyer body k
+        assert all(0 < i < pin_model.njoints for i in ids), "a freefloat joint is missing in Pinocchio"
+        self.body_joint = [1, *ids]  # the Pinocchio joint that moves freefloat body k
         self.idx_q = [pin_model.joints[i].idx_q for i in ids]
         self.nq = [pin_model.joints[i].nq for i in ids]
         self.idx_v = np.array([pin_model.joints[i].idx_v for i in ids], dtype=int)
@@ -113,7 +113,7 @@ class PinocchioSystem:
         return t
 
     def reference(self, q: np.ndarray, quat: np.ndarray, base: np.ndarray, zdot0: np.ndarray, body: int, point: np.ndarray) -> dict:
-        """Everything Pinocchio says, in freeflyer's terms (inertial frame = Pinocchio's world)."""
+        """Everything Pinocchio says, in freefloat's terms (inertial frame = Pinocchio's world)."""
         pm, data = self.pm, self.data
         qp = self.configuration(q, quat, base)
         t = self.velocity_transform(qp)
@@ -193,17 +193,17 @@ def pinocchio_of(model: ff.Model) -> PinocchioSystem:
 
 
 def check_bridge(model: ff.Model, system: PinocchioSystem, case: dict) -> None:
-    """freeflyer.io.oracles' own conversions agree with the ones built here from Pinocchio's CM Jacobian."""
+    """freefloat.io.oracles' own conversions agree with the ones built here from Pinocchio's CM Jacobian."""
     qp = pinocchio_configuration(model, case["q"], case["quat"], case["base"])
     np.testing.assert_array_equal(qp, case["qp"])
     check("oracles.pinocchio_velocity", pinocchio_velocity(model, system.pm, case["q"], case["zdot0"], case["quat"]), case["v"])
 
 
 def urdf_round_trip(model: ff.Model, directory: str) -> tuple[ff.Model, PinocchioSystem]:
-    """Save as URDF, reload with freeflyer, parse the same file with Pinocchio's URDF reader."""
+    """Save as URDF, reload with freefloat, parse the same file with Pinocchio's URDF reader."""
     path = ff.save(model, Path(directory) / f"{model.name}.urdf")
     loaded = ff.load(path)
-    pin_model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+    pin_model = pin.buildModelFromUrdf(str(path), pinocchio_root_joint())
     # In URDF an end effector is a massless leaf link, renamed <name>_tip when a body already has its name.
     tips = tuple(name if name not in model.body_names else f"{name}_tip" for name in model.end_effector_names)
     assert loaded.end_effector_names == tips
@@ -351,14 +351,14 @@ def unmerged_urdf(builder: ff.ModelBuilder, rng: np.random.Generator) -> str:
 @settings(max_examples=200)
 @given(tree=random_trees_with_specs(), seed=SEEDS)
 def test_random_tree_urdf_with_fixed_joints_matches_pinocchio_urdf_parser(tree: tuple[ff.Model, ff.ModelBuilder], seed: int) -> None:
-    """Fixed joints and rotated <inertial> frames merged by freeflyer's reader and, independently, by Pinocchio's."""
+    """Fixed joints and rotated <inertial> frames merged by freefloat's reader and, independently, by Pinocchio's."""
     model, builder = tree
     rng = np.random.default_rng(seed)
     with tempfile.TemporaryDirectory() as directory:
         path = Path(directory) / "tree.urdf"
         path.write_text(unmerged_urdf(builder, rng), encoding="utf-8")
         loaded = ff.load(path)
-        pin_model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+        pin_model = pin.buildModelFromUrdf(str(path), pinocchio_root_joint())
     fixed = sum(joint.type == "fixed" for joint in builder._joints)
     assert sum(frame.type == pin.FrameType.FIXED_JOINT for frame in pin_model.frames[1:]) == fixed
     system = PinocchioSystem(loaded, pin_model, loaded.end_effector_names)
@@ -441,7 +441,7 @@ def _perturbed(model: ff.Model, name: str, index: tuple[int, ...], delta: float)
     ],
 )
 def test_comparison_detects_a_1e_8_model_error(name: str, index: tuple[int, ...]) -> None:
-    """The same checks reject a freeflyer model that differs from Pinocchio's by 1e-8 (relative) in one number."""
+    """The same checks reject a freefloat model that differs from Pinocchio's by 1e-8 (relative) in one number."""
     model = batch_models()[1]
     system = pinocchio_of(model)
     value = float(np.max(np.abs(getattr(model, name))))

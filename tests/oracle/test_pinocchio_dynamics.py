@@ -16,7 +16,7 @@ relative 1e-9:
 
 Pinocchio's state is (q_pin, nu, nu_dot) with the base twist in the local
 frame at the spacecraft frame origin; it is converted to and from zdot0,
-zddot0 by ``freeflyer.io.oracles`` (pinocchio_acceleration: d/dt of the velocity
+zddot0 by ``freefloat.io.oracles`` (pinocchio_acceleration: d/dt of the velocity
 map rdot_cm = T0 (v_O + w x c + J_c qdot) with c, J_c and Jdot_c qdot from
 Pinocchio's own CM routines). That conversion is itself checked against
 Pinocchio's CM acceleration (``pin.centerOfMass`` with nu_dot). Thruster
@@ -33,8 +33,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-import freeflyer as ff
-from freeflyer.io.oracles import (
+import freefloat as ff
+from freefloat.io.oracles import (
     acceleration_from_pinocchio,
     pinocchio_acceleration,
     pinocchio_configuration,
@@ -103,7 +103,7 @@ class Case:
         self.nu = pinocchio_velocity(model, self.pm, self.q, self.velocity, self.attitude)
 
     def fext(self, wrench: ff.ExternalWrench | None) -> list[pin.Force]:
-        """The external wrench as Pinocchio forces at the joint frame (= freeflyer body frame) of its body."""
+        """The external wrench as Pinocchio forces at the joint frame (= freefloat body frame) of its body."""
         out = [pin.Force.Zero() for _ in range(self.pm.njoints)]
         if wrench is None:
             return out

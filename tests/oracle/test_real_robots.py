@@ -1,7 +1,7 @@
 """Real robot files (example-robot-data) under a spacecraft, against Pinocchio's own URDF parser.
 
 A UR5, a Kinova arm, a Panda with its two prismatic fingers and a Baxter with both arms (and
-its zero-inertia gripper links) are read by freeflyer and, from the same file, by
+its zero-inertia gripper links) are read by freefloat and, from the same file, by
 ``pinocchio.buildModelFromUrdf`` with a free-flyer root. Everything in ``compare`` agrees to a
 relative 1e-10 (the issue asks 1e-8): mass, system CM, end-effector positions about the CM,
 momenta, kinetic energy, H+, J*, J+ and a random point Jacobian, for the engine and for the
@@ -16,7 +16,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-import freeflyer as ff
+import freefloat as ff
+from freefloat.io.oracles import pinocchio_root_joint
 from oracle.test_pinocchio_core import PinocchioSystem, compare
 from robots import REAL_ROBOTS, spacecraft_urdf
 
@@ -28,7 +29,7 @@ def test_real_robot_matches_pinocchio(name: str, tmp_path: Path) -> None:
     model = ff.load(path, end_effectors=tools)
     assert model.end_effector_rule == "named" and model.end_effector_names == tuple(tools or ())
     assert model.body_names[0] == "spacecraft"
-    pm = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+    pm = pin.buildModelFromUrdf(str(path), pinocchio_root_joint())
     pm.gravity = pin.Motion.Zero()
     system = PinocchioSystem(model, pm, model.end_effector_names)
     rng = np.random.default_rng(sum(map(ord, name)))

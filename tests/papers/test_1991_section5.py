@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from freeflyer.papers.paper1991 import section5_setup
-from freeflyer.papers.reproduce import reproduce_1991
+from freefloat.papers.paper1991 import section5_setup
+from freefloat.papers.reproduce import reproduce_1991
 
 REQUIRED = [
     "91.S5.initial_ee.x",

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-import freeflyer as ff
+import freefloat as ff
 
 # 1992 Table Ia/Ib: spacecraft 400 kg with the arms' first joints at r_0 = ±0.5 m
 # (the signs that α⁽¹⁾ = 0.5, α⁽²⁾ = -0.5 imply); every link l = r = 0.5 m.

@@ -1,4 +1,4 @@
-"""``freeflyer reproduce 1992``: report.json holds every 1992 row id of DESIGN.md with a computed value, and the figures."""
+"""``freefloat reproduce 1992``: report.json holds every 1992 row id of DESIGN.md with a computed value, and the figures."""
 
 from __future__ import annotations
 
@@ -7,13 +7,13 @@ from pathlib import Path
 
 from typer.testing import CliRunner
 
-from freeflyer.cli import app
-from freeflyer.papers.paper1992 import PRINTED
-from freeflyer.papers.paper1992_figures import FIGURE_NAMES
+from freefloat.cli import app
+from freefloat.papers.paper1992 import PRINTED
+from freefloat.papers.paper1992_figures import FIGURE_NAMES
 
 COEFFICIENTS = ("alpha", "beta", "gamma", "delta", "epsilon")
 LIMITS = ("R_max", "R_min", "GW_max", "GW_min")
-#: The required 1992 row ids of DESIGN.md ("Paper-vs-freeflyer report"), spelled out.
+#: The required 1992 row ids of DESIGN.md ("Paper-vs-freefloat report"), spelled out.
 REQUIRED = (
     [f"92.{t}.arm{a}.{k}" for t in ("T2", "T4") for a in (1, 2) for k in COEFFICIENTS]
     + [f"92.{t}.arm{a}.{k}" for t in ("T3", "T5") for a in (1, 2) for k in LIMITS]

@@ -1,7 +1,7 @@
-"""Papadopoulos 1992, the workspace tables (III, V, VI) and the §V capture example, paper vs freeflyer.
+"""Papadopoulos 1992, the workspace tables (III, V, VI) and the §V capture example, paper vs freefloat.
 
 Each test prints its rows (id, paper, ours, agrees at the printed precision)
-from :func:`freeflyer.papers.paper1992.rows_1992` and asserts which ones agree. Every
+from :func:`freefloat.papers.paper1992.rows_1992` and asserts which ones agree. Every
 disagreement is asserted against an independent computation (plain recursive
 forward kinematics, brute force, scipy root finding) with its explanation in a
 comment; nothing is tuned to the printed numbers. In short:
@@ -25,9 +25,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq, least_squares, minimize_scalar
 
-import freeflyer as ff
-from freeflyer.analysis.capture import capture_families
-from freeflyer.papers.paper1992 import Results1992, compute_1992, rows_1992
+import freefloat as ff
+from freefloat.analysis.capture import capture_families
+from freefloat.papers.paper1992 import Results1992, compute_1992, rows_1992
 
 TWO = ff.models.papadopoulos1992(arms=2)
 TWO_P = TWO.with_payload(0, mass=400.0, inertia=25.0)

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 from matplotlib.patches import Wedge
 
-from freeflyer.papers import paper1991_figures as f91
-from freeflyer.papers import paper1992_figures as f92
-from freeflyer.papers.paper1991 import Results1991, compute_1991
-from freeflyer.papers.paper1992 import Results1992, compute_1992
+from freefloat.papers import paper1991_figures as f91
+from freefloat.papers import paper1992_figures as f92
+from freefloat.papers.paper1991 import Results1991, compute_1991
+from freefloat.papers.paper1992 import Results1992, compute_1992
 
 #: Legend text that looks like an identifier: snake_case words such as arm1_ee or merge_gap.
 INTERNAL = re.compile(r"\b[a-z]+[0-9]*_[a-z0-9_]+\b")

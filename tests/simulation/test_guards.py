@@ -17,11 +17,11 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-import freeflyer as ff
-from freeflyer.cli import app
-from freeflyer.core.errors import LongRunWarning, StiffGainsWarning
-from freeflyer.simulation import estimate_run, pd_gain_bounds, pd_stability
-from freeflyer.simulation._guard import PROGRESS_DELAY, Progress
+import freefloat as ff
+from freefloat.cli import app
+from freefloat.core.errors import LongRunWarning, StiffGainsWarning
+from freefloat.simulation import estimate_run, pd_gain_bounds, pd_stability
+from freefloat.simulation._guard import PROGRESS_DELAY, Progress
 
 ARM = Path(__file__).parents[2] / "examples" / "models" / "six_dof_arm.urdf"
 Q_TARGET = np.array([0.3, -0.5, 1.0, 0.4, -0.6, 0.8])
@@ -132,7 +132,7 @@ def test_cli_asks_for_confirmation_and_yes_skips_it(tmp_path: Path) -> None:
     ran = CliRunner().invoke(app, ["simulate", str(scenario), "--out", str(tmp_path / "b"), "--no-progress", "--yes"])
     assert ran.exit_code == 1  # it ran, the wrist PD diverged, the guard stopped it
     assert "warning: JointPD sampled every 0.01 s is unstable: joint 'tool_roll'" in ran.output
-    assert "diverged" in ran.output and "partial trajectory" in ran.output and ".freeflyer-staging" not in ran.output
+    assert "diverged" in ran.output and "partial trajectory" in ran.output and ".freefloat-staging" not in ran.output
     assert json.loads((tmp_path / "b" / "trajectory.json").read_text())["status"] == "failed"
 
 
@@ -155,7 +155,7 @@ def test_progress_callback_and_delayed_bar(arm: ff.Model, monkeypatch: pytest.Mo
     assert np.all(np.diff([t for t, _ in seen]) > 0) and seen[-1][0] == pytest.approx(1.0)
 
     clock = [0.0]
-    monkeypatch.setattr("freeflyer.simulation._guard.time.perf_counter", lambda: clock[0])
+    monkeypatch.setattr("freefloat.simulation._guard.time.perf_counter", lambda: clock[0])
     bar = Progress(None, 10.0)  # automatic: no bar for a short run
     clock[0] = PROGRESS_DELAY / 2
     bar.update(1.0)
@@ -173,7 +173,7 @@ def test_progress_callback_and_delayed_bar(arm: ff.Model, monkeypatch: pytest.Mo
 def test_cli_ctrl_c_writes_the_partial_run_and_exits_130(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     import dataclasses
 
-    from freeflyer.scenarios import scenario_outputs
+    from freefloat.scenarios import scenario_outputs
 
     def impatient(t: float, state: ff.State) -> np.ndarray:
         if t >= 0.3:

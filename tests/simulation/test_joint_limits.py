@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import freeflyer as ff
-from freeflyer.simulation._stops import JointStops
+import freefloat as ff
+from freefloat.simulation._stops import JointStops
 
 ARM = Path(__file__).parents[2] / "examples" / "models" / "six_dof_arm.urdf"
 ELBOW = 2
@@ -126,7 +126,7 @@ def test_limit_events_survive_save_and_load(arm: ff.Model, tmp_path: Path) -> No
 
 
 def test_scenario_joint_limits_table(tmp_path: Path) -> None:
-    from freeflyer.scenarios.scenario import load_scenario, run_scenario
+    from freefloat.scenarios.scenario import load_scenario, run_scenario
 
     text = (
         f'model = "{ARM.as_posix()}"\nduration = 2.0\n[integrator]\nmethod = "RK4"\nfixed_step = 0.001\n'

@@ -19,9 +19,9 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 from typer.testing import CliRunner
 
-import freeflyer as ff
-from freeflyer.cli import app
-from freeflyer.scenarios.scenario import load_scenario, scenario_from_dict
+import freefloat as ff
+from freefloat.cli import app
+from freefloat.scenarios.scenario import load_scenario, scenario_from_dict
 from trees import build_random_model, random_trees
 
 EXAMPLES = Path(__file__).parents[2] / "examples" / "scenarios"
@@ -65,10 +65,10 @@ def attitude_error(a: np.ndarray, b: np.ndarray) -> float:
 def test_ten_seconds_of_torque_driven_motion_agree_with_mujoco(make) -> None:
     """The same piecewise-constant joint torques (new random values every 0.1 s) for 10 s, in both engines.
 
-    MuJoCo: free joint, RK4 at 1 ms. freeflyer: DOP853 at rtol = atol = 1e-12
+    MuJoCo: free joint, RK4 at 1 ms. freefloat: DOP853 at rtol = atol = 1e-12
     with the torques held between samples. Agreement to 1e-6 at every second
     (measured: about 1e-11 on q and qdot, 1e-13 on r_cm and the attitude), and
-    MuJoCo's system CM moves in a straight line at v_cm, as freeflyer's does.
+    MuJoCo's system CM moves in a straight line at v_cm, as freefloat's does.
     """
     run_against_mujoco(make(), seed=3, duration=10.0, vigorous=True)
 
@@ -77,7 +77,7 @@ def run_against_mujoco(model: ff.Model, seed: int, duration: float, vigorous: bo
     """Random piecewise-constant torques (new every 0.1 s) in both engines; states agree to 1e-6 every second."""
     import mujoco  # an oracle: a missing one fails the test
 
-    from freeflyer.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
+    from freefloat.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
 
     rng = np.random.default_rng(seed)
     x0 = moving_state(model, rng)
@@ -122,7 +122,7 @@ def run_against_mujoco(model: ff.Model, seed: int, duration: float, vigorous: bo
 @settings(max_examples=5, deadline=None)
 @given(random_trees(max_arms=2, max_joints=4, prismatic=0.4), st.integers(0, 1000))
 def test_random_trees_with_prismatic_joints_agree_with_mujoco(model: ff.Model, seed: int) -> None:
-    """Hypothesis trees with sliding joints: 2 s of random torques, freeflyer against MuJoCo (slide joints)."""
+    """Hypothesis trees with sliding joints: 2 s of random torques, freefloat against MuJoCo (slide joints)."""
     run_against_mujoco(model, seed=seed, duration=2.0)
 
 
@@ -420,7 +420,7 @@ def test_save_and_load_round_trip_and_never_overwrite(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="unknown trajectory file type"):
         traj.save(tmp_path / "run.txt")
     (tmp_path / "other.csv").write_text("a,b\n1,2\n")
-    with pytest.raises(ValueError, match="not a freeflyer trajectory"):
+    with pytest.raises(ValueError, match="not a freefloat trajectory"):
         ff.Trajectory.load(tmp_path / "other.csv")
     assert len(traj.plot()) > 0
 
@@ -444,7 +444,7 @@ def test_example_scenarios_run(path: Path) -> None:
 
 
 def test_capture_scenario_given_to_simulate_says_which_command() -> None:
-    with pytest.raises(ff.ModelError, match="freeflyer capture"):
+    with pytest.raises(ff.ModelError, match="freefloat capture"):
         load_scenario(EXAMPLES / "papadopoulos1992_capture.toml")
 
 

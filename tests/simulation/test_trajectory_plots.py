@@ -10,7 +10,7 @@ import pytest
 from matplotlib import animation
 from PIL import Image
 
-import freeflyer as ff
+import freefloat as ff
 
 
 @pytest.fixture(scope="module")

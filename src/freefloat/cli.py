@@ -1,0 +1,523 @@
+"""The ``freefloat`` command line (typer): ``freefloat COMMAND ...`` or ``python -m freefloat COMMAND ...``.
+
+A thin layer over the library: each command resolves its inputs, calls
+library functions, and prints or writes their results. Shared rules:
+
+- MODEL is a ``.toml`` / ``.urdf`` path or a built-in name (:data:`freefloat.models.BUILTIN_MODELS`),
+  read by :func:`freefloat.models.load_model`.
+- Bad input (a :class:`~freefloat.FreefloatError`, ``ValueError`` or ``OSError``
+  such as a missing file) prints ONE line ``error: <message>`` on stderr and
+  exits with code 1; no traceback.
+- Files the user names as input are only read. ``--out`` directories are
+  created; a run never replaces a file there unless ``--overwrite`` is given,
+  and then only the files freefloat itself wrote earlier, unchanged
+  (``DIR/freefloat-manifest.json``, :mod:`freefloat.io.outputs`). ``--out ""`` is an error.
+- Warnings (stiff gains, long runs) print as ``warning: ...`` lines on stderr.
+
+New commands register on :data:`app` with ``@app.command("name")`` and wrap
+their body in ``with user_errors():``.
+"""
+
+from __future__ import annotations
+
+import json
+import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import typer
+
+from .analysis.singularity import jacobian_determinant_map
+from .core.errors import FreefloatError, ModelCorrectionWarning
+from .core.model import Model
+from .io.outputs import OutputDirectory, output_directory, staged_outputs
+from .models import BUILTIN_MODELS, load_model
+from .papers.report import PAPER_PAYLOAD, model_info, paper_systems, render_text, write_model_reports
+
+__all__ = ["app", "criterion_options", "main", "output_dir", "user_errors", "with_payload"]
+
+app = typer.Typer(
+    name="freefloat",
+    help="Kinematics, dynamics and workspaces of space robots (Papadopoulos & Dubowsky 1991, Papadopoulos 1992).",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+# --------------------------------------------------------------------- shared pieces
+@contextmanager
+def user_errors() -> Iterator[None]:
+    """Turn bad input into one ``error: ...`` line on stderr and exit code 1; corrections of a model
+    file (:class:`~freefloat.core.errors.ModelCorrectionWarning`) into ``warning: ...`` lines."""
+    others: list[warnings.WarningMessage] = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ModelCorrectionWarning)
+
+            def flush() -> None:
+                for w in caught:
+                    if issubclass(w.category, ModelCorrectionWarning):
+                        typer.echo(f"warning: {' '.join(str(w.message).split())}", err=True)
+                    else:
+                        others.append(w)  # re-issued below, outside the recording
+                caught.clear()
+
+            try:
+                yield
+            except (FreefloatError, OSError, ValueError) as exc:
+                flush()
+                message = " ".join(str(exc).split()) or type(exc).__name__
+                typer.echo(f"error: {message}", err=True)
+                raise typer.Exit(1) from None
+            finally:
+                flush()
+    finally:
+        for w in others:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+
+
+def _inertia(text: str) -> Any:
+    try:
+        values = [float(v) for v in text.replace(",", " ").split()]
+    except ValueError:
+        raise ValueError(f"--payload-inertia: cannot read {text!r} as numbers; give I (kg m²), Ixx,Iyy,Izz, or 9 numbers") from None
+    if len(values) == 1:
+        return values[0]
+    if len(values) == 3:
+        return values
+    if len(values) == 9:
+        return np.reshape(values, (3, 3))
+    raise ValueError(f"--payload-inertia: expected 1, 3 or 9 numbers, got {len(values)}")
+
+
+def with_payload(model: Model, mass: float | None, inertia: str | None, end_effector: str | None) -> Model:
+    """Apply the ``--payload-*`` options: the model after capturing a payload, or the model unchanged."""
+    if mass is None:
+        if inertia is not None or end_effector is not None:
+            raise ValueError("--payload-inertia and --payload-ee need --payload-mass")
+        return model
+    if inertia is None:
+        raise ValueError("--payload-mass needs --payload-inertia (kg m² about the payload CM: I, or Ixx,Iyy,Izz)")
+    ee: str | int = 0
+    if end_effector is not None:
+        ee = int(end_effector) if end_effector.isdigit() and end_effector not in model.end_effector_names else end_effector
+    return model.with_payload(end_effector=ee, mass=mass, inertia=_inertia(inertia))
+
+
+def output_dir(path: Path) -> Path:
+    """Create the ``--out`` directory (and its parents); refuse an empty path or a path that is a file."""
+    return output_directory(path)
+
+
+class _EmptyPath(type(Path())):  # type: ignore[misc]
+    """``--out ""``: kept apart from ``--out .`` so that the command can refuse it with one clear line."""
+
+
+def _out_path(value: str) -> Path:
+    return _EmptyPath("") if not str(value).strip() else Path(value)
+
+
+@contextmanager
+def _staged(out: Path, overwrite: bool, command: str) -> Iterator[OutputDirectory]:
+    """The ``--out`` directory of a command, written through a staging folder (never clobbers)."""
+    if isinstance(out, _EmptyPath):
+        output_directory("")
+    with staged_outputs(out, overwrite=overwrite, command=command) as target:
+        yield target
+
+
+@contextmanager
+def _warnings_as_lines() -> Iterator[None]:
+    """Show library warnings (stiff gains, long runs) as one ``warning: ...`` line each, on stderr, when they happen."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        previous = warnings.showwarning
+
+        def show(message: Any, category: Any, filename: str, lineno: int, file: Any = None, line: Any = None) -> None:
+            typer.echo(f"warning: {' '.join(str(message).split())}", err=True)
+
+        warnings.showwarning = show
+        try:
+            yield
+        finally:
+            warnings.showwarning = previous
+
+
+def _version(value: bool) -> None:
+    if value:
+        from . import __version__
+
+        typer.echo(f"freefloat {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit.")] = False,
+) -> None:
+    """Kinematics, dynamics and workspaces of space robots (Papadopoulos & Dubowsky 1991, Papadopoulos 1992)."""
+
+
+# --------------------------------------------------------------------- commands
+ModelArg = Annotated[
+    str,
+    typer.Argument(metavar="MODEL", help=f"A .toml or .urdf model file, or a built-in model: {', '.join(BUILTIN_MODELS)}."),
+]
+PayloadMass = Annotated[float | None, typer.Option("--payload-mass", help="Inspect the model after capturing a payload of this mass (kg).")]
+PayloadInertia = Annotated[
+    str | None,
+    typer.Option(
+        "--payload-inertia", help="Payload inertia about its CM (kg m²): I (isotropic; Izz for planar models), Ixx,Iyy,Izz, or 9 numbers."
+    ),
+]
+PayloadEE = Annotated[
+    str | None, typer.Option("--payload-ee", help="End effector (name or index) that holds the payload; default the first.")
+]
+
+
+EndEffectorOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--end-effector",
+        "-e",
+        help="An end effector: a link/body/site name (repeat the option for several). Default: those the file names, else every leaf.",
+    ),
+]
+StrictOption = Annotated[
+    bool, typer.Option("--strict", help="Refuse non-physical inertias in URDF/MJCF files instead of correcting them (with a warning).")
+]
+
+
+RowsOpt = Annotated[
+    str | None,
+    typer.Option("--rows", help="Rows of J* that decide singularity: position (translational), full, or auto (the paper's: all 6 in 3D)."),
+]
+MeasureOpt = Annotated[
+    str | None,
+    typer.Option("--measure", help="Singularity measure: sigma_min (smallest singular value), manipulability, det, or auto."),
+]
+ThresholdOpt = Annotated[
+    float | None, typer.Option("--threshold", help="Singular where |measure| <= this (default 0: exact singularities).")
+]
+
+
+def criterion_options(rows: str | None, measure: str | None, threshold: float | None, base: Any = None) -> Any:
+    """A SingularityCriterion from ``--rows/--measure/--threshold``, each overriding ``base`` (default: the paper's)."""
+    from .analysis.singularity import SingularityCriterion
+
+    base = base if base is not None else SingularityCriterion()
+    return SingularityCriterion(
+        rows=base.rows if rows is None else rows,
+        measure=base.measure if measure is None else measure,
+        threshold=base.threshold if threshold is None else threshold,
+    )
+
+
+Overwrite = Annotated[
+    bool,
+    typer.Option(
+        "--overwrite",
+        help="Replace files of an earlier freefloat run in --out (only those listed in its freefloat-manifest.json and unchanged).",
+    ),
+]
+
+
+@app.command("inspect")
+def inspect_command(
+    model: Annotated[
+        str | None,
+        typer.Argument(
+            metavar="[MODEL]",
+            help="A .toml, .urdf or MJCF .xml model file, or a built-in model; without MODEL, list the built-in models (the zoo).",
+        ),
+    ] = None,
+    json_output: Annotated[bool, typer.Option("--json", help="Print one JSON object instead of text.")] = False,
+    end_effector: EndEffectorOption = None,
+    strict: StrictOption = False,
+    payload_mass: PayloadMass = None,
+    payload_inertia: PayloadInertia = None,
+    payload_ee: PayloadEE = None,
+) -> None:
+    """Print a model: joints, end effectors (and the rule that chose them), mass properties, barycentric
+    vectors (1992 eqs. 5-9) and every correction made when loading it; without MODEL, list the built-in models."""
+    with user_errors():
+        if model is None:
+            listing = [{"name": name, "description": text} for name, (text, _) in BUILTIN_MODELS.items()]
+            if json_output:
+                typer.echo(json.dumps({"models": listing}, indent=2))
+            else:
+                width = max(len(m["name"]) for m in listing)
+                typer.echo("built-in models (freefloat inspect NAME for one; provenance in docs/model-files.md):")
+                for m in listing:
+                    typer.echo(f"  {m['name'].ljust(width)}  {m['description']}")
+            return
+        loaded = load_model(model, end_effectors=end_effector or None, strict=strict)
+        info = model_info(with_payload(loaded, payload_mass, payload_inertia, payload_ee))
+    typer.echo(json.dumps(info, indent=2) if json_output else render_text(info).rstrip("\n"))
+
+
+@app.command("specialise")
+def specialise_command(
+    model: ModelArg,
+    kind: Annotated[
+        list[str] | None,
+        typer.Option("--kind", help="jstar (batched J*) or rollout (batched RK4 rollouts); repeatable (default: both)."),
+    ] = None,
+    end_effector: EndEffectorOption = None,
+    strict: StrictOption = False,
+) -> None:
+    """Compile J* and the rollouts for the structure of MODEL, once per machine (seconds), for sweeps and
+    campaigns: later J* batches and rollouts of this robot, in every process, run 4-8x faster (docs/performance.md)."""
+    from .mechanics.specialised import specialise
+
+    with user_errors():
+        loaded = load_model(model, end_effectors=end_effector or None, strict=strict)
+        took = specialise(loaded, kind or ("jstar", "rollout"), progress=lambda k: typer.echo(f"specialising {k} ...", err=True))
+    for k, seconds in took.items():
+        typer.echo(f"{k}: ready in {seconds:.1f} s (compiled once per machine; loaded from the cache afterwards)")
+
+
+DETJ_MAP_PNG = "detJ_map_1992_one_arm_captured.png"
+#: ``freefloat simulate`` asks for confirmation (or --yes) before a run estimated to take longer (s).
+LONG_RUN_S = 60.0
+
+
+@app.command("demo")
+def demo_command(
+    out: Annotated[Path, typer.Option("--out", parser=_out_path, help="Output directory (created).")] = Path("out"),
+    overwrite: Overwrite = False,
+) -> None:
+    """The main job: reproduce both papers (OUT/1991/, OUT/1992/: report.json, report.md, figures), write
+    reports of the papers' systems (OUT/models/) and the det J* map of the captured one-arm system."""
+    from matplotlib.figure import Figure
+
+    with user_errors(), _staged(out, overwrite, "demo") as target:
+        out = target.stage
+        systems = paper_systems()
+        mass, inertia = PAPER_PAYLOAD
+        written = write_model_reports(
+            systems,
+            out / "models",
+            title="freefloat: the systems of Papadopoulos & Dubowsky 1991 and Papadopoulos 1992",
+            preamble=(
+                "Written by `freefloat demo`; one section per system, the same content as `freefloat inspect MODEL`.",
+                "",
+                f"![det J* map of the 1992 one-arm system after capture](../{DETJ_MAP_PNG})",
+            ),
+        )
+        captured = next(model for slug, _, model in systems if slug == "papadopoulos1992_one_arm_captured")
+        dmap = jacobian_determinant_map(captured, (0, 1), n=361)
+        fig = Figure(figsize=(6.4, 5.6), layout="constrained")
+        ax = fig.add_subplot()
+        dmap.plot(ax)
+        ax.set_title(
+            f"1992 one-arm system after capturing the payload ({mass:g} kg, {inertia:g} kg m²)\n"
+            "dynamic singularities: det ⁰J*(q) = 0 (1992 eq. 17)",
+            fontsize="medium",
+        )
+        png = out / DETJ_MAP_PNG
+        fig.savefig(png, dpi=200)
+        written.append(png)
+        from .papers.reproduce import reproduce_1991, reproduce_1992
+
+        for paper, reproduce in (("1991", reproduce_1991), ("1992", reproduce_1992)):
+            typer.echo(f"reproducing {paper} into {target.path / paper} ...", err=True)
+            written += reproduce(output_dir(out / paper))
+        written.append(_write_demo_index(out, written))
+    for path in target.final(written):
+        typer.echo(str(path))
+
+
+def _write_demo_index(out: Path, written: list[Path]) -> Path:
+    """OUT/README.md: what `freefloat demo` wrote, with the paper-vs-freefloat summary of each report."""
+    lines = ["# freefloat demo output", "", "Written by `make demo` (`freefloat demo --out OUT`).", ""]
+    for paper in ("1991", "1992"):
+        rows = json.loads((out / paper / "report.json").read_text())["rows"]
+        compared = [r for r in rows if r["agrees"] is not None]
+        agree = sum(1 for r in compared if r["agrees"])
+        lines.append(
+            f"- [{paper}/report.md]({paper}/report.md): {len(rows)} rows, {len(compared)} with a printed number, "
+            f"{agree} agree at the printed precision (the others are explained row by row)."
+        )
+    lines.append("- [models/](models/): the papers' systems, as `freefloat inspect` prints them.")
+    lines += ["", "Files:", ""] + [f"- `{p.relative_to(out)}`" for p in written if p.is_relative_to(out)]
+    index = out / "README.md"
+    index.write_text("\n".join(lines) + "\n")
+    return index
+
+
+@app.command("workspace")
+def workspace_command(
+    model: ModelArg,
+    arm: Annotated[
+        list[str] | None, typer.Option("--arm", help="End effector (name or index) to analyse; repeat for several. Default: all.")
+    ] = None,
+    payload_mass: PayloadMass = None,
+    payload_inertia: PayloadInertia = None,
+    payload_ee: PayloadEE = None,
+    piw: Annotated[
+        bool | None, typer.Option("--piw/--no-piw", help="Compute the PIW/PDW (eq. 17). Default: only when J* is square.")
+    ] = None,
+    samples: Annotated[int, typer.Option("--samples", min=16, help="Configurations sampled for the PIW.")] = 1 << 16,
+    out: Annotated[
+        Path | None, typer.Option("--out", parser=_out_path, help="Write workspace.json and one plot per end effector here (created).")
+    ] = None,
+    json_output: Annotated[bool, typer.Option("--json", help="Print one JSON object instead of the table.")] = False,
+    rows: RowsOpt = None,
+    measure: MeasureOpt = None,
+    threshold: ThresholdOpt = None,
+    overwrite: Overwrite = False,
+) -> None:
+    """Workspace limits about the system CM (1992 eqs. 15-17): reachable, guaranteed, PIW/PDW, with method and accuracy."""
+    from .analysis.workspace_report import limits_json, workspace_limits, write_workspace_plots
+
+    with user_errors():
+        if isinstance(out, _EmptyPath):
+            output_directory("")  # refused before the work
+        loaded = with_payload(load_model(model), payload_mass, payload_inertia, payload_ee)
+        names = loaded.end_effector_names
+        chosen = [int(a) if a.isdigit() and a not in names else a for a in arm or []]
+        criterion = criterion_options(rows, measure, threshold)
+        limits = workspace_limits(loaded, chosen or None, piw=piw, samples=samples, criterion=criterion)
+        written: list[Path] = []
+        if out is not None:
+            with _staged(out, overwrite, "workspace") as target:
+                (target.stage / "workspace.json").write_text(limits_json(limits) + "\n")
+                written = [target.stage / "workspace.json", *write_workspace_plots(limits, target.stage)]
+            written = target.final(written)
+    typer.echo(limits_json(limits) if json_output else limits.render_text().rstrip("\n"))
+    for path in written:
+        typer.echo(f"wrote {path}", err=True)
+
+
+@app.command("capture")
+def capture_command(
+    scenario: Annotated[Path, typer.Argument(metavar="SCENARIO", help="Capture scenario TOML (schema: docs/workspaces.md).")],
+    out: Annotated[Path | None, typer.Option("--out", parser=_out_path, help="Write capture.json and the plots here (created).")] = None,
+    overwrite: Overwrite = False,
+    rows: RowsOpt = None,
+    measure: MeasureOpt = None,
+    threshold: ThresholdOpt = None,
+    strategy: Annotated[
+        str | None,
+        typer.Option("--strategy", help="auto (PIW, else a path-checked plan), piw (the paper's) or path; overrides the scenario."),
+    ] = None,
+) -> None:
+    """Plan a payload capture (1992 §V): approach distance, CM+, R+, capture posture and spacecraft orientation.
+
+    --rows/--measure/--threshold/--strategy override the scenario's [singularity] table."""
+    import dataclasses
+
+    from .analysis.capture import STRATEGIES
+    from .scenarios.capture_scenario import load_capture_scenario, run_capture_scenario, write_capture_outputs
+
+    with user_errors():
+        if out is not None and isinstance(out, _EmptyPath):
+            output_directory("")
+        loaded = load_capture_scenario(scenario)
+        if strategy is not None and strategy not in STRATEGIES:
+            raise ValueError(f"--strategy {strategy!r}: unknown; choose one of {', '.join(STRATEGIES)}")
+        loaded = dataclasses.replace(
+            loaded,
+            criterion=criterion_options(rows, measure, threshold, loaded.criterion),
+            strategy=loaded.strategy if strategy is None else strategy,
+        )
+        result = run_capture_scenario(loaded)
+        written: list[Path] = []
+        if out is not None:
+            with _staged(out, overwrite, "capture") as target:
+                written = write_capture_outputs(result, target.stage)
+            written = target.final(written)
+    typer.echo(result.render_text().rstrip("\n"))
+    for path in written:
+        typer.echo(f"wrote {path}", err=True)
+
+
+@app.command("simulate")
+def simulate_command(
+    scenario: Annotated[Path, typer.Argument(metavar="SCENARIO", help="Simulation scenario TOML (schema: docs/simulation.md).")],
+    out: Annotated[
+        Path,
+        typer.Option("--out", parser=_out_path, help="Output directory (created): trajectory .npz/.csv/.json and .png plots."),
+    ] = Path("out"),
+    progress: Annotated[
+        bool | None, typer.Option("--progress/--no-progress", help="Progress bar on stderr (default: when stderr is a terminal).")
+    ] = None,
+    animate: Annotated[
+        Path | None,
+        typer.Option("--animate", metavar="PATH", help="Also write an animation of the motion: .gif (Pillow) or .mp4 (ffmpeg)."),
+    ] = None,
+    overwrite: Overwrite = False,
+    yes: Annotated[
+        bool, typer.Option("--yes", "-y", help=f"Run without asking even when the run is estimated to take over {LONG_RUN_S:g} s.")
+    ] = False,
+) -> None:
+    """Simulate a scenario (model, initial state, actuation or controller, duration); write the trajectory and its plots.
+
+    Before the run, its steps and wall time are estimated; a run expected to take over a minute
+    asks for confirmation (--yes skips it). Ctrl-C stops the run and writes what was computed.
+    """
+    import sys
+
+    from .io.outputs import check_targets
+    from .scenarios.scenario import estimate_scenario, load_scenario
+    from .scenarios.scenario_outputs import output_names, simulate_scenario
+
+    with user_errors(), _warnings_as_lines():
+        loaded = load_scenario(scenario)
+        if isinstance(out, _EmptyPath):
+            output_directory("")
+        check_targets(out, output_names(loaded), overwrite=overwrite)
+        if animate is not None and Path(animate).exists():  # refused before the run (and before its estimate)
+            raise FileExistsError(f"--animate {animate}: exists; freefloat never overwrites a file (choose another name)")
+        estimate = estimate_scenario(loaded)
+        typer.echo(f"{loaded.source}: {estimate.describe()}", err=True)
+        if estimate.seconds > LONG_RUN_S and not yes:
+            if not sys.stdin.isatty():
+                raise ValueError(f"this run is estimated to take over {LONG_RUN_S:g} s ({estimate.describe()}); pass --yes to run it")
+            typer.confirm(f"This run is estimated to take over {LONG_RUN_S:g} s. Run it?", abort=True, err=True)
+        with _staged(out, overwrite, "simulate") as target:
+            written = simulate_scenario(
+                loaded, target.stage, progress=sys.stderr.isatty() if progress is None else progress, animation=animate
+            )
+        written = target.final(written)
+        status = json.loads(written[0].read_text())["status"] if written and written[0].suffix == ".json" else ""
+    for path in written:
+        typer.echo(str(path))
+    if status == "interrupted":
+        typer.echo("interrupted (Ctrl-C): the trajectory computed so far is written above", err=True)
+        raise typer.Exit(130)
+
+
+PAPERS = ("1991", "1992")
+
+
+@app.command("reproduce")
+def reproduce_command(
+    paper: Annotated[str, typer.Argument(metavar="PAPER", help="Which paper: 1991 (Papadopoulos & Dubowsky) or 1992 (Papadopoulos).")],
+    out: Annotated[
+        Path, typer.Option("--out", parser=_out_path, help="Output directory (created): report.json, report.md and the figures.")
+    ] = Path("out"),
+    overwrite: Overwrite = False,
+) -> None:
+    """Reproduce a paper's tables, example and figures; write the paper-vs-freefloat report to OUT."""
+    with user_errors():
+        if paper not in PAPERS:
+            raise ValueError(f"PAPER {paper!r}: unknown; choose one of {', '.join(PAPERS)}")
+        if paper == "1991":
+            from .papers.reproduce import reproduce_1991 as reproduce
+        else:
+            from .papers.reproduce import reproduce_1992 as reproduce
+        with _staged(out, overwrite, f"reproduce {paper}") as target:
+            written = reproduce(target.stage)
+    for path in target.final(written):
+        typer.echo(str(path))
+
+
+def main() -> None:
+    """Entry point of the ``freefloat`` script and of ``python -m freefloat``."""
+    app(prog_name="freefloat")

@@ -1,0 +1,30 @@
+"""Coordinated control of spacecraft and manipulators (Papadopoulos & Dubowsky 1991 §IV): ``ff.control``.
+
+- :mod:`.tasks`: the task space z1 = [spacecraft position, attitude, end-effector poses] and J_z (:class:`TaskSpace`, :class:`TaskItem`).
+- :mod:`.desired`: desired motions (:class:`SetPoint`, :class:`StraightLine`, :func:`MinimumJerk`, :class:`FunctionTrajectory`).
+- :mod:`.controllers`: the transposed-Jacobian (eqs. 29-30) and operational-space (eq. 27) controllers.
+
+A controller is a callable ``(t, state) -> Actuation`` for :func:`freefloat.simulate`.
+Layer: imports :mod:`freefloat.core` and :mod:`freefloat.mechanics` only.
+"""
+
+from __future__ import annotations
+
+from .controllers import OperationalSpaceController, TransposedJacobianController, damped_inverse, gain_matrix
+from .desired import DesiredPoint, FunctionTrajectory, MinimumJerk, SetPoint, StraightLine, as_desired
+from .tasks import TaskItem, TaskSpace
+
+__all__ = [
+    "DesiredPoint",
+    "FunctionTrajectory",
+    "MinimumJerk",
+    "OperationalSpaceController",
+    "SetPoint",
+    "StraightLine",
+    "TaskItem",
+    "TaskSpace",
+    "TransposedJacobianController",
+    "as_desired",
+    "damped_inverse",
+    "gain_matrix",
+]

@@ -1,0 +1,278 @@
+"""Coordinated spacecraft/manipulator controllers of Papadopoulos & Dubowsky 1991, §IV.
+
+Both act on task coordinates z1 (eq. 22, :class:`~freefloat.control.tasks.TaskSpace`)
+measured inertially, with e = z1,des − z1 (eq. 26), and return the thruster
+force and torque at the spacecraft CM (spacecraft frame) and the joint torques
+as an :class:`~freefloat.Actuation`, through the inversion of eq. 21:
+
+    [f_S; n_S; τ] = J_q⁻ᵀ Q_c                                           (eq. 30)
+
+:class:`TransposedJacobianController` (eq. 29)
+    Q_c = J_zᵀ (K_p e + K_d ė). No inverse of J_z: it keeps running at singular J_z.
+
+:class:`OperationalSpaceController` (eq. 27)
+    Q_c = J_zᵀ { H~ (K_p e + K_d ė + z̈1,des) + C~ } with, for a general (m x n) J_z,
+
+        H~ = (J_z H+⁻¹ J_zᵀ)⁻¹                       (eq. 25 when J_z is square: J_z⁻ᵀ H+ J_z⁻¹)
+        J̄  = H+⁻¹ J_zᵀ H~                            (dynamically consistent generalized inverse;
+                                                       J̄ = J_z⁻¹ when J_z is square)
+        C~ = J̄ᵀ C+ − H~ J̇_z ż0                       (eq. 24: J_z⁻ᵀ C+ − H~ J̇_z ż0 when square)
+
+    With an exact model and full row rank J_z this gives z̈1 = K_p e + K_d ė + z̈1,des,
+    i.e. ë + K_d ė + K_p e = 0 (eq. 28), for square and for redundant (m < n) J_z alike.
+    (J_z H+⁻¹ J_zᵀ)⁻¹ is taken with a damped inverse: with r = σ_min/σ_max of J_z, ε =
+    ``singular_tolerance`` and a_i the eigenvalues of J_z H+⁻¹ J_zᵀ, each 1/a_i becomes
+    a_i/(a_i² + λ²), λ² = (1 − (r/ε)²) (ε a_max)² when r < ε, else 0: the exact inverse
+    away from singularities, bounded (≤ 1/(2λ)) at them, continuous at r = ε.
+
+Near a singular J_z (σ_min/σ_max of J_z below ``singular_tolerance``) both warn
+with :class:`~freefloat.NearSingularWarning` (once each time they enter the
+region) and keep running. For redundant tasks (m < 6 + N) the null-space motion
+is not controlled by eqs. 27/29; ``null_space_damping`` (N m s per rad/s, default
+0 = the paper's law) adds −(1 − J_zᵀ J̄ᵀ) d ż0, a damping that does not disturb the
+task (eq. 27) or acts on the whole ż0 after removing its task part (eq. 29).
+
+Actuation limits (``limits``, an :class:`~freefloat.ActuatorLimits`) saturate
+each output component; the unsaturated values are in ``Actuation.extras``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+import numpy as np
+
+from ..core.conventions import attitude_matrix
+from ..core.errors import NearSingularWarning, ShapeError
+from ..core.model import Model
+from ..core.state import Actuation, ActuatorLimits, State
+from ..mechanics.dynamics import nonlinear_forces
+from ..mechanics.forces import _actuation_0
+from ..mechanics.momentum import system_inertia_matrix
+from .desired import DesiredPoint, as_desired
+from .tasks import TaskSpace
+
+__all__ = ["OperationalSpaceController", "TransposedJacobianController", "damped_inverse", "gain_matrix"]
+
+
+def gain_matrix(value: Any, dim: int, name: str) -> np.ndarray:
+    """A gain as a (dim, dim) symmetric positive definite matrix: from a scalar, a diagonal (dim,) or a matrix."""
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 0:
+        mat = arr * np.eye(dim)
+    elif arr.shape == (dim,):
+        mat = np.diag(arr)
+    elif arr.shape == (dim, dim):
+        mat = arr
+    else:
+        raise ShapeError(f"{name}: expected a scalar, a diagonal of shape ({dim},) or a ({dim}, {dim}) matrix, got shape {arr.shape}")
+    if not np.all(np.isfinite(mat)):
+        raise ValueError(f"{name}: has NaN or infinite entries; give finite gains")
+    if not np.allclose(mat, mat.T, rtol=1e-12, atol=1e-12 * max(1.0, float(np.max(np.abs(mat))))):
+        raise ValueError(f"{name}: gain matrix is not symmetric; give a symmetric positive definite matrix (eq. 27 uses diagonal gains)")
+    eig = np.linalg.eigvalsh(mat)
+    if eig[0] <= 0.0:
+        raise ValueError(
+            f"{name}: gains must be positive definite (eq. 27), smallest eigenvalue {eig[0]:.6g}; give positive gains, e.g. {name}=30.0"
+        )
+    return mat
+
+
+def damped_inverse(matrix: np.ndarray, closeness: float, tolerance: float) -> np.ndarray:
+    """Inverse of a symmetric positive semidefinite matrix, damped near a singular J_z (see the module docstring).
+
+    ``closeness`` is σ_min/σ_max of J_z; at or above ``tolerance`` the inverse is exact, below it each
+    1/a_i becomes a_i/(a_i² + λ²) with λ² = (1 − (closeness/tolerance)²) (tolerance · a_max)².
+    """
+    a, v = np.linalg.eigh(matrix)
+    a = np.maximum(a, 0.0)
+    a_max = float(a[-1])
+    if a_max <= 0.0:
+        return np.zeros_like(matrix)
+    lam2 = (1.0 - (closeness / tolerance) ** 2) * (tolerance * a_max) ** 2 if closeness < tolerance else 0.0
+    with np.errstate(divide="ignore"):
+        inv = np.where(a > 0.0, a / (a * a + lam2), 0.0) if lam2 > 0.0 else 1.0 / a
+    return (v * inv) @ v.T
+
+
+def _closeness(jac: np.ndarray) -> float:
+    """σ_min/σ_max of J_z (0 when J_z has more rows than columns: the task is over-determined)."""
+    sv = np.linalg.svd(jac, compute_uv=False)
+    rows, cols = jac.shape
+    return float(sv[-1] / sv[0]) if sv[0] > 0 and rows <= cols else 0.0
+
+
+class _TaskController:
+    """Shared parts of the two controllers (desired motion, gains, errors, J_q⁻ᵀ, limits, warnings)."""
+
+    law = ""
+
+    def __init__(
+        self,
+        model: Model,
+        task: TaskSpace,
+        desired: Any,
+        kp: Any,
+        kd: Any,
+        *,
+        limits: ActuatorLimits | None = None,
+        singular_tolerance: float = 1e-2,
+        null_space_damping: float = 0.0,
+    ) -> None:
+        if not isinstance(task, TaskSpace):
+            raise TypeError(f"task: expected a freefloat.TaskSpace, got {type(task).__name__}")
+        if task.model is not model:
+            raise ValueError(f"task: built for model {task.model.name!r}, not for {model.name!r}; build the task from this model")
+        self.model = model
+        self.task = task
+        self.desired = as_desired(desired)
+        for z in getattr(self.desired, "targets", list)():
+            task.check_target(z, "desired")
+        self.kp = gain_matrix(kp, task.dim, "kp")
+        self.kd = gain_matrix(kd, task.dim, "kd")
+        if not (np.isfinite(singular_tolerance) and 0.0 < singular_tolerance < 1.0):
+            raise ValueError(f"singular_tolerance: expected a number in (0, 1), got {singular_tolerance!r}")
+        if not (np.isfinite(null_space_damping) and null_space_damping >= 0.0):
+            raise ValueError(f"null_space_damping: expected a non-negative number, got {null_space_damping!r}")
+        if limits is not None and not isinstance(limits, ActuatorLimits):
+            raise TypeError(f"limits: expected a freefloat ActuatorLimits, got {type(limits).__name__}")
+        self.limits = limits
+        self.singular_tolerance = float(singular_tolerance)
+        self.null_space_damping = float(null_space_damping)
+        self._near_singular = False
+
+    # ------------------------------------------------------------ pieces
+    def desired_point(self, t: float) -> DesiredPoint:
+        """z1,des, ż1,des, z̈1,des at time t, checked against the task's sizes."""
+        point = self.desired(float(t))
+        z = np.asarray(point.z, dtype=float)
+        if z.shape != (self.task.size,):
+            raise ShapeError(f"desired(t={t:g}): z has shape {z.shape}; expected ({self.task.size},) ({', '.join(self.task.labels)})")
+        rates = []
+        for name, value in (("zdot", point.zdot), ("zddot", point.zddot)):
+            arr = np.asarray(value, dtype=float)
+            if arr.size == 0:
+                arr = np.zeros(self.task.dim)
+            if arr.shape != (self.task.dim,):
+                raise ShapeError(f"desired(t={t:g}): {name} has shape {arr.shape}; expected ({self.task.dim},)")
+            rates.append(arr)
+        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(rates[0])) and np.all(np.isfinite(rates[1]))):
+            raise ValueError(f"desired(t={t:g}): returned NaN or infinite values")
+        return DesiredPoint(z, rates[0], rates[1])
+
+    def _check_singular(self, jac: np.ndarray) -> float:
+        ratio = _closeness(jac)
+        near = ratio < self.singular_tolerance
+        if near and not self._near_singular:
+            warnings.warn(
+                f"{self.law}: J_z (1991 eq. 23) is near singular (sigma_min/sigma_max = {ratio:.2e} < {self.singular_tolerance:g}); "
+                "the task loses a direction there and the controller keeps running without it",
+                NearSingularWarning,
+                stacklevel=3,
+            )
+        self._near_singular = near
+        return ratio
+
+    def _actuation(self, state: State, generalized_force: np.ndarray, extras: dict[str, Any]) -> Actuation:
+        q = np.asarray(state.q, dtype=float)
+        t0 = np.asarray(extras.pop("_t0"))
+        q_0 = generalized_force.copy()
+        q_0[0:3] = t0.T @ generalized_force[0:3]  # Q's first block into the spacecraft frame
+        force, torque, tau = _actuation_0(self.model, q[None], q_0[None])
+        force, torque, tau = force[0], torque[0], tau[0]
+        extras.update(generalized_force=generalized_force, joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque)
+        if self.limits is not None:
+            tau, force, torque, saturated = self.limits.apply(tau, force, torque)
+            extras["saturated"] = bool(saturated)
+        return Actuation(joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque, extras=extras)
+
+    def __call__(self, t: float, state: State) -> Actuation:
+        """The actuation at time t (1991 eq. 30): thruster force and torque (spacecraft frame), joint torques."""
+        state = state.resolve(self.model)
+        if np.asarray(state.q).ndim != 1:
+            raise ShapeError("state: a controller takes one state (fields without a batch axis)")
+        q_c, extras = self._generalized_force(float(t), state)
+        return self._actuation(state, q_c, extras)
+
+    def generalized_force(self, t: float, state: State) -> np.ndarray:
+        """Q_c (6 + N) in the zdot0 coordinates (first block inertial)."""
+        state = state.resolve(self.model)
+        return self._generalized_force(float(t), state)[0]
+
+    def _generalized_force(self, t: float, state: State) -> tuple[np.ndarray, dict[str, Any]]:
+        raise NotImplementedError
+
+
+class TransposedJacobianController(_TaskController):
+    """1991 eqs. 29-30: Q_c = J_zᵀ (K_p e + K_d ė), then [f_S; n_S; τ] = J_q⁻ᵀ Q_c.
+
+    ``desired``: a set point (task coordinates), a desired motion
+    (:mod:`freefloat.control.desired`) or a callable ``f(t)``. ``kp``, ``kd``: scalars,
+    diagonals (task.dim,) or symmetric positive definite matrices. Never
+    inverts J_z. Returns an :class:`~freefloat.Actuation` whose ``extras`` hold
+    the error ``e``, its rate, Q_c and ``sigma_ratio`` (σ_min/σ_max of J_z).
+    """
+
+    law = "transposed-Jacobian controller (1991 eq. 29)"
+
+    def _generalized_force(self, t: float, state: State) -> tuple[np.ndarray, dict[str, Any]]:
+        des = self.desired_point(t)
+        z, jac, zdot, _ = self.task.evaluate(state)
+        e = self.task.error(des.z, z)
+        edot = des.zdot - zdot
+        q_c = jac.T @ (self.kp @ e + self.kd @ edot)
+        ratio = self._check_singular(jac)
+        if self.null_space_damping > 0.0:
+            velocity = np.asarray(state.velocity)
+            pinv = np.linalg.pinv(jac, rcond=self.singular_tolerance)
+            q_c -= self.null_space_damping * (velocity - pinv @ (jac @ velocity))
+        return q_c, {"error": e, "error_rate": edot, "sigma_ratio": ratio, "_t0": attitude_matrix(state.attitude)}
+
+
+class OperationalSpaceController(_TaskController):
+    """1991 eq. 27: Q_c = J_zᵀ {H~ (K_p e + K_d ė + z̈1,des) + C~}, with H~, C~ of eqs. 24-25.
+
+    Arguments as :class:`TransposedJacobianController`. For non-square J_z the
+    dynamically consistent generalized inverse is used (module docstring);
+    near a singular J_z the inverse is damped and a
+    :class:`~freefloat.NearSingularWarning` is issued. With an exact model the
+    error obeys ë + K_d ė + K_p e = 0 (eq. 28).
+    """
+
+    law = "operational-space controller (1991 eq. 27)"
+
+    def task_dynamics(self, state: State) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(H~, C~, J̄) of eqs. 24-25 at ``state`` (generalized for non-square J_z; damped near singular J_z)."""
+        state = state.resolve(self.model)
+        _, jac, _, bias = self.task.evaluate(state, bias=True)
+        assert bias is not None
+        return self._task_dynamics(state, jac, bias, _closeness(jac))
+
+    def _task_dynamics(
+        self, state: State, jac: np.ndarray, bias: np.ndarray, closeness: float
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        q = np.asarray(state.q)
+        h_plus = system_inertia_matrix(self.model, q)
+        c_plus = nonlinear_forces(self.model, q, state.velocity)  # its r_cm rows are zero: no frame question there
+        h_inv_jt = np.linalg.solve(h_plus, jac.T)
+        h_tilde = damped_inverse(jac @ h_inv_jt, closeness, self.singular_tolerance)
+        j_bar = h_inv_jt @ h_tilde
+        c_tilde = j_bar.T @ c_plus - h_tilde @ bias
+        return h_tilde, c_tilde, j_bar
+
+    def _generalized_force(self, t: float, state: State) -> tuple[np.ndarray, dict[str, Any]]:
+        des = self.desired_point(t)
+        z, jac, zdot, bias = self.task.evaluate(state, bias=True)
+        assert bias is not None
+        e = self.task.error(des.z, z)
+        edot = des.zdot - zdot
+        ratio = self._check_singular(jac)
+        h_tilde, c_tilde, j_bar = self._task_dynamics(state, jac, bias, ratio)
+        command = self.kp @ e + self.kd @ edot + des.zddot
+        q_c = jac.T @ (h_tilde @ command + c_tilde)
+        if self.null_space_damping > 0.0:
+            velocity = np.asarray(state.velocity)
+            q_c -= self.null_space_damping * (velocity - jac.T @ (j_bar.T @ velocity))
+        extras = {"error": e, "error_rate": edot, "sigma_ratio": ratio, "_t0": attitude_matrix(state.attitude)}
+        return q_c, extras

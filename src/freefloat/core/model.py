@@ -1,0 +1,439 @@
+"""The immutable :class:`Model` of a space robot (:class:`~freefloat.core.builder.ModelBuilder` makes it).
+
+A model is a tree of rigid bodies rooted at the spacecraft (body 0), joined by
+revolute or prismatic joints (fixed joints are merged into the parent at build time). It is
+validated once, when built, and never changes: ``with_payload`` returns a new
+model. Everything that depends only on the mass distribution (outboard mass
+fractions, barycenters, barycentric vectors, 1992 eqs. 5-9) is computed at
+build time; see :mod:`freefloat.core.barycentric`.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from . import barycentric
+from .errors import ModelError, UnknownNameError
+
+__all__ = [
+    "JOINT_TYPES",
+    "MAX_INERTIA",
+    "MAX_LENGTH",
+    "MAX_MASS",
+    "Model",
+    "accepts_model_names",
+    "check_inertia",
+    "check_mass",
+    "inertia_defect",
+    "inertia_matrix",
+    "nearest_physical_inertia",
+    "register_model_resolver",
+    "resolve_model",
+]
+
+#: The joint types a model holds after fixed joints are merged: a revolute joint turns its body
+#: about the axis by q (rad); a prismatic joint slides it along the axis by q (m).
+JOINT_TYPES = ("revolute", "prismatic")
+
+_INERTIA_RTOL = 1e-9
+
+#: The physical bounds a model is checked against (SI). Beyond them a number is a typo or a unit
+#: slip (mm for m, g for kg), not a space robot, and the arithmetic loses its meaning (1e300 kg
+#: overflows the inertia sums). Bodies: mass in (0, MAX_MASS] kg, 1e9 kg being some 2000 times the
+#: International Space Station; positions (joint origins, CMs, end-effector points, payload offsets)
+#: within MAX_LENGTH m of their frame's origin, 10 km; principal moments of inertia up to MAX_INERTIA
+#: kg m^2, MAX_MASS spread over 1 km.
+MAX_MASS = 1e9
+MAX_LENGTH = 1e4
+MAX_INERTIA = 1e15
+
+
+def check_mass(value: float, path: str, fix: str) -> float:
+    """``value`` (kg) if positive, finite and at most :data:`MAX_MASS`; else a :class:`ModelError`."""
+    if not np.isfinite(value) or value <= 0.0:
+        raise ModelError(path, f"must be positive and finite, got {value!r}", fix)
+    if value > MAX_MASS:
+        raise ModelError(path, f"{value:g} kg is above the {MAX_MASS:g} kg freefloat accepts for one body (a unit slip?)", fix)
+    return value
+
+
+def _vector(value: Any, path: str, fix: str) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(path, f"cannot read {value!r} as three numbers", fix) from None
+    if arr.shape != (3,):
+        raise ModelError(path, f"expected three numbers [x, y, z], got shape {arr.shape}", fix)
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(path, "has NaN or infinite entries", fix)
+    if np.abs(arr).max() > MAX_LENGTH:
+        too_far = f"{np.abs(arr).max():g} m is beyond the {MAX_LENGTH:g} m freefloat accepts for a position (a unit slip?)"
+        raise ModelError(path, too_far, fix)
+    return arr
+
+
+def inertia_matrix(value: Any, path: str, *, degenerate_ok: bool = False) -> np.ndarray:
+    """Read an inertia given as a 3x3 matrix, three principal moments, or one isotropic moment."""
+    fix = "give a 3x3 symmetric matrix, [Ixx, Iyy, Izz], or one number (isotropic), in kg m^2 about the CM"
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(path, f"cannot read {value!r} as an inertia", fix) from None
+    if arr.shape == ():
+        arr = np.eye(3) * arr
+    elif arr.shape == (3,):
+        arr = np.diag(arr)
+    elif arr.shape != (3, 3):
+        raise ModelError(path, f"expected shape (3, 3), (3,) or a scalar, got {arr.shape}", fix)
+    check_inertia(arr, path, degenerate_ok=degenerate_ok)
+    return arr
+
+
+def check_inertia(inertia: np.ndarray, path: str, *, degenerate_ok: bool = False) -> None:
+    """Raise :class:`ModelError` unless ``inertia`` is a physical inertia matrix about a CM.
+
+    Physical means finite, symmetric, positive definite (``degenerate_ok``: semi-definite, as a
+    point mass), and principal moments that satisfy the triangle inequality ``I1 <= I2 + I3``.
+    """
+    fix = "use the inertia of a real body about its CM (symmetric, positive definite, each principal moment <= the sum of the other two)"
+    if np.all(np.isfinite(inertia)) and np.abs(inertia).max() > MAX_INERTIA:
+        raise ModelError(
+            path, f"{np.abs(inertia).max():g} kg m^2 is above the {MAX_INERTIA:g} kg m^2 freefloat accepts (a unit slip?)", fix
+        )
+    defect = inertia_defect(inertia, degenerate_ok=degenerate_ok)
+    if defect is not None:
+        raise ModelError(path, defect, fix)
+
+
+def inertia_defect(inertia: np.ndarray, *, degenerate_ok: bool = False) -> str | None:
+    """What makes ``inertia`` (3x3, about a CM) non-physical, or None when it is physical.
+
+    Physical: finite, symmetric, principal moments positive (``degenerate_ok``: zero allowed, as a
+    point mass or a thin rod) and each at most the sum of the other two (triangle inequality), with
+    a relative tolerance of 1e-9 of the largest moment.
+    """
+    if not np.all(np.isfinite(inertia)):
+        return "has NaN or infinite entries"
+    scale = max(float(np.max(np.abs(inertia))), 1e-300)
+    if np.max(np.abs(inertia - inertia.T)) > 1e-9 * scale:
+        return "is not symmetric"
+    moments = np.linalg.eigvalsh(0.5 * (inertia + inertia.T))
+    floor = -_INERTIA_RTOL * scale if degenerate_ok else 0.0
+    if moments[0] < floor or (not degenerate_ok and moments[0] == 0.0):
+        return f"is not positive definite (principal moments {moments.tolist()})"
+    if moments[2] > (moments[0] + moments[1]) * (1.0 + _INERTIA_RTOL) + (_INERTIA_RTOL * scale if degenerate_ok else 0.0):
+        return f"violates the triangle inequality: principal moment {moments[2]:.6g} > {moments[0]:.6g} + {moments[1]:.6g}"
+    return None
+
+
+def nearest_physical_inertia(inertia: np.ndarray) -> np.ndarray:
+    """The physical inertia nearest to ``inertia`` in the Frobenius norm.
+
+    The set of physical inertias depends on the principal moments only, so the nearest one keeps
+    the principal axes of the symmetric part and moves the moments to the nearest point of the
+    cone {I_k >= 0, I_a <= I_b + I_c}: a small quadratic programme (scipy.optimize, SLSQP).
+    Asymmetry is removed first (the symmetric part is the nearest symmetric matrix).
+    """
+    from scipy.optimize import minimize
+
+    sym = 0.5 * (inertia + inertia.T)
+    moments, axes = np.linalg.eigh(sym)
+    cone = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0], [-1.0, 1, 1], [1, -1.0, 1], [1, 1, -1.0]])
+    result = minimize(
+        lambda x: float(np.sum((x - moments) ** 2)),
+        np.clip(moments, 0.0, None),
+        jac=lambda x: 2.0 * (x - moments),
+        constraints=[{"type": "ineq", "fun": lambda x: cone @ x, "jac": lambda x: cone}],
+        method="SLSQP",
+        options={"ftol": 1e-30, "maxiter": 200},
+    )
+    fixed = np.clip(result.x, 0.0, None)
+    # tiny round-off of the QP may leave the triangle inequality violated by ~1e-16: close it exactly
+    fixed[np.argmax(fixed)] = min(float(fixed.max()), float(np.sum(fixed) - fixed.max()))
+    return (axes * fixed) @ axes.T
+
+
+def _count(n: int, one: str, many: str | None = None) -> str:
+    """'1 joint', '2 joints' (English plurals in messages)."""
+    return f"{n} {one if n == 1 else (many or one + 's')}"
+
+
+def _frozen(arr: Any, dtype: Any = float) -> np.ndarray:
+    out = np.array(arr, dtype=dtype, copy=True)
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    """A space robot: a tree of rigid bodies rooted at the spacecraft (body 0).
+
+    Body k > 0 is moved by joint k - 1 (``joint_names[k - 1]``); bodies are in
+    depth-first order, so each arm's joints are contiguous, as in the 1992
+    paper's q = [q⁽¹⁾, ..., q⁽ⁿ⁾]. All arrays are read-only.
+
+    Attributes (body frames unless stated)
+        parent            (B,) parent body index, -1 for the spacecraft
+        joint_origin      (B, 3) joint position in the parent frame (row 0 unused)
+        joint_rotation    (B, 3, 3) joint frame relative to the parent frame
+        joint_axis        (B, 3) unit joint axis in the joint (= child) frame
+        joint_type        (N,) "revolute" (q in rad) or "prismatic" (q in m, the body slides
+                          along the axis; its frame origin is joint_origin + q axis)
+        joint_lower/upper (N,) joint limits in rad or m (±inf when none)
+        end_effector_rule "named" (the model file or builder named them) or "leaves" (every leaf)
+        corrections       every change made to the given data when loading (see ``ff.load``)
+        mass, com, inertia  per body; inertia about the CM
+        end_effector_body, end_effector_point  (E,), (E, 3)
+    """
+
+    name: str
+    body_names: tuple[str, ...]
+    parent: np.ndarray
+    joint_names: tuple[str, ...]
+    joint_origin: np.ndarray
+    joint_rotation: np.ndarray
+    joint_axis: np.ndarray
+    joint_lower: np.ndarray
+    joint_upper: np.ndarray
+    mass: np.ndarray
+    com: np.ndarray
+    inertia: np.ndarray
+    end_effector_names: tuple[str, ...]
+    end_effector_body: np.ndarray
+    end_effector_point: np.ndarray
+    source: str = ""
+    payloads: tuple[dict[str, Any], ...] = ()
+    joint_type: tuple[str, ...] = ()
+    end_effector_rule: str = "leaves"
+    corrections: tuple[dict[str, Any], ...] = ()
+    # derived at build time
+    total_mass: float = field(init=False)
+    subtree: np.ndarray = field(init=False, repr=False)
+    bary: barycentric.BarycentricVectors = field(init=False, repr=False)
+    rotation_basis: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        for name in (
+            "joint_origin",
+            "joint_rotation",
+            "joint_axis",
+            "joint_lower",
+            "joint_upper",
+            "mass",
+            "com",
+            "inertia",
+            "end_effector_point",
+        ):
+            object.__setattr__(self, name, _frozen(getattr(self, name)))
+        for name in ("parent", "end_effector_body"):
+            object.__setattr__(self, name, _frozen(getattr(self, name), int))
+        if not self.joint_type:
+            object.__setattr__(self, "joint_type", ("revolute",) * len(self.joint_names))
+        object.__setattr__(self, "joint_type", tuple(str(t) for t in self.joint_type))
+        if len(self.joint_type) != len(self.joint_names):
+            raise ModelError(
+                "joint_type", f"has {len(self.joint_type)} entries for {len(self.joint_names)} joints", "give one type per joint"
+            )
+        for j, kind in enumerate(self.joint_type):
+            if kind not in JOINT_TYPES:
+                raise ModelError(
+                    f"joints[{j}] ({self.joint_names[j]}).type", f"unknown joint type {kind!r}", f"use one of {', '.join(JOINT_TYPES)}"
+                )
+        object.__setattr__(self, "_prismatic", _frozen([t == "prismatic" for t in self.joint_type], bool))
+        n = len(self.body_names)
+        subtree = np.zeros((n, n), dtype=bool)
+        for k in range(n):
+            j = k
+            while j >= 0:
+                subtree[j, k] = True
+                j = int(self.parent[j])
+        object.__setattr__(self, "subtree", _frozen(subtree, bool))
+        object.__setattr__(self, "total_mass", float(np.sum(self.mass)))
+        object.__setattr__(self, "bary", barycentric.compute(self))
+        # (P, P K, P K^2) per joint: placement P, axis cross matrix K; the joint's
+        # rotation relative to its parent is P (1 + sin q K + (1 - cos q) K^2).
+        # A prismatic joint does not turn: K = 0, so its rotation is P at every q.
+        axis = self.joint_axis[1:] * ~self.prismatic[:, None]
+        kx = np.zeros((self.n_joints, 3, 3))
+        kx[:, 0, 1], kx[:, 0, 2], kx[:, 1, 2] = -axis[:, 2], axis[:, 1], -axis[:, 0]
+        kx -= np.swapaxes(kx, 1, 2)
+        place = self.joint_rotation[1:]
+        object.__setattr__(self, "rotation_basis", _frozen(np.stack([place, place @ kx, place @ kx @ kx])))
+
+    # ----------------------------------------------------------------- sizes
+    @property
+    def n_bodies(self) -> int:
+        """Number of bodies B after fixed joints are merged (spacecraft included)."""
+        return len(self.body_names)
+
+    @property
+    def n_joints(self) -> int:
+        """Number of joint angles N (= B - 1)."""
+        return len(self.joint_names)
+
+    @property
+    def n_end_effectors(self) -> int:
+        """Number of end effectors E."""
+        return len(self.end_effector_names)
+
+    @property
+    def prismatic(self) -> np.ndarray:
+        """(N,) bool, read-only: True where joint j is prismatic (q_j in m), False where it is revolute (rad)."""
+        return self._prismatic  # type: ignore[attr-defined]  # made once in __post_init__
+
+    @property
+    def has_prismatic(self) -> bool:
+        """True when any joint is prismatic."""
+        return "prismatic" in self.joint_type
+
+    @property
+    def is_planar(self) -> bool:
+        """True when the model moves in the spacecraft x-y plane (see :mod:`freefloat.conventions`)."""
+        return barycentric.is_planar(self)
+
+    # ----------------------------------------------------------------- lookup
+    def body_index(self, name: str | int) -> int:
+        """Index of a body in ``body_names`` (0 = spacecraft), by name or index; unknown names raise with close matches."""
+        return _lookup("body", name, self.body_names)
+
+    def joint_index(self, name: str | int) -> int:
+        """Index of a joint in ``joint_names`` (the column of q), by name or index; unknown names raise with close matches."""
+        return _lookup("joint", name, self.joint_names)
+
+    def end_effector_index(self, name: str | int) -> int:
+        """Index of an end effector in ``end_effector_names``, by name or index; unknown names raise with close matches."""
+        return _lookup("end effector", name, self.end_effector_names)
+
+    # ----------------------------------------------------------------- payload
+    def with_payload(
+        self,
+        end_effector: str | int = 0,
+        mass: float = 0.0,
+        inertia: Any = 0.0,
+        offset: Any = (0.0, 0.0, 0.0),
+        name: str = "payload",
+    ) -> Model:
+        """Return a NEW model with a payload rigidly grasped by an end effector.
+
+        The payload (``mass`` kg, ``inertia`` about its own CM: a scalar means an
+        isotropic inertia whose Izz is that value, the planar papers' I_p; or
+        [Ixx, Iyy, Izz]; or 3x3 in the grasping body's axes) is merged into the
+        grasping link (1992 §IV: "the payload becomes part of the last link").
+        Its CM is at the end-effector point plus ``offset`` (grasping body
+        frame; default zero: grasped at its CM, as in 1992 §V). The end-effector
+        point itself does not move.
+        """
+        e = self.end_effector_index(end_effector)
+        path = f"with_payload(end_effector={self.end_effector_names[e]!r})"
+        try:
+            m_p = float(mass)
+        except (TypeError, ValueError):
+            raise ModelError(f"{path}.mass", f"cannot read {mass!r} as a number", "give the payload mass in kg") from None
+        check_mass(m_p, f"{path}.mass", "give the payload mass in kg (> 0)")
+        i_p = inertia_matrix(inertia, f"{path}.inertia")
+        k = int(self.end_effector_body[e])
+        c_p = self.end_effector_point[e] + _vector(
+            offset, f"{path}.offset", "give the payload CM offset [x, y, z] from the end effector, body frame"
+        )
+        m_k, c_k = self.mass[k], self.com[k]
+        m_new = m_k + m_p
+        c_new = (m_k * c_k + m_p * c_p) / m_new
+
+        def shifted(inertia_c: np.ndarray, m: float, c: np.ndarray) -> np.ndarray:
+            d = c - c_new
+            return inertia_c + m * (d @ d * np.eye(3) - np.outer(d, d))
+
+        mass_new = self.mass.copy()
+        com_new = self.com.copy()
+        inertia_new = self.inertia.copy()
+        mass_new[k] = m_new
+        com_new[k] = c_new
+        inertia_new[k] = shifted(self.inertia[k], m_k, c_k) + shifted(i_p, m_p, c_p)
+        record = {
+            "name": name,
+            "end_effector": self.end_effector_names[e],
+            "mass": m_p,
+            "inertia": i_p.tolist(),
+            "cm": c_p.tolist(),
+            "body": self.body_names[k],
+        }
+        return Model(
+            name=f"{self.name}+{name}",
+            body_names=self.body_names,
+            parent=self.parent,
+            joint_names=self.joint_names,
+            joint_origin=self.joint_origin,
+            joint_rotation=self.joint_rotation,
+            joint_axis=self.joint_axis,
+            joint_lower=self.joint_lower,
+            joint_upper=self.joint_upper,
+            mass=mass_new,
+            com=com_new,
+            inertia=inertia_new,
+            end_effector_names=self.end_effector_names,
+            end_effector_body=self.end_effector_body,
+            end_effector_point=self.end_effector_point,
+            source=self.source,
+            payloads=(*self.payloads, record),
+            joint_type=self.joint_type,
+            end_effector_rule=self.end_effector_rule,
+            corrections=self.corrections,
+        )
+
+    def __repr__(self) -> str:
+        return (
+            f"Model({self.name!r}: {_count(self.n_bodies, 'body', 'bodies')}, {_count(self.n_joints, 'joint')}, "
+            f"{_count(self.n_end_effectors, 'end effector')}, mass {self.total_mass:.6g} kg)"
+        )
+
+
+def _lookup(kind: str, key: str | int, names: Sequence[str]) -> int:
+    if isinstance(key, (int, np.integer)) and not isinstance(key, bool):
+        if 0 <= int(key) < len(names):
+            return int(key)
+        raise UnknownNameError(kind, key, [f"{i}={n}" for i, n in enumerate(names)])
+    if key in names:
+        return list(names).index(str(key))
+    raise UnknownNameError(kind, key, names)
+
+
+# --------------------------------------------------------------------- model names at the public boundary
+_RESOLVER: list[Callable[[str], Model]] = []
+
+
+def register_model_resolver(resolver: Callable[[str], Model]) -> None:
+    """Set the function that turns a model name or file path into a Model (``freefloat.models`` registers
+    :func:`~freefloat.models.load_model`; the core cannot import it, being below it)."""
+    _RESOLVER[:] = [resolver]
+
+
+def resolve_model(model: Any, argument: str = "model") -> Model:
+    """``model`` itself if it is a :class:`Model`; a built-in model name or a model file path, loaded; else a TypeError."""
+    if isinstance(model, Model):
+        return model
+    if isinstance(model, (str, os.PathLike)) and _RESOLVER:
+        return _RESOLVER[0](os.fspath(model))
+    raise TypeError(
+        f"{argument}: expected a freefloat.Model, a built-in model name (e.g. 'papadopoulos1992') or a model file path, "
+        f"got {type(model).__name__} {str(model)[:60]!r}"
+    )
+
+
+def accepts_model_names(func: Callable[..., Any]) -> Callable[..., Any]:
+    """``func(model, ...)`` that also takes a model name or file path for ``model`` (:func:`resolve_model`)."""
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        if args:
+            args = (resolve_model(args[0]), *args[1:])
+        elif "model" in kwargs:
+            kwargs["model"] = resolve_model(kwargs["model"])
+        return func(*args, **kwargs)
+
+    return wrapper

@@ -1,0 +1,253 @@
+"""The simulation state and the actuation a controller returns.
+
+State (all SI, frames as in :mod:`freefloat.conventions`):
+    q         (N,)  joint angles, ``model.joint_names`` order
+    qdot      (N,)  joint rates
+    omega     (3,)  spacecraft angular velocity, spacecraft frame (the paper's ⁰ω0)
+    attitude  (4,)  spacecraft attitude T0 (frame 0 -> frame I) as a unit quaternion
+                    [x, y, z, w] (scalar last); a scipy ``Rotation`` or a 3x3
+                    rotation matrix is accepted too
+    r_cm      (3,)  system CM position, inertial frame
+    v_cm      (3,)  system CM velocity, inertial frame
+
+Omitted fields are zero (attitude: identity). Every field may carry leading
+batch axes (for batched rollouts); all fields then broadcast to one batch shape.
+
+The flat state vector that the integrators see is
+``x = [r_cm (3), v_cm (3), attitude (4), omega (3), q (N), qdot (N)]``
+(:func:`pack_state`, :func:`unpack_state`), 13 + 2N numbers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from .conventions import as_quaternion
+from .errors import ShapeError
+from .model import Model
+
+__all__ = ["Actuation", "ActuatorLimits", "State", "pack_state", "state_size", "unpack_state"]
+
+_FIELDS = ("q", "qdot", "omega", "attitude", "r_cm", "v_cm")
+
+
+def _finite(name: str, value: Any, size: int, what: str) -> np.ndarray:
+    """``value`` as a float array of shape (..., size) with finite entries, or an error naming ``name``."""
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"State.{name}: expected numbers ({what}), got {value!r}") from exc
+    if arr.ndim == 0 or arr.shape[-1] != size:
+        raise ShapeError(f"State.{name}: expected shape (..., {size}) ({what}), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"State.{name}: has NaN or infinite entries; give finite values")
+    return arr
+
+
+def _quaternion(attitude: Any) -> np.ndarray:
+    """An attitude (Rotation, quaternion [x, y, z, w] or 3x3 matrix) as unit quaternions (..., 4)."""
+    if isinstance(attitude, Rotation):
+        return as_quaternion(attitude)
+    try:
+        arr = np.asarray(attitude, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"State.attitude: expected a quaternion [x, y, z, w], a scipy Rotation or a 3x3 matrix, got {attitude!r}") from exc
+    if arr.shape[-2:] == (3, 3):
+        if not np.all(np.isfinite(arr)):
+            raise ValueError("State.attitude: rotation matrix has NaN or infinite entries")
+        eye = np.einsum("...ji,...jk->...ik", arr, arr)
+        if np.max(np.abs(eye - np.eye(3)), initial=0.0) > 1e-6 or np.any(np.linalg.det(arr) < 0):
+            raise ValueError("State.attitude: a 3x3 attitude must be a proper rotation matrix (orthonormal to 1e-6, determinant +1)")
+        return np.asarray(Rotation.from_matrix(arr.reshape(-1, 3, 3)).as_quat(), dtype=float).reshape((*arr.shape[:-2], 4))
+    try:
+        return as_quaternion(arr)
+    except (ShapeError, ValueError) as exc:
+        raise type(exc)(f"State.{exc}") from exc
+
+
+@dataclass(frozen=True, eq=False)
+class State:
+    """A state of the space robot; ``State(q=...)`` leaves the rest at rest and at identity.
+
+    Fields and frames are listed in the module docstring. The model-independent
+    checks (finite values, trailing sizes 3 and 4, a unit quaternion) run here;
+    :meth:`resolve` checks the joint-sized fields against a model and fills
+    the omitted ones.
+
+    Examples
+    --------
+    >>> import freefloat as ff
+    >>> from scipy.spatial.transform import Rotation
+    >>> s = ff.State(q=[0.1, 0.2], omega=[0.0, 0.0, 0.01], attitude=Rotation.from_euler("z", 0.3))
+    >>> s.attitude.round(4).tolist()
+    [0.0, 0.0, 0.1494, 0.9888]
+    """
+
+    q: Any = None
+    qdot: Any = None
+    omega: Any = None
+    attitude: Any = None
+    r_cm: Any = None
+    v_cm: Any = None
+
+    def __post_init__(self) -> None:
+        for name, what in (
+            ("omega", "spacecraft angular velocity, spacecraft frame"),
+            ("r_cm", "system CM position, inertial frame"),
+            ("v_cm", "system CM velocity, inertial frame"),
+        ):
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, _finite(name, getattr(self, name), 3, what))
+        if self.attitude is not None:
+            object.__setattr__(self, "attitude", _quaternion(self.attitude))
+        for name in ("q", "qdot"):
+            value = getattr(self, name)
+            if value is not None:
+                arr = np.asarray(value, dtype=float)
+                if arr.ndim == 0:
+                    raise ShapeError(f"State.{name}: expected one value per joint, shape (..., N), got a scalar {value!r}")
+                if not np.all(np.isfinite(arr)):
+                    raise ValueError(f"State.{name}: has NaN or infinite entries; give finite values")
+                object.__setattr__(self, name, arr)
+
+    @classmethod
+    def _trusted(cls, **fields: np.ndarray) -> State:
+        """A state from arrays known to be valid (no checks: used by the integrators)."""
+        state = object.__new__(cls)
+        state.__dict__.update(fields)  # frozen: write the instance dict directly
+        return state
+
+    def resolve(self, model: Model) -> State:
+        """A copy with every field an array of the right size for ``model`` (errors name the field)."""
+        n = model.n_joints
+        shapes = [np.shape(v)[:-1] for v in (self.q, self.qdot, self.omega, self.attitude, self.r_cm, self.v_cm) if v is not None]
+        try:
+            batch = np.broadcast_shapes(*shapes) if shapes else ()
+        except ValueError as exc:
+            given = ", ".join(f"{name} {np.shape(getattr(self, name))}" for name in _FIELDS if getattr(self, name) is not None)
+            raise ShapeError(f"State: the fields' leading (batch) shapes do not broadcast: {given}") from exc
+
+        def get(name: str, size: int, what: str) -> np.ndarray:
+            value = getattr(self, name)
+            if value is None:
+                return np.zeros((*batch, size))
+            return np.broadcast_to(_finite(name, value, size, what), (*batch, size)).copy()
+
+        names = ", ".join(model.joint_names) or "none"
+        quat = np.array([0.0, 0.0, 0.0, 1.0]) if self.attitude is None else self.attitude
+        return State._trusted(
+            q=get("q", n, f"{model.name!r} has {n} joints: {names}"),
+            qdot=get("qdot", n, f"one rate per joint of {model.name!r}: {names}"),
+            omega=get("omega", 3, "spacecraft angular velocity, spacecraft frame"),
+            attitude=np.broadcast_to(quat, (*batch, 4)).copy(),
+            r_cm=get("r_cm", 3, "system CM position, inertial frame"),
+            v_cm=get("v_cm", 3, "system CM velocity, inertial frame"),
+        )
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """zdot0 = [v_cm (inertial), omega (spacecraft frame), qdot] (1991 eq. 8), of a resolved state."""
+        return np.concatenate([self.v_cm, self.omega, self.qdot], axis=-1)
+
+    @property
+    def rotation(self) -> Rotation:
+        """The attitude T0 (frame 0 -> frame I) as a scipy ``Rotation`` (identity when omitted)."""
+        return Rotation.from_quat([0.0, 0.0, 0.0, 1.0] if self.attitude is None else self.attitude)
+
+
+@dataclass(frozen=True)
+class Actuation:
+    """What a controller returns: joint torques (N,) in N m, and the thruster force (N) and torque
+    (N m) at the spacecraft CM (3,), both in the spacecraft frame. ``None`` means zero (free-floating).
+
+    ``extras`` is free for the controller's own diagnostics; the simulator ignores it.
+    """
+
+    joint_torque: Any = None
+    spacecraft_force: Any = None
+    spacecraft_torque: Any = None
+    extras: dict[str, Any] = field(default_factory=dict)
+
+
+_NOT_SATURATED = np.array(False)
+_NOT_SATURATED.flags.writeable = False
+
+
+@dataclass(frozen=True)
+class ActuatorLimits:
+    """Symmetric actuator limits: each component is saturated to [-limit, +limit].
+
+    ``joint_torque`` (scalar or (N,), N m), ``spacecraft_force`` (scalar or (3,),
+    N, spacecraft frame), ``spacecraft_torque`` (scalar or (3,), N m). ``None``
+    means unlimited. Saturation is recorded in ``Trajectory.saturated``.
+    """
+
+    joint_torque: Any = None
+    spacecraft_force: Any = None
+    spacecraft_torque: Any = None
+
+    def __post_init__(self) -> None:
+        for name in ("joint_torque", "spacecraft_force", "spacecraft_torque"):
+            limit = getattr(self, name)
+            if limit is None:
+                continue
+            try:
+                lim = np.asarray(limit, dtype=float)
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"ActuatorLimits.{name}: expected a positive number or an array of them, got {limit!r}") from exc
+            if lim.ndim > 1 or np.any(~np.isfinite(lim)) or np.any(lim <= 0):
+                raise ValueError(
+                    f"ActuatorLimits.{name}: every limit must be positive and finite (a scalar or one per component), got {limit!r}"
+                )
+
+    def apply(self, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Clip joint torques, spacecraft force and torque to these limits: ``(tau, force, torque, saturated)``, with
+        ``saturated`` true (per leading index) where any component was clipped."""
+        if self.joint_torque is None and self.spacecraft_force is None and self.spacecraft_torque is None:
+            return tau, force, torque, _NOT_SATURATED if tau.ndim == 1 else np.zeros(tau.shape[:-1], dtype=bool)
+        saturated = np.zeros(tau.shape[:-1], dtype=bool)
+        out = []
+        for value, limit, name in (
+            (tau, self.joint_torque, "joint_torque"),
+            (force, self.spacecraft_force, "spacecraft_force"),
+            (torque, self.spacecraft_torque, "spacecraft_torque"),
+        ):
+            if limit is None:
+                out.append(value)
+                continue
+            lim = np.asarray(limit, dtype=float)
+            if np.any(lim <= 0) or not np.all(np.isfinite(lim)):
+                raise ValueError(f"limits.{name}: every limit must be positive and finite, got {limit!r}")
+            clipped = np.clip(value, -lim, lim)
+            saturated |= np.any(clipped != value, axis=-1)
+            out.append(clipped)
+        return out[0], out[1], out[2], saturated
+
+
+def state_size(model: Model) -> int:
+    """Length of the flat state vector [r_cm, v_cm, attitude, omega, q, qdot]: 13 + 2N."""
+    return 13 + 2 * model.n_joints
+
+
+def pack_state(state: State) -> np.ndarray:
+    """Flat state [r_cm (3), v_cm (3), attitude (4), omega (3), q (N), qdot (N)] of a resolved state."""
+    return np.concatenate([state.r_cm, state.v_cm, state.attitude, state.omega, state.q, state.qdot], axis=-1)
+
+
+def unpack_state(model: Model, x: np.ndarray) -> State:
+    """Inverse of :func:`pack_state` (views into ``x``, no copies and no checks)."""
+    n = model.n_joints
+    if x.shape[-1] != 13 + 2 * n:
+        raise ShapeError(f"state vector: expected shape (..., {13 + 2 * n}) for {model.name!r} (13 + 2N, N = {n}), got {x.shape}")
+    return State._trusted(
+        r_cm=x[..., 0:3],
+        v_cm=x[..., 3:6],
+        attitude=x[..., 6:10],
+        omega=x[..., 10:13],
+        q=x[..., 13 : 13 + n],
+        qdot=x[..., 13 + n : 13 + 2 * n],
+    )

@@ -1,0 +1,519 @@
+"""Model files: TOML (freefloat's own schema, docs/model-files.md) and URDF.
+
+``load(path)`` picks the reader from the extension. ``save(model, path)``
+writes TOML or URDF and refuses to overwrite an existing file unless asked.
+URDF is parsed and written by ``yourdfpy``, MJCF by MuJoCo's own parser
+(:mod:`freefloat.io.mjcf`); the root link is the spacecraft. End effectors are the
+ones named (``end_effectors=``, or ``[[end_effectors]]`` in TOML); when none is
+named, every leaf link is one, at its frame origin (``Model.end_effector_rule``).
+
+Real files have flaws: a link inertia that is not physical is, by default, replaced by the
+nearest physical one with a :class:`~freefloat.core.errors.ModelCorrectionWarning` that names
+the link, the defect and the size of the change, and recorded in ``Model.corrections``;
+``strict=True`` makes each such defect the clear error it was. Point masses and zero inertias
+of small links are accepted when the whole model is physical (H+ positive definite).
+"""
+
+from __future__ import annotations
+
+import tomllib
+import warnings
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..core.builder import ModelBuilder
+from ..core.errors import ModelCorrectionWarning, ModelError
+from ..core.model import Model, inertia_defect, nearest_physical_inertia, resolve_model
+
+__all__ = ["load", "load_toml", "load_urdf", "save", "to_toml_dict", "to_urdf_string"]
+
+_BODY_KEYS = {"name", "mass", "inertia", "com", "end_effector", "end_effector_name", "frame"}
+_JOINT_KEYS = {"name", "type", "parent", "child", "origin", "rpy", "axis", "limits"}
+_TOP_KEYS = {"name", "description", "bodies", "joints", "end_effectors", "corrections"}
+_CORRECTION_KEYS = {"body", "field", "given", "why"}
+_EE_KEYS = {"name", "body", "point"}
+
+#: What a user may pass as ``end_effectors=``: link (body) names, or (name, link, point) triples.
+EndEffectors = Sequence[str | tuple[str, str, Sequence[float]]] | None
+
+
+def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool = False) -> Model:
+    """Load a model from a ``.toml``, ``.urdf`` or MJCF (``.xml`` with a ``<mujoco>`` root) file, or a
+    built-in model by name (``ff.load("papadopoulos1992")``).
+
+    ``end_effectors``: the end effectors, as link names (the point is the link frame origin) or
+    (name, link, point) triples, point in the link frame; default: what the file names, else
+    every leaf. ``strict``: refuse non-physical inertias instead of correcting them (URDF, MJCF).
+    The loaded model must be physical as a whole: H+ positive definite at q = 0.
+    """
+    path = Path(path)
+    if not path.suffix and not path.exists():
+        return resolve_model(str(path), "path")  # a built-in name (or an error listing them)
+    if not path.is_file():
+        raise ModelError(str(path), "file not found", "give the path of a .toml, .urdf or MJCF .xml model file")
+    suffix = path.suffix.lower()
+    if suffix == ".toml":
+        model = load_toml(path, end_effectors=end_effectors)
+    elif suffix == ".urdf" or (suffix == ".xml" and not _is_mjcf(path)):
+        model = load_urdf(path, end_effectors=end_effectors, strict=strict)
+    elif suffix in (".xml", ".mjcf"):
+        from .mjcf import load_mjcf
+
+        model = load_mjcf(path, end_effectors=end_effectors, strict=strict)
+    else:
+        raise ModelError(str(path), f"unknown model file type {suffix!r}", "use a .toml (freefloat schema), .urdf or MJCF .xml file")
+    check_whole_model(model)
+    return model
+
+
+def _is_mjcf(path: Path) -> bool:
+    """True when the XML file's root element is ``<mujoco>`` (MJCF), not ``<robot>`` (URDF)."""
+    import xml.etree.ElementTree as ElementTree
+
+    try:
+        for _, element in ElementTree.iterparse(path, events=("start",)):
+            return element.tag == "mujoco"
+    except ElementTree.ParseError as exc:
+        raise ModelError(str(path), f"malformed XML: {exc}", "fix the file so that it is valid URDF or MJCF XML") from None
+    return False
+
+
+def check_whole_model(model: Model) -> None:
+    """Refuse a model whose H+ (1991 eq. 15) is singular at q = 0: some joint then moves no mass or inertia."""
+    from ..mechanics.momentum import system_inertia_matrix
+
+    h = system_inertia_matrix(model, np.zeros(model.n_joints))
+    joint_block = h[6:, 6:]
+    if model.n_joints == 0:
+        return
+    values, vectors = np.linalg.eigh(joint_block)
+    scale = max(float(np.max(np.abs(np.diag(h)))), 1e-300)
+    if values[0] <= 1e-12 * scale:
+        j = int(np.argmax(np.abs(vectors[:, 0])))
+        raise ModelError(
+            f"{model.name}: joint {model.joint_names[j]!r}",
+            f"the system inertia matrix H+ is singular at q = 0 (smallest eigenvalue {values[0]:.3g}, largest entry {scale:.3g}):"
+            " this joint (with others, maybe) moves no mass and no inertia",
+            "give the links outboard of it a mass and an inertia, or make the joint fixed",
+        )
+
+
+def _end_effector_specs(end_effectors: EndEffectors, source: str) -> list[tuple[str, str, Any]]:
+    """(name, body, point) for each entry of ``end_effectors=``."""
+    out: list[tuple[str, str, Any]] = []
+    for i, entry in enumerate(end_effectors or ()):
+        if isinstance(entry, str):
+            out.append((entry, entry, (0.0, 0.0, 0.0)))
+        elif isinstance(entry, (tuple, list)) and len(entry) == 3:
+            out.append((str(entry[0]), str(entry[1]), entry[2]))
+        else:
+            raise ModelError(
+                f"{source}: end_effectors[{i}]", f"cannot read {entry!r}", "give a link name or a (name, link, [x, y, z]) triple"
+            )
+    return out
+
+
+# --------------------------------------------------------------------- TOML
+def read_toml(path: str | Path, what: str = "model file") -> dict[str, Any]:
+    """The table of a TOML file; malformed TOML or text that is not UTF-8 is a ModelError naming the file."""
+    path = Path(path)
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise ModelError(str(path), f"malformed TOML: {exc}", "fix the TOML syntax at that line") from None
+    except UnicodeDecodeError:
+        raise ModelError(str(path), "is not UTF-8 text", f"save the {what} as UTF-8 TOML") from None
+
+
+def load_toml(path: str | Path, *, end_effectors: EndEffectors = None) -> Model:
+    """Read a model in freefloat's TOML schema (see docs/model-files.md)."""
+    return from_dict(read_toml(path), source=str(path), end_effectors=end_effectors)
+
+
+def _require(entry: dict[str, Any], key: str, path: str, fix: str) -> Any:
+    if key not in entry:
+        raise ModelError(f"{path}.{key}", "is missing", fix)
+    return entry[key]
+
+
+def _check_keys(entry: Any, allowed: set[str], path: str) -> None:
+    if not isinstance(entry, dict):
+        raise ModelError(path, f"expected a table, got {type(entry).__name__}", "write it as a [[table]] entry")
+    unknown = sorted(set(entry) - allowed)
+    if unknown:
+        raise ModelError(f"{path}.{unknown[0]}", "unknown key", f"allowed keys: {', '.join(sorted(allowed))}")
+
+
+def from_dict(data: dict[str, Any], source: str = "", *, end_effectors: EndEffectors = None) -> Model:
+    """Build a model from the parsed TOML tables (same schema as the file)."""
+    _check_keys(data, _TOP_KEYS, "model")
+    bodies = data.get("bodies")
+    if not isinstance(bodies, list) or not bodies:
+        raise ModelError("bodies", "is missing or empty", "add [[bodies]] tables, the first being the spacecraft")
+    builder = ModelBuilder(str(data.get("name", Path(source).stem or "model")))
+    declared, records = _declared_corrections(data, source)
+    for i, body in enumerate(bodies):
+        path = f"bodies[{i}]"
+        _check_keys(body, _BODY_KEYS, path)
+        frame = bool(body.get("frame", False))
+        name = _require(body, "name", path, "name every body")
+        if name in declared:
+            if "inertia" in body:
+                raise ModelError(f"{path} ({name}).inertia", "is given twice: here and in [[corrections]]", "keep one of them")
+            inertia: Any = declared.pop(name)
+        elif frame:
+            inertia = 0.0
+        else:
+            inertia = _require(body, "inertia", path, "give the inertia about the CM (3x3, [Ixx, Iyy, Izz] or a number)")
+        builder.add_body(
+            name,
+            mass=0.0 if frame else _require(body, "mass", path, "give the mass in kg"),
+            inertia=inertia,
+            com=body.get("com", (0.0, 0.0, 0.0)),
+            end_effector=body.get("end_effector"),
+            end_effector_name=body.get("end_effector_name"),
+            frame=frame,
+        )
+    for path, joint in _table_array(data, "joints", _JOINT_KEYS):
+        builder.add_joint(
+            _require(joint, "name", path, "name every joint"),
+            parent=_require(joint, "parent", path, "name the parent body"),
+            child=_require(joint, "child", path, "name the child body"),
+            origin=joint.get("origin", (0.0, 0.0, 0.0)),
+            rpy=joint.get("rpy"),
+            axis=joint.get("axis", (0.0, 0.0, 1.0)),
+            type=joint.get("type", "revolute"),
+            limits=joint.get("limits"),
+        )
+    named = _end_effector_specs(end_effectors, source)
+    if not named:
+        for path, entry in _table_array(data, "end_effectors", _EE_KEYS):
+            named.append(
+                (
+                    _require(entry, "name", path, "name every end effector"),
+                    _require(entry, "body", path, "name the body (or frame) that holds it"),
+                    entry.get("point", (0.0, 0.0, 0.0)),
+                )
+            )
+    for name, body, point in named:
+        builder.add_end_effector(name, body=body, point=point)
+    if declared:
+        unknown = sorted(declared)[0]
+        raise ModelError("corrections", f"names body {unknown!r}, which is not in [[bodies]]", "name a body of the model")
+    return builder.build(source=source, corrections=records)
+
+
+def _table_array(data: dict[str, Any], key: str, allowed: set[str]) -> list[tuple[str, dict[str, Any]]]:
+    """(path, table) of each ``[[key]]`` table of a TOML file, keys checked; missing means none."""
+    listed = data.get(key, [])
+    if not isinstance(listed, list):
+        raise ModelError(key, "expected an array of tables", f"write them as [[{key}]] tables")
+    out = []
+    for i, entry in enumerate(listed):
+        _check_keys(entry, allowed, f"{key}[{i}]")
+        out.append((f"{key}[{i}]", entry))
+    return out
+
+
+def _declared_corrections(data: dict[str, Any], source: str) -> tuple[dict[str, np.ndarray], list[dict[str, Any]]]:
+    """``[[corrections]]`` of a TOML file: published inertias that are not physical, corrected on loading.
+
+    Each entry gives a body, ``field = "inertia"``, the published value (``given``) and ``why``; the
+    body's inertia is the nearest physical one to ``given`` (:func:`~freefloat.core.model.nearest_physical_inertia`),
+    recorded in ``Model.corrections``. A ``given`` that is physical is an error (nothing to correct).
+    """
+    used: dict[str, np.ndarray] = {}
+    records: list[dict[str, Any]] = []
+    for path, entry in _table_array(data, "corrections", _CORRECTION_KEYS):
+        body = str(_require(entry, "body", path, "name the body whose published inertia is corrected"))
+        if entry.get("field", "inertia") != "inertia":
+            raise ModelError(f"{path}.field", f"cannot correct {entry.get('field')!r}", 'only field = "inertia" is corrected')
+        given = np.asarray(_require(entry, "given", path, "give the published 3x3 inertia"), dtype=float)
+        if given.shape != (3, 3):
+            raise ModelError(f"{path}.given", f"expected a 3x3 matrix, got shape {given.shape}", "give the published 3x3 inertia")
+        where = f"{source or 'model'}: {path} ({body}).inertia"
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", ModelCorrectionWarning)  # declared in the file: recorded, not warned
+            before = len(records)
+            used[body] = physical_inertia(given, where, False, records)
+        if len(records) == before:
+            raise ModelError(f"{path}.given", "is a physical inertia: there is nothing to correct", "give it as the body's inertia instead")
+        records[-1]["why"] = str(entry.get("why", ""))
+    return used, records
+
+
+def _list(arr: np.ndarray) -> list[Any]:
+    return np.asarray(arr, dtype=float).tolist()
+
+
+def _leaf_hosts(model: Model) -> set[int]:
+    has_child = set(int(p) for p in model.parent[1:])
+    return {k for k in range(1, model.n_bodies) if k not in has_child}
+
+
+def to_toml_dict(model: Model) -> dict[str, Any]:
+    """The TOML tables of a model (after fixed joints were merged)."""
+    leaves = _leaf_hosts(model) if model.end_effector_rule == "leaves" else set()
+    tips: dict[int, list[int]] = {}
+    for e, k in enumerate(model.end_effector_body):
+        tips.setdefault(int(k), []).append(e)
+    bodies: list[dict[str, Any]] = []
+    joints: list[dict[str, Any]] = []
+    frames: list[tuple[dict[str, Any], dict[str, Any]]] = []
+    for k, name in enumerate(model.body_names):
+        body: dict[str, Any] = {"name": name, "mass": float(model.mass[k]), "inertia": _list(model.inertia[k]), "com": _list(model.com[k])}
+        ees = tips.get(k, [])
+        if k in leaves and len(ees) == 1:
+            e = ees[0]
+            body["end_effector"] = _list(model.end_effector_point[e])
+            body["end_effector_name"] = model.end_effector_names[e]
+        else:
+            for e in ees:  # end effectors of non-leaf bodies become massless frames
+                frame_name = _frame_name(model, e)
+                frames.append(
+                    (
+                        {"name": frame_name, "frame": True},
+                        {
+                            "name": f"{frame_name}_fixed",
+                            "type": "fixed",
+                            "parent": name,
+                            "child": frame_name,
+                            "origin": _list(model.end_effector_point[e]),
+                        },
+                    )
+                )
+        bodies.append(body)
+        if k > 0:
+            j = k - 1
+            joint: dict[str, Any] = {
+                "name": model.joint_names[j],
+                "type": _file_joint_type(model, j),
+                "parent": model.body_names[model.parent[k]],
+                "child": name,
+                "origin": _list(model.joint_origin[k]),
+                "rpy": _list(Rotation.from_matrix(model.joint_rotation[k]).as_euler("xyz")),
+                "axis": _list(model.joint_axis[k]),
+            }
+            if joint["type"] != "continuous" and (np.isfinite(model.joint_lower[j]) or np.isfinite(model.joint_upper[j])):
+                joint["limits"] = [float(model.joint_lower[j]), float(model.joint_upper[j])]
+            joints.append(joint)
+    for body, joint in frames:
+        bodies.append(body)
+        joints.append(joint)
+    out: dict[str, Any] = {"name": model.name, "bodies": bodies, "joints": joints}
+    if model.end_effector_rule == "named":
+        out["end_effectors"] = [
+            {"name": name, "body": _frame_name(model, e), "point": [0.0, 0.0, 0.0]} for e, name in enumerate(model.end_effector_names)
+        ]
+    return out
+
+
+def _file_joint_type(model: Model, j: int) -> str:
+    """The joint's type in a file: prismatic, revolute (with limits) or continuous (a revolute joint without)."""
+    if model.joint_type[j] == "prismatic":
+        return "prismatic"
+    return "revolute" if np.isfinite(model.joint_lower[j]) or np.isfinite(model.joint_upper[j]) else "continuous"
+
+
+def _frame_name(model: Model, e: int) -> str:
+    """Name of the massless frame that carries end effector e in a file (unique among bodies)."""
+    name = model.end_effector_names[e]
+    return name if name not in model.body_names else f"{name}_tip"
+
+
+# --------------------------------------------------------------------- URDF
+def load_urdf(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool = False) -> Model:
+    """Read a URDF file (via yourdfpy). Root link = spacecraft; end effectors as :func:`load` says."""
+    import xml.etree.ElementTree as ElementTree
+
+    import yourdfpy
+
+    path = Path(path)
+    try:  # yourdfpy silently falls back to a recovering parser on bad XML: check well-formedness first
+        ElementTree.parse(path)
+    except ElementTree.ParseError as exc:
+        raise ModelError(str(path), f"malformed URDF XML: {exc}", "fix the file so that it is valid URDF XML") from None
+    try:
+        urdf = yourdfpy.URDF.load(
+            str(path), build_scene_graph=False, load_meshes=False, build_collision_scene_graph=False, load_collision_meshes=False
+        )
+    except Exception as exc:  # yourdfpy and lxml raise many types for bad XML
+        raise ModelError(str(path), f"malformed URDF: {type(exc).__name__}: {exc}", "fix the file so that it is valid URDF XML") from None
+    return from_urdf_robot(urdf.robot, source=str(path), end_effectors=end_effectors, strict=strict)
+
+
+def physical_inertia(inertia: np.ndarray, path: str, strict: bool, corrections: list[dict[str, Any]]) -> np.ndarray:
+    """``inertia`` if physical (zero and semi-definite allowed); else the nearest physical one, with a warning and a record.
+
+    ``strict``: a non-physical inertia is a :class:`ModelError` instead. Shared by the URDF and MJCF readers.
+    """
+    defect = inertia_defect(inertia, degenerate_ok=True)
+    if defect is None:
+        return inertia
+    fix = "use the inertia of a real body about its CM (symmetric, principal moments >= 0, each <= the sum of the other two)"
+    if strict:
+        raise ModelError(path, defect, f"{fix}; or load with strict=False to use the nearest physical inertia, with a warning")
+    fixed = nearest_physical_inertia(inertia)
+    change = float(np.linalg.norm(fixed - inertia))
+    largest = float(np.max(np.abs(np.linalg.eigvalsh(0.5 * (inertia + inertia.T))))) if np.all(np.isfinite(inertia)) else np.inf
+    record = {
+        "where": path,
+        "field": "inertia",
+        "defect": defect,
+        "correction": "nearest physical inertia (Frobenius norm): principal axes kept, moments projected onto {I_k >= 0, I_a <= I_b + I_c}",
+        "given": np.asarray(inertia, dtype=float).tolist(),
+        "used": fixed.tolist(),
+        "change_kg_m2": change,
+        "relative_change": change / largest if largest > 0 else np.inf,
+    }
+    corrections.append(record)
+    warnings.warn(
+        f"{path} {defect}; using the nearest physical inertia (change {change:.3g} kg m^2,"
+        f" {record['relative_change']:.1%} of the largest moment). Load with strict=True to refuse instead.",
+        ModelCorrectionWarning,
+        stacklevel=3,
+    )
+    return fixed
+
+
+_URDF_REFUSED = {
+    "floating": "a floating joint inside the tree (only the spacecraft, the root link, moves freely)",
+    "planar": "a planar joint inside the tree (two translations and a rotation in one joint)",
+}
+
+
+def from_urdf_robot(robot: Any, source: str = "", *, end_effectors: EndEffectors = None, strict: bool = False) -> Model:
+    """Build a model from a ``yourdfpy.Robot`` (see :func:`load` for ``end_effectors`` and ``strict``)."""
+    builder = ModelBuilder(robot.name or "urdf")
+    corrections: list[dict[str, Any]] = []
+    for i, link in enumerate(robot.links):
+        path = f"{source or 'urdf'}: link[{i}] ({link.name})"
+        inertial = link.inertial
+        if inertial is None or inertial.mass is None or float(inertial.mass) == 0.0:
+            builder.add_body(link.name, mass=0.0, inertia=0.0, frame=True)
+            continue
+        origin = np.eye(4) if inertial.origin is None else np.asarray(inertial.origin, dtype=float)
+        rot = origin[:3, :3]
+        inertia = np.zeros((3, 3)) if inertial.inertia is None else np.asarray(inertial.inertia, dtype=float)
+        inertia = physical_inertia(rot @ inertia @ rot.T, f"{path}.inertia", strict, corrections)
+        try:
+            builder.add_body(link.name, mass=float(inertial.mass), inertia=inertia, com=origin[:3, 3], degenerate_ok=True)
+        except ModelError as exc:
+            raise ModelError(f"{path}.{exc.field.split('.')[-1]}", exc.problem, exc.fix) from None
+    for i, joint in enumerate(robot.joints):
+        path = f"{source or 'urdf'}: joint[{i}] ({joint.name})"
+        if joint.type in _URDF_REFUSED:
+            raise ModelError(
+                f"{path}.type",
+                f"{joint.type!r}: {_URDF_REFUSED[joint.type]} is not supported",
+                "freefloat models revolute, continuous, prismatic and fixed joints: split it into such joints, or make it fixed",
+            )
+        if joint.type not in ("revolute", "continuous", "prismatic", "fixed"):
+            raise ModelError(
+                f"{path}.type",
+                f"unsupported joint type {joint.type!r}",
+                "freefloat models revolute, continuous, prismatic and fixed joints",
+            )
+        if getattr(joint, "mimic", None) is not None:
+            raise ModelError(
+                f"{path}.mimic",
+                f"mimics joint {joint.mimic.joint!r}: a mimic joint is driven by another joint, and freefloat's joints are independent",
+                "remove the <mimic> element (the joint becomes an independent joint) or make the joint fixed",
+            )
+        origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=float)
+        limits = None
+        if (
+            joint.type in ("revolute", "prismatic")
+            and joint.limit is not None
+            and joint.limit.lower is not None
+            and joint.limit.upper is not None
+        ):
+            limits = (joint.limit.lower, joint.limit.upper)
+        try:
+            builder.add_joint(
+                joint.name,
+                parent=joint.parent,
+                child=joint.child,
+                origin=origin[:3, 3],
+                rotation=origin[:3, :3],
+                axis=(1.0, 0.0, 0.0) if joint.axis is None else joint.axis,
+                type=joint.type,
+                limits=limits,
+            )
+        except ModelError as exc:
+            raise ModelError(f"{path}.{exc.field.split('.')[-1]}", exc.problem, exc.fix) from None
+    for name, body, point in _end_effector_specs(end_effectors, source or "urdf"):
+        builder.add_end_effector(name, body=body, point=point)
+    return builder.build(source=source, corrections=corrections)
+
+
+def to_urdf_string(model: Model) -> str:
+    """The model as URDF text (end effectors as massless fixed frames; named ones are not re-named on reading)."""
+    import yourdfpy
+
+    links = []
+    joints = []
+    for k, name in enumerate(model.body_names):
+        origin = np.eye(4)
+        origin[:3, 3] = model.com[k]
+        links.append(
+            yourdfpy.Link(
+                name=name, inertial=yourdfpy.Inertial(origin=origin, mass=float(model.mass[k]), inertia=np.array(model.inertia[k]))
+            )
+        )
+        if k > 0:
+            j = k - 1
+            place = np.eye(4)
+            place[:3, :3], place[:3, 3] = model.joint_rotation[k], model.joint_origin[k]
+            bounded = bool(np.isfinite(model.joint_lower[j]) and np.isfinite(model.joint_upper[j]))
+            kind = "prismatic" if model.joint_type[j] == "prismatic" else ("revolute" if bounded else "continuous")
+            joints.append(
+                yourdfpy.Joint(
+                    name=model.joint_names[j],
+                    type=kind,
+                    parent=model.body_names[model.parent[k]],
+                    child=name,
+                    origin=place,
+                    axis=np.array(model.joint_axis[k]),
+                    limit=yourdfpy.Limit(effort=0.0, velocity=0.0, lower=float(model.joint_lower[j]), upper=float(model.joint_upper[j]))
+                    if bounded
+                    else None,
+                )
+            )
+    for e in range(model.n_end_effectors):
+        ee_name = _frame_name(model, e)
+        links.append(yourdfpy.Link(name=ee_name))
+        place = np.eye(4)
+        place[:3, 3] = model.end_effector_point[e]
+        joints.append(
+            yourdfpy.Joint(
+                name=f"{ee_name}_fixed", type="fixed", parent=model.body_names[model.end_effector_body[e]], child=ee_name, origin=place
+            )
+        )
+    urdf = yourdfpy.URDF(robot=yourdfpy.Robot(name=model.name, links=links, joints=joints), build_scene_graph=False, load_meshes=False)
+    text = urdf.write_xml_string()  # yourdfpy returns bytes (lxml tostring), despite its docstring
+    return text.decode("utf-8") if isinstance(text, bytes) else text
+
+
+# --------------------------------------------------------------------- save
+def save(model: Model, path: str | Path, *, overwrite: bool = False) -> Path:
+    """Write ``model`` as TOML or URDF (by extension). Never overwrites unless ``overwrite=True``."""
+    import tomli_w
+
+    path = Path(path)
+    if path.exists() and not overwrite:
+        raise FileExistsError(f"{path}: exists; freefloat does not overwrite files (pass overwrite=True or choose another name)")
+    suffix = path.suffix.lower()
+    if suffix == ".toml":
+        text = tomli_w.dumps(to_toml_dict(model))
+    elif suffix == ".urdf":
+        text = to_urdf_string(model)
+    else:
+        raise ValueError(f"{path}: unknown model file type {suffix!r}; use .toml or .urdf")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text, encoding="utf-8")
+    return path

@@ -1,0 +1,101 @@
+"""Mechanics of a space robot (``ff.mechanics``): kinematics, Jacobians, momentum, H+, C+, dynamics.
+
+Pure functions ``f(model, q, ...)`` batched over leading axes of
+configurations (Papadopoulos & Dubowsky 1991, Papadopoulos 1992). The
+everyday ones are also at the top level (``ff.forward_dynamics``); this
+namespace gathers all of them, including the less common ones
+(``generalized_jacobian_drift``, ``point_bias_acceleration``,
+``spacecraft_fixed_dynamics``, ...). :mod:`.planar` is the planar view
+(``ff.planar``). The physics is written once in the engine (private):
+:mod:`._tree` (the model as arrays), :mod:`._recursions` (the O(N) recursions
+of one configuration), :mod:`._configuration` (J*, J+, H+, forward dynamics,
+RK4), :mod:`._drivers` (batch loops, serial and threaded) and :mod:`._engine`
+(the Python side), compiled once per machine (:mod:`._numba_cache`). For large
+batches on one robot, :func:`specialise` compiles J* and rollouts for the
+model's structure from the same recursions (:mod:`._trace` runs them on
+symbols, :mod:`._specialise` emits SIMD code, :mod:`._lanes` drives it). The
+papers' barycentric closed forms (``method="barycentric"``) check it.
+
+Layer: imports :mod:`freefloat.core` only.
+"""
+
+from __future__ import annotations
+
+from . import planar
+from .dynamics import (
+    forward_dynamics,
+    inverse_dynamics,
+    nonlinear_forces,
+    point_bias_acceleration,
+    spacecraft_fixed_dynamics,
+    system_inertia_matrix_rate,
+)
+from .forces import ExternalWrench, actuation_from_generalized_forces, generalized_forces
+from .jacobians import (
+    actuation_jacobian,
+    end_effector_jacobian,
+    generalized_jacobian,
+    generalized_jacobian_drift,
+    jacobian_determinant,
+    manipulability,
+    point_jacobian,
+    task_jacobian,
+)
+from .kinematics import (
+    body_cm_positions,
+    body_rotations,
+    end_effector_positions,
+    end_effector_rotations,
+    forward_kinematics,
+    joint_axes,
+    point_positions,
+    system_cm,
+)
+from .momentum import (
+    InertiaBlocks,
+    angular_momentum,
+    free_floating_joint_inertia,
+    inertia_blocks,
+    kinetic_energy,
+    linear_momentum,
+    system_inertia_matrix,
+)
+from .specialised import is_specialised, specialise
+
+__all__ = [
+    "ExternalWrench",
+    "InertiaBlocks",
+    "actuation_from_generalized_forces",
+    "actuation_jacobian",
+    "angular_momentum",
+    "body_cm_positions",
+    "body_rotations",
+    "end_effector_jacobian",
+    "end_effector_positions",
+    "end_effector_rotations",
+    "forward_dynamics",
+    "forward_kinematics",
+    "free_floating_joint_inertia",
+    "generalized_forces",
+    "generalized_jacobian",
+    "generalized_jacobian_drift",
+    "inertia_blocks",
+    "inverse_dynamics",
+    "is_specialised",
+    "jacobian_determinant",
+    "joint_axes",
+    "kinetic_energy",
+    "linear_momentum",
+    "manipulability",
+    "nonlinear_forces",
+    "planar",
+    "point_bias_acceleration",
+    "point_jacobian",
+    "point_positions",
+    "spacecraft_fixed_dynamics",
+    "specialise",
+    "system_cm",
+    "system_inertia_matrix",
+    "system_inertia_matrix_rate",
+    "task_jacobian",
+]

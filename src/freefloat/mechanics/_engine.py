@@ -1,0 +1,356 @@
+"""The engine: the fast path of the physics, called from Python with batches of any shape.
+
+Each call takes a model and arrays with any leading batch shape (broadcast against each other),
+flattens them, runs one batch driver of :mod:`._drivers` (serial for small batches, numba's
+threads for large ones: the same compiled source) and gives the batch shape back. J* batches and
+rollouts take the kernels specialised to the model's structure instead when
+:func:`~freefloat.mechanics.specialise` made them (:mod:`._specialise`; the same recursions,
+traced). Inputs are checked by the public functions that call these; here they are only made
+contiguous float64.
+"""
+
+from __future__ import annotations
+
+import functools
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from . import _configuration, _drivers, _specialise
+from ._arrays import new_output
+from ._tree import Tree, tree, work_size
+
+__all__ = [
+    "NO_WRENCHES",
+    "Stepper",
+    "accelerations",
+    "frames",
+    "generalized_jacobian",
+    "inertia_matrix",
+    "point_jacobians",
+    "points",
+    "residual_rows",
+    "rk4_batch",
+    "rollout",
+    "specialised_rollouts",
+    "state_derivative",
+]
+
+#: No external wrenches: (ext_i (0, 2), ext_f (0, 9)).
+NO_WRENCHES: tuple[np.ndarray, np.ndarray] = (np.zeros((0, 2), dtype=np.int64), np.zeros((0, 9)))
+
+
+#: Batches of J* at least this large use the specialised kernels of the model's structure, when made.
+_SPECIALISED_MIN = 64
+#: Rollouts of at least this many trajectories use them (a lane block computes 64; about 8 pay for it).
+_SPECIALISED_ROLLOUTS_MIN = 8
+
+
+def _own(arr: Any, dtype: Any = np.float64) -> np.ndarray:
+    """arr as a C-contiguous, writable array of ``dtype``.
+
+    numba types read-only arrays apart from writable ones, so a kernel called with both would be
+    compiled twice: every array passed to a kernel goes through here (a copy only when needed).
+    """
+    out = np.ascontiguousarray(arr, dtype=dtype)
+    return out if out.flags.writeable else out.copy()
+
+
+def _flat(arr: np.ndarray, batch: tuple[int, ...], core: tuple[int, ...]) -> np.ndarray:
+    """arr broadcast to batch + core, as a C-contiguous, writable float64 (C, *core) array."""
+    size = int(np.prod(batch, dtype=np.int64))
+    target = batch + core
+    arr = np.asarray(arr)
+    return _own(arr if arr.shape == target else np.broadcast_to(arr, target)).reshape((size, *core))
+
+
+def _batch(*arrays: tuple[np.ndarray, int]) -> tuple[int, ...]:
+    """The broadcast batch shape of arrays given with their number of core axes."""
+    return np.broadcast_shapes(*(a.shape[: a.ndim - core] for a, core in arrays))
+
+
+def _wrench_data(ext: tuple[np.ndarray, np.ndarray], batch: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
+    ext_i, ext_f = ext
+    return _own(ext_i, np.int64), _flat(ext_f, batch, ext_f.shape[-2:])
+
+
+def frames(model: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(⁰T_k (..., B, 3, 3), body frame origins from O (..., B, 3)), spacecraft frame."""
+    t = tree(model)
+    batch = q.shape[:-1]
+    flat = _flat(q, batch, (t.n_joints,))
+    n_b = t.parent.shape[0]
+    rot = new_output((flat.shape[0], n_b, 3, 3))
+    pos = new_output((flat.shape[0], n_b, 3))
+    _drivers.frames_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, rot, pos)
+    return rot.reshape((*batch, n_b, 3, 3)), pos.reshape((*batch, n_b, 3))
+
+
+def _point_data(bodies: Any, pts: Any) -> tuple[np.ndarray, np.ndarray]:
+    b = _own(np.atleast_1d(np.asarray(bodies, dtype=np.int64)), np.int64)
+    p = _own(np.asarray(pts, dtype=np.float64).reshape(-1, 3))
+    return b, p
+
+
+def points(model: Any, q: np.ndarray, bodies: Any, pts: Any) -> np.ndarray:
+    """Points ``pts`` (P, 3, body frames of ``bodies``) relative to the system CM, spacecraft frame, (..., P, 3)."""
+    t = tree(model)
+    b, p = _point_data(bodies, pts)
+    batch = q.shape[:-1]
+    flat = _flat(q, batch, (t.n_joints,))
+    out = new_output((flat.shape[0], b.shape[0], 3))
+    _drivers.points_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.total_mass, b, p, out)
+    return out.reshape((*batch, b.shape[0], 3))
+
+
+def point_jacobians(model: Any, q: np.ndarray, bodies: Any, pts: Any) -> np.ndarray:
+    """J+ of points ``pts`` of ``bodies``, (..., P, 6, 6 + N), spacecraft frame (1991 eqs. 7-10)."""
+    t = tree(model)
+    b, p = _point_data(bodies, pts)
+    batch = q.shape[:-1]
+    flat = _flat(q, batch, (t.n_joints,))
+    out = new_output((flat.shape[0], b.shape[0], 6, 6 + t.n_joints))
+    _drivers.point_jacobian_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, b, p, out)
+    return out.reshape((*batch, b.shape[0], 6, 6 + t.n_joints))
+
+
+def generalized_jacobian(model: Any, q: np.ndarray) -> np.ndarray:
+    """J* (..., 6E, N), spacecraft frame (1992 eq. 14)."""
+    t = tree(model)
+    batch = q.shape[:-1]
+    flat = _flat(q, batch, (t.n_joints,))
+    rows = 6 * t.ee_body.shape[0]
+    out = new_output((flat.shape[0], rows, t.n_joints))
+    fast = _specialise.find(t, "jstar") if flat.shape[0] >= _SPECIALISED_MIN else None
+    if fast is not None:
+        _specialise.jstar(fast, t, flat, out.reshape((flat.shape[0], rows * t.n_joints)))
+        return out.reshape((*batch, rows, t.n_joints))
+    _drivers.jstar_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, t.ee_body, t.ee_point, out)
+    return out.reshape((*batch, rows, t.n_joints))
+
+
+def inertia_matrix(model: Any, q: np.ndarray) -> np.ndarray:
+    """H+ (..., 6 + N, 6 + N), order [r_cm, omega0, q] (1991 eq. 15)."""
+    t = tree(model)
+    batch = q.shape[:-1]
+    flat = _flat(q, batch, (t.n_joints,))
+    size = 6 + t.n_joints
+    out = new_output((flat.shape[0], size, size))
+    _drivers.hplus_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, out)
+    return out.reshape((*batch, size, size))
+
+
+def _actuation(u: np.ndarray | None, t: Tree, batch: tuple[int, ...]) -> np.ndarray:
+    """u = [tau (N), f_S (3), n_S (3)] flat (C, N + 6); None is zero."""
+    if u is None:
+        return np.zeros((int(np.prod(batch, dtype=np.int64)), t.n_joints + 6))
+    return _flat(u, batch, (t.n_joints + 6,))
+
+
+def _attitudes(t0: np.ndarray | None, batch: tuple[int, ...]) -> np.ndarray:
+    return _flat(np.eye(3) if t0 is None else t0, batch, (3, 3))
+
+
+def _dynamics_inputs(
+    t: Tree,
+    q: np.ndarray,
+    velocity: np.ndarray,
+    u: np.ndarray | None,
+    t0: np.ndarray | None,
+    ext: tuple[np.ndarray, np.ndarray],
+    *extra: np.ndarray,
+) -> tuple[tuple[int, ...], list[np.ndarray]]:
+    """The broadcast batch shape and the flat inputs [q, velocity, *extra (6 + N each), u, t0, ext_i, ext_f] of a dynamics driver."""
+    n = t.n_joints
+    batch = _batch(
+        (q, 1), (velocity, 1), (ext[1], 2), *((e, 1) for e in extra), *(() if u is None else ((u, 1),)), *(() if t0 is None else ((t0, 2),))
+    )
+    flat = [_flat(q, batch, (n,)), _flat(velocity, batch, (6 + n,)), *(_flat(e, batch, (6 + n,)) for e in extra)]
+    return batch, [*flat, _actuation(u, t, batch), _attitudes(t0, batch), *_wrench_data(ext, batch)]
+
+
+def residual_rows(
+    model: Any,
+    q: np.ndarray,
+    velocity: np.ndarray,
+    acceleration: np.ndarray | None = None,
+    u: np.ndarray | None = None,
+    t0: np.ndarray | None = None,
+    ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES,
+) -> np.ndarray:
+    """Rows [omega0, q] of H+ zddot0 + C+ - Q (..., 3 + N) by Newton-Euler (1991 eq. 19).
+
+    ``acceleration`` None: zddot0 = 0 (then C+ - Q); ``u`` = [tau, f_S, n_S] (None: zero);
+    ``t0`` the attitude (..., 3, 3) for inertial-frame wrenches; ``ext`` = (ext_i, ext_f (..., W, 9)).
+    """
+    t = tree(model)
+    n = t.n_joints
+    acc_in = np.zeros(6 + n) if acceleration is None else acceleration
+    batch, (qf, vf, af, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext, acc_in)
+    out = new_output((qf.shape[0], 3 + n))
+    _drivers.inverse_batch(
+        qf.shape[0], t.parent.shape[0], qf, vf, af, uf, t0f, t.parent, t.body, t.total_mass, ext_i, ext_f, acceleration is not None, out
+    )
+    return out.reshape((*batch, 3 + n))
+
+
+def accelerations(
+    model: Any,
+    q: np.ndarray,
+    velocity: np.ndarray,
+    u: np.ndarray | None = None,
+    t0: np.ndarray | None = None,
+    ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Forward dynamics: (zddot0 (..., 6 + N) = [rddot_cm inertial, d/dt omega0, qddot], ok (...) False where H+ failed)."""
+    t = tree(model)
+    n = t.n_joints
+    batch, (qf, vf, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext)
+    out = new_output((qf.shape[0], 6 + n))
+    ok = np.empty(qf.shape[0], dtype=np.bool_)
+    _drivers.forward_batch(
+        qf.shape[0], t.parent.shape[0], qf, vf, uf, t0f, t.parent, t.body, t.ancestor, t.total_mass, ext_i, ext_f, out, ok
+    )
+    return out.reshape((*batch, 6 + n)), ok.reshape(batch)
+
+
+def state_derivative(
+    model: Any, x: np.ndarray, u: np.ndarray | None = None, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES
+) -> tuple[np.ndarray, np.ndarray]:
+    """d/dt of flat states x (..., 13 + 2N) = [r_cm, v_cm, quat xyzw, omega0, q, qdot]; (dx, ok)."""
+    t = tree(model)
+    size = 13 + 2 * t.n_joints
+    batch = _batch((x, 1), (ext[1], 2), *(() if u is None else ((u, 1),)))
+    xf = _flat(x, batch, (size,))
+    ext_i, ext_f = _wrench_data(ext, batch)
+    out = np.empty_like(xf)
+    ok = np.empty(xf.shape[0], dtype=np.bool_)
+    _drivers.derivative_batch(
+        xf.shape[0], t.parent.shape[0], xf, _actuation(u, t, batch), t.parent, t.body, t.ancestor, t.total_mass, ext_i, ext_f, out, ok
+    )
+    return out.reshape((*batch, size)), ok.reshape(batch)
+
+
+def rollout(
+    model: Any,
+    x0: np.ndarray,
+    dt: float,
+    steps: int,
+    hold: int,
+    stride: int,
+    gains: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    feedforward: np.ndarray,
+    limit: np.ndarray,
+    ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Fixed-step RK4 of the states x0 (K, 13 + 2N) with a joint PD in the loop, all compiled, trajectories on threads.
+
+    gains = (kp, kd, q_ref, qdot_ref), each (K, N); u = feedforward[k] + kp (q_ref - q) + kd (qdot_ref - qdot)
+    at sample k (every ``hold`` steps; ``feedforward`` (S, K, W), W = N joint torques or N + 6 with
+    the thrusters, its last sample held), clipped to +-limit (N + 6). Records at step 0, every
+    ``stride`` steps and the last: (states (T, K, S), u (T, K, N + 6), saturated (T, K), steps done (K)).
+    """
+    t = tree(model)
+    n = t.n_joints
+    k = x0.shape[0]
+    rows = 1 + sum(1 for i in range(1, steps + 1) if i % stride == 0 or i == steps)
+    xs = new_output((rows, k, x0.shape[1]))
+    us = new_output((rows, k, n + 6))
+    sat = np.empty((rows, k), dtype=np.bool_)
+    done = np.empty(k, dtype=np.int64)
+    kp, kd, qref, vref = (_own(np.broadcast_to(g, (k, n))) for g in gains)
+    ext_i, ext_f = _wrench_data(ext, (k,))
+    if specialised_rollouts(model, k, ext):
+        fast = _specialise.find(t, "rollout")
+        assert fast is not None
+        timing = (float(dt), int(steps), int(hold), int(stride))
+        _specialise.rollout(fast, t, _own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), xs, us, sat, done)
+        return xs, us, sat, done
+    _drivers.rollout_batch(
+        k,
+        t.parent.shape[0],
+        _own(x0),
+        float(dt),
+        int(steps),
+        int(hold),
+        int(stride),
+        kp,
+        kd,
+        qref,
+        vref,
+        _own(feedforward),
+        _own(limit),
+        t.parent,
+        t.body,
+        t.ancestor,
+        t.total_mass,
+        ext_i,
+        ext_f,
+        xs,
+        us,
+        sat,
+        done,
+    )
+    return xs, us, sat, done
+
+
+def specialised_rollouts(model: Any, batch: int, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES) -> bool:
+    """True when :func:`rollout` of ``batch`` trajectories under the wrenches ``ext`` runs the specialised kernels
+    (made for the model's structure, at least 8 trajectories, no external wrenches)."""
+    return np.shape(ext[0])[0] == 0 and batch >= _SPECIALISED_ROLLOUTS_MIN and _specialise.find(tree(model), "rollout") is not None
+
+
+def rk4_batch(
+    model: Any, x: np.ndarray, u: np.ndarray, dt: float, steps: int, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES
+) -> np.ndarray:
+    """``steps`` RK4 steps of the states x (K, 13 + 2N) under u (K, N + 6) held; the new states (NaN rows where a step failed)."""
+    n = tree(model).n_joints
+    zero = np.zeros((x.shape[0], n))
+    xs, _, _, _ = rollout(model, x, dt, steps, steps, steps, (zero, zero, zero, zero), u[None], np.full(n + 6, np.inf), ext)
+    return xs[-1]
+
+
+class Stepper:
+    """One trajectory stepped from Python (a controller in the loop): scratch space kept between calls.
+
+    ``rk4(x, u, dt, steps)`` advances the flat state x (13 + 2N, float64, contiguous) in place by
+    ``steps`` RK4 steps with u held, in one compiled call, and returns ``steps``; or k < steps when
+    H+ was not positive definite in step k; or -(k + 1) when x became non-finite in step k. (A
+    partial of the kernel: a controller every step makes this call the hot path.)
+    :meth:`derivative` is d/dt x for adaptive integrators.
+    """
+
+    def __init__(self, model: Any, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES) -> None:
+        self.tree = t = tree(model)
+        self.size = 13 + 2 * t.n_joints
+        ext_i = np.asarray(ext[0], dtype=np.int64).reshape(-1, 2)
+        ext_f = np.asarray(ext[1], dtype=np.float64).reshape(-1, 9)
+        nb = t.parent.shape[0]
+        header = [nb, ext_i.shape[0], t.body.shape[1], 0, 0]  # B, W, NF, WATCH, REASON (see _configuration.unpack)
+        self.ints = np.concatenate([header, t.parent, t.ancestor.ravel(), ext_i.ravel()]).astype(np.int64)
+        work = np.empty(work_size(nb) + t.n_joints)
+        self._watch_at = 1 + t.body.size + ext_f.size
+        watch = np.full(1 + 2 * t.n_joints, np.inf)
+        watch[1 : 1 + t.n_joints] = -np.inf
+        self.floats = np.concatenate([[t.total_mass], t.body.ravel(), ext_f.ravel(), watch, work])
+        self.rk4: Callable[[np.ndarray, np.ndarray, float, int], int] = functools.partial(_configuration.rk4_steps, self.ints, self.floats)
+
+    def watch(self, rate: float = np.inf, lower: Any = None, upper: Any = None) -> None:
+        """Make :attr:`rk4` stop after a step that leaves a joint rate (or sqrt(3) |omega0_i|) above ``rate`` or a
+        joint outside [lower, upper]; :attr:`reason` then says which (1 rate, 2 limit, 3 both)."""
+        n = self.tree.n_joints
+        w = self.floats[self._watch_at : self._watch_at + 1 + 2 * n]
+        w[0] = rate
+        w[1 : 1 + n] = -np.inf if lower is None else lower
+        w[1 + n :] = np.inf if upper is None else upper
+        self.ints[3] = int(np.isfinite(w).any())
+
+    @property
+    def reason(self) -> int:
+        """Why the last :attr:`rk4` call stopped early under :meth:`watch` (0: it did not)."""
+        return int(self.ints[4])
+
+    def derivative(self, x: np.ndarray, u: np.ndarray, out: np.ndarray) -> bool:
+        """out = d/dt x under u; False if H+ is not positive definite."""
+        return bool(_configuration.state_derivative(self.ints, self.floats, x, u, out))

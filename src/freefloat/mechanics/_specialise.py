@@ -1,0 +1,450 @@
+"""The specialiser: the engine's recursions compiled for one model *structure*, SIMD across configurations.
+
+The generic kernels (:mod:`._drivers`) take any model as arrays and compile nothing per model. For
+large batches on one model this module compiles, per model structure, faster kernels **from the
+same source**: :mod:`._trace` runs :func:`~._configuration.jstar_one` and
+:func:`~._configuration.state_derivative_one` on symbols, with the structure as numbers (the tree,
+joint types, placements and axes: folded) and the data as symbols (masses, CMs, inertias, the
+total mass, end-effector points: read at run time, so :meth:`~freefloat.Model.with_payload`
+variants share the kernels). :func:`emit` writes the graph as straight-line code over one block
+of :data:`~._lanes.LANES` configurations (rows of a flat buffer), which LLVM vectorises; sin and
+cos become :data:`SINCOS` (a vectorisable sin/cos: within 1 ulp of the C library's over
+|q| <= 7 rad and 2 ulp over |q| <= 1e5 rad, checked by ``tests/mechanics/test_specialise.py``;
+beyond about 1e6 rad the reduction is no longer exact). :mod:`._lanes` drives the blocks.
+
+Nothing compiles unless asked (:func:`specialise`, public as ``ff.mechanics.specialise``): a
+structure takes 2-5 s (J*) and 9-18 s (rollouts) to compile once per machine, measured on the paper
+systems; the generated source and numba's machine code are then kept in the user's cache folder
+(inside the generic kernels' folder for this numba version and engine source, keyed by the
+structure) and found by every later process, which then uses them for J* batches and rollouts of
+every model of that structure. Everything else, and every model not specialised, runs on the
+generic kernels. Rollouts with external wrenches stay generic. Two processes specialising the same
+structure at once both compile; the file each writes is the same and replaced atomically.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import hashlib
+import importlib.util
+import os
+import sys
+import tempfile
+import threading
+import types
+import warnings
+import weakref
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._lanes import LANES
+from ._numba_cache import CacheWarning, cache_dir
+from ._trace import Graph, Sym, traced
+from ._tree import _C, _I, _M, _S, NF, Tree, work_size
+
+__all__ = ["KINDS", "SINCOS", "emit", "find", "load", "specialise", "structure_key", "trace"]
+
+#: What can be specialised: J* of a batch of configurations, RK4 rollouts (their state derivative).
+KINDS = ("jstar", "rollout")
+
+#: Columns of ``Tree.body`` that are data (mass properties): symbols, never folded.
+_DATA_COLUMNS = (_M, *range(_C, _C + 3), *range(_I, _I + 9), _S)
+
+#: sin and cos of one angle without calls (vectorisable): the reduction by the nearest multiple k
+#: of pi/2 in four parts (Cody-Waite; the first two products exact for |k| < 2^20), then fdlibm's minimax
+#: polynomials of sin and cos on [-pi/4, pi/4] (``__kernel_sin``, ``__kernel_cos``), then the
+#: quadrant k mod 4. Placeholders: {x} the angle, {sin} and {cos} the results, {t} a prefix.
+SINCOS = """\
+{t}k = math.floor({x} * 0.6366197723675814 + 0.5)
+{t}r = (({x} - {t}k * 1.5707963267341256) - {t}k * 6.077100506303966e-11) - {t}k * 2.0222662487111665e-21
+{t}r = {t}r - {t}k * 8.4784276603688996e-32
+{t}z = {t}r * {t}r
+{t}a = 2.7557313707070068e-06 + {t}z * (-2.5050760253406863e-08 + {t}z * 1.5896909952115501e-10)
+{t}s = {t}r + {t}z * {t}r * (-0.16666666666666632 + {t}z * (8.33333333332248946124e-03 + {t}z * (-0.00019841269829857949 + {t}z * {t}a)))
+{t}h = 0.5 * {t}z
+{t}w = 1.0 - {t}h
+{t}b = -2.7557314351390663e-07 + {t}z * (2.0875723212981748e-09 + {t}z * -1.1359647557788195e-11)
+{t}b = 0.041666666666666602 + {t}z * (-0.0013888888888874110 + {t}z * (2.4801587289476729e-05 + {t}z * {t}b))
+{t}c = {t}w + (((1.0 - {t}w) - {t}h) + {t}z * {t}z * {t}b)
+{t}n = {t}k - 4.0 * math.floor({t}k * 0.25)
+{sin} = ({t}c if {t}n == 1.0 or {t}n == 3.0 else {t}s) * (-1.0 if {t}n >= 2.0 else 1.0)
+{cos} = ({t}s if {t}n == 1.0 or {t}n == 3.0 else {t}c) * (-1.0 if {t}n == 1.0 or {t}n == 2.0 else 1.0)
+"""
+
+
+# ----------------------------------------------------------------- tracing
+def data_vector(t: Tree) -> np.ndarray:
+    """The model's data as the kernels read it: [body (flat), total mass, end-effector points (flat)]."""
+    return np.concatenate([t.body.ravel(), [t.total_mass], t.ee_point.ravel()])
+
+
+def _symbolic_model(t: Tree, g: Graph) -> tuple[np.ndarray, Any, np.ndarray]:
+    """body, total mass and end-effector points with the structure as numbers and the data as inputs "data"."""
+    body = np.empty(t.body.shape, dtype=object)
+    for k in range(t.body.shape[0]):
+        for c in range(NF):
+            body[k, c] = float(t.body[k, c])
+        for c in _DATA_COLUMNS:
+            body[k, c] = g.input("data", k * NF + c)
+    base = t.body.size
+    total = g.input("data", base)
+    points = np.empty((t.ee_point.shape[0], 3), dtype=object)
+    for e in range(points.shape[0]):
+        for i in range(3):
+            points[e, i] = g.input("data", base + 1 + 3 * e + i)
+    return body, total, points
+
+
+def _ints(a: np.ndarray) -> np.ndarray:
+    return np.array([int(v) for v in a.ravel()], dtype=object).reshape(a.shape)
+
+
+def trace(t: Tree, kind: str) -> tuple[Graph, list[Any], int]:
+    """The graph of one configuration of ``kind`` for the structure of ``t``: (graph, outputs, inputs per lane).
+
+    Inputs "W" rows: "jstar" q (N); "rollout" the state x (13 + 2N) then u (N + 6). Outputs:
+    "jstar" J* (6E x N, row-major); "rollout" dx/dt (13 + 2N). Guards: the Cholesky pivots.
+    """
+    mod = traced()
+    g = Graph()
+    body, total, points = _symbolic_model(t, g)
+    nb = t.parent.shape[0]
+    n = t.n_joints
+    work = np.full(work_size(nb), 0.0, dtype=object)
+    s = mod.recursions.scratch(work, nb)
+    parent, ancestor = _ints(t.parent), _ints(t.ancestor)
+    if kind == "jstar":
+        q = np.array([g.input("W", j) for j in range(n)], dtype=object)
+        out = np.full((6 * t.ee_body.shape[0], n), 0.0, dtype=object)
+        mod.configuration.jstar_one(q, parent, body, ancestor, total, _ints(t.ee_body), points, s, out)
+        if g.guards:  # map_blocks has no row to report a failed configuration
+            raise AssertionError("freefloat: J* traced with guards; give the J* lane driver a row for them")
+        return g, list(out.ravel()), n
+    if kind == "rollout":
+        size = 13 + 2 * n
+        x = np.array([g.input("W", i) for i in range(size)], dtype=object)
+        u = np.array([g.input("W", size + j) for j in range(n + 6)], dtype=object)
+        dx = np.full((1, size), 0.0, dtype=object)
+        none_i, none_f = np.zeros((0, 2), dtype=object), np.zeros((0, 9), dtype=object)
+        q = np.full(n, 0.0, dtype=object)
+        ok = mod.configuration.state_derivative_one(x, u, parent, body, ancestor, total, none_i, none_f, s, q, dx, 0)
+        if ok is not True:  # a pivot that folded to a number <= 0: the structure itself is singular
+            raise AssertionError("freefloat: the traced state derivative failed on numbers alone")
+        return g, list(dx.ravel()), size + n + 6
+    raise ValueError(f"freefloat: no specialised kernel of kind {kind!r}; the kinds are {KINDS}")
+
+
+# ----------------------------------------------------------------- code
+def emit(g: Graph, outputs: list[Any], n_in: int, name: str = "lane") -> tuple[str, list[int]]:
+    """Python source of ``name(W, P)``: the live nodes of ``g`` over LANES configurations, and the data slots.
+
+    W holds n_in input rows, then one row per output, then (when the graph has guards) a row that
+    is multiplied by 1.0 where every guard holds and 0.0 elsewhere. P[i] = data[slots[i]]. Lane
+    inputs are read in the loop; data is read once, before it.
+    """
+    roots = [o.index for o in outputs if isinstance(o, Sym)] + list(g.guards)
+    keep = g.live(roots)
+    slots: list[int] = []
+    before: list[str] = []
+    body: list[str] = []
+    done: set[int] = set()
+
+    def ref(a: Any) -> str:
+        return f"v{a}" if isinstance(a, int) else repr(float(a))
+
+    for i, op in enumerate(g.ops):
+        if not keep[i]:
+            continue
+        a = g.args[i]
+        if op == "in":
+            if a[0] == "W":
+                body.append(f"v{i} = W[{a[1] * LANES} + i]")
+            else:
+                before.append(f"v{i} = P[{len(slots)}]")
+                slots.append(a[1])
+        elif op in ("sin", "cos"):
+            x = a[0]
+            if x in done:
+                continue
+            done.add(x)
+            sin, cos = g.find("sin", x), g.find("cos", x)
+            text = SINCOS.format(
+                x=ref(x),
+                t=f"t{x}",
+                sin=f"v{sin}" if sin is not None and keep[sin] else f"t{x}sin",
+                cos=f"v{cos}" if cos is not None and keep[cos] else f"t{x}cos",
+            )
+            body.extend(text.splitlines())
+        elif op == "neg":
+            body.append(f"v{i} = -{ref(a[0])}")
+        elif op == "sqrt":
+            body.append(f"v{i} = math.sqrt({ref(a[0])})")
+        elif op == ">":
+            body.append(f"v{i} = 1.0 if {ref(a[0])} > {ref(a[1])} else 0.0")
+        else:
+            body.append(f"v{i} = {ref(a[0])} {op} {ref(a[1])}")
+    for r, o in enumerate(outputs):
+        body.append(f"W[{(n_in + r) * LANES} + i] = {ref(o.index) if isinstance(o, Sym) else ref(o)}")
+    if g.guards:
+        ok = " * ".join(f"v{k}" for k in g.guards)
+        body.append(f"W[{(n_in + len(outputs)) * LANES} + i] *= {ok}")
+    lines = [f"def {name}(W, P):  # pragma: no cover - compiled", *("    " + s for s in before), f"    for i in range({LANES}):"]
+    lines += ["        " + s for s in body]
+    return "\n".join(lines) + "\n", slots
+
+
+_DRIVERS = {
+    "jstar": """
+@kernel()
+def serial(Q, P, OUT, W):  # pragma: no cover - compiled
+    _lanes.map_blocks(lane, Q, P, OUT, W, 0, (Q.shape[0] + LANES - 1) // LANES)
+
+
+@kernel(parallel=True)
+def parallel(Q, P, OUT, WS):  # pragma: no cover - compiled
+    for block in prange((Q.shape[0] + LANES - 1) // LANES):
+        _lanes.map_blocks(lane, Q, P, OUT, WS[get_thread_id()], block, block + 1)
+""",
+    "rollout": """
+@kernel()
+def serial(P, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, W):  # pragma: no cover - compiled
+    blocks = (X0.shape[0] + LANES - 1) // LANES
+    _lanes.rollout_blocks(lane, P, 0, blocks, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, W)
+
+
+@kernel(parallel=True)
+def parallel(P, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, WS):  # pragma: no cover - compiled
+    for block in prange((X0.shape[0] + LANES - 1) // LANES):
+        _lanes.rollout_blocks(
+            lane, P, block, block + 1, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, WS[get_thread_id()]
+        )
+""",
+}
+
+
+def source(t: Tree, kind: str) -> tuple[str, list[int], int]:
+    """The generated module of ``kind`` for the structure of ``t``: (source, data slots, rows of W)."""
+    g, outputs, n_in = trace(t, kind)
+    lane, slots = emit(g, outputs, n_in)
+    if kind == "jstar":
+        rows = n_in + len(outputs)
+    else:
+        size = 13 + 2 * t.n_joints
+        rows = size + (t.n_joints + 6) + size + 1 + size + size + 2  # the W layout of _lanes.rollout_blocks
+    head = (
+        f'"""freefloat: {kind} specialised for one model structure (generated by freefloat.mechanics._specialise; do not edit)."""\n\n'
+        "import math\n\nfrom numba import get_thread_id, prange\n\n"
+        "from freefloat.mechanics import _lanes\nfrom freefloat.mechanics._lanes import LANES\n"
+        "from freefloat.mechanics._numba_cache import kernel\n\n"
+        f"SLOTS = {slots!r}\nROWS = {rows}\n\n\n@kernel()\n"
+    )
+    return head + lane + "\n" + _DRIVERS[kind], slots, rows
+
+
+# ----------------------------------------------------------------- the cache of structures
+_STRUCTURE_COLUMNS = tuple(c for c in range(NF) if c not in _DATA_COLUMNS)
+
+
+@functools.cache
+def _engine_key() -> str:
+    here = Path(__file__).parent
+    digest = hashlib.sha256()
+    for name in ("_trace.py", "_specialise.py", "_lanes.py", "_recursions.py", "_configuration.py", "_tree.py", "_numba_cache.py"):
+        digest.update((here / name).read_bytes())
+    return digest.hexdigest()[:12]
+
+
+def structure_key(t: Tree, kind: str) -> str:
+    """What the specialised kernels depend on: the tree, joint types, placements and axes, the end-effector bodies."""
+    digest = hashlib.sha256(f"{kind}:{LANES}:{_engine_key()}".encode())
+    for arr in (t.parent, t.ancestor, t.ee_body, np.ascontiguousarray(t.body[:, _STRUCTURE_COLUMNS])):
+        digest.update(str(arr.shape).encode())
+        digest.update(np.ascontiguousarray(arr).tobytes())
+    return f"{kind}_{t.n_joints}j_{digest.hexdigest()[:20]}"
+
+
+#: Where generated modules are kept (None: ``specialised`` next to the generic kernels' cache); tests set their own.
+FOLDER: list[Path | None] = [None]
+
+
+def _folder() -> Path:
+    return FOLDER[0] or cache_dir() / "specialised"  # per numba version and engine source, like the generic kernels
+
+
+_LOADED: dict[str, types.ModuleType] = {}
+_LOCK = threading.Lock()
+
+
+def _import(path: Path, key: str) -> types.ModuleType:
+    spec = importlib.util.spec_from_file_location(f"freefloat_specialised_{key}", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # numba's cache finds the kernels' module by name
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[spec.name]
+        raise
+    return module
+
+
+@functools.cache
+def _private_folder() -> Path:
+    """One temporary folder per process for generated modules when the cache folder cannot be written."""
+    return Path(tempfile.mkdtemp(prefix="freefloat-specialised-"))
+
+
+def _write(path: Path, text: str) -> Path:
+    """Write a generated module to ``path`` atomically (a temporary file renamed: a process starting at the same
+    time sees no file or the whole one); if the cache folder cannot be written, to a private temporary folder
+    (with a warning: it is then compiled again in every process)."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+        return path
+    except OSError as exc:
+        warnings.warn(
+            f"freefloat: cannot write the specialised kernel to {path.parent} ({type(exc).__name__}: {exc}); "
+            "compiling it from a temporary folder (again in every process; set FREEFLOAT_CACHE_DIR to a writable folder)",
+            CacheWarning,
+            stacklevel=4,
+        )
+        other = _private_folder() / path.name
+        other.write_text(text)
+        return other
+
+
+def load(t: Tree, kind: str, *, build: bool) -> types.ModuleType | None:
+    """The generated module of ``kind`` for ``t``'s structure: in memory, else from the cache folder, else
+    (``build``) generated, written there (atomically: a temporary file renamed) and imported; None if absent."""
+    key = structure_key(t, kind)
+    found = _LOADED.get(key)
+    if found is not None:
+        return found
+    with _LOCK:
+        found = _LOADED.get(key)
+        if found is not None:
+            return found
+        path = _folder() / f"{key}.py"
+        module = None
+        if path.exists():
+            try:
+                module = _import(path, key)
+            except Exception as exc:  # a broken cache file costs a warning, never a traceback
+                warnings.warn(
+                    f"freefloat: the specialised kernel {path} is broken ({type(exc).__name__}: {exc}); "
+                    + ("generating it again" if build else "using the generic kernels (run specialise again to rebuild it)"),
+                    CacheWarning,
+                    stacklevel=3,
+                )  # the file stays: only a process that builds replaces it (atomically), never one that reads
+        if module is None:
+            if not build:
+                return None
+            text, _, _ = source(t, kind)
+            module = _import(_write(path, text), key)
+        _LOADED[key] = module
+        return module
+
+
+#: Per model tree and kind: the specialised module, or None (looked up once per tree; cleared by :func:`specialise`).
+_FOUND: weakref.WeakKeyDictionary[Tree, dict[str, types.ModuleType | None]] = weakref.WeakKeyDictionary()
+#: False inside :func:`generic` (benchmarks and tests compare the two paths).
+_ENABLED = [True]
+
+
+def find(t: Tree, kind: str) -> types.ModuleType | None:
+    """The specialised module of ``kind`` for ``t``'s structure if :func:`specialise` made it (in any process); else None."""
+    if not _ENABLED[0]:
+        return None
+    memo = _FOUND.setdefault(t, {})
+    if kind not in memo:
+        memo[kind] = load(t, kind, build=False)
+    return memo[kind]
+
+
+@contextlib.contextmanager
+def generic() -> Iterator[None]:
+    """Within: every call runs on the generic kernels, specialised or not (to compare the two).
+
+    A switch of the whole process, for tests and benchmarks: not meant for threads that overlap.
+    """
+    before = _ENABLED[0]
+    _ENABLED[0] = False
+    try:
+        yield
+    finally:
+        _ENABLED[0] = before
+
+
+def _warm(module: types.ModuleType, t: Tree, kind: str) -> None:
+    """Compile (or load from numba's cache) both drivers of a module on a tiny batch."""
+    data = data_vector(t)[module.SLOTS]
+    n = t.n_joints
+    if kind == "jstar":
+        q = np.zeros((1, n))
+        out = np.empty((1, 6 * t.ee_body.shape[0] * n))
+        module.serial(q, data, out, np.empty(module.ROWS * LANES))
+        module.parallel(q, data, out, np.empty((_threads(), module.ROWS * LANES)))
+    else:
+        size = 13 + 2 * n
+        x0 = np.zeros((1, size))
+        x0[0, 9] = 1.0
+        zero = np.zeros((1, n))
+        args = (data, x0, 1e-3, 1, 1, 1, zero, zero, zero, zero, np.zeros((1, 1, n)), np.full(n + 6, np.inf))
+        outs = (np.empty((2, 1, size)), np.empty((2, 1, n + 6)), np.empty((2, 1), dtype=np.bool_), np.empty(1, dtype=np.int64))
+        module.serial(*args, *outs, np.empty(module.ROWS * LANES))
+        module.parallel(*args, *outs, np.empty((_threads(), module.ROWS * LANES)))
+
+
+def _threads() -> int:
+    import numba
+
+    return int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]  # every thread id is below it
+
+
+def specialise(t: Tree, kinds: tuple[str, ...] = KINDS, progress: Callable[[str], None] | None = None) -> dict[str, str]:
+    """Generate and compile the specialised kernels of ``kinds`` for ``t``'s structure (kept on disk); the keys made."""
+    made = {}
+    for kind in kinds:
+        if kind not in KINDS:
+            raise ValueError(f"freefloat: no specialised kernel of kind {kind!r}; the kinds are {KINDS}")
+        if progress is not None:
+            progress(kind)
+        module = load(t, kind, build=True)
+        assert module is not None
+        _warm(module, t, kind)
+        made[kind] = structure_key(t, kind)
+    _FOUND.clear()
+    return made
+
+
+# ----------------------------------------------------------------- calls
+def parallel_worth(size: int) -> bool:
+    import numba
+
+    return size >= 4 * LANES and numba.get_num_threads() > 1
+
+
+def jstar(module: types.ModuleType, t: Tree, q: np.ndarray, out: np.ndarray) -> None:
+    """J* of the rows of q (C, N) into out (C, 6E * N) by the specialised kernel."""
+    data = data_vector(t)[module.SLOTS]
+    if parallel_worth(q.shape[0]):
+        module.parallel(q, data, out, np.empty((_threads(), module.ROWS * LANES)))
+    else:
+        module.serial(q, data, out, np.empty(module.ROWS * LANES))
+
+
+def rollout(module: types.ModuleType, t: Tree, *args: Any) -> None:
+    """:func:`~._drivers._rollout_range`'s work (same arguments less the model and wrenches) by the specialised kernel."""
+    data = data_vector(t)[module.SLOTS]
+    if args[0].shape[0] > LANES and parallel_worth(4 * LANES):  # threads pay from two blocks of trajectories
+        module.parallel(data, *args, np.empty((_threads(), module.ROWS * LANES)))
+    else:
+        module.serial(data, *args, np.empty(module.ROWS * LANES))

@@ -1,0 +1,332 @@
+"""Trace the engine's one-configuration kernels on symbols: the expression graph a specialiser compiles.
+
+The recursions of :mod:`._recursions` and :mod:`._configuration` are plain scalar Python over
+arrays (numba compiles them as written). Run on :class:`Sym` values instead of floats, with the
+model's *structure* (tree, joint types, joint placements and axes) as numbers and its *data* (mass
+properties, end-effector points, the state) as symbols, the same source yields the graph of one
+configuration for one model structure. Nothing of the physics is written here: this module only
+knows arithmetic.
+
+Rules applied while tracing:
+
+* constant folding: an operation on numbers is a number (Python floats, the same IEEE doubles);
+* identities, exact in IEEE arithmetic: x + 0 = x, x - 0 = x, 0 - x = -x, x * 1 = x, x * -1 = -x,
+  x / 1 = x, -(-x) = x;
+* zeros: x * 0 = 0, 0 / x = 0 and x - x = 0. These hold for finite, non-zero x only: an
+  intermediate that overflows to inf (values near 1e154 and beyond) or a zero divisor gives NaN in
+  the generic kernels, which then report the configuration, and 0 in the specialised ones. The
+  engine divides only by the total mass, the determinant of the spacecraft-block of H+ and the
+  Cholesky pivots (guarded), none of which is zero for a valid model;
+* common subexpressions: an operation on the same operands is the same node (hash-consing; the
+  operands of + and * are ordered, which IEEE addition and multiplication do not mind; numbers
+  and node indices are told apart in the key);
+* dead code: :meth:`Graph.live` keeps only the nodes the outputs (and guards) need.
+
+Branches on a symbol (the positive-pivot test of the Cholesky factorisation) cannot be taken while
+tracing: the comparison is recorded as a *guard* (assumed true while tracing, evaluated by the
+compiled kernel, which reports the configurations where it fails, as the generic kernel does).
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+import math
+import sys
+import types
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Graph", "Sym", "traced"]
+
+Number = float
+
+
+class Graph:
+    """Nodes of one trace, in creation order (a topological order). Node i is ``ops[i]``, ``args[i]``.
+
+    ops: ``"in"`` (args = (array name, flat index)), ``"+"``, ``"-"``, ``"*"``, ``"/"``, ``"neg"``,
+    ``"sqrt"``, ``"sin"``, ``"cos"``, ``">"`` (a guard's comparison); an argument is a node index
+    (int) or a number (float).
+    """
+
+    def __init__(self) -> None:
+        self.ops: list[str] = []
+        self.args: list[tuple[Any, ...]] = []
+        self._memo: dict[tuple[Any, ...], int] = {}
+        self.guards: list[int] = []
+
+    def node(self, op: str, *args: Any) -> Sym:
+        key = _memo_key(op, args)
+        found = self._memo.get(key)
+        if found is None:
+            found = len(self.ops)
+            self.ops.append(op)
+            self.args.append(args)
+            self._memo[key] = found
+        return Sym(self, found)
+
+    def find(self, op: str, *args: Any) -> int | None:
+        """The node of ``op`` on ``args`` if the trace made it, else None."""
+        return self._memo.get(_memo_key(op, args))
+
+    def input(self, name: str, index: int) -> Sym:
+        return self.node("in", name, index)
+
+    def live(self, roots: list[int]) -> list[bool]:
+        """Which nodes the ``roots`` need (dead-code elimination)."""
+        keep = [False] * len(self.ops)
+        stack = list(roots)
+        while stack:
+            i = stack.pop()
+            if keep[i]:
+                continue
+            keep[i] = True
+            if self.ops[i] != "in":
+                stack.extend(a for a in self.args[i] if isinstance(a, int))
+        return keep
+
+    def evaluate(self, inputs: dict[str, np.ndarray], roots: list[int]) -> dict[int, float]:
+        """The value of every live node on float ``inputs`` (the reference the tests compare with)."""
+        keep = self.live(roots)
+        val: dict[int, float] = {}
+
+        def arg(a: Any) -> float:
+            return val[a] if isinstance(a, int) else a
+
+        for i, op in enumerate(self.ops):
+            if not keep[i]:
+                continue
+            a = self.args[i]
+            if op == "in":
+                val[i] = float(np.asarray(inputs[a[0]]).reshape(-1)[a[1]])
+            elif op == "neg":
+                val[i] = -arg(a[0])
+            elif op in ("sqrt", "sin", "cos"):
+                val[i] = getattr(math, op)(arg(a[0]))
+            else:
+                x, y = arg(a[0]), arg(a[1])
+                val[i] = _BINARY[op](x, y)
+        return val
+
+
+_BINARY = {
+    "+": lambda x, y: x + y,
+    "-": lambda x, y: x - y,
+    "*": lambda x, y: x * y,
+    "/": lambda x, y: x / y,
+    ">": lambda x, y: float(x > y),
+}
+
+
+def _memo_key(op: str, args: tuple[Any, ...]) -> tuple[Any, ...]:
+    """The hash-consing key of a node: node indices and numbers tagged apart (Python has 2 == 2.0), and -0.0 apart from 0.0."""
+    return (op, *(("n", a) if isinstance(a, int) else ("c", a, math.copysign(1.0, a)) if isinstance(a, float) else a for a in args))
+
+
+def _key(a: Any) -> tuple[int, Any]:
+    return (0, a.index) if isinstance(a, Sym) else (1, a)
+
+
+def _raw(a: Any) -> Any:
+    return a.index if isinstance(a, Sym) else float(a)
+
+
+def _is(a: Any, value: float) -> bool:
+    return not isinstance(a, Sym) and a == value
+
+
+class Sym:
+    """A value of a trace: node ``index`` of ``graph``. Arithmetic with numbers and other symbols folds as above."""
+
+    __slots__ = ("graph", "index")
+
+    def __init__(self, graph: Graph, index: int) -> None:
+        self.graph = graph
+        self.index = index
+
+    # -- the rules
+    @staticmethod
+    def add(x: Any, y: Any) -> Any:
+        if not isinstance(x, Sym) and not isinstance(y, Sym):
+            return float(x) + float(y)
+        if _is(x, 0.0):
+            return y
+        if _is(y, 0.0):
+            return x
+        g = x.graph if isinstance(x, Sym) else y.graph
+        a, b = sorted((x, y), key=_key)
+        return g.node("+", _raw(a), _raw(b))
+
+    @staticmethod
+    def sub(x: Any, y: Any) -> Any:
+        if not isinstance(x, Sym) and not isinstance(y, Sym):
+            return float(x) - float(y)
+        if _is(y, 0.0):
+            return x
+        if _is(x, 0.0):
+            return Sym.neg(y)
+        if isinstance(x, Sym) and isinstance(y, Sym) and x.index == y.index:
+            return 0.0
+        g = x.graph if isinstance(x, Sym) else y.graph
+        return g.node("-", _raw(x), _raw(y))
+
+    @staticmethod
+    def mul(x: Any, y: Any) -> Any:
+        if not isinstance(x, Sym) and not isinstance(y, Sym):
+            return float(x) * float(y)
+        if _is(x, 0.0) or _is(y, 0.0):
+            return 0.0
+        if _is(x, 1.0):
+            return y
+        if _is(y, 1.0):
+            return x
+        if _is(x, -1.0):
+            return Sym.neg(y)
+        if _is(y, -1.0):
+            return Sym.neg(x)
+        g = x.graph if isinstance(x, Sym) else y.graph
+        a, b = sorted((x, y), key=_key)
+        return g.node("*", _raw(a), _raw(b))
+
+    @staticmethod
+    def div(x: Any, y: Any) -> Any:
+        if not isinstance(x, Sym) and not isinstance(y, Sym):
+            return float(x) / float(y)
+        if _is(y, 1.0):
+            return x
+        if _is(x, 0.0):
+            return 0.0
+        g = x.graph if isinstance(x, Sym) else y.graph
+        return g.node("/", _raw(x), _raw(y))
+
+    @staticmethod
+    def neg(x: Any) -> Any:
+        if not isinstance(x, Sym):
+            return -float(x)
+        g = x.graph
+        if g.ops[x.index] == "neg":
+            return Sym(g, g.args[x.index][0])
+        return g.node("neg", x.index)
+
+    # -- Python's operators
+    def __add__(self, o: Any) -> Any:
+        return Sym.add(self, o)
+
+    def __radd__(self, o: Any) -> Any:
+        return Sym.add(o, self)
+
+    def __sub__(self, o: Any) -> Any:
+        return Sym.sub(self, o)
+
+    def __rsub__(self, o: Any) -> Any:
+        return Sym.sub(o, self)
+
+    def __mul__(self, o: Any) -> Any:
+        return Sym.mul(self, o)
+
+    def __rmul__(self, o: Any) -> Any:
+        return Sym.mul(o, self)
+
+    def __truediv__(self, o: Any) -> Any:
+        return Sym.div(self, o)
+
+    def __rtruediv__(self, o: Any) -> Any:
+        return Sym.div(o, self)
+
+    def __neg__(self) -> Any:
+        return Sym.neg(self)
+
+    def __pos__(self) -> Sym:
+        return self
+
+    def __gt__(self, o: Any) -> _Guard:
+        return _Guard(self.graph, self, o)
+
+    def __lt__(self, o: Any) -> _Guard:
+        return _Guard(self.graph, o, self)
+
+    def __bool__(self) -> bool:
+        raise TypeError("freefloat: a branch on a traced value (only comparisons may be traced, as guards)")
+
+    def __eq__(self, o: object) -> bool:
+        raise TypeError("freefloat: == on a traced value (only > and < may be traced, as guards)")
+
+    def __ne__(self, o: object) -> bool:
+        raise TypeError("freefloat: != on a traced value (only > and < may be traced, as guards)")
+
+    __hash__ = None  # type: ignore[assignment]
+
+    def __float__(self) -> float:
+        raise TypeError("freefloat: a traced value has no number")
+
+
+class _Guard:
+    """``a > b`` on a symbol: true while tracing; recorded so that the kernel checks it."""
+
+    def __init__(self, graph: Graph, a: Any, b: Any) -> None:
+        self.graph, self.a, self.b = graph, a, b
+
+    def __bool__(self) -> bool:
+        g = self.graph
+        node = g.node(">", _raw(self.a), _raw(self.b)) if isinstance(self.a, Sym) else g.node(">", float(self.a), _raw(self.b))
+        g.guards.append(node.index)
+        return True
+
+
+def _sqrt(x: Any) -> Any:
+    return x.graph.node("sqrt", x.index) if isinstance(x, Sym) else math.sqrt(x)
+
+
+def _sin(x: Any) -> Any:
+    return x.graph.node("sin", x.index) if isinstance(x, Sym) else math.sin(x)
+
+
+def _cos(x: Any) -> Any:
+    return x.graph.node("cos", x.index) if isinstance(x, Sym) else math.cos(x)
+
+
+#: ``math`` as the traced kernels see it.
+_MATH = types.SimpleNamespace(sqrt=_sqrt, sin=_sin, cos=_cos, isfinite=math.isfinite, pi=math.pi)
+
+
+def _identity(x: Any) -> Any:
+    return x
+
+
+@functools.cache
+def traced() -> types.SimpleNamespace:
+    """The modules :mod:`._recursions` and :mod:`._configuration` loaded again, as plain Python on :class:`Sym` values.
+
+    The same source files are executed as modules of their own; then every kernel name in them is
+    rebound to the kernel's Python function (``py_func``), the views without reference counting to
+    the identity and ``math`` to the shim above: the one source, run by the interpreter instead of
+    numba (nothing is compiled).
+    """
+    here = Path(__file__).parent
+    package = __name__.rpartition(".")[0]
+    loaded: dict[str, types.ModuleType] = {}
+    for name in ("_recursions", "_configuration"):
+        spec = importlib.util.spec_from_file_location(f"{package}._traced{name}", here / f"{name}.py")
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        module.__package__ = package
+        # the source's own imports run first and bind the compiled kernels; rebind them afterwards
+        spec.loader.exec_module(module)
+        for key, value in list(vars(module).items()):
+            py_func = getattr(value, "py_func", None)
+            if py_func is not None:
+                setattr(module, key, py_func)
+        module.math = _MATH  # type: ignore[attr-defined]
+        module.unowned_floats = _identity  # type: ignore[attr-defined]
+        module.unowned_ints = _identity  # type: ignore[attr-defined]
+        loaded[name] = module
+    conf = loaded["_configuration"]
+    for key in vars(conf):  # _configuration's names of _recursions' kernels: the traced ones
+        if key in vars(loaded["_recursions"]) and callable(getattr(loaded["_recursions"], key)):
+            setattr(conf, key, getattr(loaded["_recursions"], key))
+    sys.modules.pop(f"{package}._traced_recursions", None)
+    sys.modules.pop(f"{package}._traced_configuration", None)
+    return types.SimpleNamespace(recursions=loaded["_recursions"], configuration=loaded["_configuration"])

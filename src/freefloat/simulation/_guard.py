@@ -1,0 +1,437 @@
+"""What keeps a simulation from hanging (private): the cost estimate, the stiff-gain check, progress, the divergence guard.
+
+- :func:`estimate_run`: steps, controller samples, outputs, memory and wall time of a run, before it starts.
+- :func:`check_pd_gains`: a sampled joint PD against the stability bound of a zero-order-hold PD on
+  each joint's free-floating effective inertia (:func:`freefloat.mechanics.free_floating_joint_inertia`).
+- :class:`Progress`: a progress bar that appears once a run has lasted ``delay`` seconds, or a callback.
+- :class:`DivergenceGuard`: stops a run whose state grows without bound (see its docstring).
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..core.errors import SimulationError, StiffGainsWarning
+from ..core.model import Model
+from ..mechanics import _engine
+from ..mechanics.momentum import free_floating_joint_inertia, kinetic_energy
+
+__all__ = [
+    "DIVERGENCE_ANGLE",
+    "DivergenceGuard",
+    "Progress",
+    "RunEstimate",
+    "check_pd_gains",
+    "estimate_run",
+    "pd_gain_bounds",
+    "pd_stability",
+]
+
+#: A joint (or the spacecraft) turning more than this many radians within one controller sample or
+#: RK4 step, with the kinetic energy grown tenfold, is a diverging run. A stable sampled PD turns a
+#: joint at most 4 x its angle error per sample (see :func:`pd_gain_bounds`), so 20 rad is never met
+#: by a stable loop, and nothing a sampled controller or an RK4 step computes is meaningful there.
+DIVERGENCE_ANGLE = 20.0
+#: A joint PD (no feed-forward, no reference rate, no external wrench) whose kinetic energy exceeds
+#: this many times what it can supply (the initial kinetic energy + 1/2 sum kp (q0 - q_ref)^2) diverges.
+ENERGY_FACTOR = 100.0
+#: The adaptive integrator's mean step over its last ~100 steps below this fraction of the output
+#: period (or of the duration, if shorter): the step size collapsed (the equations are too stiff for
+#: the method, or the state diverges): a billion steps per recorded state.
+MIN_STEP_FRACTION = 1e-9
+#: Seconds of a running simulation before the automatic progress bar appears.
+PROGRESS_DELAY = 2.0
+#: Per controller sample: the cost assumed for a light Python controller and the recording (s).
+_SAMPLE_COST = 2e-5
+
+
+@dataclass(frozen=True)
+class RunEstimate:
+    """What a run will cost, known before it starts.
+
+    ``steps``: RK4 steps (adaptive: a lower bound, one step per controller sample or output);
+    ``samples``: controller evaluations; ``outputs``: recorded states; ``memory_bytes``: the
+    recorded arrays; ``seconds``: estimated wall time (adaptive: a lower bound, the step count
+    is not known before the run).
+    """
+
+    steps: int
+    samples: int
+    outputs: int
+    memory_bytes: int
+    seconds: float
+    adaptive: bool
+
+    def describe(self) -> str:
+        """One line: steps, samples, outputs, memory and time."""
+        bound = "at least " if self.adaptive else ""
+        return (
+            f"{bound}{self.steps:.3g} steps, {self.samples:.3g} controller samples, {self.outputs:.3g} recorded states "
+            f"({self.memory_bytes / 1e6:.3g} MB), estimated {bound}{_duration(self.seconds)}"
+        )
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 120:
+        return f"{seconds:.2g} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.3g} min"
+    if seconds < 86400 * 365:
+        return f"{seconds / 3600:.3g} h"
+    return f"{seconds / 86400 / 365:.3g} years"
+
+
+_EVAL_COST: dict[tuple[int, int], float] = {}
+
+
+def _derivative_cost(model: Model) -> float:
+    """Seconds per state derivative of ``model`` on this machine (timed once per tree size)."""
+    n = model.n_joints
+    key = (model.n_bodies, n)
+    if key not in _EVAL_COST:
+        stepper = _engine.Stepper(model)
+        x = np.zeros(stepper.size)
+        x[9] = 1.0
+        u = np.zeros(n + 6)
+        out = np.empty_like(x)
+        stepper.derivative(x, u, out)  # compiled and warm
+        start = time.perf_counter()
+        for _ in range(50):
+            stepper.derivative(x, u, out)
+        _EVAL_COST[key] = (time.perf_counter() - start) / 50
+    return _EVAL_COST[key]
+
+
+def estimate_run(
+    model: Model,
+    duration: float,
+    *,
+    fixed_step: float | None = None,
+    sample_period: float | None = None,
+    output_period: float | None = None,
+    controller: bool = True,
+) -> RunEstimate:
+    """Steps, controller samples, outputs, memory and wall time of ``simulate`` with these options (see :class:`RunEstimate`).
+
+    ``controller``: whether a controller is sampled (False: free-floating, no Python per sample).
+    The time is the engine's timed state derivative (4 per RK4 step, 12 per DOP853 step) plus
+    20 us per controller sample and recorded state.
+    """
+    period = output_period or max(0.01, fixed_step or 0.0)
+    outputs = int(duration / period) + 1
+    cost = _derivative_cost(model)
+    if fixed_step is not None:
+        steps = round(duration / fixed_step)
+        samples = round(duration / sample_period) if sample_period else steps
+        seconds = steps * 4 * cost + (samples if controller else 0) * _SAMPLE_COST + outputs * _SAMPLE_COST
+    else:
+        samples = round(duration / sample_period) if sample_period else 0
+        steps = max(samples, outputs)
+        seconds = steps * 12 * cost + samples * _SAMPLE_COST + outputs * _SAMPLE_COST
+    width = 13 + 2 * model.n_joints + model.n_joints + 7
+    return RunEstimate(int(steps), int(samples), int(outputs), int(outputs * width * 8), float(seconds), fixed_step is None)
+
+
+def pd_gain_bounds(inertia: Any, period: float, kd: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Largest stable gains of a PD sampled every ``period`` (zero-order hold) on a free inertia m.
+
+    For m q'' = u, u_k = -kp q_k - kd q'_k held over [kh, (k+1)h), the exact discrete map has
+    trace 2 - a/2 - b and determinant 1 - b + a/2 with a = kp h^2/m, b = kd h/m; the Jury
+    conditions give 0 < kd < 2 m / h and 0 < kp < 2 kd / h. Returns (kd_max, kp_max) with kp_max
+    for the given kd, or for kd_max where kd is above it.
+    """
+    m = np.asarray(inertia, dtype=float)
+    kd_max = 2.0 * m / period
+    kd_eff = np.minimum(np.asarray(kd, dtype=float), kd_max)
+    return kd_max, 2.0 * kd_eff / period
+
+
+def _sampled_pd_map(inertia: np.ndarray, kp: np.ndarray, kd: np.ndarray, period: float) -> np.ndarray:
+    """The exact one-sample map of M q'' = u, u held at -kp q_k - kd q'_k, on the state (q, q') (2N x 2N)."""
+    n = inertia.shape[0]
+    h, eye = period, np.eye(n)
+    a_p = np.linalg.solve(inertia, np.diag(kp))
+    a_d = np.linalg.solve(inertia, np.diag(kd))
+    return np.block([[eye - 0.5 * h * h * a_p, h * eye - 0.5 * h * h * a_d], [-h * a_p, eye - h * a_d]])
+
+
+def pd_stability(model: Model, kp: Any, kd: Any, q0: Any, period: float) -> tuple[float, float, int]:
+    """The sampled joint PD, all joints together, linearised at the angles ``q0`` (zero rates, spacecraft free).
+
+    Returns (spectral radius of the one-sample map, largest factor s <= 4 such that s kp, s kd is
+    stable (radius < 1), the joint that moves most in the least stable mode). The radius is below 1
+    exactly when the linearised sampled loop is stable; the coupling of the joints through the
+    free-floating inertia makes it stricter than the per-joint bounds of :func:`pd_gain_bounds`.
+    """
+    n = model.n_joints
+    m = free_floating_joint_inertia(model, np.asarray(q0, dtype=float))
+    kp_n = np.broadcast_to(np.asarray(kp, dtype=float), (n,))
+    kd_n = np.broadcast_to(np.asarray(kd, dtype=float), (n,))
+
+    def radius(scale: float) -> tuple[float, np.ndarray]:
+        values, vectors = np.linalg.eig(_sampled_pd_map(m, scale * kp_n, scale * kd_n, period))
+        worst = int(np.argmax(np.abs(values)))
+        return float(np.abs(values[worst])), np.abs(vectors[:n, worst])
+
+    rho, mode = radius(1.0)
+    lo, hi = 0.0, 4.0
+    if radius(hi)[0] < 1.0:
+        lo = hi
+    else:
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if radius(mid)[0] < 1.0 else (lo, mid)
+    return rho, lo, int(np.argmax(mode))
+
+
+def check_pd_gains(model: Model, controller: Any, q0: np.ndarray, period: float | None) -> list[str]:
+    """Warn (:class:`StiffGainsWarning`) where a :class:`~freefloat.JointPD` sampled every ``period`` is unstable.
+
+    Two tests, at the initial angles ``q0`` with the spacecraft free: each joint against
+    :func:`pd_gain_bounds` on its effective inertia (the diagonal of
+    :func:`~freefloat.mechanics.free_floating_joint_inertia`), and all joints together
+    (:func:`pd_stability`). Returns the messages (one per offending joint, then the coupled one).
+    """
+    from .pd import JointPD
+
+    if not isinstance(controller, JointPD) or period is None or model.n_joints == 0:
+        return []
+    n = model.n_joints
+    try:
+        kp = np.broadcast_to(np.asarray(controller.kp, dtype=float), (n,))
+        kd = np.broadcast_to(np.asarray(controller.kd, dtype=float), (n,))
+    except ValueError:
+        return []  # gains per trajectory of a batch, or that do not broadcast: the controller call reports them
+    m = np.diagonal(free_floating_joint_inertia(model, q0))
+    kd_max, kp_max = pd_gain_bounds(m, period, kd)
+    lines = []
+    for i in np.argsort(m):
+        if kd[i] >= kd_max[i] or kp[i] >= kp_max[i]:
+            lines.append(
+                f"joint {model.joint_names[i]!r} (effective inertia {m[i]:.3g} kg m^2, spacecraft free): "
+                f"kp = {kp[i]:.3g}, kd = {kd[i]:.3g}; stable needs kd < {kd_max[i]:.3g} N m s/rad and kp < {kp_max[i]:.3g} N m/rad"
+            )
+    rho, scale, joint = pd_stability(model, kp, kd, q0, period)
+    if rho >= 1.0:
+        lines.append(
+            f"all joints together (coupled through the free-floating inertia, linearised at the initial angles) grow by "
+            f"{rho:.3g} per sample, mostly joint {model.joint_names[joint]!r}; gains times {scale:.3g} or less are stable"
+        )
+    if lines:
+        warnings.warn(
+            f"JointPD sampled every {period:.3g} s is unstable: " + "; ".join(lines) + ". Lower the gains below these bounds "
+            "(half of them leaves a margin) or sample faster; the run will diverge.",
+            StiffGainsWarning,
+            stacklevel=3,
+        )
+    return lines
+
+
+class Progress:
+    """Progress of a run: ``mode`` True (a bar at once), None (a bar once the run has lasted
+    :data:`PROGRESS_DELAY` s), False (none), or a callable ``callback(t, duration)`` called each
+    time the simulated time has advanced by 1 % of the duration, and at the end. :meth:`update`
+    is cheap (a clock read) between redraws."""
+
+    def __init__(self, mode: bool | Callable[[float, float], Any] | None, duration: float) -> None:
+        self.callback = mode if callable(mode) else None
+        self.enabled = mode is not False
+        self.delay = 0.0 if mode is True else PROGRESS_DELAY
+        self.duration = duration
+        self.start = time.perf_counter()
+        self.last = 0.0
+        self.next_t = 0.0
+        self.bar: Any = None
+
+    def update(self, t: float) -> None:
+        """Report simulated time ``t`` (s)."""
+        if not self.enabled:
+            return
+        if self.callback is not None:
+            if t >= self.next_t or t >= self.duration:
+                self.next_t = t + 0.01 * self.duration
+                self.callback(float(t), self.duration)
+            return
+        now = time.perf_counter()
+        if now - self.last < 0.1:
+            return
+        self.last = now
+        if self.bar is None:
+            if now - self.start < self.delay:
+                return
+            from rich.console import Console
+            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+            self.bar = Progress(
+                TextColumn("simulating"),
+                BarColumn(),
+                TextColumn("t = {task.completed:.4g} / {task.total:.4g} s"),
+                TimeElapsedColumn(),
+                TimeRemainingColumn(),
+                console=Console(stderr=True),
+                transient=True,
+            )
+            self.bar.start()
+            self.bar.add_task("simulating", total=self.duration)
+        self.bar.update(self.bar.task_ids[0], completed=float(t))
+
+    def close(self) -> None:
+        """Remove the bar (if one appeared)."""
+        if self.bar is not None:
+            self.bar.stop()
+            self.bar = None
+
+
+class DivergenceGuard:
+    """Stops a run whose state grows without bound, with a :class:`SimulationError` that names the joint.
+
+    Three tests:
+
+    - **growth**: the fastest joint (or the spacecraft) turns more than :data:`DIVERGENCE_ANGLE`
+      rad within one controller sample (or RK4 step) ``h`` while the kinetic energy has grown
+      more than tenfold from its initial value: no stable loop does that (a stable sampled PD
+      turns a joint at most 4x its error per sample), and nothing sampled that fast means
+      anything. Checked at every controller sample and output, and inside adaptive steps.
+    - **energy** (a :class:`~freefloat.JointPD` without feed-forward, reference rate or external
+      wrenches): the kinetic energy exceeds :data:`ENERGY_FACTOR` times the energy the PD can
+      supply, ``budget`` = initial kinetic energy + 1/2 sum kp (q0 - q_ref)^2 (a stable PD only
+      loses energy; its sampled version gains a bounded fraction).
+    - **step collapse** (adaptive integrators): the mean step over the last ~100 steps falls
+      below :data:`MIN_STEP_FRACTION` of ``resolution`` (the output period, or the duration if shorter).
+    """
+
+    def __init__(
+        self,
+        model: Model,
+        x0: np.ndarray,
+        resolution: float,
+        h: float | None,
+        what: str,
+        enabled: bool = True,
+        controller: Any = None,
+    ) -> None:
+        self.model = model
+        self.n = model.n_joints
+        self.h = h
+        self.what = what
+        self.enabled = enabled
+        self.energy0 = self._energy(x0)
+        self.budget = self._pd_budget(controller, x0)
+        self.min_step = MIN_STEP_FRACTION * resolution
+        self.evals = 0
+        self.window_t: list[float] = []
+        self.rate_checked = -1.0
+
+    def _pd_budget(self, controller: Any, x0: np.ndarray) -> float | None:
+        from .pd import JointPD
+
+        if not isinstance(controller, JointPD) or controller.feedforward is not None or np.any(np.asarray(controller.qdot_ref) != 0):
+            return None
+        n = self.n
+        try:
+            kp = np.broadcast_to(np.asarray(controller.kp, dtype=float), (n,))
+            error = np.broadcast_to(np.asarray(controller.q_ref, dtype=float), (n,)) - x0[13 : 13 + n]
+        except ValueError:
+            return None
+        return self.energy0 + 0.5 * float(np.sum(np.abs(kp) * error**2))
+
+    def _energy(self, x: np.ndarray) -> float:
+        n = self.n
+        velocity = np.concatenate([x[3:6], x[10:13], x[13 + n :]])
+        return float(kinetic_energy(self.model, x[13 : 13 + n], velocity))
+
+    def _rates_grew(self, x: np.ndarray) -> bool:
+        """Whether the fastest rate is 1.2x the one at the last energy test (the kinetic energy, an H+ evaluation,
+        cannot have grown much without the rates growing: it is tested then, not at every step)."""
+        rate = max(float(np.abs(x[10 + 3 + self.n :]).max(initial=0.0)), float(np.abs(x[10:13]).max()), float(np.abs(x[3:6]).max()))
+        if rate <= 1.2 * self.rate_checked:
+            return False
+        self.rate_checked = rate
+        return True
+
+    def _fastest(self, x: np.ndarray) -> tuple[str, float]:
+        n = self.n
+        rates = np.abs(x[13 + n :])
+        spin = float(np.linalg.norm(x[10:13]))
+        if n and rates.max() >= spin:
+            i = int(np.argmax(rates))
+            return f"joint {self.model.joint_names[i]!r}", float(rates[i])
+        return "the spacecraft", spin
+
+    @property
+    def rate_limit(self) -> float:
+        """The joint rate (rad/s) above which :meth:`check` must look (inf: never)."""
+        return DIVERGENCE_ANGLE / self.h if self.enabled and self.h else float("inf")
+
+    def quiet(self, values: list[float]) -> bool:
+        """True when the flat state ``values`` (a list: plain floats are cheaper than numpy for a few joints)
+        cannot fail :meth:`check`: no energy test to make and every rate too slow for the growth test."""
+        if not self.enabled or self.h is None:
+            return True
+        if self.budget is not None:
+            return False
+        rates, spin = values[13 + self.n :], values[10:13]
+        bound = max(max(rates, default=0.0), -min(rates, default=0.0), 1.7320508075688772 * max(max(spin), -min(spin)))
+        return bound * self.h <= DIVERGENCE_ANGLE
+
+    def check(self, t: float, x: np.ndarray) -> None:
+        """Raise if the state at ``t`` has grown without bound (the growth and energy tests)."""
+        if not self.enabled:
+            return
+        if self.budget is not None and self.budget > 0 and self._rates_grew(x):
+            energy = self._energy(x)
+            if energy > ENERGY_FACTOR * self.budget:
+                who, rate = self._fastest(x)
+                raise SimulationError(
+                    f"the simulation diverged at t = {t:.6g} s: the kinetic energy is {energy:.3g} J, over {ENERGY_FACTOR:g} times "
+                    f"the {self.budget:.3g} J the joint PD can supply (initial kinetic energy + 1/2 sum kp (q0 - q_ref)^2); "
+                    f"fastest: {who} at {rate:.3g} rad/s. The sampled PD is unstable: lower the gains (see StiffGainsWarning) "
+                    "or shorten the sample period"
+                )
+        if self.h is None:
+            return
+        # fast path, every step: a bound on the fastest rate in plain floats (the spin norm <= sqrt(3) max |omega_i|)
+        rates, spin = x[13 + self.n :].tolist(), x[10:13].tolist()
+        bound = max(max(rates, default=0.0), -min(rates, default=0.0), 1.7320508075688772 * max(max(spin), -min(spin)))
+        if bound * self.h <= DIVERGENCE_ANGLE:
+            return
+        who, rate = self._fastest(x)
+        if rate * self.h <= DIVERGENCE_ANGLE:
+            return
+        energy = self._energy(x)
+        if energy <= 10.0 * self.energy0:
+            return
+        raise SimulationError(
+            f"the simulation diverged at t = {t:.6g} s: {who} turns at {rate:.3g} rad/s, {rate * self.h:.3g} rad per "
+            f"{self.what} of {self.h:.3g} s, and the kinetic energy grew from {self.energy0:.3g} J to {energy:.3g} J. "
+            "The sampled controller is unstable or the step too long: lower the gains (see StiffGainsWarning) "
+            "or shorten the sample period / step"
+        )
+
+    def tick(self, t: float, y: np.ndarray) -> None:
+        """Called at each right-hand-side evaluation of an adaptive integrator: both tests, every 64 calls."""
+        if not self.enabled:
+            return
+        self.evals += 1
+        if self.evals % 64:
+            return
+        self.check(t, y)
+        self.window_t.append(t)
+        if len(self.window_t) < 20:  # 20 x 64 evaluations: about 100 steps of DOP853 (12 per step)
+            return
+        span = max(self.window_t) - min(self.window_t)
+        self.window_t.clear()
+        mean_step = span / (20 * 64 / 12)
+        if mean_step < self.min_step:
+            who, rate = self._fastest(y)
+            raise SimulationError(
+                f"the adaptive step collapsed to {mean_step:.3g} s at t = {t:.6g} s (fastest: {who} at {rate:.3g} rad/s): "
+                "the equations are too stiff for this integrator or the state diverges; use fixed_step (RK4) with a "
+                "short step, lower the gains, or check the model's small inertias"
+            )

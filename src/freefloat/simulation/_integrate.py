@@ -1,0 +1,440 @@
+"""The integration loops behind :func:`freefloat.simulate` and :func:`freefloat.rollout` (private).
+
+The state derivative and RK4 steps are the engine's (:mod:`freefloat.mechanics._engine`,
+one compiled call per run of steps); here are the fixed-step
+and adaptive (scipy ``solve_ivp``) loops, events, and the recorder that turns
+the flat states into a :class:`~freefloat.Trajectory`. The flat state is
+``x = [r_cm, v_cm, attitude (x, y, z, w), omega, q, qdot]`` (see
+:mod:`freefloat.core.state`).
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Callable, Iterator, Sequence
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from ..core.errors import ShapeError, SimulationError
+from ..core.model import Model
+from ..core.state import unpack_state
+from ..mechanics import _engine
+from ..mechanics.forces import _engine_wrenches, _wrenches
+from .trajectory import Trajectory
+
+
+def _engine_inputs(model: Model, external: Any) -> tuple[np.ndarray, np.ndarray]:
+    """External wrenches (constant; forces and couples (3,)) as the engine takes them."""
+    ext_i, ext_f = _engine_wrenches(model, _wrenches(external))
+    if ext_f.ndim != 2:
+        raise ShapeError(f"external: a simulation takes constant wrenches (force and torque of shape (3,)), got {ext_f.shape[:-2]} batches")
+    return ext_i, ext_f
+
+
+def _u(model: Model, tau: np.ndarray, force: np.ndarray, torque: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """out = [tau, f_S, n_S] (..., N + 6)."""
+    n = model.n_joints
+    out[..., :n], out[..., n : n + 3], out[..., n + 3 :] = tau, force, torque
+    return out
+
+
+def _rhs(model: Model, external: Any) -> Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
+    """The state derivative ``f(x, tau, force, torque)`` of one state (the engine, one compiled call)."""
+    stepper = _engine.Stepper(model, _engine_inputs(model, external))
+    u = np.zeros(model.n_joints + 6)
+
+    def derivative(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
+        out = np.empty(stepper.size)
+        if not stepper.derivative(np.ascontiguousarray(x, dtype=float), _u(model, tau, force, torque, u), out):
+            raise SimulationError("H+ (1991 eq. 15) is not positive definite at this state: the mass properties are not physical")
+        return out
+
+    return derivative
+
+
+def _stepper(model: Model, dt: float, external: Any) -> Callable[..., np.ndarray]:
+    """One RK4 step of a batch of states ``step(x (B, S), tau, force, torque) -> new x`` (the engine, threads across B)."""
+    ext = _engine_inputs(model, external)
+
+    def step(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
+        u = _u(model, tau, force, torque, np.empty((*x.shape[:-1], model.n_joints + 6)))
+        return _engine.rk4_batch(model, x, u, dt, 1, ext)
+
+    return step
+
+
+class _Recorder:
+    def __init__(self, model: Model) -> None:
+        self.model = model
+        self.t: list[float] = []
+        self.x: list[np.ndarray] = []
+        self.act: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+
+    def add(self, t: float, x: np.ndarray, act: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> None:
+        self.t.append(float(t))
+        x = x.copy()
+        x[..., 6:10] /= np.linalg.norm(x[..., 6:10], axis=-1, keepdims=True)
+        self.x.append(x)
+        self.act.append(act)
+
+    def trajectory(self, status: str = "finished", message: str = "") -> Trajectory:
+        model = self.model
+        n = model.n_joints
+        if self.x:
+            xs = np.stack(self.x)
+            acts = [np.stack([a[i] for a in self.act]) for i in range(4)]
+        else:
+            xs = np.zeros((0, 13 + 2 * n))
+            acts = [np.zeros((0, n)), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0,), dtype=bool)]
+        return _trajectory(model, np.asarray(self.t), xs, (acts[0], acts[1], acts[2], acts[3]), status, message)
+
+
+def _trajectory(
+    model: Model,
+    t: np.ndarray,
+    xs: np.ndarray,
+    acts: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    status: str = "finished",
+    message: str = "",
+    *,
+    copy: bool = True,
+) -> Trajectory:
+    """A Trajectory from stacked flat states xs (T, ..., S) and actuation.
+
+    ``copy=False`` keeps the fields as views of ``xs`` (for the large arrays of
+    batched rollouts, which nothing else holds); otherwise each field gets its own array.
+    """
+    s = unpack_state(model, xs)
+    own = np.array if copy else np.asarray
+    return Trajectory(
+        t=t,
+        q=own(s.q),
+        qdot=own(s.qdot),
+        omega=own(s.omega),
+        attitude=own(s.attitude),
+        r_cm=own(s.r_cm),
+        v_cm=own(s.v_cm),
+        joint_torque=own(acts[0]),
+        spacecraft_force=own(acts[1]),
+        spacecraft_torque=own(acts[2]),
+        saturated=own(acts[3]),
+        status=status,
+        message=message,
+        model_name=model.name,
+        model=model,
+    )
+
+
+def _check_finite(t: float, x: np.ndarray) -> None:
+    with np.errstate(over="ignore", invalid="ignore"):
+        total = float(x.dot(x)) if x.ndim == 1 else float(x.sum())
+    if total - total != 0.0 and not np.isfinite(x).all():  # NaN and inf propagate into the sum (overflow: checked in full)
+        raise SimulationError(f"the state became non-finite at t = {t:.6g} s (unstable controller or too large a step?)")
+
+
+def _guarded(guard: Any, rec: _Recorder, t: float, x: np.ndarray, act: Any) -> None:
+    """The divergence guard at (t, x); a diverged state is recorded (finite, it shows the growth) before the error."""
+    try:
+        guard.check(t, x)
+    except SimulationError:
+        if not rec.t or rec.t[-1] != t:
+            rec.add(t, x, act)
+        raise
+
+
+def _event_value(events: Sequence[Any], model: Model, t: float, x: np.ndarray) -> np.ndarray:
+    return np.array([_event(ev, model, t, x) for ev in events])
+
+
+def _event(ev: Any, model: Model, t: float, x: np.ndarray) -> float:
+    try:
+        return float(ev(t, unpack_state(model, x)))
+    except Exception as exc:
+        raise SimulationError(f"event {getattr(ev, '__name__', ev)!r} raised {type(exc).__name__} at t = {t:.6g} s: {exc}") from exc
+
+
+def _run_rk4(
+    model: Model,
+    x0: np.ndarray,
+    duration: float,
+    dt: float,
+    sample_period: float | None,
+    period: float,
+    command: Any,
+    events: Sequence[Any],
+    external: Any,
+    rec: _Recorder,
+    bar: Any,
+    guard: Any,
+    stops: Any,
+) -> tuple[str, str]:
+    """Fixed-step RK4 on the engine, in place: runs of steps between samples, outputs and events go without Python.
+
+    With joint stops, a run of steps that ends beyond a limit is redone step by step and the stop
+    acts at the end of the step that crossed (:mod:`._stops`).
+    """
+    steps = round(duration / dt)  # simulate() checked that dt divides the duration
+    stepper = _engine.Stepper(model, _engine_inputs(model, external))
+    n = model.n_joints
+    # the compiled steps stop where Python must look: a joint beyond a stop, a rate the guard must test
+    quiet_guard = guard.budget is None  # no per-step energy test: the rate test is the kernel's
+    rate = guard.rate_limit if quiet_guard else np.inf
+    stepper.watch(rate, stops.lower if stops.active else None, stops.upper if stops.active else None)
+    # sample instants: every step without a sample period, else the steps nearest k * sample_period
+    next_sample_time = sample_period or dt
+    stride = max(1, round(period / dt))
+    x = np.array(x0, dtype=float, order="C")
+    x[6:10] /= np.linalg.norm(x[6:10])
+    u = np.empty(n + 6)
+    act = command(0.0, x)
+    _u(model, act[0], act[1], act[2], u)
+    rec.add(0.0, x, act)
+    prev_ev = _event_value(events, model, 0.0, x) if events else None
+    i = 0
+    while i < steps:
+        if events or sample_period is None:
+            todo = 1
+        else:
+            to_sample = max(1, round(next_sample_time / dt) - i)
+            todo = min(to_sample, stride - i % stride, steps - i)
+        done = stepper.rk4(x, u, dt, todo)  # the kernel checks that x stays finite, and watches it
+        reason = stepper.reason
+        if done != todo and not reason:
+            i += abs(done)
+            t = i * dt
+            _check_finite(t, x)
+            raise SimulationError(f"H+ (1991 eq. 15) is not positive definite at t = {t:.6g} s: the mass properties are not physical")
+        if reason & 2:  # the step that crossed a limit: the stop acts at its end
+            stops.apply((i + done) * dt, x)
+        i += done
+        t = i * dt
+        if reason or not quiet_guard:
+            _guarded(guard, rec, t, x, act)
+        if done != todo:  # stopped early to look: go on to the planned sample or output
+            continue
+        if i < steps and (sample_period is None or t >= next_sample_time - 1e-9 * dt):
+            act = command(t, x.copy())  # a copy: x is advanced in place, the controller may keep its state
+            _u(model, act[0], act[1], act[2], u)
+            if sample_period is not None:
+                next_sample_time += sample_period
+        if i % stride == 0 or i == steps:
+            rec.add(t, x, act)
+        bar.update(t)
+        if events:
+            now = _event_value(events, model, t, x)
+            for k, ev in enumerate(events):
+                direction = getattr(ev, "direction", 0)
+                crossed = (prev_ev[k] < 0 <= now[k] and direction >= 0) or (prev_ev[k] > 0 >= now[k] and direction <= 0)  # type: ignore[index]
+                if crossed and getattr(ev, "terminal", True):
+                    if rec.t[-1] != t:
+                        rec.add(t, x, act)
+                    return "event", f"event {k} ({getattr(ev, '__name__', 'event')}) at t = {t:.6g} s"
+            prev_ev = now
+    return "finished", ""
+
+
+def _pieces(duration: float, sample_period: float | None, period: float) -> Iterator[tuple[float, float]]:
+    """The integration pieces (a, b), each one a restart of the integrator: between sample instants
+    k * sample_period (no accumulated rounding); without a sample period, pieces that double from 1 %
+    of the duration (1, 2, 4, ... %: few restarts, and Ctrl-C keeps all but the last piece), each at
+    most 10,000 output periods long. Lazy: a run of 1e12 samples costs no memory up front."""
+    if sample_period is not None:
+        count = int(np.ceil(duration / sample_period - 1e-9))
+        for k in range(count):
+            yield k * sample_period, (k + 1) * sample_period if k + 1 < count else duration
+        return
+    a, length, longest = 0.0, 0.01 * duration, 1e4 * period
+    while a < duration:
+        b = a + min(length, longest)
+        if b >= duration * (1.0 - 1e-9):
+            b = duration
+        yield a, b
+        a, length = b, 2.0 * length
+
+
+def _outputs_in(a: float, b: float, period: float, n_out: int, extra: float | None) -> np.ndarray:
+    """Output instants k * period (k <= n_out) in (a, b], and ``extra`` (the duration) if it is in there."""
+    k_lo = max(0, int(np.floor((a + 1e-12) / period)) - 1)
+    k_hi = min(n_out, int(np.floor((b + 1e-12) / period)) + 1)
+    grid = np.arange(k_lo, k_hi + 1) * period
+    if extra is not None:
+        grid = np.append(grid, extra)
+    return grid[(grid > a + 1e-12) & (grid <= b + 1e-12)]
+
+
+def _run_adaptive(
+    model: Model,
+    x0: np.ndarray,
+    duration: float,
+    method: str,
+    rtol: float,
+    atol: float,
+    sample_period: float | None,
+    period: float,
+    command: Any,
+    events: Sequence[Any],
+    external: Any,
+    rec: _Recorder,
+    bar: Any,
+    guard: Any,
+    stops: Any,
+) -> tuple[str, str]:
+    """Adaptive integration (scipy ``solve_ivp``) piece by piece between controller samples.
+
+    With joint stops, the pieces end at every output instant too, terminal events locate each
+    crossing of a limit (the stop acts there and the piece goes on), and a joint resting on its
+    stop is put back on it at the end of each piece (:mod:`._stops`).
+    """
+    n_out = int(np.floor(duration / period + 1e-9))
+    end_extra = n_out * period < duration - 1e-12  # the duration is an output instant of its own
+    derivative = _rhs(model, external)
+    ivp_events = []
+    for ev in events:
+
+        def wrapped(t: float, y: np.ndarray, ev: Any = ev) -> float:
+            return _event(ev, model, t, y)
+
+        wrapped.terminal = getattr(ev, "terminal", True)  # type: ignore[attr-defined]
+        wrapped.direction = getattr(ev, "direction", 0)  # type: ignore[attr-defined]
+        ivp_events.append(wrapped)
+    x = x0.copy()
+    held = command(0.0, x) if sample_period is not None else None
+    rec.add(0.0, x, held if held is not None else command(0.0, x))
+    for a, b in _pieces(duration, sample_period, period):
+        if stops.active:  # a resting joint is put back on its stop at the end of each piece: end them at the outputs too
+            cuts = [float(c) for c in _outputs_in(a, b, period, n_out, duration if end_extra else None) if c < b - 1e-12]
+            bounds = [a, *cuts, b]
+        else:
+            bounds = [a, b]
+        outputs = (period, n_out, duration, end_extra)
+        status = _adaptive_piece(
+            model, bounds, x, held, command, derivative, guard, method, rtol, atol, ivp_events, stops, rec, outputs, bar
+        )
+        x, held = status[1], status[2]
+        bar.update(b)
+        if status[0]:
+            return "event", status[0]
+    return "finished", ""
+
+
+def _adaptive_piece(
+    model: Model,
+    bounds: list[float],
+    x: np.ndarray,
+    held: Any,
+    command: Any,
+    derivative: Any,
+    guard: Any,
+    method: str,
+    rtol: float,
+    atol: float,
+    ivp_events: list[Any],
+    stops: Any,
+    rec: _Recorder,
+    outputs: tuple[float, int, float, bool],
+    bar: Any,
+) -> tuple[str, np.ndarray, Any]:
+    """One controller sample (held actuation) over ``bounds``; returns (event message or "", end state, next actuation).
+
+    ``outputs`` = (output period, number of outputs, duration, whether the duration is an extra output).
+    """
+    period, n_out, duration, end_extra = outputs
+    b_end = bounds[-1]
+    for a, b in itertools.pairwise(bounds):
+
+        def rhs(t: float, y: np.ndarray, held: Any = held) -> np.ndarray:
+            guard.tick(t, y)
+            bar.update(t)  # progress inside a piece (a clock read between redraws)
+            tau, force, torque, _ = held if held is not None else command(t, y)
+            return derivative(y, tau, force, torque)
+
+        inside = _outputs_in(a, b, period, n_out, duration if end_extra else None)
+        # always evaluate at b too: the next piece starts from the state there
+        t_eval = inside if inside.size and inside[-1] >= b - 1e-12 else np.append(inside, b)
+        t_eval[-1] = b
+        sol = _solve(rhs, a, b, x, t_eval, method, rtol, atol, ivp_events, stops)
+        if sol.status == -1:
+            raise SimulationError(f"integrator failed between t = {a:.6g} and {b:.6g} s: {sol.message}")
+        x = sol.y[:, -1] if sol.y.shape[1] else x
+        _check_finite(float(sol.t[-1]) if sol.t.size else a, x)
+        _guarded(guard, rec, float(sol.t[-1]) if sol.t.size else a, x, held if held is not None else command(b, x))
+        # the actuation recorded at a sample instant is the one applied from there on
+        last = sol.status == 0 and b >= b_end and b < duration - 1e-12 * duration
+        new_held = command(b, x) if held is not None and last else held
+        for k, tk in enumerate(sol.t[: inside.size]):
+            _check_finite(float(tk), sol.y[:, k])
+            act = held if held is None or tk < b - 1e-12 else new_held
+            rec.add(float(tk), sol.y[:, k], act if act is not None else command(float(tk), sol.y[:, k]))
+        held = new_held
+        if sol.status == 1:
+            hit = [k for k, te in enumerate(sol.t_events) if len(te)]
+            t_ev = float(sol.t_events[hit[0]][0])
+            y_ev = sol.y_events[hit[0]][0]
+            rec.add(t_ev, y_ev, held if held is not None else command(t_ev, y_ev))
+            return f"event {hit[0]} at t = {t_ev:.6g} s", x, held
+    return "", x, held
+
+
+def _stop_events(model: Model, stops: Any) -> list[Any]:
+    """Terminal events at each finite limit of the joints not resting on a stop (upper: rising, lower: falling)."""
+    found = []
+    for i in range(model.n_joints):
+        if i in stops.resting:
+            continue
+        for limit, direction in ((stops.upper[i], 1.0), (stops.lower[i], -1.0)):
+            if np.isfinite(limit):
+
+                def crossing(t: float, y: np.ndarray, index: int = 13 + i, limit: float = float(limit)) -> float:
+                    return float(y[index] - limit)
+
+                crossing.terminal = True  # type: ignore[attr-defined]
+                crossing.direction = direction  # type: ignore[attr-defined]
+                crossing.joint = i  # type: ignore[attr-defined]
+                found.append(crossing)
+    return found
+
+
+def _solve(
+    rhs: Any, a: float, b: float, x: np.ndarray, t_eval: np.ndarray, method: str, rtol: float, atol: float, events: list[Any], stops: Any
+) -> Any:
+    """``solve_ivp`` over (a, b); with joint stops, restarted at each crossing of a limit after the stop acted there."""
+    if not stops.active:
+        return solve_ivp(rhs, (a, b), x, method=method, rtol=rtol, atol=atol, t_eval=t_eval, events=events or None)
+    ts: list[float] = []
+    ys: list[np.ndarray] = []
+    t0, y0 = a, x
+    while True:
+        stops.release(y0)
+        limits = _stop_events(stops.model, stops)
+        todo = t_eval[t_eval > t0 + 1e-12 * max(1.0, abs(t0))]
+        sol = solve_ivp(rhs, (t0, b), y0, method=method, rtol=rtol, atol=atol, t_eval=todo, events=[*events, *limits] or None)
+        if sol.status == -1:
+            return sol
+        ts += [float(t) for t in np.asarray(sol.t)]
+        ys += [np.asarray(sol.y)[:, k].copy() for k in range(len(sol.t))]
+        hits = [k for k, te in enumerate(sol.t_events or []) if len(te)] if sol.status == 1 else []
+        if hits and hits[0] < len(events):  # a user's event: stop there
+            return SimpleNamespace(
+                status=1, message=sol.message, t=np.array(ts), y=np.stack(ys, axis=1), t_events=sol.t_events[: len(events)],
+                y_events=sol.y_events[: len(events)],
+            )  # fmt: skip
+        if not hits:
+            break
+        t_hit = float(sol.t_events[hits[0]][0])
+        joint = limits[hits[0] - len(events)].joint
+        if t_hit <= t0 + 1e-12 * max(1.0, abs(t0)):  # no progress: a bounce shorter than a step, at the limit
+            stops.resting.add(joint)  # on its stop until the piece ends (put back there)
+        t0, y0 = t_hit, sol.y_events[hits[0]][0].copy()
+        stops.apply(t0, y0, joints=[joint])
+        if b - t0 <= 1e-12 * max(1.0, abs(b)):
+            ts.append(b)
+            ys.append(y0)
+            break
+    end = ys[-1].copy()
+    if stops.beyond(end):  # a joint resting on its stop: back on it at the end of the piece
+        stops.apply(b, end)
+        ys[-1] = end
+    return SimpleNamespace(status=0, message="", t=np.array(ts), y=np.stack(ys, axis=1), t_events=None, y_events=None)

@@ -1,0 +1,440 @@
+"""Simulation with controllers in the loop: ``simulate`` (one run) and ``rollout`` (a batch).
+
+The state is integrated in the paper's coordinates (1991 eq. 19): the system
+CM position and velocity (inertial), the spacecraft attitude quaternion
+[x, y, z, w] with dq/dt = 1/2 q ⊗ [omega0, 0] (omega0 in the spacecraft frame),
+omega0, q and qdot. Accelerations come from :func:`freefloat.forward_dynamics`.
+
+Integrators: an adaptive one from scipy (``solve_ivp``, default DOP853 with
+tolerances exposed), or fixed-step classical RK4 (``fixed_step=dt``), which is
+also what batched rollouts use (scipy has no batched fixed-step integrator).
+After each RK4 step the quaternion is renormalised (a projection onto unit
+quaternions, of the order of the local truncation error).
+
+A controller is a callable ``controller(t, state) -> joint torques (N,) or
+Actuation``. With ``sample_period`` it is sampled and held (zero-order hold);
+without it, it is evaluated continuously (adaptive) or once per step (RK4).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import warnings
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..core.errors import FreefloatError, LongRunWarning, ShapeError, SimulationError
+from ..core.model import Model
+from ..core.state import Actuation, ActuatorLimits, State, pack_state, unpack_state
+from ..mechanics import _engine
+from ._guard import PROGRESS_DELAY, DivergenceGuard, Progress, _derivative_cost, check_pd_gains, estimate_run
+from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory
+from ._stops import JointStops, limit_violations
+from .pd import JointPD
+from .trajectory import Trajectory
+
+__all__ = ["ActuatorLimits", "SimulationError", "rollout", "simulate"]
+
+Controller = Callable[[float, State], Any]
+
+#: The adaptive integrators of ``scipy.integrate.solve_ivp`` that ``simulate(method=...)`` accepts.
+METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
+
+
+def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Controller output -> (tau, f_S, n_S) arrays, with errors that name what is wrong."""
+    n = model.n_joints
+    if raw is None:
+        raise TypeError(f"controller returned None; return joint torques of shape {(*batch, n)} or a freefloat.Actuation")
+    if isinstance(raw, np.ndarray) and raw.shape == (*batch, n) and raw.dtype == np.float64:
+        total = float(raw.dot(raw)) if raw.ndim == 1 else float(raw.sum())
+        if total - total == 0.0:  # finite (NaN and inf propagate): the fast path of plain torques
+            zeros = _zeros(batch)
+            return raw, zeros, zeros
+    if not isinstance(raw, Actuation):
+        raw = Actuation(joint_torque=raw)
+    parts = []
+    for name, size, what in (
+        ("joint_torque", n, f"one torque per joint: {', '.join(model.joint_names) or 'none'}"),
+        ("spacecraft_force", 3, "thruster force, spacecraft frame"),
+        ("spacecraft_torque", 3, "thruster torque, spacecraft frame"),
+    ):
+        value = getattr(raw, name)
+        if value is None:
+            parts.append(np.zeros((*batch, size)))
+            continue
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise TypeError(f"controller returned a {name} that is not numbers: {value!r}") from exc
+        if arr.shape != (*batch, size):
+            raise ShapeError(f"controller returned {name} of shape {arr.shape}; expected {(*batch, size)} ({what})")
+        if not np.isfinite(arr).all():
+            raise ValueError(f"controller returned a non-finite {name}: {arr}")
+        parts.append(arr)
+    return parts[0], parts[1], parts[2]
+
+
+_ZEROS: dict[tuple[int, ...], np.ndarray] = {}
+
+
+def _zeros(batch: tuple[int, ...]) -> np.ndarray:
+    """A shared read-only zero thrust (batch, 3)."""
+    if batch not in _ZEROS:
+        zeros = np.zeros((*batch, 3))
+        zeros.flags.writeable = False
+        _ZEROS[batch] = zeros
+    return _ZEROS[batch]
+
+
+def _call_controller(controller: Controller, model: Model, t: float, x: np.ndarray, batch: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+    """Evaluate the controller at (t, x); any failure becomes a SimulationError that says when and what."""
+    try:
+        raw = controller(t, unpack_state(model, x))
+    except Exception as exc:
+        raise SimulationError(f"the controller raised {type(exc).__name__} at t = {t:.6g} s: {exc}") from exc
+    try:
+        return _actuation(model, raw, batch)
+    except (TypeError, ValueError) as exc:
+        raise SimulationError(f"bad controller output at t = {t:.6g} s: {exc}") from exc
+
+
+def simulate(
+    model: Model,
+    initial_state: State,
+    duration: float,
+    controller: Controller | None = None,
+    *,
+    method: str = "DOP853",
+    rtol: float = 1e-10,
+    atol: float = 1e-10,
+    fixed_step: float | None = None,
+    sample_period: float | None = None,
+    output_period: float | None = None,
+    limits: ActuatorLimits | None = None,
+    events: Sequence[Callable[[float, State], float]] = (),
+    external: Any = (),
+    progress: bool | Callable[[float, float], Any] | None = None,
+    warn_after: float | None = 60.0,
+    divergence_guard: bool = True,
+    joint_limits: str = "stop",
+    restitution: float = 0.0,
+) -> Trajectory:
+    """Simulate ``model`` from ``initial_state`` for ``duration`` seconds.
+
+    ``controller(t, state)`` returns joint torques (N,) or an :class:`Actuation`
+    (None: free-floating, no actuation). Adaptive integration (scipy
+    ``solve_ivp`` with ``method``, ``rtol``, ``atol``) unless ``fixed_step``
+    (s) selects RK4. ``sample_period`` holds the controller output between
+    samples. States are output every ``output_period`` (default 0.01 s, or the
+    fixed step if larger). ``events``: callables (t, state) -> float; the run
+    stops where one crosses zero (scipy's ``terminal``/``direction`` attributes
+    are honoured). ``external``: constant wrenches (:class:`ExternalWrench`).
+    The equations of motion (the RK4 steps, or the right-hand side the
+    adaptive integrator calls) are the engine's (:mod:`freefloat.mechanics._engine`):
+    runs of RK4 steps between controller samples are one compiled call.
+
+    A failure part-way (controller error, non-finite state, integrator
+    failure, divergence) raises :class:`SimulationError` whose ``trajectory``
+    holds the states computed up to the failure.
+
+    Joint limits (``model.joint_lower`` / ``joint_upper``): ``joint_limits="stop"``
+    (default) makes them hard stops, momentum-conserving joint impulses with
+    coefficient of ``restitution`` e in [0, 1] (the rate after = -e x the rate
+    before; :mod:`freefloat.simulation._stops`), recorded as impacts in
+    ``traj.joint_limit_events``; ``"flag"`` applies no stops and records each
+    span of time beyond a limit there instead (``traj.joint_limits_violated``).
+
+    Runs cannot hang unnoticed:
+
+    - before the run, its steps, samples, outputs and wall time are estimated
+      (:func:`freefloat.simulation.estimate_run`); above ``warn_after`` seconds
+      (None: never) a :class:`~freefloat.core.errors.LongRunWarning` says so;
+    - a :class:`JointPD` sampled every ``sample_period`` (or RK4 step) whose
+      gains are unstable on a joint's free-floating effective inertia gets a
+      :class:`~freefloat.core.errors.StiffGainsWarning` naming the joint and
+      the largest stable gains;
+    - ``divergence_guard``: a state growing without bound or an adaptive step
+      collapsing stops the run with a :class:`SimulationError` naming the
+      joint (see :class:`freefloat.simulation._guard.DivergenceGuard`);
+    - ``progress``: True a bar on stderr, None (default) a bar once the run
+      has lasted 2 s, False none, or a callable ``progress(t, duration)``;
+    - Ctrl-C (KeyboardInterrupt) returns the trajectory computed so far with
+      ``status == "interrupted"``.
+    """
+    if not isinstance(initial_state, State):
+        raise TypeError(f"initial_state: expected a freefloat.State, got {type(initial_state).__name__}")
+    state = initial_state.resolve(model)
+    if np.asarray(state.q).ndim != 1:
+        raise ShapeError("initial_state: simulate takes one state; use freefloat.rollout for a batch of states")
+    duration = _positive("duration", duration)
+    for name, value in (("fixed_step", fixed_step), ("sample_period", sample_period), ("output_period", output_period)):
+        if value is not None:
+            _positive(name, value)
+    if fixed_step is not None and abs(round(duration / fixed_step) * fixed_step - duration) > 1e-9 * duration:
+        raise ValueError(f"fixed_step: {fixed_step} does not divide duration {duration}; choose a step that does")
+    if fixed_step is None:
+        if not (isinstance(method, str) and method in METHODS) and not isinstance(method, type):
+            raise ValueError(f"method: unknown integrator {method!r}; choose one of {', '.join(METHODS)} (or pass fixed_step for RK4)")
+        _positive("rtol", rtol)
+        _positive("atol", atol)
+    if controller is not None and not callable(controller):
+        raise TypeError(f"controller: expected a callable (t, state) -> joint torques or Actuation, got {type(controller).__name__}")
+    limits = limits or ActuatorLimits()
+    _engine_inputs(model, external)  # a clear error now for bad wrenches
+    stops = JointStops(model, joint_limits, restitution)
+    stops.check_initial(np.asarray(state.q, dtype=float))
+    period = output_period or max(0.01, fixed_step or 0.0)
+    x0 = pack_state(state)
+    rec = _Recorder(model)
+    zero = (np.zeros(model.n_joints), np.zeros(3), np.zeros(3))
+
+    def command(t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        if controller is None:
+            return (*zero, np.array(False))
+        tau, force, torque = _call_controller(controller, model, t, x, ())
+        return limits.apply(tau, force, torque)
+
+    if warn_after is not None:
+        estimate = estimate_run(model, duration, fixed_step=fixed_step, sample_period=sample_period, output_period=output_period)
+        if estimate.seconds > warn_after:
+            warnings.warn(
+                f"this simulation will take long: {estimate.describe()} (over warn_after = {warn_after:g} s); "
+                "it shows progress and Ctrl-C returns what was computed",
+                LongRunWarning,
+                stacklevel=2,
+            )
+    h = sample_period or fixed_step
+    check_pd_gains(model, controller, np.asarray(state.q, dtype=float), h)
+    pd = controller if not external else None  # the energy test of a joint PD holds without external wrenches
+    what = "controller sample" if sample_period else "RK4 step"
+    guard = DivergenceGuard(model, x0, min(duration, period), h, what, divergence_guard, pd)
+    bar = Progress(progress, duration)
+    try:
+        if fixed_step is not None:
+            status = _run_rk4(
+                model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar, guard, stops
+            )
+        else:
+            status = _run_adaptive(
+                model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar, guard, stops
+            )
+    except KeyboardInterrupt:
+        t_stop = rec.t[-1] if rec.t else 0.0
+        return _with_limits(rec.trajectory("interrupted", f"interrupted (Ctrl-C) after t = {t_stop:.6g} s of {duration:g} s"), stops)
+    except SimulationError as exc:
+        exc.trajectory = _with_limits(rec.trajectory("failed", str(exc)), stops)
+        raise
+    except (FreefloatError, ValueError, ArithmeticError, RuntimeError, TypeError, KeyError, IndexError) as exc:
+        t_fail = rec.t[-1] if rec.t else 0.0
+        message = f"simulation failed after t = {t_fail:.6g} s: {type(exc).__name__}: {exc}"
+        raise SimulationError(message, _with_limits(rec.trajectory("failed", message), stops)) from exc
+    finally:
+        bar.close()
+    return _with_limits(rec.trajectory(*status), stops)
+
+
+def _with_limits(traj: Trajectory, stops: JointStops) -> Trajectory:
+    """The trajectory with its joint-limit events: the stops' impacts, or (stops off) the spans beyond a limit."""
+    found = stops.events if stops.active else (limit_violations(stops.model, traj.t, traj.q) if len(traj) else [])
+    return dataclasses.replace(traj, joint_limit_events=tuple(found)) if found else traj
+
+
+def _positive(name: str, value: Any) -> float:
+    """``value`` as a positive finite float, or a ValueError naming ``name``."""
+    try:
+        out = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected a positive number, got {value!r}") from exc
+    if not np.isfinite(out) or out <= 0:
+        raise ValueError(f"{name}: must be positive and finite, got {value!r}")
+    return out
+
+
+def rollout(
+    model: Model,
+    initial_states: State,
+    duration: float,
+    *,
+    dt: float,
+    controller: Controller | None = None,
+    sample_period: float | None = None,
+    output_period: float | None = None,
+    limits: ActuatorLimits | None = None,
+    external: Any = (),
+    progress: bool | Callable[[float, float], Any] | None = None,
+) -> Trajectory:
+    """Simulate a batch of initial states at once with fixed-step RK4.
+
+    ``initial_states`` is a :class:`State` whose fields have a leading batch
+    axis B (fields may broadcast). ``controller(t, states)`` sees the whole
+    batch (fields (B, ...)) and returns batched torques (B, N) or an
+    :class:`Actuation` of batched arrays; per-trajectory controller parameters
+    are arrays of length B that the controller closes over. Returns a
+    :class:`Trajectory` whose arrays are (T, B, ...).
+
+    The RK4 steps of the whole batch run on the engine with the trajectories
+    on numba's threads; a controller that is None or a
+    :class:`freefloat.simulation.pd.JointPD` (gains per trajectory, open-loop
+    feed-forward) runs compiled too, with no Python per step (one call for
+    the whole rollout).
+
+    Rollouts apply no joint stops: each span of a trajectory beyond a joint
+    limit is recorded in ``joint_limit_events`` (``kind == "violation"``,
+    with the ``trajectory`` index).
+
+    ``progress`` as in :func:`simulate` (a bar once the run has lasted 2 s, True, False, or a
+    callable ``progress(t, duration)``; for a compiled rollout, t is the duration times the
+    fraction of trajectories finished). Ctrl-C returns what was computed, with status
+    ``"interrupted"``: the finished trajectories of a compiled rollout (in chunks of
+    trajectories), or every trajectory up to the last step of a Python-controlled one.
+    """
+    state = initial_states.resolve(model)
+    x = pack_state(state)
+    if x.ndim != 2:
+        raise ShapeError(f"initial_states: expected fields with one leading batch axis (B, ...), got a state of shape {x.shape}")
+    batch = x.shape[:1]
+    limits = limits or ActuatorLimits()
+    duration, dt = _positive("duration", duration), _positive("dt", dt)
+    steps = round(float(duration) / dt)
+    if steps <= 0 or abs(steps * dt - duration) > 1e-9 * duration:
+        raise ValueError(f"dt: {dt} must divide duration {duration}")
+    hold = round((sample_period or dt) / dt)
+    stride = max(1, round((output_period or dt) / dt))
+    zero = (np.zeros((*batch, model.n_joints)), np.zeros((*batch, 3)), np.zeros((*batch, 3)))
+
+    def command(t: float, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        if controller is None:
+            return (*zero, np.zeros(batch, dtype=bool))
+        return limits.apply(*_call_controller(controller, model, t, xx, batch))
+
+    rec = _Recorder(model)
+    bar = Progress(progress, float(duration))
+    try:
+        if controller is None or isinstance(controller, JointPD):
+            compiled = _rollout_pd(model, x, dt, steps, hold, stride, controller, limits, external, bar)
+            if compiled is not None:
+                times, xs, acts, status, message = compiled
+                return _batch_limits(_trajectory(model, times, xs, acts, status, message, copy=False))  # quaternions kept unit
+        step = _stepper(model, dt, external)
+        act = command(0.0, x)
+        rec.add(0.0, x, act)
+        try:
+            for i in range(1, steps + 1):
+                tau, force, torque, _ = act
+                x = step(x, tau, force, torque)
+                if i % hold == 0 and i < steps:
+                    act = command(i * dt, x)
+                if i % stride == 0 or i == steps:
+                    rec.add(i * dt, x, act)
+                bar.update(i * dt)
+        except KeyboardInterrupt:
+            if rec.t[-1] != i * dt:
+                rec.add(i * dt, x, act)
+            return _batch_limits(rec.trajectory("interrupted", f"interrupted (Ctrl-C) at t = {i * dt:.6g} s"))
+        return _batch_limits(rec.trajectory())
+    finally:
+        bar.close()
+
+
+#: A compiled rollout of more trajectories than this runs in chunks (progress, Ctrl-C) of at least this many.
+ROLLOUT_CHUNK_MIN = 64
+#: How much faster the kernels specialised to a structure run rollouts (measured 4-8x, docs/performance.md): for the estimate.
+SPECIALISED_SPEEDUP = 5.0
+
+
+def _batch_limits(traj: Trajectory) -> Trajectory:
+    """A rollout's joint-limit violations (rollouts apply no stops), each with its trajectory index."""
+    model = traj.model
+    if model is None or not len(traj):
+        return traj
+    beyond = np.any((traj.q > model.joint_upper) | (traj.q < model.joint_lower), axis=(0, 2))
+    found = []
+    for b in np.flatnonzero(beyond):
+        found += [dataclasses.replace(e, trajectory=int(b)) for e in limit_violations(model, traj.t, traj.q[:, b])]
+    return dataclasses.replace(traj, joint_limit_events=tuple(found)) if found else traj
+
+
+def _rollout_pd(
+    model: Model,
+    x0: np.ndarray,
+    dt: float,
+    steps: int,
+    hold: int,
+    stride: int,
+    controller: JointPD | None,
+    limits: ActuatorLimits,
+    external: Any,
+    bar: Progress,
+) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], str, str] | None:
+    """A whole batched rollout with a joint PD (or none), compiled, in chunks of trajectories.
+
+    Returns the output times (T,), the states (T, B, S), the actuation (tau, f_S, n_S,
+    saturated), the status and message; or None when the controller needs Python (a feed-forward
+    sampled at another period than the controller, or gains that do not broadcast: the Python
+    path reports those). A trajectory that fails (H+ not positive definite, a non-finite state)
+    raises a SimulationError. The trajectories run in chunks (about 20 for a large batch) so that
+    ``bar`` shows progress and Ctrl-C keeps the finished chunks (status "interrupted").
+    """
+    n = model.n_joints
+    batch = x0.shape[0]
+    lim = np.full(n + 6, np.inf)
+    limits.apply(np.zeros(n), np.zeros(3), np.zeros(3))  # validates the limits (same errors as the Python path)
+    for sl, value in (
+        (slice(0, n), limits.joint_torque),
+        (slice(n, n + 3), limits.spacecraft_force),
+        (slice(n + 3, n + 6), limits.spacecraft_torque),
+    ):
+        if value is not None:
+            lim[sl] = np.broadcast_to(np.asarray(value, dtype=float), lim[sl].shape)
+    zeros = np.zeros((batch, n))
+    feed = np.zeros((1, batch, n))
+    gains: list[Any] = [zeros, zeros, zeros, zeros]
+    if controller is not None:
+        gains = [controller.kp, controller.kd, controller.q_ref, controller.qdot_ref]
+        if controller.feedforward is not None:
+            ff = np.asarray(controller.feedforward, dtype=float)
+            if ff.shape[0] > 1 and not np.isclose(float(controller.feedforward_period or 0.0), hold * dt, rtol=1e-9, atol=0.0):
+                return None
+            feed = np.broadcast_to(ff[:, None, :] if ff.ndim == 2 else ff, (ff.shape[0], batch, n))
+    try:
+        arrays = tuple(np.broadcast_to(np.asarray(g, dtype=float), (batch, n)) for g in gains)
+    except ValueError:
+        return None
+    ext = _engine_inputs(model, external)
+    fast = _engine.specialised_rollouts(model, batch, ext)
+    # chunks only for a long rollout (progress, Ctrl-C): joining the chunks copies every output once
+    threads = max(1, os.cpu_count() or 1)
+    seconds = _derivative_cost(model) * 4 * steps * batch / threads / (SPECIALISED_SPEEDUP if fast else 1.0)
+    long_run = bar.enabled and (bar.callback is not None or bar.delay == 0.0 or seconds > PROGRESS_DELAY)
+    least = ROLLOUT_CHUNK_MIN * threads if fast else ROLLOUT_CHUNK_MIN  # specialised: a lane block per thread at least
+    chunk = batch if batch <= least or not long_run else least * -(-max(least, -(-batch // 20)) // least)
+    parts: list[tuple[np.ndarray, ...]] = []
+    status, message = "finished", ""
+    try:
+        for start in range(0, batch, chunk):
+            rows = slice(start, min(batch, start + chunk))
+            gains_c = tuple(g[rows] for g in arrays)
+            parts.append(_engine.rollout(model, x0[rows], dt, steps, hold, stride, gains_c, feed[:, rows], lim, ext))  # type: ignore[arg-type]
+            bar.update(steps * dt * rows.stop / batch)
+    except KeyboardInterrupt:
+        if not parts:
+            raise
+        finished = sum(p[0].shape[1] for p in parts)
+        status, message = "interrupted", f"interrupted (Ctrl-C): the first {finished} of {batch} trajectories are complete"
+    xs, us, sat = (np.concatenate([p[i] for p in parts], axis=1) for i in range(3))
+    done = np.concatenate([p[3] for p in parts])
+    times = np.array([0.0] + [i * dt for i in range(1, steps + 1) if i % stride == 0 or i == steps])
+    if np.any(done < steps):
+        first = int(np.argmin(done))
+        t_fail = float(done[first] * dt)
+        message = (
+            f"trajectory {first} of the rollout became non-finite or singular at t = {t_fail:.6g} s "
+            "(unstable controller or too large a step?); its later samples are NaN"
+        )
+        traj = _trajectory(model, times, xs, (us[:, :, :n], us[:, :, n : n + 3], us[:, :, n + 3 :], sat), "failed", message, copy=False)
+        raise SimulationError(message, traj)
+    return times, xs, (us[:, :, :n], us[:, :, n : n + 3], us[:, :, n + 3 :], sat), status, message

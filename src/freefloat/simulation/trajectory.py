@@ -1,0 +1,308 @@
+"""A simulated trajectory: states against time, the actuation applied, and derived quantities.
+
+Arrays are time first. Frames: r_cm, v_cm, momentum and end-effector positions
+inertial; omega and the actuation in the spacecraft frame (see conventions).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import asdict, dataclass, field, fields
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..core.conventions import attitude_matrix, euler321_from_matrix
+from ..core.model import Model
+from ..core.state import State
+from ..mechanics.kinematics import end_effector_positions, end_effector_rotations, point_positions
+from ..mechanics.momentum import angular_momentum, kinetic_energy
+
+__all__ = ["JointLimitEvent", "Trajectory"]
+
+_ARRAYS = (
+    "t",
+    "q",
+    "qdot",
+    "omega",
+    "attitude",
+    "r_cm",
+    "v_cm",
+    "joint_torque",
+    "spacecraft_force",
+    "spacecraft_torque",
+    "saturated",
+)
+
+
+@dataclass(frozen=True)
+class JointLimitEvent:
+    """A joint at one of its limits (``model.joint_lower`` / ``joint_upper``) during a simulation.
+
+    ``kind == "impact"`` (hard stops on): the stop acted at ``t`` (``t_end == t``); ``value`` is
+    the joint rate just before (rad/s), the rate after is ``-restitution * value``.
+    ``kind == "violation"`` (stops off, ``joint_limits="flag"``): the joint was beyond ``limit``
+    from the output time ``t`` to ``t_end`` (None: still beyond at the end); ``value`` is the
+    furthest angle reached (rad). ``trajectory``: the index in a batched rollout (None: one run).
+    """
+
+    joint: str
+    bound: str
+    limit: float
+    kind: str
+    t: float
+    t_end: float | None
+    value: float
+    trajectory: int | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """States at the output times ``t`` (T,), and the actuation held over each output instant.
+
+    Batched rollouts (:func:`freefloat.rollout`) carry a batch axis after time:
+    ``q`` is (T, B, N), ``r_cm`` (T, B, 3), and so on.
+
+    ``status`` is ``"finished"``, ``"event"`` (a terminal event stopped it),
+    ``"interrupted"`` (Ctrl-C) or ``"failed"`` (then ``message`` says why and
+    the arrays hold what was computed before the failure). Derived quantities
+    need ``model``. ``joint_limit_events``: the hard-stop impacts, or the limit
+    violations when stops are off (:class:`JointLimitEvent`).
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qdot: np.ndarray
+    omega: np.ndarray
+    attitude: np.ndarray
+    r_cm: np.ndarray
+    v_cm: np.ndarray
+    joint_torque: np.ndarray
+    spacecraft_force: np.ndarray
+    spacecraft_torque: np.ndarray
+    saturated: np.ndarray
+    status: str = "finished"
+    message: str = ""
+    model_name: str = ""
+    model: Model | None = field(default=None, repr=False)
+    joint_limit_events: tuple[JointLimitEvent, ...] = ()
+
+    @property
+    def joint_limits_violated(self) -> bool:
+        """True when a joint went beyond a limit (stops off); the times are in :attr:`joint_limit_events`."""
+        return any(e.kind == "violation" for e in self.joint_limit_events)
+
+    # ----------------------------------------------------------- derived
+    def _need_model(self) -> Model:
+        if self.model is None:
+            raise ValueError("this trajectory has no model attached; load it with Trajectory.load(path, model=...)")
+        return self.model
+
+    @property
+    def velocity(self) -> np.ndarray:
+        """zdot0 = [v_cm, omega, qdot] (T, 6+N)."""
+        return np.concatenate([self.v_cm, self.omega, self.qdot], axis=-1)
+
+    @cached_property
+    def angular_momentum(self) -> np.ndarray:
+        """Angular momentum about the system CM, inertial frame (T, 3)."""
+        return angular_momentum(self._need_model(), self.q, self.velocity, attitude=self.attitude)
+
+    @cached_property
+    def linear_momentum(self) -> np.ndarray:
+        """M v_cm, inertial frame (T, 3)."""
+        return self._need_model().total_mass * self.v_cm
+
+    @cached_property
+    def kinetic_energy(self) -> np.ndarray:
+        """1/2 zdot0^T H+ zdot0 (T,)."""
+        return kinetic_energy(self._need_model(), self.q, self.velocity)
+
+    @cached_property
+    def end_effector_positions(self) -> np.ndarray:
+        """End-effector positions in the inertial frame (T, E, 3): r_cm + T0 rho_E."""
+        return self.r_cm[..., None, :] + end_effector_positions(self._need_model(), self.q, attitude=self.attitude)
+
+    @cached_property
+    def end_effector_rotations(self) -> np.ndarray:
+        """End-effector frame orientations, body frame -> inertial frame (T, E, 3, 3): T0 R_E."""
+        model = self._need_model()
+        return np.einsum("...ij,...ejk->...eik", attitude_matrix(self.attitude), end_effector_rotations(model, self.q))
+
+    @cached_property
+    def spacecraft_position(self) -> np.ndarray:
+        """Spacecraft CM in the inertial frame (T, 3)."""
+        model = self._need_model()
+        rho = point_positions(model, self.q, 0, model.com[0])
+        return self.r_cm + np.einsum("...ij,...j->...i", attitude_matrix(self.attitude), rho)
+
+    @cached_property
+    def spacecraft_euler321(self) -> np.ndarray:
+        """Spacecraft Euler 3-2-1 angles [roll, pitch, yaw] (T, 3), rad (1991 eq. 11)."""
+        return euler321_from_matrix(attitude_matrix(self.attitude))
+
+    # ----------------------------------------------------------- plot
+    def plot(self, axes: Any = None) -> list[Any]:
+        """Joint angles, spacecraft attitude and position, and actuation against time.
+
+        ``axes``: four matplotlib Axes (or None: a new pyplot figure, which
+        ``plt.show()`` and notebooks display). Returns the line artists.
+        """
+        from .trajectory_plots import plot_trajectory
+
+        return plot_trajectory(self, axes)
+
+    def plot_path(self, ax: Any = None, *, snapshots: int = 4) -> list[Any]:
+        """End-effector and spacecraft CM paths (inertial) with the spacecraft body axes at ``snapshots`` + 1 times.
+
+        3D axes for a spatial model (None: a new pyplot figure), the x-y plane for a planar one. Returns the artists.
+        """
+        from .trajectory_plots import plot_path
+
+        return plot_path(self, ax, snapshots=snapshots)
+
+    def animate(self, path: str | Path, *, fps: int = 20, max_frames: int = 120, dpi: int = 80, overwrite: bool = False) -> Path:
+        """Write an animation of the motion to ``path``: ``.gif`` (Pillow) or ``.mp4`` (ffmpeg); returns the path.
+
+        At most ``max_frames`` frames (evenly spaced output samples) at ``fps``
+        frames per second. Never overwrites an existing file unless ``overwrite=True``.
+        """
+        from .trajectory_plots import animate_trajectory
+
+        return animate_trajectory(self, path, fps=fps, max_frames=max_frames, dpi=dpi, overwrite=overwrite)
+
+    # ----------------------------------------------------------- files
+    def save(self, path: str | Path, *, overwrite: bool = False) -> Path:
+        """Write ``.npz`` (all arrays and metadata) or ``.csv`` (one row per time). Never overwrites unless asked.
+
+        The CSV has one header row of plain column names (``t``, ``q_0``, ``q_1``, ...,
+        ``attitude_3``, ..., ``saturated``) that ``pandas.read_csv`` reads as is; its metadata
+        (status, message, model name, array shapes) go to the sidecar ``PATH.json``
+        (``trajectory.csv`` -> ``trajectory.csv.json``).
+        """
+        path = Path(path)
+        if path.suffix not in (".npz", ".csv"):
+            raise ValueError(f"{path}: unknown trajectory file type {path.suffix!r}; use .npz or .csv")
+        sidecar = _sidecar(path)
+        for target in (path, sidecar) if path.suffix == ".csv" else (path,):
+            if target.exists() and not overwrite:
+                raise FileExistsError(f"{target}: exists; freefloat does not overwrite files (pass overwrite=True or choose another name)")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        meta: dict[str, Any] = {
+            "status": self.status,
+            "message": self.message,
+            "model_name": self.model_name or (self.model.name if self.model else ""),
+            "shapes": {name: list(np.shape(getattr(self, name))[1:]) for name in _ARRAYS},
+            "joint_limit_events": [asdict(e) for e in self.joint_limit_events],
+        }
+        if path.suffix == ".npz":
+            with path.open("wb") as fh:
+                np.savez(fh, **{name: getattr(self, name) for name in _ARRAYS}, meta=json.dumps(meta))
+        elif path.suffix == ".csv":
+            header, columns = self._columns()
+            sidecar.write_text(json.dumps({"freefloat_trajectory": meta, "columns": header}, indent=2) + "\n", encoding="utf-8")
+            with path.open("w", newline="", encoding="utf-8") as fh:
+                writer = csv.writer(fh)
+                writer.writerow(header)
+                writer.writerows(np.column_stack(columns).tolist())
+        else:
+            raise ValueError(f"{path}: unknown trajectory file type {path.suffix!r}; use .npz or .csv")
+        return path
+
+    def _columns(self) -> tuple[list[str], list[np.ndarray]]:
+        header: list[str] = []
+        columns: list[np.ndarray] = []
+        for name in _ARRAYS:
+            arr = np.asarray(getattr(self, name), dtype=float)
+            arr2 = arr.reshape(arr.shape[0], -1)
+            header += [name] if arr.ndim == 1 else [f"{name}_{i}" for i in range(arr2.shape[1])]
+            columns.append(arr2)
+        return header, columns
+
+    @classmethod
+    def load(cls, path: str | Path, model: Model | None = None) -> Trajectory:
+        """Read a trajectory written by :meth:`save`; attach ``model`` for the derived quantities."""
+        path = Path(path)
+        if path.suffix == ".npz":
+            with np.load(path, allow_pickle=False) as data:
+                missing = [name for name in (*_ARRAYS, "meta") if name not in data.files]
+                if missing:
+                    raise ValueError(f"{path}: not a freefloat trajectory file, missing {', '.join(missing)}")
+                arrays = {name: data[name] for name in _ARRAYS}
+                meta = json.loads(str(data["meta"]))
+        elif path.suffix == ".csv":
+            arrays, meta = _read_csv(path)
+        else:
+            raise ValueError(f"{path}: unknown trajectory file type {path.suffix!r}; use .npz or .csv")
+        return cls(
+            **arrays,
+            status=meta.get("status", "finished"),
+            message=meta.get("message", ""),
+            model_name=meta.get("model_name", ""),
+            model=model,
+            joint_limit_events=tuple(JointLimitEvent(**e) for e in meta.get("joint_limit_events", [])),
+        )
+
+    def state(self, index: int = -1) -> State:
+        """The state at output ``index`` (default: the last one), e.g. to continue a simulation."""
+        return State(
+            q=self.q[index].copy(),
+            qdot=self.qdot[index].copy(),
+            omega=self.omega[index].copy(),
+            attitude=self.attitude[index].copy(),
+            r_cm=self.r_cm[index].copy(),
+            v_cm=self.v_cm[index].copy(),
+        )
+
+    def __len__(self) -> int:
+        return int(self.t.shape[0])
+
+    def equals(self, other: Trajectory, rtol: float = 0.0, atol: float = 0.0) -> bool:
+        """Array-wise comparison (for round-trip tests)."""
+        return all(
+            np.allclose(getattr(self, f.name), getattr(other, f.name), rtol=rtol, atol=atol) for f in fields(self) if f.name in _ARRAYS
+        )
+
+
+_OLD_CSV_PREFIX = "# freefloat trajectory "
+
+
+def _sidecar(path: Path) -> Path:
+    """The metadata file of a trajectory CSV: ``run.csv`` -> ``run.csv.json``."""
+    return path.with_name(path.name + ".json")
+
+
+def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """Arrays and metadata of a CSV written by :meth:`Trajectory.save` (errors name what is wrong)."""
+    sidecar = _sidecar(path)
+    meta: dict[str, Any] = {}
+    if sidecar.is_file():
+        try:
+            meta = json.loads(sidecar.read_text(encoding="utf-8"))["freefloat_trajectory"]
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ValueError(f"{sidecar}: not the metadata of a freefloat trajectory CSV ({exc})") from exc
+    with path.open(encoding="utf-8") as fh:
+        first = fh.readline()
+        if first.startswith(_OLD_CSV_PREFIX):  # written by freefloat 0.1 before the sidecar: metadata in a comment line
+            meta = meta or json.loads(first[len(_OLD_CSV_PREFIX) :])
+            first = fh.readline().replace("[", "_").replace("]", "")
+        header = next(csv.reader([first]), [])
+        rows = [line for line in fh if line.strip()]
+    table = np.loadtxt(rows, delimiter=",", ndmin=2) if rows else np.zeros((0, len(header)))
+    if table.shape[1] != len(header):
+        raise ValueError(f"{path}: {table.shape[1]} columns of data but {len(header)} column names")
+    shapes = meta.get("shapes", {})
+    arrays = {}
+    for name in _ARRAYS:
+        cols = [i for i, h in enumerate(header) if h == name or (h.startswith(f"{name}_") and h[len(name) + 1 :].isdigit())]
+        if not cols:
+            raise ValueError(
+                f"{path}: not a freefloat trajectory CSV: no column {name!r} (or {name}_0, {name}_1, ...); write it with Trajectory.save"
+            )
+        shape = tuple(shapes.get(name, [] if header[cols[0]] == name else [len(cols)]))
+        arrays[name] = table[:, cols].reshape((table.shape[0], *shape))
+    arrays["saturated"] = arrays["saturated"].astype(bool)
+    return arrays, meta
