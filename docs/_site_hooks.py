@@ -9,9 +9,10 @@
   ``make demo`` wrote (``freefloat demo --out OUT``), read from the folder named by the environment
   variable ``FREEFLOAT_DEMO_OUT`` (``out`` by default); a missing report stops the build with a line
   that says to run ``make demo`` first. Nothing here computes a result.
-- **Docstrings written for a terminal**: Sphinx roles (``:func:`x```) are shown as code (``x``) and
-  field tables in aligned columns keep their layout: a griffe extension, :class:`SphinxRolesAsCode`,
-  listed in the mkdocstrings options.
+- **The command line**: the ``cli.md`` page is each command's ``--help``, as ``freefloat`` prints it.
+- **Docstrings written for a terminal** (Sphinx roles, field tables in aligned columns, doctests) are
+  rewritten for Markdown by :func:`rewrite_docstring`, through a griffe extension
+  (:class:`SphinxRolesAsCode`, listed in the mkdocstrings options of ``mkdocs.yml``).
 """
 
 from __future__ import annotations
@@ -32,7 +33,6 @@ log = logging.getLogger("mkdocs.hooks.freefloat")
 ROOT = Path(__file__).resolve().parents[1]
 DEMO_ENV = "FREEFLOAT_DEMO_OUT"
 PAPERS = {"1991": "Papadopoulos & Dubowsky 1991, §V", "1992": "Papadopoulos 1992, Tables II-VI and §V"}
-_ROLE = re.compile(r":(?:func|class|mod|meth|data|attr|exc|obj):`~?([^`]+)`")
 
 
 # --------------------------------------------------------------------- docstrings
@@ -82,33 +82,46 @@ def on_pre_build(config: Any) -> None:
 
 
 class SphinxRolesAsCode(griffe.Extension):
-    """Docstrings written for a terminal, shown as written on the site.
-
-    - Sphinx roles (``:func:`~freefloat.x```) become inline code (``x``).
-    - A paragraph laid out in aligned columns (a field table: name, shape, meaning, two or more spaces
-      apart, as in ``help()``) keeps its layout: it is shown as a preformatted block, where Markdown
-      would join its lines into one; a doctest (``>>>`` lines) is shown as a console session.
-    """
+    """Docstrings written for a terminal, shown as written on the site (:func:`rewrite_docstring`)."""
 
     def on_instance(self, *, obj: griffe.Object, **kwargs: Any) -> None:
         """Rewrite one object's docstring as it is loaded."""
         if obj.docstring is not None:
-            text = _ROLE.sub(lambda m: f"``{m.group(1).split('.')[-1] if '~' in m.group(0) else m.group(1)}``", obj.docstring.value)
-            obj.docstring.value = "\n\n".join(_preformat_columns(p) for p in text.split("\n\n"))
+            obj.docstring.value = rewrite_docstring(obj.docstring.value)
 
 
+_ROLE = re.compile(r":(?:py:)?(?:func|class|mod|meth|data|attr|exc|obj|const):`(?P<mark>[~!]?)(?P<body>[^`]+)`")
 _COLUMNS = re.compile(r"[^\s.,;:] {2,}\S")
 
 
-def _preformat_columns(paragraph: str) -> str:
-    lines = paragraph.splitlines()
-    if "```" in paragraph:
-        return paragraph
-    if lines and lines[0].lstrip().startswith(">>> "):  # a doctest: a Python console session
-        return "```pycon\n" + paragraph + "\n```"
-    if sum(bool(_COLUMNS.search(line.strip())) for line in lines) < 2:
-        return paragraph
-    return "```text\n" + paragraph + "\n```"
+def _role_text(match: re.Match[str]) -> str:
+    body = match["body"]
+    if body.endswith(">") and "<" in body:  # an explicit title: :func:`text <target>`
+        return body[: body.index("<")].strip()
+    return body.rsplit(".", 1)[-1] if match["mark"] == "~" else body
+
+
+def rewrite_docstring(text: str) -> str:
+    """A docstring written for ``help()``, rewritten for Markdown.
+
+    - Sphinx roles (``:func:`~freefloat.x```, ``:py:class:`a.B```, ``:meth:`text <a.b>```) become inline
+      code (``x``, ``a.B``, ``text``).
+    - A paragraph laid out in aligned columns (a field table: name, shape, meaning, two or more spaces
+      apart) keeps its layout as a preformatted block, where Markdown would join its lines into one; its
+      roles and double backquotes become plain text there.
+    - A doctest paragraph (``>>>`` lines) is shown as a Python console session.
+    """
+    paragraphs = []
+    for paragraph in text.split("\n\n"):
+        lines = paragraph.splitlines()
+        if "```" not in paragraph and lines and lines[0].lstrip().startswith(">>> "):
+            paragraph = "```pycon\n" + paragraph + "\n```"
+        elif "```" not in paragraph and sum(bool(_COLUMNS.search(line.strip())) for line in lines) >= 2:
+            paragraph = "```text\n" + _ROLE.sub(_role_text, paragraph).replace("``", "") + "\n```"
+        else:
+            paragraph = _ROLE.sub(lambda m: f"``{_role_text(m)}``", paragraph)
+        paragraphs.append(paragraph)
+    return "\n\n".join(paragraphs)
 
 
 # --------------------------------------------------------------------- the papers reproduced
@@ -149,8 +162,34 @@ def results_index(folder: Path) -> str:
     return "\n".join(lines) + "\n"
 
 
+# --------------------------------------------------------------------- the command line
+def cli_page() -> str:
+    """The ``cli.md`` page: ``freefloat --help`` and each command's ``--help``, as the command prints them."""
+    import typer
+    from typer.testing import CliRunner
+
+    from freefloat.cli import app
+
+    env = {"NO_COLOR": "1", "TERM": "dumb", "COLUMNS": "88", "TERMINAL_WIDTH": "88"}
+    lines = [
+        "# Command line",
+        "",
+        "`freefloat COMMAND ...` or `python -m freefloat COMMAND ...`. Bad input prints one `error: ...` line and exits",
+        "with code 1; `--out` folders are created, and a run never replaces a file there that freefloat did not write.",
+        "This page is the help each command prints (`freefloat COMMAND --help`), generated when the site is built.",
+    ]
+    for name in ["", *typer.main.get_command(app).commands]:  # type: ignore[attr-defined]
+        result = CliRunner().invoke(app, [name, "--help"] if name else ["--help"], env=env)
+        if result.exit_code != 0:
+            raise PluginError(f"`freefloat {name} --help` failed: {result.output}")
+        title = f"`freefloat {name}`" if name else "`freefloat`"
+        lines += ["", f"## {title}", "", "```text", result.output.strip("\n").rstrip(), "```"]
+    return "\n".join(lines) + "\n"
+
+
 def on_files(files: Files, config: Any) -> Files:
-    """Add the demo's reports and figures as the pages under ``results/``."""
+    """Add the command-line page and the demo's reports and figures (the pages under ``results/``)."""
+    files.append(File.generated(config, "cli.md", content=cli_page()))
     folder = demo_folder()
     files.append(File.generated(config, "results/index.md", content=results_index(folder)))
     for paper in PAPERS:

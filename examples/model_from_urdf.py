@@ -8,7 +8,7 @@ import numpy as np
 import freefloat as ff
 
 URDF = """<?xml version="1.0"?>
-<robot name="tiny_freefloat">
+<robot name="tiny_spacecraft">
   <link name="bus"><inertial><origin xyz="0 0 0"/><mass value="200"/>
     <inertia ixx="20" iyy="25" izz="30" ixy="0" ixz="0" iyz="0"/></inertial></link>
   <link name="upper"><inertial><origin xyz="0.4 0 0"/><mass value="8"/>

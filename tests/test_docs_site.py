@@ -78,7 +78,12 @@ def test_guides_reference_and_results(site: Path) -> None:
         for name in module.__all__:
             if not isinstance(getattr(module, name), type(ff)):  # a submodule has its own page
                 assert f'id="{module.__name__}.{name}"' in page, f"{namespace}.{name}"
-    assert ":func:" not in reference and ":class:" not in reference  # Sphinx roles shown as code
+    for page in (site / "reference").glob("*/index.html"):  # Sphinx roles shown as code, on every page
+        assert not re.search(r":(?:py:)?[a-z]+:(?:<code>|`)", page.read_text(encoding="utf-8")), page
+    # the command line: each command's help, as the command prints it
+    cli = (site / "cli" / "index.html").read_text(encoding="utf-8")
+    for command in ("inspect", "specialise", "demo", "workspace", "capture", "simulate", "reproduce"):
+        assert f"Usage: freefloat {command} [OPTIONS]" in cli, command
     # the papers reproduced: make demo's tables and figures
     for paper in ("1991", "1992"):
         page = (site / "results" / paper / "report" / "index.html").read_text(encoding="utf-8")
@@ -115,3 +120,48 @@ def test_results_need_the_demo(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) 
     monkeypatch.setenv("FREEFLOAT_DEMO_OUT", str(tmp_path / "nothing"))
     with pytest.raises(PluginError, match=r"run `make demo` first"):
         hooks().demo_folder()
+
+
+def test_docstrings_written_for_a_terminal_read_right_in_markdown() -> None:
+    rewrite = hooks().rewrite_docstring
+    assert rewrite("See :func:`~freefloat.mechanics.point_jacobian` and :py:class:`freefloat.Model`.") == (
+        "See ``point_jacobian`` and ``freefloat.Model``."
+    )
+    assert rewrite(":meth:`the plot <freefloat.Trajectory.plot>`, :data:`!BUILTIN_MODELS`") == "``the plot``, ``BUILTIN_MODELS``"
+    table = "mass   (B,)  kg, per body\ncom    (B, 3)  CM in the body frame, see :func:`~a.b`"
+    assert rewrite("Fields.\n\n" + table) == "Fields.\n\n```text\n" + table.replace(":func:`~a.b`", "b") + "\n```"
+    doctest = ">>> import freefloat as ff\n>>> ff.models.papadopoulos1992()"
+    assert rewrite(doctest) == "```pycon\n" + doctest + "\n```"
+    prose = "The system CM, in the spacecraft frame. Two sentences.  Double-spaced.\nA second line."
+    assert rewrite(prose) == prose
+
+
+def test_a_strict_build_fails_on_a_broken_link_and_on_a_name_without_a_docstring(
+    site: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """mkdocs.yml's strict build of a page with a broken link aborts; a missing docstring is a warning of the
+    ``mkdocs`` logger, which the strict build counts the same way."""
+    from mkdocs.commands.build import build
+    from mkdocs.config import load_config
+    from mkdocs.exceptions import Abort
+
+    monkeypatch.chdir(ROOT)
+    monkeypatch.setenv("FREEFLOAT_DEMO_OUT", str(site.parent))
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    (docs / "index.md").write_text("# Home\n\n[a page that is not there](missing.md)\n", encoding="utf-8")
+    config = load_config(str(ROOT / "mkdocs.yml"), docs_dir=str(docs), site_dir=str(tmp_path / "site"), nav=None)
+    config.plugins.on_startup(command="build", dirty=False)
+    try:
+        with pytest.raises(Abort, match="strict mode"):
+            build(config)
+    finally:
+        config.plugins.on_shutdown()
+    assert any("missing.md" in r.getMessage() and r.levelname == "WARNING" for r in caplog.records)
+
+    module = hooks()
+    monkeypatch.setattr(module, "missing_docstrings", lambda modules, paths: ["freefloat.thing (freefloat.core.thing)"])
+    caplog.clear()
+    module.on_pre_build(config)
+    [record] = caplog.records
+    assert record.levelname == "WARNING" and record.name.startswith("mkdocs.") and "freefloat.thing" in record.getMessage()

@@ -130,20 +130,6 @@ def test_trajectory_csv_reads_cleanly_with_pandas(tmp_path: Path) -> None:
     assert meta["freefloat_trajectory"]["model_name"] == "papadopoulos1992" and meta["columns"] == list(frame.columns)
 
 
-def test_a_trajectory_csv_of_the_earlier_format_still_loads(tmp_path: Path) -> None:
-    model = ff.models.papadopoulos1992(arms=2)
-    traj = ff.simulate(model, ff.State(q=[0.1, 0.2, 0.3, 0.4]), 0.1, None, fixed_step=0.01)
-    new = traj.save(tmp_path / "new.csv")
-    meta = json.loads((tmp_path / "new.csv.json").read_text())["freefloat_trajectory"]
-    header, *rows = new.read_text().splitlines()
-    old_header = ",".join(
-        h if "_" not in h or not h.rsplit("_", 1)[1].isdigit() else f"{h.rsplit('_', 1)[0]}[{h.rsplit('_', 1)[1]}]"
-        for h in header.split(",")
-    )
-    (tmp_path / "old.csv").write_text("\n".join([f"# freefloat trajectory {json.dumps(meta)}", old_header, *rows]) + "\n")
-    assert "q[0]" in old_header and ff.Trajectory.load(tmp_path / "old.csv", model=model).equals(traj, atol=1e-12)
-
-
 def test_a_model_without_joints_has_no_path_independent_workspace(tmp_path: Path) -> None:
     """A spacecraft with a tool fixed at its CM: a clear error (it was a ZeroDivisionError, or an internal parameter's name)."""
     b = ff.ModelBuilder("bus_with_tool")

@@ -81,7 +81,9 @@ class PinocchioSystem:
         self.model, self.pm, self.data = model, pin_model, pin_model.createData()
         n = model.n_joints
         assert pin_model.nv == 6 + n, f"Pinocchio has nv = {pin_model.nv}, freefloat 6 + {n}"
-        assert pin_model.names[1] == "root_joint" and pin_model.joints[1].shortname() == pinocchio_root_joint().shortname()
+        assert (
+            pin_model.names[1] == "root_joint" and pin_model.joints[1].nq == 7 and pin_model.joints[1].nv == 6
+        )  # a 6-DOF root joint, quaternion-parametrised
         ids = [pin_model.getJointId(name) for name in model.joint_names]
         assert all(0 < i < pin_model.njoints for i in ids), "a freefloat joint is missing in Pinocchio"
         self.body_joint = [1, *ids]  # the Pinocchio joint that moves freefloat body k

@@ -33,10 +33,8 @@ __all__ = [
 
 
 def pinocchio_root_joint() -> Any:
-    """Pinocchio's 6-DOF root joint for a floating base, the one place its class is named.
-
-    Pinocchio's class name for it (below) is its own, unrelated to this project's former name.
-    """
+    """Pinocchio's 6-DOF root joint for a floating base: configuration [position, quaternion xyzw] (nq = 7),
+    velocity [v, w] in the base frame (nv = 6)."""
     import pinocchio as pin
 
     return pin.JointModelFreeFlyer()

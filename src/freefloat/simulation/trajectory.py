@@ -267,9 +267,6 @@ class Trajectory:
         )
 
 
-_OLD_CSV_PREFIX = "# freefloat trajectory "
-
-
 def _sidecar(path: Path) -> Path:
     """The metadata file of a trajectory CSV: ``run.csv`` -> ``run.csv.json``."""
     return path.with_name(path.name + ".json")
@@ -286,9 +283,11 @@ def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
             raise ValueError(f"{sidecar}: not the metadata of a freefloat trajectory CSV ({exc})") from exc
     with path.open(encoding="utf-8") as fh:
         first = fh.readline()
-        if first.startswith(_OLD_CSV_PREFIX):  # written by freefloat 0.1 before the sidecar: metadata in a comment line
-            meta = meta or json.loads(first[len(_OLD_CSV_PREFIX) :])
-            first = fh.readline().replace("[", "_").replace("]", "")
+        if first.startswith("#"):
+            raise ValueError(
+                f"{path}: a trajectory CSV of freefloat 0.1.0 (metadata in a comment line), which 0.2.0 does not read: "
+                "simulate again and save (see CHANGELOG.md)"
+            )
         header = next(csv.reader([first]), [])
         rows = [line for line in fh if line.strip()]
     table = np.loadtxt(rows, delimiter=",", ndmin=2) if rows else np.zeros((0, len(header)))
