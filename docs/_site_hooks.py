@@ -139,8 +139,9 @@ def demo_folder() -> Path:
 
 
 def results_index(folder: Path) -> str:
-    """The overview page: each paper's row counts, computed from the demo's ``report.json``."""
+    """The overview page: each paper's row counts (as its ``report.md`` counts them), from the demo's ``report.json``."""
     from freefloat import __version__
+    from freefloat.papers.paper_report import report_summary
 
     lines = [
         "# Papers reproduced",
@@ -151,14 +152,12 @@ def results_index(folder: Path) -> str:
         "to the printed value at the printed precision; where they differ, the row's note says why.",
         "[Paper notes](../paper-notes.md) discusses the differences.",
         "",
-        "| paper | rows | with a printed number | agree at the printed precision |",
+        "| paper | rows | compared with the paper | agree at the printed precision |",
         "|---|---:|---:|---:|",
     ]
     for paper, title in PAPERS.items():
-        rows = json.loads((folder / paper / "report.json").read_text(encoding="utf-8"))["rows"]
-        printed = [r for r in rows if r["paper"] is not None]
-        agree = sum(bool(r["agrees"]) for r in printed)
-        lines.append(f"| [{title}]({paper}/report.md) | {len(rows)} | {len(printed)} | {agree} |")
+        n_rows, compared, agree = report_summary(json.loads((folder / paper / "report.json").read_text(encoding="utf-8"))["rows"])
+        lines.append(f"| [{title}]({paper}/report.md) | {n_rows} | {compared} | {agree} |")
     return "\n".join(lines) + "\n"
 
 

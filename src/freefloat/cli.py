@@ -35,6 +35,7 @@ from .core.errors import FreefloatError, ModelCorrectionWarning
 from .core.model import Model
 from .io.outputs import OutputDirectory, output_directory, staged_outputs
 from .models import BUILTIN_MODELS, load_model
+from .papers.paper_report import report_summary
 from .papers.report import PAPER_PAYLOAD, model_info, paper_systems, render_text, write_model_reports
 
 __all__ = ["app", "criterion_options", "main", "output_dir", "user_errors", "with_payload"]
@@ -336,11 +337,9 @@ def _write_demo_index(out: Path, written: list[Path]) -> Path:
     """OUT/README.md: what `freefloat demo` wrote, with the paper-vs-freefloat summary of each report."""
     lines = ["# freefloat demo output", "", "Written by `make demo` (`freefloat demo --out OUT`).", ""]
     for paper in ("1991", "1992"):
-        rows = json.loads((out / paper / "report.json").read_text())["rows"]
-        compared = [r for r in rows if r["agrees"] is not None]
-        agree = sum(1 for r in compared if r["agrees"])
+        n_rows, compared, agree = report_summary(json.loads((out / paper / "report.json").read_text())["rows"])
         lines.append(
-            f"- [{paper}/report.md]({paper}/report.md): {len(rows)} rows, {len(compared)} with a printed number, "
+            f"- [{paper}/report.md]({paper}/report.md): {n_rows} rows, {compared} with a printed number, "
             f"{agree} agree at the printed precision (the others are explained row by row)."
         )
     lines.append("- [models/](models/): the papers' systems, as `freefloat inspect` prints them.")

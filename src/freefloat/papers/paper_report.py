@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["agrees_at_precision", "make_row", "render_report_markdown", "write_report"]
+__all__ = ["agrees_at_precision", "make_row", "render_report_markdown", "report_summary", "write_report"]
 
 
 def agrees_at_precision(printed: str | None, ours: float | None) -> bool | None:
@@ -44,6 +44,12 @@ def make_row(row_id: str, printed: str | None, ours: float | None, note: str = "
     }
 
 
+def report_summary(rows: Sequence[dict[str, Any]]) -> tuple[int, int, int]:
+    """(rows, rows compared with the paper, rows that agree): a row is compared where ``agrees`` is not None."""
+    compared = [r for r in rows if r["agrees"] is not None]
+    return len(rows), len(compared), sum(1 for r in compared if r["agrees"] is True)
+
+
 def _cell(x: Any) -> str:
     if x is None:
         return "–"
@@ -56,8 +62,7 @@ def _cell(x: Any) -> str:
 
 def render_report_markdown(paper: str, title: str, rows: Sequence[dict[str, Any]], figures: Sequence[str] = (), intro: str = "") -> str:
     """Human-readable ``report.md``: a table of every row, then the figures."""
-    n_cmp = sum(1 for r in rows if r["agrees"] is not None)
-    n_ok = sum(1 for r in rows if r["agrees"] is True)
+    _, n_cmp, n_ok = report_summary(rows)
     lines = [f"# {title}", ""]
     if intro:
         lines += [intro, ""]
