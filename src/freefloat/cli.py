@@ -20,6 +20,7 @@ their body in ``with user_errors():``.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import warnings
 from collections.abc import Iterator
@@ -33,7 +34,7 @@ import typer
 from .analysis.singularity import jacobian_determinant_map
 from .core.errors import FreefloatError, ModelCorrectionWarning
 from .core.model import Model
-from .io.outputs import OutputDirectory, output_directory, staged_outputs
+from .io.outputs import OutputDirectory, check_targets, output_directory, staged_outputs
 from .models import BUILTIN_MODELS, load_model
 from .papers.paper_report import report_summary
 from .papers.report import PAPER_PAYLOAD, model_info, paper_systems, render_text, write_model_reports
@@ -296,9 +297,16 @@ def demo_command(
     reports of the papers' systems (OUT/models/) and the det J* map of the captured one-arm system."""
     from matplotlib.figure import Figure
 
+    from .papers.reproduce import output_names
+
+    with user_errors():
+        systems = paper_systems()
+        known = [f"{p}/{name}" for p in ("1991", "1992") for name in output_names(p)]
+        known += [f"models/{slug}.{ext}" for slug, _, _ in systems for ext in ("json", "md")]
+        if not isinstance(out, _EmptyPath):
+            check_targets(out, [*known, "models/report.md", DETJ_MAP_PNG, "README.md"], overwrite=overwrite)  # before the work
     with user_errors(), _staged(out, overwrite, "demo") as target:
         out = target.stage
-        systems = paper_systems()
         mass, inertia = PAPER_PAYLOAD
         written = write_model_reports(
             systems,
@@ -462,17 +470,16 @@ def simulate_command(
     """
     import sys
 
-    from .io.outputs import check_targets
     from .scenarios.scenario import estimate_scenario, load_scenario
-    from .scenarios.scenario_outputs import output_names, simulate_scenario
+    from .scenarios.scenario_outputs import check_animation_target, output_names, simulate_scenario
 
     with user_errors(), _warnings_as_lines():
         loaded = load_scenario(scenario)
         if isinstance(out, _EmptyPath):
             output_directory("")
         check_targets(out, output_names(loaded), overwrite=overwrite)
-        if animate is not None and Path(animate).exists():  # refused before the run (and before its estimate)
-            raise FileExistsError(f"--animate {animate}: exists; freefloat never overwrites a file (choose another name)")
+        if animate is not None:  # refused before the run (and before its estimate)
+            check_animation_target(animate)
         estimate = estimate_scenario(loaded)
         typer.echo(f"{loaded.source}: {estimate.describe()}", err=True)
         if estimate.seconds > LONG_RUN_S and not yes:
@@ -511,6 +518,10 @@ def reproduce_command(
             from .papers.reproduce import reproduce_1991 as reproduce
         else:
             from .papers.reproduce import reproduce_1992 as reproduce
+        from .papers.reproduce import output_names
+
+        if not isinstance(out, _EmptyPath):
+            check_targets(out, output_names(paper), overwrite=overwrite)  # before the work
         with _staged(out, overwrite, f"reproduce {paper}") as target:
             written = reproduce(target.stage)
     for path in target.final(written):
@@ -518,5 +529,16 @@ def reproduce_command(
 
 
 def main() -> None:
-    """Entry point of the ``freefloat`` script and of ``python -m freefloat``."""
+    """Entry point of the ``freefloat`` script and of ``python -m freefloat``.
+
+    SIGTERM (``kill``, a batch system's time limit) is taken as Ctrl-C: a running simulation returns
+    what it computed and the command writes it, and no staging folder is left in ``--out``.
+    """
+    import signal
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    with contextlib.suppress(ValueError):  # not the main thread (an embedding application): leave the signal alone
+        signal.signal(signal.SIGTERM, interrupt)
     app(prog_name="freefloat")

@@ -40,4 +40,4 @@ def test_simulate_animate_refuses_an_existing_file_before_running(tmp_path: Path
     assert gif.read_bytes() == b"not ours"
     assert not any(out.glob("*.npz"))  # refused before the run
     bad = runner.invoke(app, ["simulate", str(short_scenario(tmp_path)), "--out", str(out), "--animate", str(tmp_path / "a.avi")])
-    assert bad.exit_code == 1 and ".gif or .mp4" in bad.stderr
+    assert bad.exit_code == 1 and ".gif (Pillow) or .mp4 (ffmpeg)" in bad.stderr

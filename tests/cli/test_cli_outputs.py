@@ -172,5 +172,5 @@ def test_reproduce_never_replaces_a_user_file(tmp_path: Path) -> None:
     notes = out / "report.md"
     notes.write_text("my notes on the paper\n")
     result = invoke("reproduce", "1991", "--out", str(out), "--overwrite")  # even with --overwrite: not a file freefloat wrote
-    assert result.exit_code == 1 and "report.md was not written by freefloat" in result.output and "outputs were discarded" in result.output
+    assert result.exit_code == 1 and "report.md was not written by freefloat" in result.output and "nothing was run" in result.output
     assert notes.read_text() == "my notes on the paper\n" and sorted(p.name for p in out.iterdir()) == ["report.md"]

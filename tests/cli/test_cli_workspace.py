@@ -129,12 +129,17 @@ def test_capture_example_scenario(tmp_path: Path) -> None:
 
 
 def test_capture_joint_limits_in_degrees(tmp_path: Path) -> None:
-    text = SCENARIO + "\n[joint_limits_deg]\narm1_q1 = [-60.0, 60.0]\n"
-    result = invoke("capture", str(scenario(tmp_path, text)))
+    """Limits in degrees are read and kept: with q1 in [-180, 150] deg a plan keeps them along the whole path; with q1 in
+    [-60, 60] deg the payload cannot be moved along AB free-floating (q1 must turn about 87 deg), which is an error (it
+    was a plan whose motion crossed the limit, reported as a success)."""
+    text = SCENARIO + "\n[joint_limits_deg]\narm1_q1 = [-180.0, 150.0]\n"
+    result = invoke("capture", str(scenario(tmp_path, text)), "--out", str(tmp_path / "out"))
     assert result.exit_code == 0, result.output
-    line = next(s for s in result.stdout.splitlines() if "<- chosen" in s)
-    q1 = float(line.split("q = [")[1].split(",")[0])
-    assert -60.0 - 1e-6 <= q1 <= 60.0 + 1e-6
+    data = json.loads((tmp_path / "out" / "capture.json").read_text())
+    q1 = np.degrees([data["posture"]["q"][0], data["motion"]["q_end"][0]])
+    assert np.all((-180.0 - 1e-6 <= q1) & (q1 <= 150.0 + 1e-6)) and "joint limits       kept along the path" in result.stdout
+    narrow = invoke("capture", str(scenario(tmp_path, SCENARIO + "\n[joint_limits_deg]\narm1_q1 = [-60.0, 60.0]\n")))
+    assert narrow.exit_code == 1 and "a joint crosses its limit" in narrow.output and "within the joint limits" in narrow.output
 
 
 @pytest.mark.parametrize(

@@ -20,8 +20,9 @@ from typer.testing import CliRunner
 import freefloat as ff
 from freefloat.cli import app
 from freefloat.core.errors import LongRunWarning, StiffGainsWarning
+from freefloat.core.state import pack_state
 from freefloat.simulation import estimate_run, pd_gain_bounds, pd_stability
-from freefloat.simulation._guard import PROGRESS_DELAY, Progress
+from freefloat.simulation._guard import PROGRESS_DELAY, DivergenceGuard, Progress
 
 ARM = Path(__file__).parents[2] / "examples" / "models" / "six_dof_arm.urdf"
 Q_TARGET = np.array([0.3, -0.5, 1.0, 0.4, -0.6, 0.8])
@@ -98,10 +99,17 @@ def test_pd_gain_bounds_predict_the_simulated_stability(kd_fraction: float, kp_f
 
 
 def test_collapsing_adaptive_step_stops_the_run() -> None:
-    """tau = qdot^2 drives qdot to infinity in finite time: the adaptive step collapses; the guard stops it."""
-    with pytest.raises(ff.SimulationError, match=r"adaptive step collapsed.*joint 'q1'") as info:
+    """tau = qdot^2 drives qdot to infinity in finite time: the guard stops it (the rate bound comes first now)."""
+    with pytest.raises(ff.SimulationError, match=r"joint 'q1' moves at .* beyond 10000 rad/s") as info:
         ff.simulate(one_joint(), ff.State(q=[0.1], qdot=[1.0]), 1.0, lambda t, s: s.qdot**2)
     assert info.value.trajectory.status == "failed" and len(info.value.trajectory) > 1
+    # the step-collapse test itself: 20 x 64 right-hand-side calls spanning 1e-12 s, against outputs every 0.01 s
+    model = one_joint()
+    x0 = pack_state(ff.State(q=[0.1], qdot=[1.0]).resolve(model))
+    guard = DivergenceGuard(model, x0, 0.01, None, "RK4 step")
+    with pytest.raises(ff.SimulationError, match=r"adaptive step collapsed to .* joint 'q1'"):
+        for k in range(64 * 20):
+            guard.tick(k * 1e-15, x0)
 
 
 def test_estimate_counts_steps_samples_and_outputs(arm: ff.Model) -> None:

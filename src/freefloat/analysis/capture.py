@@ -261,10 +261,12 @@ class CapturePlan:
 
     ``method``: ``"piw"`` (the paper's: the path lies in the post-capture
     PIW, so no configuration met on it can be singular) or ``"path"`` (the
-    path fits in no PIW annulus, but the free-floating motion along it from
-    this posture and attitude was integrated and never meets a singularity
-    of ``criterion``). ``motion``: that free-floating motion (1992 eqs. 12,
-    14) along the path, with the singularity measure along it.
+    free-floating motion along the path from this posture and attitude was
+    integrated and never meets a singularity of ``criterion`` nor a joint
+    limit). ``why_path``: why the PIW plan was not taken (the path fits in no
+    PIW annulus, or the paper's posture fails a check along it); empty for
+    ``"piw"``. ``motion``: that free-floating motion (1992 eqs. 12, 14) along
+    the path, with the singularity measure along it.
     """
 
     before: Model
@@ -276,6 +278,7 @@ class CapturePlan:
     method: str = "piw"
     motion: PathMotion | None = None
     criterion: SingularityCriterion = field(default_factory=SingularityCriterion)
+    why_path: str = ""
 
     @property
     def approach_distance(self) -> float:
@@ -324,6 +327,18 @@ def _posture_candidates(
             if all(np.max(np.abs(np.angle(np.exp(1j * (qq - p))))) > 0.3 for p in out):
                 out.append(qq)
     return out
+
+
+def _failed_checks(motion: PathMotion) -> str:
+    """Which checks of a free-floating motion along the path fail, in words."""
+    failed = []
+    if not motion.follows_path:
+        failed.append(f"the end effector leaves the path by {motion.deviation:.3g} m (tolerance {motion.tolerance:.3g} m)")
+    elif not motion.singularity_free:
+        failed.append(f"|measure| falls to {motion.min_measure:.3g} (singular at <= {motion.threshold:.3g})")
+    if not motion.within_limits:
+        failed.append(f"a joint crosses its limit (by {-motion.limit_margin:.3g} rad or m)")
+    return "; ".join(failed)
 
 
 def _path_checked_plan(
@@ -419,6 +434,10 @@ def plan_capture(
     which rows of J* and which measure count as singular, with a threshold;
     for a spatial arm carrying a payload CM, ``rows="position"`` (the full
     6 x 6 J* of a 6-DOF arm is singular at every radius through its wrist).
+    A plan is returned only when every check holds: the path lies in the workspace, and the
+    free-floating motion along it follows the path, stays singularity-free and keeps every joint
+    within its limits (a PIW plan that fails one of them is replaced by a path-checked search with
+    ``strategy="auto"``, and refused with ``"piw"``).
     ``strategy``: ``"piw"`` (the paper's: the path must lie in the PIW),
     ``"path"`` (search CM+ on the reachable workspace, the posture and the
     attitude, integrating the free-floating motion along the path, and keep
@@ -434,24 +453,36 @@ def plan_capture(
     piw = path_independent_workspace(captured, e, samples=samples, criterion=crit)
     pts = _check_path(path)
     found: tuple[str, PathPlacement, CapturePosture, PathMotion] | None = None
+    why_path = "strategy 'path' was asked for"
     if strategy != "path":
         try:
             placement = place_path(piw, pts, rule=rule, R_plus=R_plus, robot_mass=model.total_mass, payload_mass=float(mass))
         except PathDoesNotFitError as exc:
             if strategy == "piw" or exc.fits_reachable is False:  # not even in the reachable workspace: thrusters
                 raise
+            why_path = "the path fits in no PIW annulus"
         else:
             posture = optimal_capture_posture(captured, e, placement.R_plus, direction=placement.direction, criterion=criterion)
             motion = free_floating_path_motion(captured, e, posture.q, posture.attitude, placement.cm_plus, pts, criterion=crit)[0]
-            found = ("piw", placement, posture, motion)
+            why_path = f"the paper's capture posture in the PIW fails along the path: {_failed_checks(motion)}"
+            if motion.usable:
+                found = ("piw", placement, posture, motion)
+                why_path = ""
+            elif strategy == "piw":
+                raise PathDoesNotFitError(
+                    f"the path fits in the PIW, but the paper's capture posture fails along it: {_failed_checks(motion)} "
+                    "(strategy 'auto' or 'path' searches other placements, postures and attitudes)",
+                    margin=placement.margin,
+                    fits_reachable=True,
+                )
     if found is None:
         checked = _path_checked_plan(model, captured, e, pts, piw, float(mass), crit, R_plus)
         if checked is None:
             where = ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in piw.piw) or "(empty)"
             raise PathDoesNotFitError(
-                f"the path fits in no PIW annulus {where} m, and no capture placement, posture and attitude found moves the "
-                f"payload along it free-floating without a singularity ({crit.describe(captured)}): use the thrusters "
-                "(1992 §V), a lower threshold or a shorter path",
+                f"{why_path} (PIW {where} m), and no capture placement, posture and attitude found moves the payload along "
+                f"it free-floating without a singularity ({crit.describe(captured)}) within the joint limits: use the "
+                "thrusters (1992 §V), a lower threshold, wider joint limits or a shorter path",
                 margin=-np.inf,
                 fits_reachable=None,
             )
@@ -467,4 +498,5 @@ def plan_capture(
         method=method,
         motion=motion,
         criterion=crit,
+        why_path=why_path if method == "path" else "",
     )

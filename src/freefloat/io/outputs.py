@@ -84,13 +84,40 @@ class _Manifests:
 
 def output_directory(path: Path | str) -> Path:
     """Create the output directory ``path`` (and its parents); refuse an empty path or a path that is a file."""
+    return _make_output_directory(path)[0]
+
+
+def _make_output_directory(path: Path | str) -> tuple[Path, list[Path]]:
+    """``output_directory``, and the folders it created (deepest first), to remove if the run fails."""
     if not str(path).strip():
         raise ValueError("--out: an empty path would write into the current directory; name an output directory, e.g. --out out")
     path = Path(path)
     if path.exists() and not path.is_dir():
         raise FileExistsError(f"--out {path}: exists and is not a directory; choose another --out")
-    path.mkdir(parents=True, exist_ok=True)
-    return path
+    created = [p for p in (path, *path.parents) if not p.exists()]
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OSError(f"--out {path}: cannot create this folder ({exc.strerror or exc}); choose a folder you can write to") from None
+    return path, created
+
+
+def _remove_stale_stages(out: Path) -> None:
+    """Remove the staging folders of runs that were killed (their process no longer exists)."""
+    for stage in out.glob(f"{_STAGING_PREFIX}*"):
+        pid = stage.name[len(_STAGING_PREFIX) :].split("-", 1)[0]
+        if pid.isdigit() and not _alive(int(pid)):
+            shutil.rmtree(stage, ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def _conflict(out: Path, rel: str, overwrite: bool, manifests: _Manifests) -> str | None:
@@ -187,16 +214,29 @@ def staged_outputs(path: Path | str, *, overwrite: bool, command: str) -> Iterat
 
     A :class:`~freefloat.SimulationError` (a simulation that failed part-way and wrote its partial
     trajectory) commits what was written, then propagates with the staging folder's name replaced
-    by ``path``; any other error discards the staged files.
+    by ``path``; any other error discards the staged files, and the folders this run created are
+    removed again if they are empty. The staging folder carries the process id: a run that was
+    killed (SIGKILL; the command line turns SIGTERM into an interruption that ends cleanly) leaves
+    one behind, and the next run into ``path`` removes it.
     """
-    out = output_directory(path)
-    stage = Path(tempfile.mkdtemp(prefix=_STAGING_PREFIX, dir=out))
+    out, created = _make_output_directory(path)
+    _remove_stale_stages(out)
+    stage = Path(tempfile.mkdtemp(prefix=f"{_STAGING_PREFIX}{os.getpid()}-", dir=out))
     target = OutputDirectory(out, stage, overwrite, command)
+    committed = False
     try:
         yield target
         target.commit()
+        committed = True
     except SimulationError as exc:
         target.commit()
+        committed = True
         raise SimulationError(target.rewrite(str(exc)), exc.trajectory) from exc
     finally:
         shutil.rmtree(stage, ignore_errors=True)
+        if not committed:
+            for folder in created:  # deepest first; a folder that holds anything stays
+                try:
+                    folder.rmdir()
+                except OSError:
+                    break

@@ -12,14 +12,22 @@ from pathlib import Path
 
 from .paper1991 import INTRO as INTRO_1991
 from .paper1991 import compute_1991, rows_1991
+from .paper1991_figures import FIGURE_NAMES as FIGURES_1991
 from .paper1991_figures import write_figures
 from .paper1992 import INTRO as INTRO_1992
 from .paper1992 import TITLE as TITLE_1992
 from .paper1992 import Results1992, compute_1992, rows_1992
+from .paper1992_figures import FIGURE_NAMES as FIGURES_1992
 from .paper1992_figures import write_figures_1992
 from .paper_report import write_report
 
-__all__ = ["reproduce_1991", "reproduce_1992"]
+__all__ = ["output_names", "reproduce_1991", "reproduce_1992"]
+
+
+def output_names(paper: str) -> list[str]:
+    """The files ``reproduce`` of ``paper`` ("1991" or "1992") writes, relative to its folder: known before the
+    work, so that a command can refuse to replace a file before it computes anything."""
+    return ["report.json", "report.md", *(FIGURES_1991 if paper == "1991" else FIGURES_1992)]
 
 
 def reproduce_1991(out: Path) -> list[Path]:

@@ -338,8 +338,16 @@ class CaptureResult:
             "posture": posture(p.posture),
             "family_postures": [posture(f) for f in self.family_postures],
             "method": p.method,
+            "why_path": p.why_path,
             "singularity": {**p.criterion.as_dict(), "described": p.criterion.describe(p.captured)},
             "motion": None if p.motion is None else _motion_dict(p.motion),
+            # every check a plan must pass (plan_capture returns no plan that fails one)
+            "checks": {
+                "path_in_workspace": placement.margin >= 0.0,
+                "motion_follows_path": None if p.motion is None else p.motion.follows_path,
+                "singularity_free": None if p.motion is None else p.motion.singularity_free,
+                "within_joint_limits": None if p.motion is None else p.motion.within_limits,
+            },
         }
 
     def render_text(self) -> str:
@@ -369,8 +377,8 @@ class CaptureResult:
                 f"  free-flyer CM      {vec(placement.approach_point)} m before capture (on the line A -> CM+)",
             ]
         if p.method == "path":
-            lines.append("  plan               path checked: the path fits in no PIW annulus; the free-floating motion along it")
-            lines.append("                     from this posture and attitude was integrated (1992 eqs. 12, 14) and is singularity-free")
+            lines.append(f"  plan               path checked ({p.why_path}): the free-floating motion along it from this posture")
+            lines.append("                     and attitude was integrated (1992 eqs. 12, 14): singularity-free, within the joint limits")
         if p.motion is not None:
             m = p.motion
             lines.append(f"  singularity        {m.criterion}")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +19,36 @@ from ..core.errors import SimulationError
 from ..simulation.trajectory import Trajectory
 from .scenario import Scenario, run_scenario
 
-__all__ = ["output_names", "simulate_scenario", "write_trajectory_outputs"]
+__all__ = ["check_animation_target", "output_names", "simulate_scenario", "write_trajectory_outputs"]
+
+
+def check_animation_target(path: Path | str) -> Path:
+    """Before a run: refuse an animation file that could not be written (``--animate PATH``).
+
+    The type (``.gif``: Pillow, ``.mp4``: ffmpeg, which must be installed), a file that exists
+    (never overwritten), and a folder that cannot be written (tried with a scratch file in the
+    nearest existing folder, which is removed) are errors that name the fix.
+    """
+    from matplotlib import animation
+
+    target = Path(path)
+    if target.suffix.lower() not in (".gif", ".mp4"):
+        raise ValueError(f"--animate {target}: unknown animation type {target.suffix!r}; use .gif (Pillow) or .mp4 (ffmpeg)")
+    if target.suffix.lower() == ".mp4" and not animation.FFMpegWriter.isAvailable():
+        raise ValueError(f"--animate {target}: writing .mp4 needs ffmpeg, which is not installed; write a .gif instead")
+    if target.exists() or target.is_symlink():
+        raise FileExistsError(f"--animate {target}: exists; freefloat never overwrites a file (choose another name)")
+    folder = next(p for p in (target.parent.absolute(), *target.parent.absolute().parents) if p.exists())
+    try:
+        if not folder.is_dir():
+            raise NotADirectoryError(folder)
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".freefloat-write-test-"):
+            pass
+    except OSError as exc:
+        raise OSError(
+            f"--animate {target}: cannot write into {folder} ({exc.strerror or type(exc).__name__}); choose a folder you can write to"
+        ) from None
+    return target
 
 
 def output_names(scenario: Scenario) -> list[str]:
@@ -73,11 +103,7 @@ def simulate_scenario(scenario: Scenario, out: Path, *, progress: Any = None, an
     before the run.
     """
     if animation is not None:
-        animation = Path(animation)
-        if animation.suffix.lower() not in (".gif", ".mp4"):
-            raise ValueError(f"--animate {animation}: unknown animation type {animation.suffix!r}; use .gif or .mp4")
-        if animation.exists():
-            raise FileExistsError(f"--animate {animation}: exists; freefloat never overwrites a file (choose another name)")
+        animation = check_animation_target(animation)
     try:
         traj = run_scenario(scenario, progress=progress, warn_after=None)  # the caller has seen the estimate
     except SimulationError as exc:

@@ -24,6 +24,7 @@ from ..mechanics.momentum import free_floating_joint_inertia, kinetic_energy
 
 __all__ = [
     "DIVERGENCE_ANGLE",
+    "MAX_RATE",
     "DivergenceGuard",
     "Progress",
     "RunEstimate",
@@ -45,6 +46,14 @@ ENERGY_FACTOR = 100.0
 #: period (or of the duration, if shorter): the step size collapsed (the equations are too stiff for
 #: the method, or the state diverges): a billion steps per recorded state.
 MIN_STEP_FRACTION = 1e-9
+#: No joint of a space robot turns faster than this (rad/s; about 95,000 rpm) nor slides faster (m/s), and no
+#: spacecraft spins faster: a rate beyond it means the actuation or the initial state is not physical, and
+#: an adaptive integrator would take forever to resolve the motion. The run stops with an error naming it.
+MAX_RATE = 1e4
+#: The default wall-clock budget of a run (``max_wall_time="auto"``): this many times the estimate of
+#: :func:`estimate_run`, and at least :data:`MIN_WALL_BUDGET` seconds.
+WALL_BUDGET_FACTOR = 20.0
+MIN_WALL_BUDGET = 60.0
 #: Seconds of a running simulation before the automatic progress bar appears.
 PROGRESS_DELAY = 2.0
 #: Per controller sample: the cost assumed for a light Python controller and the recording (s).
@@ -304,6 +313,10 @@ class DivergenceGuard:
       loses energy; its sampled version gains a bounded fraction).
     - **step collapse** (adaptive integrators): the mean step over the last ~100 steps falls
       below :data:`MIN_STEP_FRACTION` of ``resolution`` (the output period, or the duration if shorter).
+    - **beyond meaning** (every integrator, with or without a controller): a joint rate or a spacecraft
+      spin above :data:`MAX_RATE` (the controller's torques or the initial state are not physical; an
+      adaptive integrator would otherwise shrink its steps to follow the motion for ever).
+    - **wall clock** (:meth:`clock`): the run has computed for longer than ``wall_limit`` seconds.
     """
 
     def __init__(
@@ -315,8 +328,13 @@ class DivergenceGuard:
         what: str,
         enabled: bool = True,
         controller: Any = None,
+        wall_limit: float | None = None,
+        duration: float = 0.0,
     ) -> None:
         self.model = model
+        self.wall_limit = wall_limit  # independent of ``enabled``: divergence_guard=False still ends
+        self.duration = duration
+        self.started = time.perf_counter()
         self.n = model.n_joints
         self.h = h
         self.what = what
@@ -355,30 +373,33 @@ class DivergenceGuard:
         self.rate_checked = rate
         return True
 
-    def _fastest(self, x: np.ndarray) -> tuple[str, float]:
+    def _fastest(self, x: np.ndarray) -> tuple[str, float, str]:
+        """The fastest joint or the spacecraft: (who, rate, unit of the rate)."""
         n = self.n
         rates = np.abs(x[13 + n :])
         spin = float(np.linalg.norm(x[10:13]))
         if n and rates.max() >= spin:
             i = int(np.argmax(rates))
-            return f"joint {self.model.joint_names[i]!r}", float(rates[i])
-        return "the spacecraft", spin
+            return f"joint {self.model.joint_names[i]!r}", float(rates[i]), "m/s" if self.model.prismatic[i] else "rad/s"
+        return "the spacecraft", spin, "rad/s"
 
     @property
     def rate_limit(self) -> float:
         """The joint rate (rad/s) above which :meth:`check` must look (inf: never)."""
-        return DIVERGENCE_ANGLE / self.h if self.enabled and self.h else float("inf")
+        if not self.enabled:
+            return float("inf")
+        return min(DIVERGENCE_ANGLE / self.h, MAX_RATE) if self.h else MAX_RATE
 
     def quiet(self, values: list[float]) -> bool:
         """True when the flat state ``values`` (a list: plain floats are cheaper than numpy for a few joints)
         cannot fail :meth:`check`: no energy test to make and every rate too slow for the growth test."""
-        if not self.enabled or self.h is None:
+        if not self.enabled:
             return True
         if self.budget is not None:
             return False
         rates, spin = values[13 + self.n :], values[10:13]
         bound = max(max(rates, default=0.0), -min(rates, default=0.0), 1.7320508075688772 * max(max(spin), -min(spin)))
-        return bound * self.h <= DIVERGENCE_ANGLE
+        return bound <= self.rate_limit
 
     def check(self, t: float, x: np.ndarray) -> None:
         """Raise if the state at ``t`` has grown without bound (the growth and energy tests)."""
@@ -387,39 +408,57 @@ class DivergenceGuard:
         if self.budget is not None and self.budget > 0 and self._rates_grew(x):
             energy = self._energy(x)
             if energy > ENERGY_FACTOR * self.budget:
-                who, rate = self._fastest(x)
+                who, rate, _ = self._fastest(x)
                 raise SimulationError(
                     f"the simulation diverged at t = {t:.6g} s: the kinetic energy is {energy:.3g} J, over {ENERGY_FACTOR:g} times "
                     f"the {self.budget:.3g} J the joint PD can supply (initial kinetic energy + 1/2 sum kp (q0 - q_ref)^2); "
                     f"fastest: {who} at {rate:.3g} rad/s. The sampled PD is unstable: lower the gains (see StiffGainsWarning) "
                     "or shorten the sample period"
                 )
-        if self.h is None:
-            return
         # fast path, every step: a bound on the fastest rate in plain floats (the spin norm <= sqrt(3) max |omega_i|)
         rates, spin = x[13 + self.n :].tolist(), x[10:13].tolist()
         bound = max(max(rates, default=0.0), -min(rates, default=0.0), 1.7320508075688772 * max(max(spin), -min(spin)))
-        if bound * self.h <= DIVERGENCE_ANGLE:
+        if bound <= self.rate_limit:
             return
-        who, rate = self._fastest(x)
-        if rate * self.h <= DIVERGENCE_ANGLE:
+        who, rate, unit = self._fastest(x)
+        if self.h is not None and rate * self.h > DIVERGENCE_ANGLE:
+            energy = self._energy(x)
+            if energy > 10.0 * self.energy0:
+                raise SimulationError(
+                    f"the simulation diverged at t = {t:.6g} s: {who} turns at {rate:.3g} rad/s, {rate * self.h:.3g} rad per "
+                    f"{self.what} of {self.h:.3g} s, and the kinetic energy grew from {self.energy0:.3g} J to {energy:.3g} J. "
+                    "The sampled controller is unstable or the step too long: lower the gains (see StiffGainsWarning) "
+                    "or shorten the sample period / step"
+                )
+        if rate > MAX_RATE:
+            raise SimulationError(
+                f"the simulation left what the model can mean at t = {t:.6g} s: {who} moves at {rate:.3g} {unit}, beyond "
+                f"{MAX_RATE:g} {unit}, which no joint or spacecraft of a space robot reaches. The actuation (the controller's "
+                "output) or the initial state is not physical: check its units and size (pass divergence_guard=False to "
+                "simulate it anyway)"
+            )
+
+    def clock(self, t: float) -> None:
+        """Raise once the run has computed for longer than ``wall_limit`` seconds (None: never)."""
+        if self.wall_limit is None:
             return
-        energy = self._energy(x)
-        if energy <= 10.0 * self.energy0:
+        elapsed = time.perf_counter() - self.started
+        if elapsed <= self.wall_limit:
             return
+        pace = f"; at this pace the rest would take {_duration(elapsed * (self.duration - t) / t)}" if t > 0 else ""
         raise SimulationError(
-            f"the simulation diverged at t = {t:.6g} s: {who} turns at {rate:.3g} rad/s, {rate * self.h:.3g} rad per "
-            f"{self.what} of {self.h:.3g} s, and the kinetic energy grew from {self.energy0:.3g} J to {energy:.3g} J. "
-            "The sampled controller is unstable or the step too long: lower the gains (see StiffGainsWarning) "
-            "or shorten the sample period / step"
+            f"the simulation used its wall-clock budget of {_duration(self.wall_limit)}: {_duration(elapsed)} of computing "
+            f"reached t = {t:.6g} s of {self.duration:g} s{pace}. Pass max_wall_time (seconds, or None for no limit) to give "
+            "it more time, or shorten the run; the trajectory so far is attached (error.trajectory)"
         )
 
     def tick(self, t: float, y: np.ndarray) -> None:
-        """Called at each right-hand-side evaluation of an adaptive integrator: both tests, every 64 calls."""
-        if not self.enabled:
-            return
+        """Called at each right-hand-side evaluation of an adaptive integrator: every test, every 64 calls."""
         self.evals += 1
         if self.evals % 64:
+            return
+        self.clock(t)
+        if not self.enabled:
             return
         self.check(t, y)
         self.window_t.append(t)
@@ -429,7 +468,7 @@ class DivergenceGuard:
         self.window_t.clear()
         mean_step = span / (20 * 64 / 12)
         if mean_step < self.min_step:
-            who, rate = self._fastest(y)
+            who, rate, _ = self._fastest(y)
             raise SimulationError(
                 f"the adaptive step collapsed to {mean_step:.3g} s at t = {t:.6g} s (fastest: {who} at {rate:.3g} rad/s): "
                 "the equations are too stiff for this integrator or the state diverges; use fixed_step (RK4) with a "

@@ -223,6 +223,7 @@ def _run_rk4(
         if i % stride == 0 or i == steps:
             rec.add(t, x, act)
         bar.update(t)
+        guard.clock(t)
         if events:
             now = _event_value(events, model, t, x)
             for k, ev in enumerate(events):
@@ -315,6 +316,7 @@ def _run_adaptive(
         )
         x, held = status[1], status[2]
         bar.update(b)
+        guard.clock(b)
         if status[0]:
             return "event", status[0]
     return "finished", ""

@@ -30,7 +30,16 @@ from ..core.errors import FreefloatError, LongRunWarning, ShapeError, Simulation
 from ..core.model import Model
 from ..core.state import Actuation, ActuatorLimits, State, pack_state, unpack_state
 from ..mechanics import _engine
-from ._guard import PROGRESS_DELAY, DivergenceGuard, Progress, _derivative_cost, check_pd_gains, estimate_run
+from ._guard import (
+    MIN_WALL_BUDGET,
+    PROGRESS_DELAY,
+    WALL_BUDGET_FACTOR,
+    DivergenceGuard,
+    Progress,
+    _derivative_cost,
+    check_pd_gains,
+    estimate_run,
+)
 from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory
 from ._stops import JointStops, limit_violations
 from .pd import JointPD
@@ -122,6 +131,7 @@ def simulate(
     divergence_guard: bool = True,
     joint_limits: str = "stop",
     restitution: float = 0.0,
+    max_wall_time: float | str | None = "auto",
 ) -> Trajectory:
     """Simulate ``model`` from ``initial_state`` for ``duration`` seconds.
 
@@ -157,9 +167,13 @@ def simulate(
       gains are unstable on a joint's free-floating effective inertia gets a
       :class:`~freefloat.core.errors.StiffGainsWarning` naming the joint and
       the largest stable gains;
-    - ``divergence_guard``: a state growing without bound or an adaptive step
-      collapsing stops the run with a :class:`SimulationError` naming the
-      joint (see :class:`freefloat.simulation._guard.DivergenceGuard`);
+    - ``divergence_guard``: a state growing without bound, a joint rate or spacecraft
+      spin beyond what a space robot can mean (:data:`freefloat.simulation._guard.MAX_RATE`),
+      or an adaptive step collapsing stops the run with a :class:`SimulationError`
+      naming the joint (see :class:`freefloat.simulation._guard.DivergenceGuard`);
+    - ``max_wall_time``: the run stops with a :class:`SimulationError` (the trajectory so
+      far attached) once it has computed this many seconds; ``"auto"`` (default) is 20 x the
+      estimate and at least 60 s; None: no limit;
     - ``progress``: True a bar on stderr, None (default) a bar once the run
       has lasted 2 s, False none, or a callable ``progress(t, duration)``;
     - Ctrl-C (KeyboardInterrupt) returns the trajectory computed so far with
@@ -198,8 +212,9 @@ def simulate(
         tau, force, torque = _call_controller(controller, model, t, x, ())
         return limits.apply(tau, force, torque)
 
+    estimate = estimate_run(model, duration, fixed_step=fixed_step, sample_period=sample_period, output_period=output_period)
+    wall_limit = _wall_limit(max_wall_time, estimate.seconds)
     if warn_after is not None:
-        estimate = estimate_run(model, duration, fixed_step=fixed_step, sample_period=sample_period, output_period=output_period)
         if estimate.seconds > warn_after:
             warnings.warn(
                 f"this simulation will take long: {estimate.describe()} (over warn_after = {warn_after:g} s); "
@@ -211,7 +226,7 @@ def simulate(
     check_pd_gains(model, controller, np.asarray(state.q, dtype=float), h)
     pd = controller if not external else None  # the energy test of a joint PD holds without external wrenches
     what = "controller sample" if sample_period else "RK4 step"
-    guard = DivergenceGuard(model, x0, min(duration, period), h, what, divergence_guard, pd)
+    guard = DivergenceGuard(model, x0, min(duration, period), h, what, divergence_guard, pd, wall_limit, duration)
     bar = Progress(progress, duration)
     try:
         if fixed_step is not None:
@@ -241,6 +256,17 @@ def _with_limits(traj: Trajectory, stops: JointStops) -> Trajectory:
     """The trajectory with its joint-limit events: the stops' impacts, or (stops off) the spans beyond a limit."""
     found = stops.events if stops.active else (limit_violations(stops.model, traj.t, traj.q) if len(traj) else [])
     return dataclasses.replace(traj, joint_limit_events=tuple(found)) if found else traj
+
+
+def _wall_limit(max_wall_time: Any, estimate: float) -> float | None:
+    """The wall-clock budget (s) of ``max_wall_time``: "auto", None or a positive number of seconds."""
+    if max_wall_time is None:
+        return None
+    if isinstance(max_wall_time, str):
+        if max_wall_time != "auto":
+            raise ValueError(f"max_wall_time: expected seconds, 'auto' or None, got {max_wall_time!r}")
+        return max(MIN_WALL_BUDGET, WALL_BUDGET_FACTOR * estimate)
+    return _positive("max_wall_time", max_wall_time)
 
 
 def _positive(name: str, value: Any) -> float:
