@@ -186,7 +186,8 @@ EndEffectorOption = Annotated[
     typer.Option(
         "--end-effector",
         "-e",
-        help="An end effector: a link/body/site name (repeat the option for several). Default: those the file names, else every leaf.",
+        help="An end effector of a model file: a link/body/site name (repeat for several); replaces the file's or the scenario's. "
+        "Default: those the file (or scenario) names, else every leaf.",
     ),
 ]
 StrictOption = Annotated[
@@ -378,14 +379,21 @@ def workspace_command(
     measure: MeasureOpt = None,
     threshold: ThresholdOpt = None,
     overwrite: Overwrite = False,
+    end_effector: EndEffectorOption = None,
+    strict: StrictOption = False,
 ) -> None:
-    """Workspace limits about the system CM (1992 eqs. 15-17): reachable, guaranteed, PIW/PDW, with method and accuracy."""
+    """Workspace limits about the system CM (1992 eqs. 15-17): reachable, guaranteed, PIW/PDW, with method and accuracy.
+
+    -e names the model file's end effectors (J* has 6 rows per end effector: name the tools, not every leaf);
+    --arm picks the ones to analyse among them."""
     from .analysis.workspace_report import limits_json, workspace_limits, write_workspace_plots
 
     with user_errors():
         if isinstance(out, _EmptyPath):
             output_directory("")  # refused before the work
-        loaded = with_payload(load_model(model), payload_mass, payload_inertia, payload_ee)
+        loaded = with_payload(
+            load_model(model, end_effectors=end_effector or None, strict=strict), payload_mass, payload_inertia, payload_ee
+        )
         names = loaded.end_effector_names
         chosen = [int(a) if a.isdigit() and a not in names else a for a in arm or []]
         criterion = criterion_options(rows, measure, threshold)
@@ -413,6 +421,7 @@ def capture_command(
         str | None,
         typer.Option("--strategy", help="auto (PIW, else a path-checked plan), piw (the paper's) or path; overrides the scenario."),
     ] = None,
+    end_effector: EndEffectorOption = None,
 ) -> None:
     """Plan a payload capture (1992 §V): approach distance, CM+, R+, capture posture and spacecraft orientation.
 
@@ -425,7 +434,7 @@ def capture_command(
     with user_errors():
         if out is not None and isinstance(out, _EmptyPath):
             output_directory("")
-        loaded = load_capture_scenario(scenario)
+        loaded = load_capture_scenario(scenario, end_effectors=end_effector or None)
         if strategy is not None and strategy not in STRATEGIES:
             raise ValueError(f"--strategy {strategy!r}: unknown; choose one of {', '.join(STRATEGIES)}")
         loaded = dataclasses.replace(
@@ -462,6 +471,7 @@ def simulate_command(
     yes: Annotated[
         bool, typer.Option("--yes", "-y", help=f"Run without asking even when the run is estimated to take over {LONG_RUN_S:g} s.")
     ] = False,
+    end_effector: EndEffectorOption = None,
 ) -> None:
     """Simulate a scenario (model, initial state, actuation or controller, duration); write the trajectory and its plots.
 
@@ -474,7 +484,7 @@ def simulate_command(
     from .scenarios.scenario_outputs import check_animation_target, output_names, simulate_scenario
 
     with user_errors(), _warnings_as_lines():
-        loaded = load_scenario(scenario)
+        loaded = load_scenario(scenario, end_effectors=end_effector or None)
         if isinstance(out, _EmptyPath):
             output_directory("")
         check_targets(out, output_names(loaded), overwrite=overwrite)

@@ -16,6 +16,7 @@ of small links are accepted when the whole model is physical (H+ positive defini
 
 from __future__ import annotations
 
+import os
 import tomllib
 import warnings
 from collections.abc import Sequence
@@ -50,6 +51,13 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
     every leaf. ``strict``: refuse non-physical inertias instead of correcting them (URDF, MJCF).
     The loaded model must be physical as a whole: H+ positive definite at q = 0.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path: expected a model file path or a built-in model name (str or pathlib.Path), got {type(path).__name__}")
+    if end_effectors is not None:
+        if isinstance(end_effectors, (str, bytes)) or not isinstance(end_effectors, Sequence):
+            raise TypeError(f'end_effectors: expected a list of names, e.g. ["tool0"], got {end_effectors!r}')
+        if len(end_effectors) == 0:
+            raise ModelError("end_effectors", "is empty", "name at least one end effector, or pass None for the file's (else every leaf)")
     path = Path(path)
     if not path.suffix and not path.exists():
         return resolve_model(str(path), "path")  # a built-in name (or an error listing them)

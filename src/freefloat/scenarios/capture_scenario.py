@@ -7,6 +7,8 @@ orientation of eqs. 20-21), plus the best posture on each family of eq. 21
 for a planar two-link arm. Schema (docs/workspaces.md)::
 
     model = "papadopoulos1992-one-arm"   # built-in name, or a model file (path relative to the scenario)
+    # end_effectors = ["left", "right"]  # optional, model files only: the model's end effectors (default: the file's, else every leaf)
+    # strict = true                      # optional, model files only: refuse non-physical inertias instead of correcting them
     end_effector = "arm1_ee"             # optional: grasping end effector, name or index (default 0)
     samples = 262144                     # optional: configurations sampled for the PIW
 
@@ -58,8 +60,8 @@ from ..analysis.capture import (
 from ..analysis.singularity import MEASURES, ROWS, SingularityCriterion
 from ..core.errors import ModelError, UnknownNameError
 from ..core.model import Model, inertia_matrix
-from ..io.model_files import load, read_toml
-from ..models import load_model
+from ..io.model_files import read_toml
+from .scenario import scenario_model
 
 __all__ = [
     "CaptureResult",
@@ -72,7 +74,10 @@ __all__ = [
     "write_capture_outputs",
 ]
 
-_TOP_KEYS = {"model", "end_effector", "samples", "payload", "path", "singularity", "joint_limits", "joint_limits_deg", "description"}
+_TOP_KEYS = {
+    "model", "end_effectors", "strict", "end_effector", "samples", "payload", "path", "singularity", "joint_limits", "joint_limits_deg",
+    "description",
+}  # fmt: skip
 _SINGULARITY_KEYS = {"rows", "measure", "threshold", "strategy"}
 _PAYLOAD_KEYS = {"mass", "inertia", "offset"}
 _PATH_KEYS = {"points", "rule", "R_plus"}
@@ -121,15 +126,6 @@ def _number(value: Any, source: str, field: str, fix: str) -> float:
     if not np.isfinite(out):
         raise ModelError(_where(source, field), f"must be finite, got {value!r}", fix)
     return out
-
-
-def _default_loader(base: Path | None) -> Callable[[str], Model]:
-    def loader(spec: str) -> Model:
-        if base is not None and (base / spec).is_file():
-            return load(base / spec)
-        return load_model(spec)  # built-in names and plain paths, exactly as the CLI's MODEL argument
-
-    return loader
 
 
 def _with_limits(model: Model, data: dict[str, Any], source: str) -> Model:
@@ -186,16 +182,22 @@ def _path(table: dict[str, Any], source: str) -> np.ndarray:
 
 
 def capture_scenario_from_dict(
-    data: dict[str, Any], *, source: str = "", base_dir: Path | None = None, model_loader: Callable[[str], Model] | None = None
+    data: dict[str, Any],
+    *,
+    source: str = "",
+    base_dir: Path | None = None,
+    model_loader: Callable[[str], Model] | None = None,
+    end_effectors: Any = None,
 ) -> CaptureScenario:
-    """Validate a scenario given as a dict (the parsed TOML). ``base_dir``: where relative model paths start."""
+    """Validate a scenario given as a dict (the parsed TOML). ``base_dir``: where relative model paths start;
+    ``model_loader``: reads the ``model`` key instead (then ``end_effectors`` and ``strict`` are its business);
+    ``end_effectors``: replaces the scenario's ``end_effectors`` (the command line's ``-e``)."""
     data = _check_keys(data, _TOP_KEYS, source, "")
-    if "model" not in data or not isinstance(data["model"], str):
-        raise ModelError(
-            _where(source, "model"), "is missing or not a string", 'write model = "papadopoulos1992-one-arm" or a model file path'
-        )
-    loader = model_loader if model_loader is not None else _default_loader(base_dir)
-    model = _with_limits(loader(data["model"]), data, source)
+    if model_loader is not None and isinstance(data.get("model"), str):
+        loaded = model_loader(data["model"])
+    else:
+        loaded = scenario_model(data, source, base_dir, end_effectors)[0]
+    model = _with_limits(loaded, data, source)
     ee = data.get("end_effector", 0)
     if isinstance(ee, bool) or not isinstance(ee, (int, str)):
         raise ModelError(
@@ -282,13 +284,16 @@ def _singularity(table: Any, source: str) -> tuple[SingularityCriterion, str]:
     return criterion, str(table.get("strategy", "auto"))
 
 
-def load_capture_scenario(path: str | Path, *, model_loader: Callable[[str], Model] | None = None) -> CaptureScenario:
-    """Read and validate a capture scenario TOML file (schema in the module docstring)."""
+def load_capture_scenario(
+    path: str | Path, *, model_loader: Callable[[str], Model] | None = None, end_effectors: Any = None
+) -> CaptureScenario:
+    """Read and validate a capture scenario TOML file (schema in the module docstring); ``end_effectors`` replaces the
+    scenario's (the command line's ``-e``)."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such scenario file")
     data = read_toml(path, "scenario")
-    return capture_scenario_from_dict(data, source=str(path), base_dir=path.parent, model_loader=model_loader)
+    return capture_scenario_from_dict(data, source=str(path), base_dir=path.parent, model_loader=model_loader, end_effectors=end_effectors)
 
 
 @dataclass(frozen=True, eq=False)

@@ -6,6 +6,8 @@ controller. Schema (docs/simulation.md)::
 
     description = "..."                    # optional
     model = "papadopoulos1992"             # built-in name, or a model file (path relative to the scenario)
+    # end_effectors = ["tool0"]            # optional, model files only: the end effectors (default: the file's, else every leaf)
+    # strict = true                        # optional, model files only: refuse non-physical inertias instead of correcting them
     duration = 10.0                        # s, > 0
 
     [initial]                              # optional; omitted fields are zero / identity
@@ -94,7 +96,10 @@ ACTUATION_TYPES = ("constant", "piecewise", "sinusoid")
 #: Built-in controllers of ``[controller] type``.
 CONTROLLER_TYPES = ("joint_pd",)
 
-_TOP_KEYS = {"description", "model", "duration", "initial", "integrator", "actuation", "controller", "limits", "joint_limits", "outputs"}
+_TOP_KEYS = {
+    "description", "model", "end_effectors", "strict", "duration", "initial", "integrator", "actuation", "controller", "limits",
+    "joint_limits", "outputs",
+}  # fmt: skip
 _JOINT_LIMIT_KEYS = {"mode", "restitution"}
 _INITIAL_KEYS = {"q", "q_deg", "qdot", "qdot_deg", "omega", "omega_deg", "attitude", "euler321_deg", "r_cm", "v_cm"}
 _INTEGRATOR_KEYS = {"method", "rtol", "atol", "fixed_step", "output_period", "sample_period"}
@@ -417,37 +422,47 @@ def _joint_limits(data: Any, source: str) -> dict[str, Any]:
     return options
 
 
-def _model_loader(base: Path | None) -> Callable[[str], tuple[Model, Path | None]]:
-    def loader(spec: str) -> tuple[Model, Path | None]:
-        if base is not None and (base / spec).is_file():
-            return load(base / spec), (base / spec)
-        # built-in names and plain paths, exactly as the CLI's MODEL argument
-        path = Path(spec)
-        return load_model(spec), (path if path.is_file() else None)
+def scenario_model(top: dict[str, Any], source: str, base: Path | None, end_effectors: Any = None) -> tuple[Model, Path | None]:
+    """The model a scenario file names (its ``model``, ``end_effectors`` and ``strict`` keys), and the model file read.
 
-    return loader
-
-
-def scenario_from_dict(data: Any, *, source: str = "", base: Path | None = None) -> Scenario:
-    """Validate a scenario given as a dict (a parsed TOML file); ``base``: folder of relative model paths."""
-    if isinstance(data, dict) and "payload" in data and "path" in data:
-        raise ModelError(
-            source or "scenario", "is a capture scenario (it has [payload] and [path])", "run it with `freefloat capture`, not `simulate`"
-        )
-    top = _table(data, _TOP_KEYS, source, "")
+    ``model`` is a path relative to the scenario's folder ``base``, a plain path or a built-in name
+    (exactly as the CLI's MODEL argument); ``end_effectors`` (the command line's ``-e``, when given)
+    replaces the scenario's key. Shared by simulation and capture scenarios.
+    """
     if "model" not in top or not isinstance(top["model"], str):
         raise ModelError(
             _where(source, "model"),
             f"missing or not a string ({top.get('model')!r})",
             'give a built-in name such as "papadopoulos1992", or a model file path',
         )
+    chosen = end_effectors if end_effectors is not None else top.get("end_effectors")
+    if chosen is not None and (not isinstance(chosen, list) or not all(isinstance(n, str) and n.strip() for n in chosen)):
+        raise ModelError(_where(source, "end_effectors"), f"expected a list of names, got {chosen!r}", 'write end_effectors = ["tool0"]')
+    strict = top.get("strict", False)
+    if not isinstance(strict, bool):
+        raise ModelError(_where(source, "strict"), f"expected true or false, got {strict!r}", "write strict = true or leave it out")
+    spec = top["model"]
+    try:
+        if base is not None and (base / spec).is_file():
+            return load(base / spec, end_effectors=chosen, strict=strict), (base / spec)
+        path = Path(spec)
+        return load_model(spec, end_effectors=chosen, strict=strict), (path if path.is_file() else None)
+    except (ModelError, FileNotFoundError) as exc:
+        raise ModelError(_where(source, "model"), str(exc), "fix the model name or path (relative to the scenario file)") from exc
+
+
+def scenario_from_dict(data: Any, *, source: str = "", base: Path | None = None, end_effectors: Any = None) -> Scenario:
+    """Validate a scenario given as a dict (a parsed TOML file); ``base``: folder of relative model paths;
+    ``end_effectors``: replaces the scenario's ``end_effectors`` (the command line's ``-e``)."""
+    if isinstance(data, dict) and "payload" in data and "path" in data:
+        raise ModelError(
+            source or "scenario", "is a capture scenario (it has [payload] and [path])", "run it with `freefloat capture`, not `simulate`"
+        )
+    top = _table(data, _TOP_KEYS, source, "")
+    model, model_file = scenario_model(top, source, base, end_effectors)
     if "duration" not in top:
         raise ModelError(_where(source, "duration"), "missing", "give the simulated time in seconds, e.g. duration = 10.0")
     duration = _number(top["duration"], source, "duration", "give the simulated time in seconds (> 0)", positive=True)
-    try:
-        model, model_file = _model_loader(base)(top["model"])
-    except (ModelError, FileNotFoundError) as exc:
-        raise ModelError(_where(source, "model"), str(exc), "fix the model name or path (relative to the scenario file)") from exc
     initial = _initial_state(top.get("initial", {}), model, source)
     options = _integrator(top.get("integrator", {}), source, duration)
     if "actuation" in top and "controller" in top:
@@ -494,13 +509,14 @@ def scenario_from_dict(data: Any, *, source: str = "", base: Path | None = None)
     )
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    """Read and validate a scenario TOML file (schema in the module docstring and docs/simulation.md)."""
+def load_scenario(path: str | Path, *, end_effectors: Any = None) -> Scenario:
+    """Read and validate a scenario TOML file (schema in the module docstring and docs/simulation.md);
+    ``end_effectors`` replaces the scenario's (the command line's ``-e``)."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such scenario file")
     data = read_toml(path, "scenario")
-    return scenario_from_dict(data, source=str(path), base=path.parent)
+    return scenario_from_dict(data, source=str(path), base=path.parent, end_effectors=end_effectors)
 
 
 def estimate_scenario(scenario: Scenario) -> RunEstimate:

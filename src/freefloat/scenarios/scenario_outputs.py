@@ -123,6 +123,7 @@ def _summary(traj: Trajectory, scenario: Scenario) -> dict[str, Any]:
         "description": scenario.description,
         "model": scenario.model.name,
         "joint_names": list(scenario.model.joint_names),
+        "end_effector_names": list(scenario.model.end_effector_names),
         "status": traj.status,
         "message": traj.message,
         "samples": len(traj),
@@ -135,6 +136,7 @@ def _summary(traj: Trajectory, scenario: Scenario) -> dict[str, Any]:
         summary["angular_momentum_change"] = float(np.max(np.linalg.norm(h - h[0], axis=-1)))
         summary["kinetic_energy"] = {"initial": float(traj.kinetic_energy[0]), "final": float(traj.kinetic_energy[-1])}
         summary["saturated_fraction"] = float(np.mean(traj.saturated))
+        summary["final_end_effector_positions"] = np.asarray(traj.end_effector_positions[-1]).tolist()  # inertial frame, m
     return summary
 
 
