@@ -10,7 +10,7 @@ import pytest
 from PIL import Image
 
 import freefloat as ff
-from freefloat.analysis.capture import plan_capture
+from freefloat.analysis.capture import CapturePlan, plan_capture
 from freefloat.analysis.singularity import SingularityCriterion
 from freefloat.analysis.workspace import (
     guaranteed_workspace,
@@ -69,8 +69,13 @@ def test_write_workspace_plots_3d_and_planar(tmp_path: Path) -> None:
     assert len(write_workspace_plots(planar, tmp_path / "planar", dpi=40)) == 1
 
 
-def test_capture_plan_of_a_spatial_arm_plots_in_3d() -> None:
-    plan = plan_capture(ARM, 0, [[0.0, 0.0, 0.0], [0.0, 0.2, 0.0]], mass=100.0, inertia=5.0, samples=1 << 13, criterion=POSITION)
+@pytest.fixture(scope="module")
+def plan_3d() -> CapturePlan:
+    return plan_capture(ARM, 0, [[0.0, 0.0, 0.0], [0.0, 0.2, 0.0]], mass=100.0, inertia=5.0, samples=1 << 13, criterion=POSITION)
+
+
+def test_capture_plan_of_a_spatial_arm_plots_in_3d(plan_3d: CapturePlan) -> None:
+    plan = plan_3d
     artists = plan.plot()
     ax = artists[0].axes
     assert ax.name == "3d" and plt.fignum_exists(ax.get_figure(root=True).number)
@@ -93,3 +98,42 @@ def test_singularity_map_of_a_spatial_arm_with_the_chosen_measure() -> None:
     assert plt.fignum_exists(artists.mesh.get_figure(root=True).number)
     with pytest.raises(ff.ShapeError, match="not square"):
         ff.workspace.jacobian_determinant_map(ARM, (0, 1), n=5)  # det J* needs a square J*: pass a criterion
+
+
+def test_3d_capture_plan_holds_everything_drawn_at_equal_scales(plan_3d: CapturePlan) -> None:
+    """Issue 19 item 8.1: the robot at both postures (links and bus), the path and the CMs inside the axes, x, y, z
+    on equal ranges in a cube, the bus the size of the model's."""
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    from freefloat.mechanics.kinematics import spacecraft_box, spacecraft_box_size
+
+    ax = plan_3d.plot()[0].axes
+    limits = np.array([ax.get_xlim(), ax.get_ylim(), ax.get_zlim()])  # (3, 2)
+    spans = limits[:, 1] - limits[:, 0]
+    np.testing.assert_allclose(spans, spans[0], rtol=1e-12)  # equal ranges
+    np.testing.assert_allclose(ax.get_box_aspect() / ax.get_box_aspect()[0], 1.0)  # drawn as a cube
+    drawn = [np.stack(line.get_data_3d(), axis=1) for line in ax.get_lines() if len(line.get_xdata())]
+    at_b = spacecraft_box(plan_3d.captured, plan_3d.motion.q[-1], attitude=plan_3d.motion.attitude[-1]) + plan_3d.motion.cm
+    at_a = spacecraft_box(plan_3d.captured, plan_3d.posture.q, attitude=plan_3d.posture.attitude) + plan_3d.placement.cm_plus
+    points = np.concatenate([*drawn, at_a, at_b])
+    assert len(drawn) > 20  # both robots' links, joints, the paths and the marks
+    assert np.all(points >= limits[:, 0] - 1e-9) and np.all(points <= limits[:, 1] + 1e-9)
+    buses = [c for c in ax.collections if isinstance(c, Poly3DCollection)]
+    assert len(buses) == 2  # the bus at A and at B
+    size = spacecraft_box_size(ARM)[0]
+    assert np.all(size > 1.5) and np.all(spans >= size.max())  # the 1500 kg bus, about 2 m, fits
+
+
+def test_cloud_plot_has_a_colour_bar_naming_the_measure_and_its_unit() -> None:
+    """Issue 19 item 8.3: the colour of the cloud is explained by a colour bar with the quantity and its unit."""
+    artists = workspace_cloud(ARM, samples=512, criterion=POSITION).plot()
+    scatter, bar_ax = artists[0], artists[-1]
+    fig = scatter.get_figure(root=True)
+    assert bar_ax in fig.axes and bar_ax is not scatter.axes
+    assert bar_ax.get_ylabel() == "|σ_min(⁰J*)| (m)"  # translational rows: m/s per rad/s
+    bar = scatter.colorbar
+    assert bar is not None and bar.ax is bar_ax
+    planar = workspace_cloud(ff.models.papadopoulos1992(arms=1), samples=64)
+    assert (planar.symbol, planar.unit) == ("det ⁰J*", "m²")
+    full = workspace_cloud(ARM, samples=64)
+    assert full.symbol == "σ_min(⁰J*)" and "mixed" in full.unit  # velocity and rotation rows together

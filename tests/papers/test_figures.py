@@ -1,10 +1,11 @@
-"""The papers' figures read right (issue 11 item 4): pyplot figures, scales, shared limits, styles and legends.
+"""The papers' figures read right (issues 11 item 4, 19 item 8): pyplot figures, scales, shared limits, styles and legends.
 
-1991 Fig. 5: both columns share each row's y axis on a symmetric-log scale, so the operational-space
-peak does not hide the rest. 1992 Fig. 4: the guaranteed workspaces are hatched bands that stay
-readable where they overlap, and (a) and (b) have the same axis ranges. 1992 Fig. 7: the workspaces
-before and after capture (the paper's caption), the robot drawn unlike the payload path, no internal
-names in the legend.
+1991 Fig. 5: linear axes, a full-range and a zoomed row per quantity, each row's y axis shared by both
+columns, so the operational-space peak does not hide the rest. 1992 Fig. 4: the guaranteed workspaces
+are hatched bands that stay readable where they overlap, (a) and (b) have the same axis ranges, the bus
+is drawn at its size. 1992 Fig. 7: the workspaces before and after capture (the paper's caption), the
+robot drawn unlike the payload path, no internal names in the legend, the planned motion visible. The
+singularity maps keep their contour labels inside the axes.
 """
 
 from __future__ import annotations
@@ -56,27 +57,35 @@ def test_every_1992_figure_is_a_pyplot_figure(r1992: Results1992) -> None:
         assert pyplot_managed(make(r1992)), make.__name__
 
 
-def test_1991_fig5_shared_symlog_scales_and_peaks_stated(r1991: Results1991) -> None:
+def test_1991_fig5_linear_full_range_and_zoomed_panels_with_peaks_stated(r1991: Results1991) -> None:
+    """Issue 19 item 8.4: linear axes only (a symlog axis bends the curves at ±5 N); per quantity a full-range row
+    that holds the t = 0 peak and a zoomed row that holds the later values at a readable scale."""
     fig = f91.figure_5(r1991)
-    axes = np.array(fig.axes).reshape(2, 2)
+    axes = np.array(fig.axes).reshape(4, 2)  # force, force zoomed, torque, torque zoomed; one column per controller
     for row in axes:
-        assert all(ax.get_yscale() == "symlog" for ax in row)
+        assert all(ax.get_yscale() == "linear" for ax in row)
         assert row[0].get_ylim() == row[1].get_ylim()  # one y scale per row, both controllers
         assert row[0].get_shared_y_axes().joined(row[0], row[1])
+    later = r1991.runs["tj"].t >= f91.FIG5_ZOOM_FROM
+    for (full, zoom), values in (
+        ((0, 1), [traj.spacecraft_force[traj.t <= 5.0, :2] for traj in r1991.runs.values()]),
+        ((2, 3), [traj.spacecraft_torque[traj.t <= 5.0, 2] for traj in r1991.runs.values()]),
+    ):
+        lo, hi = axes[full, 0].get_ylim()
+        assert lo <= min(float(v.min()) for v in values) and hi >= max(float(v.max()) for v in values)  # the peak shows
+        z_lo, z_hi = axes[zoom, 0].get_ylim()
+        settled = [v[later[: len(v)]] for v in values]
+        assert z_lo <= min(float(v.min()) for v in settled) and z_hi >= max(float(v.max()) for v in settled)
+        assert (z_hi - z_lo) < 0.05 * (hi - lo)  # zoomed: the few-newton tail fills its panel
+        for ax in axes[full]:  # the zoomed range is marked in the full-range panel
+            assert any(t.startswith("zoomed below") for t in legend_texts(ax))
     ct = r1991.runs["ct"]
     first = ct.t <= 5.0
     peak = float(np.max(np.linalg.norm(ct.spacecraft_force[first, :2], axis=1)))
     assert peak > 1000.0  # the operational-space spike at t = 0 of the issue (1077 N)
-    lo, hi = axes[0, 1].get_ylim()
-    assert hi >= peak
-    # the symlog axis is linear within ±5 N: the few-newton tail spans a visible share of the axis, not a flat line
-    transform = axes[0, 1].yaxis.get_transform()
-    span = transform.transform(np.array([hi])) - transform.transform(np.array([lo]))
-    tail = transform.transform(np.array([5.0])) - transform.transform(np.array([-5.0]))
-    assert float(tail[0] / span[0]) > 0.15
     texts = [t.get_text() for ax in axes.ravel() for t in ax.texts]
     assert any(f"peak {peak:.4g} N" in t for t in texts)
-    for ax in axes.ravel():
+    for ax in axes[[1, 3]].ravel():
         assert legend_texts(ax) in (["f_x", "f_y"], ["n_z"])
 
 
@@ -129,3 +138,60 @@ def test_1992_fig7_workspaces_before_and_after_capture(r1992: Results1992) -> No
     motion = r1992.plan.motion
     assert motion is not None and motion.singularity_free
     np.testing.assert_allclose(motion.end_effector[-1, :2], xy[-1], atol=1e-6)
+
+
+def test_1992_fig4_bus_at_its_true_size(r1992: Results1992) -> None:
+    """Issue 19 item 8.5: the spacecraft bus of Table I (400 kg, 66.67 kg m²: a 1 m cube) drawn 1 m wide, not as a marker."""
+    from matplotlib.patches import Polygon
+
+    from freefloat.mechanics.kinematics import spacecraft_box_size
+    from freefloat.models import papadopoulos1992
+
+    size = spacecraft_box_size(papadopoulos1992(arms=2))[0]
+    np.testing.assert_allclose(size, 1.0, atol=1e-4)
+    fig = f92.figure_4(r1992)
+    for ax in fig.axes[:2]:
+        (bus,) = [p for p in ax.patches if isinstance(p, Polygon)]
+        xy = bus.get_xy()
+        np.testing.assert_allclose(np.ptp(xy, axis=0), size[:2], atol=1e-9)  # Fig. 4 draws the spacecraft unrotated
+        assert bus.get_visible() and bus.get_facecolor()[3] > 0.0 and bus.get_linewidth() > 0.0
+        assert not [line for line in ax.get_lines() if line.get_marker() == "s"]  # no fixed-size square marker
+
+
+def test_1992_fig7_planned_motion_visible_and_in_the_legend(r1992: Results1992) -> None:
+    """Issue 19 item 8.6: the planned end-effector motion follows the payload path: it is drawn on top of it, and its
+    legend handle is a visible line that looks like it."""
+    fig = f92.figure_7(r1992)
+    ax = fig.axes[0]
+    lines = {line.get_label(): line for line in ax.get_lines()}
+    motion, path = lines["planned end-effector motion"], lines["payload path A→B"]
+    assert motion.get_zorder() > path.get_zorder()  # not hidden under the thick path it follows
+    handles = {t.get_text(): h for t, h in zip(ax.get_legend().get_texts(), ax.get_legend().legend_handles, strict=True)}
+    handle = handles["planned end-effector motion"]
+    for artist in (motion, handle):
+        assert artist.get_visible() and artist.get_linewidth() > 0.0 and (artist.get_alpha() is None or artist.get_alpha() > 0.0)
+        assert artist.get_linestyle() not in ("None", "", " ")
+    assert (handle.get_color(), handle.get_linestyle(), handle.get_linewidth()) == (
+        motion.get_color(),
+        motion.get_linestyle(),
+        motion.get_linewidth(),
+    )
+    assert handle.get_color() != path.get_color()
+
+
+def test_1992_singularity_maps_contour_labels_inside_the_axes(r1992: Results1992) -> None:
+    """Issue 19 item 8.7: every |r_E| contour label lies wholly inside its map (no "436 m" cut at the edge), and every
+    PDW boundary radius is labelled."""
+    fig = f92.figure_singularity_maps(r1992)  # the 1° grid the demo writes
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    maps = [ax for ax in fig.axes if ax.get_title().startswith("(")]
+    assert len(maps) == 2
+    for ax in maps:
+        labels = [t for t in ax.texts if t.get_text().endswith(" m")]
+        assert len({t.get_text() for t in labels}) == 3, [t.get_text() for t in labels]  # three PDW boundaries inside (0, R_max)
+        box = ax.get_window_extent(renderer)
+        for label in labels:
+            extent = label.get_window_extent(renderer)
+            assert box.x0 <= extent.x0 and extent.x1 <= box.x1 and box.y0 <= extent.y0 and extent.y1 <= box.y1, label.get_text()
+    plt.close(fig)

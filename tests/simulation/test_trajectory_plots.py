@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -11,6 +12,7 @@ from matplotlib import animation
 from PIL import Image
 
 import freefloat as ff
+from freefloat.simulation import trajectory_plots
 
 
 @pytest.fixture(scope="module")
@@ -86,3 +88,75 @@ def test_animate_planar_and_refusals(planar: ff.Trajectory, tmp_path: Path) -> N
             planar.animate(tmp_path / "motion.mp4")
     else:
         assert planar.animate(tmp_path / "motion.mp4").stat().st_size > 0
+
+
+def test_bus_box_has_the_spacecraft_inertia() -> None:
+    """The bus drawn in figures: the uniform box with the spacecraft's mass and inertia (the papers' 1 m cube)."""
+    from freefloat.mechanics.kinematics import spacecraft_box, spacecraft_box_size
+
+    size, axes = spacecraft_box_size(ff.models.papadopoulos1992(arms=1))
+    np.testing.assert_allclose(size, 1.0, atol=1e-4)  # 400 kg, 66.67 kg m²: Table I's 1 m spacecraft
+    np.testing.assert_allclose(axes, np.eye(3))
+    model = ff.models.spacecraft_7dof()
+    size, axes = spacecraft_box_size(model)
+    a2 = size**2
+    box_inertia = model.mass[0] / 12.0 * np.diag([a2[1] + a2[2], a2[0] + a2[2], a2[0] + a2[1]])
+    np.testing.assert_allclose(axes @ box_inertia @ axes.T, model.inertia[0], atol=1e-9)
+    q = np.full((3, 7), 0.3)
+    corners = spacecraft_box(model, q)
+    assert corners.shape == (3, 8, 3)
+    for k in range(3):  # batch equals loop; the box is centred on the spacecraft CM
+        np.testing.assert_allclose(corners[k], spacecraft_box(model, q[k]))
+        np.testing.assert_allclose(corners[k].mean(axis=0), ff.point_positions(model, q[k], 0, model.com[0]), atol=1e-12)
+
+
+def _recorded_figures(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
+    """Keep every figure the animation makes (it closes them), to look at the last frame drawn."""
+    made: list[Any] = []
+    original = trajectory_plots.new_figure
+
+    def record(**kw: Any) -> Any:
+        made.append(original(**kw))
+        return made[-1]
+
+    monkeypatch.setattr(trajectory_plots, "new_figure", record)
+    return made
+
+
+def test_animation_draws_the_bus_at_its_size(
+    planar: ff.Trajectory, spatial: ff.Trajectory, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Issue 19 item 8.2: every frame shows the spacecraft bus, at the model's size, where the spacecraft is."""
+    from matplotlib.patches import Polygon
+    from mpl_toolkits.mplot3d.art3d import Poly3DCollection
+
+    from freefloat.mechanics.kinematics import spacecraft_box
+
+    made = _recorded_figures(monkeypatch)
+    planar.animate(tmp_path / "planar.gif", max_frames=4)
+    ax = made[-1].axes[0]
+    (bus,) = [p for p in ax.patches if isinstance(p, Polygon)]
+    last = spacecraft_box(planar.model, planar.q[-1], attitude=planar.attitude[-1]) + planar.r_cm[-1]
+    xy = bus.get_xy()
+    gaps = np.linalg.norm(xy[:-1, None, :] - last[None, [0, 1, 3, 2], :2], axis=-1)
+    assert len(xy) == 5 and np.all(gaps.min(axis=1) < 1e-12) and np.all(gaps.min(axis=0) < 1e-12)  # the last frame's bus
+    np.testing.assert_allclose(np.linalg.norm(xy[1] - xy[0]), 1.0, atol=1e-4)  # a 1 m square
+    assert bus.get_visible() and bus.get_facecolor()[3] > 0.0 and bus.get_linewidth() > 0.0
+    lo, hi = np.array([ax.get_xlim(), ax.get_ylim()]).T
+    assert np.all(xy >= lo) and np.all(xy <= hi)
+    spatial.animate(tmp_path / "spatial.gif", max_frames=3)
+    ax3d = made[-1].axes[0]
+    assert len([c for c in ax3d.collections if isinstance(c, Poly3DCollection)]) == 1
+
+
+def test_plot_path_draws_the_bus_inside_the_axes(spatial: ff.Trajectory) -> None:
+    from freefloat.mechanics.kinematics import spacecraft_box
+
+    artists = spatial.plot_path()
+    ax = artists[0].axes
+    buses = [a for a in artists if a.get_label() == "spacecraft bus"]
+    assert len(buses) == 1 and "spacecraft bus" in [t.get_text() for t in ax.get_legend().get_texts()]
+    limits = np.array([ax.get_xlim(), ax.get_ylim(), ax.get_zlim()])
+    for k in (0, -1):
+        corners = spacecraft_box(spatial.model, spatial.q[k], attitude=spatial.attitude[k]) + spatial.r_cm[k]
+        assert np.all(corners >= limits[:, 0]) and np.all(corners <= limits[:, 1])

@@ -1,7 +1,8 @@
 """Drawing helpers of :mod:`freefloat.analysis.capture` (private): the system as a stick figure, in 2D or 3D axes.
 
 Positions in the inertial frame, m; the geometry comes from
-:func:`freefloat.mechanics.kinematics.stick_figure`.
+:func:`freefloat.mechanics.kinematics.stick_figure` (links) and
+:func:`freefloat.mechanics.kinematics.spacecraft_box` (the bus).
 """
 
 from __future__ import annotations
@@ -10,19 +11,35 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..core._figures import draw_box
 from ..core.model import Model
-from ..mechanics.kinematics import point_positions, stick_figure
+from ..mechanics.kinematics import spacecraft_box, stick_figure
 
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
     from matplotlib.axes import Axes
 
-__all__ = ["draw_system", "is_3d"]
+__all__ = ["draw_system", "is_3d", "system_points"]
 
 
 def is_3d(ax: Any) -> bool:
     """True for mpl_toolkits.mplot3d axes."""
     return getattr(ax, "name", "") == "3d"
+
+
+def _center(center: Any) -> np.ndarray:
+    c = np.zeros(3)
+    given = np.asarray(center, dtype=float).ravel()
+    c[: given.size] = given
+    return c
+
+
+def system_points(model: Model, q: Any, *, attitude: Any = None, center: Any = (0.0, 0.0)) -> np.ndarray:
+    """Every point :func:`draw_system` draws for these arguments, inertial frame, (K, 3): for axis limits."""
+    c = _center(center)
+    q = np.asarray(q, dtype=float)
+    seg = stick_figure(model, q, attitude=attitude).reshape(-1, 3)
+    return np.concatenate([seg, spacecraft_box(model, q, attitude=attitude), np.zeros((1, 3))]) + c
 
 
 def draw_system(
@@ -43,29 +60,22 @@ def draw_system(
     turned by ``attitude`` (quaternion [x, y, z, w]; None: identity). Links
     are lines from joint to joint (from the spacecraft CM for the first
     link of each arm), joints small dots, end effectors larger dots, the
-    spacecraft a square at its CM, the system CM a cross. Returns the artists.
+    spacecraft bus the box of :func:`~freefloat.mechanics.kinematics.spacecraft_box`
+    at its true size (on 2D axes its outline in the x-y plane), the system CM a cross.
+    Returns the artists.
     """
     q = np.asarray(q, dtype=float)
-    c = np.zeros(3)
-    given = np.asarray(center, dtype=float).ravel()
-    c[: given.size] = given
+    c = _center(center)
     seg = stick_figure(model, q, attitude=attitude) + c
-    sc = point_positions(model, q, 0, model.com[0])
-    if attitude is not None:
-        from scipy.spatial.transform import Rotation
-
-        sc = Rotation.from_quat(np.asarray(attitude, dtype=float)).apply(sc)
-    sc = sc + c
     dims = 3 if is_3d(ax) else 2
     style: dict[str, Any] = {"color": color, "alpha": alpha}
-    artists: list[Artist] = []
+    artists: list[Artist] = [draw_box(ax, spacecraft_box(model, q, attitude=attitude) + c, color=color, alpha=alpha, zorder=1.5)]
     for k, (a, b) in enumerate(seg):
         artists += ax.plot(*[[a[i], b[i]] for i in range(dims)], "-", lw=linewidth, label=label if k == 0 else None, **style)
     joints = seg[: model.n_bodies - 1, 1]
     tips = seg[model.n_bodies - 1 :, 1]
     artists += ax.plot(*[joints[:, i] for i in range(dims)], "o", ms=3, **style)
     artists += ax.plot(*[tips[:, i] for i in range(dims)], "o", ms=5, **style)
-    artists += ax.plot(*[[sc[i]] for i in range(dims)], "s", ms=12, mfc="0.8", mec=color, alpha=alpha)
     artists += ax.plot(*[[c[i]] for i in range(dims)], "x", ms=6, **style)
     if dims == 2:
         ax.set_aspect("equal")
@@ -81,7 +91,8 @@ def plot_plan(plan: Any, ax: Any) -> list[Artist]:
     (hatched) after capture about CM+, the payload path A→B (red arrow), CM+ and the
     free-flyer's CM before capture, the robot at capture (dark) and with the payload at B at
     the end of the planned free-floating motion (light), and the end-effector path of that
-    motion. 3D axes: the same without the workspace shells. Every artist has a readable label.
+    motion. 3D axes: the same without the workspace shells, within equal ranges on x, y and z
+    that hold everything drawn (a cube). Every artist has a readable label.
     """
     from matplotlib.patches import FancyArrowPatch
 
@@ -103,12 +114,13 @@ def plot_plan(plan: Any, ax: Any) -> list[Artist]:
         artists += ax.plot(
             [], [], "-", color="k", lw=0.8, label=f"reachable workspace after capture [{reach.R_min:.3f}, {reach.R_max:.3f}] m"
         )
+    drawn = [system_points(plan.captured, posture.q, attitude=posture.attitude, center=placement.cm_plus)]
     if motion is not None:
         end_att = motion.attitude[-1]
         artists += draw_system(
             ax, plan.captured, motion.q[-1], attitude=end_att, center=motion.cm, color="0.6", alpha=0.8, label="robot with the payload at B"
         )
-        artists += ax.plot(*[motion.end_effector[:, i] for i in range(dims)], ":", color="C2", lw=1.5, label="planned end-effector motion")
+        drawn += [system_points(plan.captured, motion.q[-1], attitude=end_att, center=motion.cm), motion.end_effector]
     artists += draw_system(
         ax, plan.captured, posture.q, attitude=posture.attitude, center=placement.cm_plus, color="0.15", label="robot at capture (A)"
     )
@@ -116,6 +128,10 @@ def plot_plan(plan: Any, ax: Any) -> list[Artist]:
     pts = np.zeros((path.shape[0], 3))
     pts[:, : path.shape[1]] = path
     artists += ax.plot(*[pts[:, i] for i in range(dims)], "-", color="C3", lw=3.0, alpha=0.9, label="payload path A→B")
+    if motion is not None:  # on top of the payload path, which it follows (the end effector holds the payload)
+        artists += ax.plot(
+            *[motion.end_effector[:, i] for i in range(dims)], "--", color="C2", lw=1.8, zorder=2.5, label="planned end-effector motion"
+        )
     if not three_d:
         arrow = FancyArrowPatch(tuple(pts[-2, :2]), tuple(pts[-1, :2]), arrowstyle="-|>", mutation_scale=18, color="C3", lw=0)
         ax.add_patch(arrow)
@@ -126,14 +142,16 @@ def plot_plan(plan: Any, ax: Any) -> list[Artist]:
     cm = np.zeros(3)
     cm[: placement.cm_plus.size] = placement.cm_plus
     artists += ax.plot(*[[cm[i]] for i in range(dims)], "+", color="C1", ms=12, mew=2.5, label="CM+ (system CM after capture)")
+    drawn += [pts, cm[None]]
     if placement.approach_point is not None:
         ap = np.zeros(3)
         ap[: placement.approach_point.size] = placement.approach_point
         artists += ax.plot(*[[ap[i]] for i in range(dims)], "x", color="C0", ms=10, mew=2.5, label="free-flyer CM before capture")
-    if three_d:
-        every = np.concatenate([pts, cm[None], motion.end_effector if motion is not None else pts])
+        drawn.append(ap[None])
+    if three_d:  # every drawn point inside equal ranges on x, y and z, shown as a cube
+        every = np.concatenate(drawn)
         lo, hi = every.min(axis=0), every.max(axis=0)
-        mid, half = 0.5 * (lo + hi), 0.6 * max(float(np.max(hi - lo)), plan.placement.R_plus)
+        mid, half = 0.5 * (lo + hi), 0.55 * max(float(np.max(hi - lo)), 1e-3)
         ax.set_xlim(mid[0] - half, mid[0] + half)
         ax.set_ylim(mid[1] - half, mid[1] + half)
         ax.set_zlim(mid[2] - half, mid[2] + half)

@@ -43,6 +43,8 @@ if TYPE_CHECKING:
 __all__ = ["DeterminantMap", "DeterminantMapArtists", "SingularityCriterion", "jacobian_determinant_map"]
 
 ROWS = ("auto", "full", "position")
+_SYMBOLS = {"det": "det ⁰J*", "sigma_min": "σ_min(⁰J*)", "manipulability": "sqrt det(⁰J* ⁰J*ᵀ)"}
+_SUPERSCRIPT = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
 MEASURES = ("auto", *search.MEASURES)
 
 
@@ -158,12 +160,22 @@ class SingularityCriterion:
         }[self.resolved_measure(model, end_effector)]
         return f"{measure} ({which} rows of J*, {n_rows} x {model.n_joints}); singular where |measure| <= {self.threshold:g}"
 
+    def symbol(self, model: Model, end_effector: int | None = None) -> str:
+        """The measure's symbol for labels: "det ⁰J*", "σ_min(⁰J*)" or "sqrt det(⁰J* ⁰J*ᵀ)"."""
+        return _SYMBOLS[self.resolved_measure(model, end_effector)]
+
+    def unit(self, model: Model, end_effector: int | None = None) -> str:
+        """The measure's unit. A row of v is in m (m/s per rad/s), a row of ω is a pure number: det and
+        manipulability are in mᵏ (k velocity rows, e.g. "m²"), σ_min in m for velocity rows only (else mixed)."""
+        rows = self.row_indices(model, end_effector) % 6
+        k = int(np.count_nonzero(rows < 3))
+        if self.resolved_measure(model, end_effector) != "sigma_min":
+            return "1" if k == 0 else "m" if k == 1 else f"m{str(k).translate(_SUPERSCRIPT)}"
+        return "m" if k == rows.size else "mixed units: m, 1"
+
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready: rows, measure, threshold."""
         return {"rows": self.rows, "measure": self.measure, "threshold": self.threshold}
-
-
-_SUPERSCRIPT = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
 
 
 class DeterminantMapArtists(NamedTuple):
@@ -373,12 +385,10 @@ def jacobian_determinant_map(
         "q_fixed": base,
     }
     if criterion is not None:
-        measure = criterion.resolved_measure(model)
-        names = {"det": "det ⁰J*", "sigma_min": "σ_min(⁰J*)", "manipulability": "sqrt det(⁰J* ⁰J*ᵀ)"}
         return DeterminantMap(
             **grid,
             values=criterion.evaluate(model, q),
-            measure=names[measure],
+            measure=criterion.symbol(model),
             threshold=criterion.threshold,
             criterion=criterion.describe(model),
         )

@@ -14,6 +14,7 @@ frame), coloured by a singularity measure, in 3D axes (mpl_toolkits.mplot3d).
 
 from __future__ import annotations
 
+import textwrap
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -43,7 +44,8 @@ class WorkspaceCloud:
     ``points`` (M, 3): r_E relative to the system CM, spacecraft frame (the
     attitude held at identity), m; ``q`` (M, N) the configurations (rad);
     ``measure`` (M,): the criterion's measure (``criterion`` describes it,
-    ``threshold`` its threshold); ``singular`` (M,): |measure| <= threshold
+    ``threshold`` its threshold, ``symbol`` and ``unit`` name it and its unit
+    in labels); ``singular`` (M,): |measure| <= threshold
     (to the 5th percentile of |measure| when the threshold is 0, so the
     near-singular configurations show).
     """
@@ -55,6 +57,8 @@ class WorkspaceCloud:
     measure: np.ndarray
     criterion: str
     threshold: float
+    symbol: str = "measure"
+    unit: str = ""
 
     def __post_init__(self) -> None:
         _freeze(self)
@@ -66,15 +70,16 @@ class WorkspaceCloud:
         return np.asarray(np.abs(self.measure) <= cut)
 
     def plot(self, ax: Any = None, *, max_points: int = 20000) -> list[Artist]:
-        """3D scatter of the cloud coloured by |measure|, the (near-)singular points in red; the CM a black cross.
+        """3D scatter of the cloud coloured by |measure| (a colour bar names it and its unit), the (near-)singular
+        points in red; the CM a black cross.
 
-        ``ax``: 3D axes (``projection="3d"``); default a new pyplot figure."""
+        ``ax``: 3D axes (``projection="3d"``); default a new pyplot figure. Returns the artists, the colour bar's
+        axes last."""
         ax = ax if ax is not None else new_axes(figsize=(6.4, 6.0), projection="3d")
         step = max(1, self.points.shape[0] // max_points)
         pts, val, sing = self.points[::step], np.abs(self.measure[::step]), self.singular[::step]
-        artists: list[Artist] = [
-            ax.scatter(pts[~sing, 0], pts[~sing, 1], pts[~sing, 2], c=val[~sing], cmap="viridis", s=2, alpha=0.35, label="reached")
-        ]
+        reached = ax.scatter(pts[~sing, 0], pts[~sing, 1], pts[~sing, 2], c=val[~sing], cmap="viridis", s=2, alpha=0.35, label="reached")
+        artists: list[Artist] = [reached]
         artists.append(ax.scatter(pts[sing, 0], pts[sing, 1], pts[sing, 2], c="tab:red", s=3, alpha=0.6, label="(near-)singular"))
         artists += ax.plot([0.0], [0.0], [0.0], "kx", ms=9, mew=2, label="system CM")
         lo, hi = pts.min(axis=0), pts.max(axis=0)
@@ -86,7 +91,13 @@ class WorkspaceCloud:
         ax.set_xlabel("x (m, spacecraft frame)")
         ax.set_ylabel("y (m, spacecraft frame)")
         ax.set_zlabel("z (m, spacecraft frame)")
-        ax.set_title(f"{self.end_effector}: reached points at a fixed attitude\ncolour |measure|; red: {self.criterion}", fontsize=8)
+        red = textwrap.fill(f"red: {self.criterion}", 70)
+        ax.set_title(f"{self.end_effector}: reached points at a fixed attitude, coloured by |{self.symbol}|\n{red}", fontsize=8)
+        fig = ax.get_figure()
+        assert fig is not None
+        unit = f" ({self.unit})" if self.unit else ""
+        colorbar = fig.colorbar(reached, ax=ax, shrink=0.6, pad=0.12, label=f"|{self.symbol}|{unit}")
+        artists.append(colorbar.ax)
         return artists
 
     def plot_section(self, ax: Axes | None = None, *, plane: str = "xy", thickness: float | None = None) -> list[Artist]:
@@ -130,6 +141,8 @@ def workspace_cloud(
         measure=crit.evaluate(model, q),
         criterion=crit.describe(model),
         threshold=crit.threshold,
+        symbol=crit.symbol(model),
+        unit=crit.unit(model),
     )
 
 

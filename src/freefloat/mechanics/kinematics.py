@@ -28,6 +28,8 @@ __all__ = [
     "forward_kinematics",
     "joint_axes",
     "point_positions",
+    "spacecraft_box",
+    "spacecraft_box_size",
     "stick_figure",
     "system_cm",
 ]
@@ -184,3 +186,45 @@ def stick_figure(model: Model, q: Any, *, attitude: Any = None) -> np.ndarray:
     if attitude is None:
         return seg
     return np.einsum("...ij,...sej->...sei", attitude_matrix(attitude), seg)
+
+
+def spacecraft_box_size(model: Model) -> tuple[np.ndarray, np.ndarray]:
+    """Edge lengths (3,) m and axes (3, 3) (columns, spacecraft frame) of the spacecraft bus drawn in figures.
+
+    The uniform box with the spacecraft's mass m and inertia about its CM: with principal moments
+    I_1, I_2, I_3 along the principal axes, edge a_i = sqrt(6 (I_j + I_k - I_i) / m) (from
+    I_i = m (a_j² + a_k²) / 12). A diagonal inertia keeps the spacecraft axes; otherwise box axis i is the
+    principal axis nearest spacecraft axis i (where these differ, pointing the same way). The
+    papers' spacecraft (1991: 40 kg, 6.667 kg m²; 1992: 400 kg, 66.67 kg m²) are 1 m cubes.
+    """
+    inertia = 0.5 * (model.inertia[0] + model.inertia[0].T)
+    off = inertia - np.diag(np.diag(inertia))
+    if np.max(np.abs(off)) <= 1e-12 * max(float(np.max(np.abs(inertia))), 1e-300):
+        moments, axes = np.diag(inertia).copy(), np.eye(3)
+    else:
+        moments, axes = np.linalg.eigh(inertia)
+        order = np.argmax(np.abs(axes), axis=1)  # box axis i nearest spacecraft axis i, where that is a permutation
+        if np.unique(order).size == 3:
+            moments, axes = moments[order], axes[:, order] * np.sign(axes[np.arange(3), order])
+    size = np.sqrt(np.maximum(6.0 * (moments.sum() - 2.0 * moments) / float(model.mass[0]), 0.0))
+    return size, axes
+
+
+def spacecraft_box(model: Model, q: Any, *, attitude: Any = None) -> np.ndarray:
+    """Corners of the spacecraft bus (:func:`spacecraft_box_size`, centred on the spacecraft CM), relative to the
+    system CM, (..., 8, 3).
+
+    Corner k lies at the spacecraft CM + sum_i ±a_i/2 along box axis i, the sign of axis i
+    being + where bit i of k is set. Frames as in :func:`stick_figure`: the spacecraft frame,
+    or with ``attitude`` (quaternion [x, y, z, w], Rotation or 3x3) the inertial frame; add
+    the system CM position r_cm to place it in the inertial frame.
+    """
+    q = joint_array(model, q)
+    size, axes = spacecraft_box_size(model)
+    signs = np.array([[1.0 if k >> i & 1 else -1.0 for i in range(3)] for k in range(8)])
+    local = model.com[0] + (signs * (0.5 * size)) @ axes.T  # (8, 3) in the spacecraft frame, from its origin
+    rot, pos = forward_kinematics(model, q)
+    corners = pos[..., 0, None, :] + np.einsum("...ij,kj->...ki", rot[..., 0, :, :], local) - system_cm(model, q)[..., None, :]
+    if attitude is None:
+        return corners
+    return np.einsum("...ij,...kj->...ki", attitude_matrix(attitude), corners)

@@ -38,8 +38,8 @@ FIGURE_NAMES = ("fig3_coordinated_motion.png", "fig4_spacecraft_errors.png", "fi
 COLORS = {"tj": "tab:blue", "ct": "tab:red"}
 LABELS = {"tj": "transposed Jacobian, eq. 30", "ct": "operational space, eq. 27"}
 SNAPSHOTS = (0.0, 1.0, 2.0, 4.0, 30.0)
-#: Fig. 5: the symmetric-log y axes are linear within ± this many N (N m).
-FIG5_LINTHRESH = 5.0
+#: Fig. 5: the zoomed panels show the range the forces and torque take from this time on (s).
+FIG5_ZOOM_FROM = 0.5
 
 
 def draw_planar_system(ax: Axes, model: Model, q: Any, theta: float, r_cm: Any, *, color: str = "k", alpha: float = 1.0) -> list[Any]:
@@ -129,25 +129,38 @@ def figure_4(res: Results1991) -> Any:
     return fig
 
 
+def _zoom_range(values: list[np.ndarray]) -> tuple[float, float]:
+    """y limits of a zoomed Fig. 5 panel: the range of ``values`` (and 0), padded by 10 %."""
+    lo = min(0.0, *(float(np.min(v)) for v in values))
+    hi = max(0.0, *(float(np.max(v)) for v in values))
+    pad = 0.1 * max(hi - lo, 1e-9)
+    return lo - pad, hi + pad
+
+
 def figure_5(res: Results1991) -> Any:
     """The thruster forces (spacecraft frame) and torque over the first 5 s (Fig. 5). A pyplot figure.
 
-    Both columns share each row's y axis, on a symmetric-log scale (linear within ±``FIG5_LINTHRESH``,
-    logarithmic beyond), so the operational-space controller's peak at t = 0 (about 1 kN) does not
-    flatten the rest of either column; each panel states its peak.
+    Linear axes throughout. Per quantity two rows, both columns (controllers) sharing each row's
+    y axis: the full range, with the operational-space controller's peak at t = 0 (about 1 kN;
+    each panel states its peak), and below it the same curves zoomed to the range they take
+    from t = ``FIG5_ZOOM_FROM`` s on (shaded in the full-range panel), where the initial peak
+    leaves the panel.
     """
-    fig = _figure(figsize=(10, 6.4))
-    axes = fig.subplots(2, 2, sharex=True, sharey="row")
+    fig = _figure(figsize=(10, 9.6))
+    axes = fig.subplots(4, 2, sharex=True, sharey="row")
+    later: dict[str, list[np.ndarray]] = {"N": [], "N m": []}
     for col, (name, traj) in enumerate(res.runs.items()):
         first = traj.t <= 5.0 + 1e-9
-        ax_f, ax_n = axes[0, col], axes[1, col]
         t = traj.t[first]
-        force, torque = traj.spacecraft_force[first], traj.spacecraft_torque[first, 2]
-        ax_f.plot(t, force[:, 0], "-", color=COLORS[name], label="f_x")
-        ax_f.plot(t, force[:, 1], "--", color=COLORS[name], label="f_y")
-        ax_n.plot(t, torque, "-", color=COLORS[name], label="n_z")
+        force, torque = traj.spacecraft_force[first, :2], traj.spacecraft_torque[first, 2]
+        ax_f, zoom_f, ax_n, zoom_n = axes[:, col]
+        for ax in (ax_f, zoom_f):
+            ax.plot(t, force[:, 0], "-", color=COLORS[name], label="f_x")
+            ax.plot(t, force[:, 1], "--", color=COLORS[name], label="f_y")
+        for ax in (ax_n, zoom_n):
+            ax.plot(t, torque, "-", color=COLORS[name], label="n_z")
         ax_f.set_title(LABELS[name], fontsize=10)
-        for ax, values, unit in ((ax_f, np.linalg.norm(force[:, :2], axis=1), "N"), (ax_n, np.abs(torque), "N m")):
+        for ax, values, unit in ((ax_f, np.linalg.norm(force, axis=1), "N"), (ax_n, np.abs(torque), "N m")):
             k = int(np.argmax(values))
             ax.text(
                 0.98,
@@ -159,18 +172,25 @@ def figure_5(res: Results1991) -> Any:
                 fontsize=8,
                 bbox={"boxstyle": "round", "fc": "white", "ec": "0.7"},
             )
-            ax.set_yscale("symlog", linthresh=FIG5_LINTHRESH, linscale=1.5)
-            ax.axhline(0.0, color="0.5", lw=0.6)
-            ax.grid(alpha=0.3, which="both")
-            ax.legend(fontsize=8, loc="center right")
-        ax_n.set_xlabel("time (s)")
-    for ax in axes[:, 0]:  # plain numbers at ±5, ±10, ±100, ... (the rows share their y axis)
-        lo, hi = ax.get_ylim()
-        ticks = [v for v in (-1000.0, -100.0, -10.0, -5.0, 0.0, 5.0, 10.0, 100.0, 1000.0) if lo <= v <= hi]
-        ax.set_yticks(ticks, [f"{v:g}" for v in ticks])
-    axes[0, 0].set_ylabel(f"thruster force, spacecraft frame (N)\nsymlog: linear within ±{FIG5_LINTHRESH:g}")
-    axes[1, 0].set_ylabel(f"thruster torque (N m)\nsymlog: linear within ±{FIG5_LINTHRESH:g}")
-    fig.suptitle("1991 Fig. 5: reaction-jet forces and torque over the first 5 s (shared symlog y axes)", fontsize=11)
+        settled = t >= FIG5_ZOOM_FROM
+        later["N"].append(force[settled])
+        later["N m"].append(torque[settled])
+    for row, unit in ((1, "N"), (3, "N m")):
+        lo, hi = _zoom_range(later[unit])
+        axes[row, 0].set_ylim(lo, hi)
+        for ax in axes[row - 1]:
+            ax.axhspan(lo, hi, color="0.85", zorder=0, label=f"zoomed below ({lo:.3g} to {hi:.3g} {unit})")
+    for ax in axes.ravel():
+        ax.axhline(0.0, color="0.5", lw=0.6)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="center right")
+    for ax in axes[3]:
+        ax.set_xlabel("time (s)")
+    axes[0, 0].set_ylabel("thruster force,\nspacecraft frame (N)")
+    axes[1, 0].set_ylabel(f"force (N), zoomed to\nt ≥ {FIG5_ZOOM_FROM:g} s")
+    axes[2, 0].set_ylabel("thruster torque (N m)")
+    axes[3, 0].set_ylabel(f"torque (N m), zoomed\nto t ≥ {FIG5_ZOOM_FROM:g} s")
+    fig.suptitle("1991 Fig. 5: reaction-jet forces and torque over the first 5 s (full range, then zoomed; linear axes)", fontsize=11)
     return fig
 
 

@@ -152,7 +152,24 @@ def _radius_contours(ax: Axes, model: Any, piw: PathIndependentWorkspace, n: int
     if levels:
         deg = np.degrees(angles)
         cs = ax.contour(deg, deg, radius.T, levels=levels, colors="C2", linestyles="--", linewidths=1.2)
-        ax.clabel(cs, fmt=lambda v: f"{v:.3f} m", fontsize="x-small")
+        ax.clabel(cs, fmt=lambda v: f"{v:.3f} m", fontsize="x-small", inline=True, manual=_inner_points(cs.allsegs, deg[0], deg[-1]))
+
+
+#: Contour labels of the singularity maps stay this share of each axis's range away from its edges.
+LABEL_MARGIN = 0.1
+
+
+def _inner_points(allsegs: list[list[np.ndarray]], lo: float, hi: float) -> list[tuple[float, float]]:
+    """One label position per piece of contour that enters the inner part of the map (``LABEL_MARGIN`` from
+    every edge of [lo, hi]²): its middle point there, so that no label sticks out of the axes."""
+    margin = LABEL_MARGIN * (hi - lo)
+    points = []
+    for segs in allsegs:
+        for seg in segs:
+            inner = seg[np.all((seg > lo + margin) & (seg < hi - margin), axis=1)]
+            if len(inner):
+                points.append((float(inner[len(inner) // 2, 0]), float(inner[len(inner) // 2, 1])))
+    return points
 
 
 def _radii_strip(ax: Axes, rows: list[tuple[str, PathIndependentWorkspace]]) -> None:

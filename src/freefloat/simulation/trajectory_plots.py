@@ -2,7 +2,8 @@
 ``traj.plot_path()`` and ``traj.animate(path)`` draw).
 
 Compute stays in the trajectory (its derived arrays) and in
-:func:`freefloat.mechanics.kinematics.stick_figure`; this module only draws.
+:func:`freefloat.mechanics.kinematics.stick_figure` and
+:func:`~freefloat.mechanics.kinematics.spacecraft_box` (the bus); this module only draws.
 Without axes, each call makes a pyplot figure, so ``plt.show()`` and notebooks
 display it. Spatial models are drawn in 3D (mpl_toolkits.mplot3d), planar
 ones in the x-y plane. Animations use :mod:`matplotlib.animation`: GIF with
@@ -16,9 +17,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..core._figures import new_figure
+from ..core._figures import draw_box, move_box, new_figure
 from ..core.conventions import attitude_matrix
-from ..mechanics.kinematics import stick_figure
+from ..mechanics.kinematics import spacecraft_box, stick_figure
 
 if TYPE_CHECKING:
     from .trajectory import Trajectory
@@ -88,7 +89,8 @@ def plot_path(traj: Trajectory, ax: Any = None, *, snapshots: int = 4, axis_leng
 
     Spatial models on 3D axes: the spacecraft body axes (x red, y green, z blue) drawn at
     ``snapshots`` + 1 times along the spacecraft CM path (the first and last time written next
-    to them); the system at the first and last sample as stick figures. Planar models in the
+    to them); the system at the first and last sample as stick figures with the spacecraft bus
+    (:func:`~freefloat.mechanics.kinematics.spacecraft_box`). Planar models in the
     x-y plane with the same content. Without ``ax`` a new pyplot figure holds this panel and,
     beside it, the spacecraft attitude (Euler 3-2-1 angles) against time. Returns the artists.
     """
@@ -121,10 +123,13 @@ def plot_path(traj: Trajectory, ax: Any = None, *, snapshots: int = 4, axis_leng
             artists += ax.plot(*[[sc[k, j], tip[j]] for j in range(dims)], "-", color=colour, lw=1.5, label=label)
         if n in (0, len(picks) - 1):
             artists.append(ax.text(*sc[k][:dims], f" t={traj.t[k]:.3g} s", fontsize=7, color="0.25"))
-    for k, alpha in ((0, 0.35), (len(traj.t) - 1, 1.0)):
+    for n, (k, alpha) in enumerate(((0, 0.35), (len(traj.t) - 1, 1.0))):
         seg = stick_figure(model, traj.q[k], attitude=traj.attitude[k]) + traj.r_cm[k]
+        bus = spacecraft_box(model, traj.q[k], attitude=traj.attitude[k]) + traj.r_cm[k]
+        artists.append(draw_box(ax, bus, color="0.3", alpha=alpha, label="spacecraft bus" if n else None))
         for a, b in seg:
             artists += ax.plot(*[[a[i], b[i]] for i in range(dims)], "-", color="0.45", lw=2.5, alpha=alpha)
+        pts = np.concatenate([pts, seg.reshape(-1, 3), bus])
     _label_axes(ax, dims)
     if dims == 3:
         _set_equal_3d(ax, pts)
@@ -155,8 +160,9 @@ def animate_trajectory(
     """Write an animation of the system moving along the trajectory: ``.gif`` (Pillow) or ``.mp4`` (ffmpeg).
 
     One frame per output sample, or ``max_frames`` evenly spaced samples when there are
-    more; ``fps`` frames per second. The system is drawn as a stick figure (3D axes for a
-    spatial model), with the end-effector trace so far and the time. Never overwrites an
+    more; ``fps`` frames per second. The system is drawn as a stick figure with the spacecraft
+    bus (:func:`~freefloat.mechanics.kinematics.spacecraft_box`; 3D axes for a spatial model),
+    with the end-effector trace so far and the time. Never overwrites an
     existing file unless ``overwrite=True``. Returns the path written.
     """
     import matplotlib.pyplot as plt
@@ -184,10 +190,11 @@ def animate_trajectory(
     frames = np.unique(np.linspace(0, len(traj.t) - 1, min(max_frames, len(traj.t))).round().astype(int))
     dims = 3 if _spatial(traj) else 2
     seg = stick_figure(model, traj.q[frames], attitude=traj.attitude[frames]) + traj.r_cm[frames][:, None, None, :]
+    bus = spacecraft_box(model, traj.q[frames], attitude=traj.attitude[frames]) + traj.r_cm[frames][:, None, :]
     ee = traj.end_effector_positions
     fig = new_figure(figsize=(5.5, 5.0))
     ax = fig.add_subplot(projection="3d" if dims == 3 else None)
-    pts = np.concatenate([seg.reshape(-1, 3), ee.reshape(-1, 3)])
+    pts = np.concatenate([seg.reshape(-1, 3), bus.reshape(-1, 3), ee.reshape(-1, 3)])
     if dims == 3:
         _set_equal_3d(ax, pts)
     else:
@@ -198,12 +205,14 @@ def animate_trajectory(
         ax.set_aspect("equal")
         ax.grid(alpha=0.3)
     _label_axes(ax, dims)
+    box = draw_box(ax, bus[0], color="0.3")
     links = [ax.plot(*([[0.0, 0.0]] * dims), "-", color="0.3", lw=2.5)[0] for _ in range(seg.shape[1])]
     traces = [ax.plot(*([[]] * dims), "-", color=f"C{e}", lw=1.5)[0] for e in range(model.n_end_effectors)]
     title = ax.set_title("")
 
     def draw(i: int) -> list[Any]:
         k = int(frames[i])
+        move_box(box, bus[i])
         for line, (a, b) in zip(links, seg[i], strict=True):
             line.set_data([a[0], b[0]], [a[1], b[1]])
             if dims == 3:
@@ -213,7 +222,7 @@ def animate_trajectory(
             if dims == 3:
                 trace.set_3d_properties(ee[: k + 1, e, 2])  # type: ignore[attr-defined]
         title.set_text(f"{model.name}   t = {traj.t[k]:.2f} s")
-        return [*links, *traces, title]
+        return [box, *links, *traces, title]
 
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000.0 / fps, blit=False)
     out.parent.mkdir(parents=True, exist_ok=True)
