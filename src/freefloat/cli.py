@@ -47,6 +47,7 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # plain help: "[singularity]" stays as written, and flags show no "<bool>" type
 )
 
 
@@ -167,17 +168,21 @@ def _root(
 # --------------------------------------------------------------------- commands
 ModelArg = Annotated[
     str,
-    typer.Argument(metavar="MODEL", help=f"A .toml or .urdf model file, or a built-in model: {', '.join(BUILTIN_MODELS)}."),
+    typer.Argument(metavar="MODEL", help=f"A .toml, .urdf or MJCF .xml model file, or a built-in model: {', '.join(BUILTIN_MODELS)}."),
 ]
-PayloadMass = Annotated[float | None, typer.Option("--payload-mass", help="Inspect the model after capturing a payload of this mass (kg).")]
+PayloadMass = Annotated[
+    float | None, typer.Option("--payload-mass", metavar="KG", help="Inspect the model after capturing a payload of this mass (kg).")
+]
 PayloadInertia = Annotated[
     str | None,
     typer.Option(
-        "--payload-inertia", help="Payload inertia about its CM (kg m²): I (isotropic; Izz for planar models), Ixx,Iyy,Izz, or 9 numbers."
+        "--payload-inertia",
+        metavar="I",
+        help="Payload inertia about its CM (kg m²): I (isotropic; Izz for planar models), Ixx,Iyy,Izz, or 9 numbers.",
     ),
 ]
 PayloadEE = Annotated[
-    str | None, typer.Option("--payload-ee", help="End effector (name or index) that holds the payload; default the first.")
+    str | None, typer.Option("--payload-ee", metavar="NAME", help="End effector (name or index) that holds the payload; default the first.")
 ]
 
 
@@ -186,6 +191,7 @@ EndEffectorOption = Annotated[
     typer.Option(
         "--end-effector",
         "-e",
+        metavar="NAME",
         help="An end effector of a model file: a link/body/site name (repeat for several); replaces the file's or the scenario's. "
         "Default: those the file (or scenario) names, else every leaf.",
     ),
@@ -197,14 +203,20 @@ StrictOption = Annotated[
 
 RowsOpt = Annotated[
     str | None,
-    typer.Option("--rows", help="Rows of J* that decide singularity: position (translational), full, or auto (the paper's: all 6 in 3D)."),
+    typer.Option(
+        "--rows",
+        metavar="ROWS",
+        help="Rows of J* that decide singularity: position (translational), full, or auto (the paper's: all 6 in 3D).",
+    ),
 ]
 MeasureOpt = Annotated[
     str | None,
-    typer.Option("--measure", help="Singularity measure: sigma_min (smallest singular value), manipulability, det, or auto."),
+    typer.Option(
+        "--measure", metavar="MEASURE", help="Singularity measure: sigma_min (smallest singular value), manipulability, det, or auto."
+    ),
 ]
 ThresholdOpt = Annotated[
-    float | None, typer.Option("--threshold", help="Singular where |measure| <= this (default 0: exact singularities).")
+    float | None, typer.Option("--threshold", metavar="VALUE", help="Singular where |measure| <= this (default 0: exact singularities).")
 ]
 
 
@@ -268,7 +280,7 @@ def specialise_command(
     model: ModelArg,
     kind: Annotated[
         list[str] | None,
-        typer.Option("--kind", help="jstar (batched J*) or rollout (batched RK4 rollouts); repeatable (default: both)."),
+        typer.Option("--kind", metavar="KIND", help="jstar (batched J*) or rollout (batched RK4 rollouts); repeatable (default: both)."),
     ] = None,
     end_effector: EndEffectorOption = None,
     strict: StrictOption = False,
@@ -291,7 +303,7 @@ LONG_RUN_S = 60.0
 
 @app.command("demo")
 def demo_command(
-    out: Annotated[Path, typer.Option("--out", parser=_out_path, help="Output directory (created).")] = Path("out"),
+    out: Annotated[Path, typer.Option("--out", parser=_out_path, metavar="DIR", help="Output directory (created).")] = Path("out"),
     overwrite: Overwrite = False,
 ) -> None:
     """The main job: reproduce both papers (OUT/1991/, OUT/1992/: report.json, report.md, figures), write
@@ -362,7 +374,8 @@ def _write_demo_index(out: Path, written: list[Path]) -> Path:
 def workspace_command(
     model: ModelArg,
     arm: Annotated[
-        list[str] | None, typer.Option("--arm", help="End effector (name or index) to analyse; repeat for several. Default: all.")
+        list[str] | None,
+        typer.Option("--arm", metavar="NAME", help="End effector (name or index) to analyse; repeat for several. Default: all."),
     ] = None,
     payload_mass: PayloadMass = None,
     payload_inertia: PayloadInertia = None,
@@ -370,9 +383,10 @@ def workspace_command(
     piw: Annotated[
         bool | None, typer.Option("--piw/--no-piw", help="Compute the PIW/PDW (eq. 17). Default: only when J* is square.")
     ] = None,
-    samples: Annotated[int, typer.Option("--samples", min=16, help="Configurations sampled for the PIW.")] = 1 << 16,
+    samples: Annotated[int, typer.Option("--samples", min=16, metavar="N", help="Configurations sampled for the PIW.")] = 1 << 16,
     out: Annotated[
-        Path | None, typer.Option("--out", parser=_out_path, help="Write workspace.json and one plot per end effector here (created).")
+        Path | None,
+        typer.Option("--out", parser=_out_path, metavar="DIR", help="Write workspace.json and one plot per end effector here (created)."),
     ] = None,
     json_output: Annotated[bool, typer.Option("--json", help="Print one JSON object instead of the table.")] = False,
     rows: RowsOpt = None,
@@ -412,14 +426,20 @@ def workspace_command(
 @app.command("capture")
 def capture_command(
     scenario: Annotated[Path, typer.Argument(metavar="SCENARIO", help="Capture scenario TOML (schema: docs/workspaces.md).")],
-    out: Annotated[Path | None, typer.Option("--out", parser=_out_path, help="Write capture.json and the plots here (created).")] = None,
+    out: Annotated[
+        Path | None, typer.Option("--out", parser=_out_path, metavar="DIR", help="Write capture.json and the plots here (created).")
+    ] = None,
     overwrite: Overwrite = False,
     rows: RowsOpt = None,
     measure: MeasureOpt = None,
     threshold: ThresholdOpt = None,
     strategy: Annotated[
         str | None,
-        typer.Option("--strategy", help="auto (PIW, else a path-checked plan), piw (the paper's) or path; overrides the scenario."),
+        typer.Option(
+            "--strategy",
+            metavar="STRATEGY",
+            help="auto (PIW, else a path-checked plan), piw (the paper's) or path; overrides the scenario.",
+        ),
     ] = None,
     end_effector: EndEffectorOption = None,
 ) -> None:
@@ -458,7 +478,9 @@ def simulate_command(
     scenario: Annotated[Path, typer.Argument(metavar="SCENARIO", help="Simulation scenario TOML (schema: docs/simulation.md).")],
     out: Annotated[
         Path,
-        typer.Option("--out", parser=_out_path, help="Output directory (created): trajectory .npz/.csv/.json and .png plots."),
+        typer.Option(
+            "--out", parser=_out_path, metavar="DIR", help="Output directory (created): trajectory .npz/.csv/.json and .png plots."
+        ),
     ] = Path("out"),
     progress: Annotated[
         bool | None, typer.Option("--progress/--no-progress", help="Progress bar on stderr (default: when stderr is a terminal).")
@@ -516,7 +538,8 @@ PAPERS = ("1991", "1992")
 def reproduce_command(
     paper: Annotated[str, typer.Argument(metavar="PAPER", help="Which paper: 1991 (Papadopoulos & Dubowsky) or 1992 (Papadopoulos).")],
     out: Annotated[
-        Path, typer.Option("--out", parser=_out_path, help="Output directory (created): report.json, report.md and the figures.")
+        Path,
+        typer.Option("--out", parser=_out_path, metavar="DIR", help="Output directory (created): report.json, report.md and the figures."),
     ] = Path("out"),
     overwrite: Overwrite = False,
 ) -> None:

@@ -87,14 +87,16 @@ def test_a_model_without_end_effectors_has_no_workspace(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match=r"model 'bare_bus' has no end effectors.*a workspace needs one"):
         ff.workspace.workspace_limits(bare)
     path = ff.save(bare, tmp_path / "bare.toml")
-    result = CliRunner().invoke(app, ["workspace", str(path)])
-    assert result.exit_code == 1 and result.output.startswith("error: model 'bare_bus' has no end effectors")
+    result = CliRunner().invoke(app, ["workspace", str(path)])  # a file without joints is refused when it is read
+    assert (
+        result.exit_code == 1 and "bare.toml: has no movable joint (1 bodies after merging fixed joints, 0 end effectors)" in result.output
+    )
     capture = tmp_path / "capture.toml"
     capture.write_text(
         f'model = "{path.as_posix()}"\n[payload]\nmass = 400.0\ninertia = 25.0\n[path]\npoints = [[0.0, 0.0], [0.0, 0.25]]\n'
     )
     result = CliRunner().invoke(app, ["capture", str(capture)])
-    assert result.exit_code == 1 and "model 'bare_bus' has no end effectors; a capture needs an arm" in result.output
+    assert result.exit_code == 1 and "bare.toml: has no movable joint" in result.output
 
 
 def test_a_zero_reach_error_names_the_end_effector_not_an_internal_parameter() -> None:
@@ -122,9 +124,10 @@ def test_trajectory_csv_reads_cleanly_with_pandas(tmp_path: Path) -> None:
     traj = ff.simulate(model, ff.State(q=[0.1, 0.2, 0.3, 0.4]), 0.5, lambda t, s: np.ones(4), fixed_step=0.01)
     path = traj.save(tmp_path / "run.csv")
     frame = pd.read_csv(path)
-    assert list(frame.columns[:6]) == ["t", "q_0", "q_1", "q_2", "q_3", "qdot_0"]
-    assert "attitude_3" in frame.columns and "saturated" in frame.columns and len(frame) == len(traj)
-    np.testing.assert_allclose(frame[["q_0", "q_1", "q_2", "q_3"]].to_numpy(), traj.q, rtol=1e-15)
+    joints = [f"q[{name}]" for name in model.joint_names]  # columns named by joint
+    assert list(frame.columns[:6]) == ["t", *joints, "qdot[arm1_q1]"] and joints == ["q[arm1_q1]", "q[arm1_q2]", "q[arm2_q1]", "q[arm2_q2]"]
+    assert "attitude[w]" in frame.columns and "omega[z]" in frame.columns and "saturated" in frame.columns and len(frame) == len(traj)
+    np.testing.assert_allclose(frame[joints].to_numpy(), traj.q, rtol=1e-15)
     np.testing.assert_allclose(frame["t"].to_numpy(), traj.t)
     meta = json.loads((tmp_path / "run.csv.json").read_text())
     assert meta["freefloat_trajectory"]["model_name"] == "papadopoulos1992" and meta["columns"] == list(frame.columns)
@@ -136,7 +139,12 @@ def test_a_model_without_joints_has_no_path_independent_workspace(tmp_path: Path
     b.add_body("bus", mass=500.0, inertia=[80.0, 90.0, 100.0])
     b.add_body("tool", mass=0.0, inertia=0.0, frame=True)
     b.add_joint("mount", parent="bus", child="tool", type="fixed")
-    path = ff.save(b.build(), tmp_path / "bus_with_tool.toml")
+    model = b.build()
+    with pytest.raises(ValueError, match=r"^model 'bus_with_tool' has no joints") as info:
+        ff.workspace.path_independent_workspace(model, 0, samples=64)
+    assert "merge_gap" not in str(info.value)
+    # as a file, it is refused when it is read: a model file without joints is a truncated or wrong file
+    path = ff.save(model, tmp_path / "bus_with_tool.toml")
     result = CliRunner().invoke(app, ["workspace", str(path), "--piw", "--samples", "64"])
-    assert result.exit_code == 1 and result.output.startswith("error: model 'bus_with_tool' has no joints")
-    assert "merge_gap" not in result.output and "Traceback" not in result.output
+    assert result.exit_code == 1 and "bus_with_tool.toml: has no movable joint" in result.output
+    assert "Traceback" not in result.output

@@ -82,3 +82,21 @@ why = "test"
     path.write_text(text, encoding="utf-8")
     with pytest.raises(ff.ModelError, match=r"corrections\[0\]\.given: is a physical inertia: there is nothing to correct"):
         ff.load(path)
+
+
+def test_printed_names_are_the_names_the_cli_takes() -> None:
+    """``model.name`` (what inspect, reports and outputs print) loads the same model again, for every built-in."""
+    from freefloat.models import BUILTIN_MODELS, load_model
+
+    for key in BUILTIN_MODELS:
+        model = load_model(key)
+        assert load_model(model.name) is model, (key, model.name)
+    assert ff.models.astrobee_arm().name == "astrobee-arm" and ff.models.ssrms_station().name == "ssrms-station"
+
+
+def test_strict_refuses_a_built_in_model_whose_data_was_corrected() -> None:
+    from freefloat.models import load_model
+
+    with pytest.raises(ff.ModelError, match=r"needed 3 correction\(s\) .* which strict refuses"):
+        load_model("ets7", strict=True)
+    assert load_model("papadopoulos1992", strict=True) is load_model("papadopoulos1992")  # nothing corrected: accepted

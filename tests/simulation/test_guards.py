@@ -164,6 +164,7 @@ def test_progress_callback_and_delayed_bar(arm: ff.Model, monkeypatch: pytest.Mo
 
     clock = [0.0]
     monkeypatch.setattr("freefloat.simulation._guard.time.perf_counter", lambda: clock[0])
+    monkeypatch.setattr("freefloat.simulation._guard.interactive", lambda: True)  # a terminal: a bar
     bar = Progress(None, 10.0)  # automatic: no bar for a short run
     clock[0] = PROGRESS_DELAY / 2
     bar.update(1.0)
@@ -210,3 +211,20 @@ def test_a_run_of_1e12_seconds_allocates_nothing_up_front_and_ctrl_c_returns_it(
     with pytest.warns(LongRunWarning, match="years"):
         traj = ff.simulate(arm, ff.State(), 1e12, impatient, sample_period=sample_period)
     assert traj.status == "interrupted" and 0.98 <= traj.t[-1] <= 1.0 and len(traj) >= 99
+
+
+def test_progress_outside_a_terminal_goes_to_the_logger(monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture) -> None:
+    """Batch jobs and notebooks: no bar, one INFO line of the ``freefloat.progress`` logger every LOG_PERIOD seconds."""
+    from freefloat.core.feedback import LOG_PERIOD
+
+    clock = [0.0]
+    monkeypatch.setattr("freefloat.simulation._guard.time.perf_counter", lambda: clock[0])
+    monkeypatch.setattr("freefloat.simulation._guard.interactive", lambda: False)
+    caplog.set_level("INFO", logger="freefloat.progress")
+    bar = Progress(None, 10.0)
+    for k in range(1, 40):
+        clock[0] = PROGRESS_DELAY + k  # one second of wall time per simulated quarter second
+        bar.update(0.25 * k)
+    lines = [r.getMessage() for r in caplog.records if r.name == "freefloat.progress"]
+    assert bar.bar is None and 3 <= len(lines) <= 39 / LOG_PERIOD + 1
+    assert lines[0] == "simulating: 2 / 10 s (20%), 10 s elapsed, about 40 s left", lines[0]

@@ -65,9 +65,11 @@ def test_animate_writes_a_gif_with_the_expected_frames(spatial: ff.Trajectory, t
     with Image.open(path) as gif:
         assert gif.format == "GIF"
         assert gif.n_frames == len(spatial.t) == 21
-    fewer = spatial.animate(tmp_path / "fewer.gif", max_frames=7)
+    seen: list[tuple[float, float]] = []
+    fewer = spatial.animate(tmp_path / "fewer.gif", max_frames=7, progress=lambda done, total: seen.append((done, total)))
     with Image.open(fewer) as gif:
         assert gif.n_frames == 7
+    assert seen[-1] == (7.0, 7.0) and all(total == 7.0 for _, total in seen)  # progress counts the frames
     assert plt.get_fignums() == []  # the animation's figure is closed
 
 

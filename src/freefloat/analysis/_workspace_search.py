@@ -30,6 +30,7 @@ from scipy.optimize import least_squares, minimize
 from scipy.stats import qmc
 
 from ..core.errors import ModelError
+from ..core.resources import require_memory
 
 Batch = Callable[[np.ndarray], np.ndarray]
 
@@ -91,6 +92,12 @@ def sobol(n: int, lo: np.ndarray, hi: np.ndarray, seed: int) -> np.ndarray:
     if d == 0:
         return np.zeros((1, 0))
     m = max(int(np.ceil(np.log2(max(n, 2)))), 1)
+    # the points (float64) and scipy's Sobol state (uint64) of 2^m points, and a J* (6 x d) per point for the search
+    require_memory(
+        float(2**m) * d * 8 * (2 + 6),
+        f"sampling {2**m:.3g} configurations ({n:.3g} samples asked, rounded up to a power of two)",
+        "ask for fewer samples: the results report their sampling accuracy, and 2^16 to 2^20 samples are usually enough",
+    )
     points = qmc.Sobol(d, scramble=True, seed=np.random.default_rng(seed)).random_base2(m)
     return lo + points * (hi - lo)
 
@@ -227,6 +234,11 @@ class Criterion:
 def _lines(box: JointBox, samples: int, seed: int, points_per_line: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
     """Axis-parallel sampling lines: base configurations (M, N), axes (M,), parameters t (K,) in [0, 1]."""
     n = box.lo.size
+    require_memory(  # the configurations along all lines at once, their measures and J*s (a few times the samples)
+        float(samples) * max(n, 1) * 8 * 8,
+        f"sampling {samples:.3g} configurations along lines",
+        "ask for fewer samples: the results report their sampling accuracy, and 2^16 to 2^20 samples are usually enough",
+    )
     if n <= 3:
         k = max(round(samples ** (1.0 / n)), 8) | 1  # odd: 0 is a node
         nodes = np.linspace(0.0, 1.0, k)

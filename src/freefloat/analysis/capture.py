@@ -27,6 +27,7 @@ from scipy.optimize import minimize
 from scipy.spatial.transform import Rotation
 
 from ..core._figures import new_axes
+from ..core.feedback import status
 from ..core.model import Model
 from ..mechanics.jacobians import end_effector_jacobian
 from ..mechanics.kinematics import end_effector_positions
@@ -447,11 +448,16 @@ def plan_capture(
     """
     if strategy not in STRATEGIES:
         raise ValueError(f"strategy: expected one of {', '.join(STRATEGIES)}, got {strategy!r}")
+    if R_plus is not None and (
+        isinstance(R_plus, bool) or not isinstance(R_plus, (int, float, np.number)) or not np.isfinite(R_plus) or R_plus <= 0
+    ):
+        raise ValueError(f"R_plus: expected a positive distance (m) from CM+ to A, got {R_plus!r}")
     crit = criterion if criterion is not None else SingularityCriterion()
     e = model.end_effector_index(end_effector)
     captured = model.with_payload(e, mass=mass, inertia=inertia, offset=offset)
-    piw = path_independent_workspace(captured, e, samples=samples, criterion=crit)
     pts = _check_path(path)
+    with status(f"post-capture PIW of {captured.end_effector_names[e]}: {samples:,} sampled configurations"):
+        piw = path_independent_workspace(captured, e, samples=samples, criterion=crit)
     found: tuple[str, PathPlacement, CapturePosture, PathMotion] | None = None
     why_path = "strategy 'path' was asked for"
     if strategy != "path":
@@ -476,7 +482,8 @@ def plan_capture(
                     fits_reachable=True,
                 )
     if found is None:
-        checked = _path_checked_plan(model, captured, e, pts, piw, float(mass), crit, R_plus)
+        with status("searching capture placements, postures and attitudes whose free-floating motion follows the path"):
+            checked = _path_checked_plan(model, captured, e, pts, piw, float(mass), crit, R_plus)
         if checked is None:
             where = ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in piw.piw) or "(empty)"
             raise PathDoesNotFitError(

@@ -31,6 +31,7 @@ import numpy as np
 from ..core._figures import new_axes
 from ..core.errors import ShapeError
 from ..core.model import Model
+from ..core.resources import require_memory
 from ..mechanics.jacobians import generalized_jacobian, jacobian_determinant
 from . import _workspace_search as search
 
@@ -371,6 +372,13 @@ def jacobian_determinant_map(
     base = np.zeros(model.n_joints) if q_fixed is None else np.asarray(q_fixed, dtype=float)
     if base.shape != (model.n_joints,):
         raise ShapeError(f"q_fixed: expected shape ({model.n_joints},) ({', '.join(model.joint_names)}), got {base.shape}")
+    # the grid of configurations, J* (6E x N) at each point, and the measure
+    per_point = 8 * (model.n_joints + 6 * model.n_end_effectors * model.n_joints + 2)
+    require_memory(
+        float(n_x) * n_y * per_point,
+        f"a map of {n_x} x {n_y} = {float(n_x) * n_y:.3g} configurations",
+        "use a coarser grid (n = 361 is a 1 deg step over a full turn) or smaller ranges",
+    )
     angles_x = np.linspace(lo_x, hi_x, n_x)
     angles_y = np.linspace(lo_y, hi_y, n_y)
     q = np.broadcast_to(base, (n_x, n_y, model.n_joints)).copy()

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.feedback import status
 from ..core.model import Model
 from ._workspace_reach import guaranteed_workspace, reachable_workspace
 from ._workspace_results import GuaranteedWorkspace, PathIndependentWorkspace, ReachableWorkspace
@@ -177,18 +178,22 @@ def workspace_limits(
             if piw is None
             else "not requested"
         )
-    reach = tuple(reachable_workspace(model, e) for e in chosen)
-    gws = tuple(guaranteed_workspace(model, e) for e in chosen)
-    piws = tuple(
-        path_independent_workspace(model, e, samples=samples, reachable=r, criterion=crit) if do_piw else None
-        for e, r in zip(chosen, reach, strict=True)
-    )
+    with status(f"reachable and guaranteed workspaces of {len(chosen)} end effector(s) of {model.name}"):
+        reach = tuple(reachable_workspace(model, e) for e in chosen)
+        gws = tuple(guaranteed_workspace(model, e) for e in chosen)
+    piws: list[PathIndependentWorkspace | None] = []
+    for e, r in zip(chosen, reach, strict=True):
+        if not do_piw:
+            piws.append(None)
+            continue
+        with status(f"PIW of {model.end_effector_names[e]}: {samples:,} sampled configurations"):
+            piws.append(path_independent_workspace(model, e, samples=samples, reachable=r, criterion=crit))
     return WorkspaceLimits(
         model=model,
         end_effectors=tuple(model.end_effector_names[e] for e in chosen),
         reachable=reach,
         guaranteed=gws,
-        piw=piws,
+        piw=tuple(piws),
         piw_note=note,
         criterion=crit,
     )

@@ -13,6 +13,7 @@ from typing import Any
 __all__ = [
     "FreefloatError",
     "LongRunWarning",
+    "MemoryBudgetError",
     "ModelCorrectionWarning",
     "ModelError",
     "NearSingularWarning",
@@ -101,6 +102,12 @@ class StiffGainsWarning(UserWarning):
 
 class LongRunWarning(UserWarning):
     """A simulation is estimated, before it starts, to take longer than the caller's limit (steps and seconds in the message)."""
+
+
+class MemoryBudgetError(FreefloatError, ValueError):
+    """A call would need more memory than the machine has free: refused before anything is allocated, with the
+    estimate and the way out (fewer samples, a coarser grid, smaller batches) in the message
+    (:func:`freefloat.core.resources.require_memory`)."""
 
 
 class PathDoesNotFitError(FreefloatError, ValueError):

@@ -74,6 +74,13 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
         model = load_mjcf(path, end_effectors=end_effectors, strict=strict)
     else:
         raise ModelError(str(path), f"unknown model file type {suffix!r}", "use a .toml (freefloat schema), .urdf or MJCF .xml file")
+    if model.n_joints == 0:
+        raise ModelError(
+            str(path),
+            f"has no movable joint ({model.n_bodies} bodies after merging fixed joints, {model.n_end_effectors} end effectors): "
+            "nothing in it is an arm",
+            "check that the file is complete (a truncated file loses its joints); a bare spacecraft is built with ff.ModelBuilder",
+        )
     check_whole_model(model)
     return model
 
@@ -388,6 +395,21 @@ def physical_inertia(inertia: np.ndarray, path: str, strict: bool, corrections: 
     return fixed
 
 
+def missing_limit(path: str, kind: str, strict: bool, corrections: list[dict[str, Any]]) -> None:
+    """A URDF revolute or prismatic joint without ``<limit>``, which the URDF specification requires: taken as
+    unlimited (a continuous joint, an unlimited slide) with a warning and a record; ``strict``: a ModelError."""
+    fix = 'add <limit lower="..." upper="..." effort="..." velocity="..."/> to the joint, or declare it "continuous"'
+    if strict:
+        raise ModelError(path, f"a {kind} joint without <limit> (the URDF specification requires one)", fix)
+    corrections.append({"where": path, "field": "limit", "defect": f"{kind} joint without <limit>", "correction": "taken as unlimited"})
+    warnings.warn(
+        f"{path}: a {kind} joint without <limit> (the URDF specification requires one); taken as unlimited. {fix}, or load "
+        "with strict=True to refuse instead.",
+        ModelCorrectionWarning,
+        stacklevel=4,
+    )
+
+
 _URDF_REFUSED = {
     "floating": "a floating joint inside the tree (only the spacecraft, the root link, moves freely)",
     "planar": "a planar joint inside the tree (two translations and a rotation in one joint)",
@@ -441,6 +463,8 @@ def from_urdf_robot(robot: Any, source: str = "", *, end_effectors: EndEffectors
             and joint.limit.upper is not None
         ):
             limits = (joint.limit.lower, joint.limit.upper)
+        elif joint.type in ("revolute", "prismatic") and joint.limit is None:
+            missing_limit(f"{path}.limit", joint.type, strict, corrections)
         try:
             builder.add_joint(
                 joint.name,

@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..core.errors import ShapeError
+from ..core.resources import require_memory
 
 if TYPE_CHECKING:
     from ..core.model import Model
@@ -25,6 +26,8 @@ def new_output(shape: tuple[int, ...], dtype: Any = np.float64) -> np.ndarray:
     fresh 38 MB output at once ran J* at 1.6-33 M configurations/s from call to call (the faults
     contend); touched here first, in one thread, the threaded kernels run at the same rate every call.
     """
+    nbytes = float(np.prod(shape, dtype=float)) * np.dtype(dtype).itemsize
+    require_memory(nbytes, f"a result of shape {shape}", "pass fewer configurations per call (a loop over chunks of the batch)")
     arr = np.empty(shape, dtype=dtype)
     if arr.nbytes >= 1 << 22:
         flat = arr.reshape(-1)
@@ -32,9 +35,30 @@ def new_output(shape: tuple[int, ...], dtype: Any = np.float64) -> np.ndarray:
     return arr
 
 
+#: |q| above this (rad or m) is refused: no joint turns or slides that far, and sin/cos of such angles
+#: lose their precision (an ulp of 1e6 rad is 1e-10 rad).
+MAX_JOINT_VALUE = 1e6
+
+
+def real_array(value: Any, name: str) -> np.ndarray:
+    """``value`` as a float array; booleans, complex numbers, text and other objects are a TypeError naming ``name``."""
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError) as exc:  # ragged nested lists
+        raise TypeError(f"{name}: expected real numbers in a regular array, got {value!r:.80} ({exc})") from None
+    kind = arr.dtype.kind
+    if kind in "iuf":
+        return arr.astype(float, copy=False)
+    what = {"b": "booleans", "c": "complex numbers", "U": "text", "S": "bytes", "O": "objects that are not all numbers"}.get(
+        kind, str(arr.dtype)
+    )
+    raise TypeError(f"{name}: expected real numbers, got {what} ({value!r:.80})")
+
+
 def joint_array(model: Model, q: Any, name: str = "q") -> np.ndarray:
-    """``q`` as a float array of shape (..., N); a clear error otherwise."""
-    arr = np.asarray(q, dtype=float)
+    """``q`` as a float array of shape (..., N); a clear error otherwise (not real numbers, NaN/inf, beyond
+    :data:`MAX_JOINT_VALUE`)."""
+    arr = real_array(q, name)
     n = model.n_joints
     if arr.ndim == 0 or arr.shape[-1] != n:
         raise ShapeError(
@@ -46,13 +70,28 @@ def joint_array(model: Model, q: Any, name: str = "q") -> np.ndarray:
             f"{name}: has NaN or infinite entries (first at index {tuple(int(i) for i in bad)}, joint "
             f"{model.joint_names[int(bad[-1])]!r}); every joint angle must be a finite number in rad"
         )
+    if arr.size and np.abs(arr).max() > MAX_JOINT_VALUE:
+        bad = np.argwhere(np.abs(arr) > MAX_JOINT_VALUE)[0]
+        raise ValueError(
+            f"{name}: {float(arr[tuple(bad)]):.3g} for joint {model.joint_names[int(bad[-1])]!r} is beyond {MAX_JOINT_VALUE:g} (rad or m), "
+            "which no joint reaches; check the units (radians, metres)"
+        )
     return arr
 
 
 def vector_array(value: Any, size: int, name: str, what: str) -> np.ndarray:
-    arr = np.asarray(value, dtype=float)
+    """``value`` as a float array of shape (..., size); a clear error otherwise (finiteness: :func:`finite_vector`)."""
+    arr = real_array(value, name)
     if arr.ndim == 0 or arr.shape[-1] != size:
         raise ShapeError(f"{name}: expected shape (..., {size}) ({what}), got {arr.shape}")
+    return arr
+
+
+def finite_vector(value: Any, size: int, name: str, what: str) -> np.ndarray:
+    """:func:`vector_array`, with NaN and infinite entries refused."""
+    arr = vector_array(value, size, name, what)
+    if not np.isfinite(arr).all():
+        raise ValueError(f"{name}: has NaN or infinite entries ({what}); every entry must be a finite number")
     return arr
 
 

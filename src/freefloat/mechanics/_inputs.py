@@ -16,7 +16,7 @@ import numpy as np
 from ..core.conventions import attitude_matrix
 from ..core.errors import ModelError, ShapeError
 from ..core.model import Model
-from ._arrays import joint_array, vector_array
+from ._arrays import finite_vector, joint_array
 
 
 def _finite(arr: np.ndarray, name: str) -> np.ndarray:
@@ -26,11 +26,11 @@ def _finite(arr: np.ndarray, name: str) -> np.ndarray:
 
 
 def _joints(model: Model, value: Any, name: str) -> np.ndarray:
-    return _finite(joint_array(model, value, name), name)
+    return joint_array(model, value, name)  # finite and real, checked there
 
 
 def _vector(value: Any, size: int, name: str, what: str) -> np.ndarray:
-    return _finite(vector_array(value, size, name, what), name)
+    return finite_vector(value, size, name, what)
 
 
 def _velocity(model: Model, value: Any, name: str = "velocity") -> np.ndarray:

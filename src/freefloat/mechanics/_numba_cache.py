@@ -38,6 +38,8 @@ from numba.core import cgutils
 from numba.core.caching import CompileResultCacheImpl, FunctionCache, _CacheLocator, _SourceFileBackedLocatorMixin
 from numba.extending import intrinsic
 
+from ..core.feedback import notice
+
 __all__ = ["CacheWarning", "cache_dir", "kernel", "unowned_floats", "unowned_ints"]
 
 
@@ -92,7 +94,7 @@ class _Cache(FunctionCache):
 
     def load_overload(self, sig: Any, target_context: Any) -> Any:
         try:
-            return super().load_overload(sig, target_context)
+            found = super().load_overload(sig, target_context)
         except Exception as exc:  # a cache must never cost a traceback: whatever is wrong with the files
             warnings.warn(
                 f"freefloat: the compiled-kernel cache in {self.cache_path} is broken for {self._py_func.__qualname__} "
@@ -101,7 +103,11 @@ class _Cache(FunctionCache):
                 stacklevel=2,
             )
             self._drop_index()
+            _announce_compile(self.cache_path)
             return None
+        if found is None:
+            _announce_compile(self.cache_path)
+        return found
 
     def save_overload(self, sig: Any, data: Any) -> None:
         for attempt in range(2):
@@ -124,6 +130,20 @@ class _Cache(FunctionCache):
         if index:
             with contextlib.suppress(OSError):
                 os.unlink(index)
+
+
+_ANNOUNCED: list[bool] = []
+
+
+def _announce_compile(folder: str) -> None:
+    """Once per process, at the first kernel that is not in the cache: say that compiling takes a while, and why."""
+    if _ANNOUNCED:
+        return
+    _ANNOUNCED.append(True)
+    notice(
+        "compiling the engine's kernels for this machine: once, usually 30-60 s in all (the next uses load them from "
+        f"{Path(folder).parent} in under a second)"
+    )
 
 
 def kernel(*, parallel: bool = False, inline: Literal["never", "always"] = "never") -> Callable[[Callable[..., Any]], Any]:

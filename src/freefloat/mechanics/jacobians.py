@@ -29,7 +29,7 @@ from ..core.conventions import attitude_matrix, euler321_from_matrix, euler321_r
 from ..core.errors import ShapeError
 from ..core.model import Model
 from . import _engine
-from ._arrays import chunked, joint_array, pieces
+from ._arrays import chunked, finite_vector, joint_array, pieces
 from ._inputs import check_method
 from .kinematics import _rotations, _slides, body_rotations
 from .momentum import _hplus_barycentric
@@ -116,7 +116,7 @@ def point_jacobian(
     """
     q = joint_array(model, q)
     k = model.body_index(body)
-    p = model.com[k] if point is None else np.asarray(point, dtype=float)
+    p = model.com[k] if point is None else finite_vector(point, 3, "point", "a point in the body frame, m")
     if _method(method) == "recursive":
         out = _engine.point_jacobians(model, q, k, p)[..., 0, :, :]
         return out if attitude is None else _rotate_rows(out, attitude)
@@ -248,9 +248,7 @@ def generalized_jacobian_drift(
     """
     q = joint_array(model, q)
     t0 = attitude_matrix(attitude)
-    h = np.asarray(angular_momentum, dtype=float)
-    if h.shape[-1:] != (3,):
-        raise ShapeError(f"angular_momentum: expected shape (..., 3), got {h.shape}")
+    h = finite_vector(angular_momentum, 3, "angular_momentum", "N m s, inertial frame")
     h0 = np.einsum("...ji,...j->...i", t0, h)
     d = _engine.inertia_matrix(model, q)[..., 3:6, 3:6]
     wd = np.linalg.solve(d, h0[..., None])[..., 0]
@@ -261,9 +259,7 @@ def generalized_jacobian_drift(
         [np.einsum("...ij,...ej->...ei", t0, drift0[..., 0:3]), np.einsum("...ij,...ej->...ei", t0, drift0[..., 3:6])], axis=-1
     )
     if linear_momentum is not None:
-        p = np.asarray(linear_momentum, dtype=float)
-        if p.shape[-1:] != (3,):
-            raise ShapeError(f"linear_momentum: expected shape (..., 3), got {p.shape}")
+        p = finite_vector(linear_momentum, 3, "linear_momentum", "N s, inertial frame")
         drift = drift + np.concatenate([p / model.total_mass, np.zeros_like(p)], axis=-1)[..., None, :]
     return drift.reshape((*drift.shape[:-2], -1))
 

@@ -17,7 +17,7 @@ import numpy as np
 from ..core.conventions import attitude_matrix
 from ..core.model import Model
 from . import _engine
-from ._arrays import chunked, joint_array
+from ._arrays import chunked, finite_vector, joint_array
 from ._inputs import check_method
 
 __all__ = [
@@ -153,7 +153,7 @@ def point_positions(model: Model, q: Any, body: str | int, point: Any = (0.0, 0.
     sum of barycentric vectors; default the engine's recursion.
     """
     k = model.body_index(body)
-    p = np.asarray(point, dtype=float)
+    p = finite_vector(point, 3, "point", "a point in the body frame, m")
     q = joint_array(model, q)
     if _method(method) == "recursive":
         return _engine.points(model, q, k, p)[..., 0, :]

@@ -44,8 +44,8 @@ def _builtin(key: str) -> Model:
 def load_model(spec: str, *, end_effectors: EndEffectors = None, strict: bool = False) -> Model:
     """A built-in model by name (case and ``-``/``_`` ignored) or a model file by path.
 
-    ``end_effectors`` and ``strict``: as :func:`freefloat.load` (model files only; a built-in
-    model's end effectors are part of it).
+    ``end_effectors`` and ``strict``: as :func:`freefloat.load` (a built-in model's end effectors
+    are part of it; ``strict`` refuses a built-in model whose published data needed corrections).
     """
     if not isinstance(spec, str):
         raise TypeError(f"model: expected a built-in model name or a model file path, got {type(spec).__name__}")
@@ -55,7 +55,15 @@ def load_model(spec: str, *, end_effectors: EndEffectors = None, strict: bool = 
             raise ModelError(
                 f"MODEL {spec!r}", "is a built-in model, whose end effectors are fixed", "name end effectors for model files only"
             )
-        return _builtin(key)
+        model = _builtin(key)
+        if strict and model.corrections:
+            where = ", ".join(str(c["where"]).rsplit(": ", 1)[-1] for c in model.corrections)
+            raise ModelError(
+                f"MODEL {spec!r}",
+                f"is a built-in model whose published data needed {len(model.corrections)} correction(s) ({where}), which strict refuses",
+                "drop --strict (strict=False) to use the corrected model; `freefloat inspect` lists the corrections",
+            )
+        return model
     path = Path(spec)
     if path.is_file():
         return load(path, end_effectors=end_effectors, strict=strict)

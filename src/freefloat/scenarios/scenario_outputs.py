@@ -113,7 +113,7 @@ def simulate_scenario(scenario: Scenario, out: Path, *, progress: Any = None, an
         raise SimulationError(f"{exc} (partial trajectory up to the failure written to {written[0].parent})", exc.trajectory) from exc
     written = write_trajectory_outputs(traj, out, scenario)
     if animation is not None:
-        written.append(traj.animate(animation))
+        written.append(traj.animate(animation, progress=progress))
     return written
 
 

@@ -18,9 +18,10 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import SimulationError, StiffGainsWarning
+from ..core.feedback import LOG_PERIOD, interactive, progress_log
 from ..core.model import Model
 from ..mechanics import _engine
-from ..mechanics.momentum import free_floating_joint_inertia, kinetic_energy
+from ..mechanics.momentum import free_floating_joint_inertia
 
 __all__ = [
     "DIVERGENCE_ANGLE",
@@ -246,9 +247,18 @@ class Progress:
     """Progress of a run: ``mode`` True (a bar at once), None (a bar once the run has lasted
     :data:`PROGRESS_DELAY` s), False (none), or a callable ``callback(t, duration)`` called each
     time the simulated time has advanced by 1 % of the duration, and at the end. :meth:`update`
-    is cheap (a clock read) between redraws."""
+    is cheap (a clock read) between redraws.
 
-    def __init__(self, mode: bool | Callable[[float, float], Any] | None, duration: float) -> None:
+    The bar is drawn on standard error when it is a terminal; elsewhere (a batch job, a notebook,
+    a CI log) the same progress goes to the ``freefloat.progress`` logger at INFO, one line every
+    :data:`freefloat.core.feedback.LOG_PERIOD` seconds. ``what`` names the work ("simulating").
+    """
+
+    def __init__(
+        self, mode: bool | Callable[[float, float], Any] | None, duration: float, what: str = "simulating", unit: str = "s"
+    ) -> None:
+        self.what, self.unit = what, unit
+        self.logged = 0.0
         self.callback = mode if callable(mode) else None
         self.enabled = mode is not False
         self.delay = 0.0 if mode is True else PROGRESS_DELAY
@@ -274,20 +284,30 @@ class Progress:
         if self.bar is None:
             if now - self.start < self.delay:
                 return
+            if not interactive():  # no terminal: a line to the logger now and then
+                if now - self.logged >= LOG_PERIOD:
+                    self.logged = now
+                    elapsed = now - self.start
+                    left = f", about {_duration(elapsed * (self.duration - t) / t)} left" if t > 0 else ""
+                    progress_log.info(
+                        "%s: %.4g / %.4g %s (%.0f%%), %s elapsed%s", self.what, t, self.duration, self.unit,
+                        100.0 * t / self.duration, _duration(elapsed), left,
+                    )  # fmt: skip
+                return
             from rich.console import Console
             from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 
             self.bar = Progress(
-                TextColumn("simulating"),
+                TextColumn(self.what),
                 BarColumn(),
-                TextColumn("t = {task.completed:.4g} / {task.total:.4g} s"),
+                TextColumn("{task.completed:.4g} / {task.total:.4g} " + self.unit),
                 TimeElapsedColumn(),
                 TimeRemainingColumn(),
                 console=Console(stderr=True),
                 transient=True,
             )
             self.bar.start()
-            self.bar.add_task("simulating", total=self.duration)
+            self.bar.add_task(self.what, total=self.duration)
         self.bar.update(self.bar.task_ids[0], completed=float(t))
 
     def close(self) -> None:
@@ -362,7 +382,11 @@ class DivergenceGuard:
     def _energy(self, x: np.ndarray) -> float:
         n = self.n
         velocity = np.concatenate([x[3:6], x[10:13], x[13 + n :]])
-        return float(kinetic_energy(self.model, x[13 : 13 + n], velocity))
+        # the engine's H+ directly: a diverging state is past what the public calls accept (|q| > 1e6), and is what is measured
+        with np.errstate(over="ignore", invalid="ignore"):
+            h_plus = _engine.inertia_matrix(self.model, np.ascontiguousarray(x[13 : 13 + n]))
+            energy = 0.5 * float(velocity @ h_plus @ velocity)
+        return energy if np.isfinite(energy) else np.inf
 
     def _rates_grew(self, x: np.ndarray) -> bool:
         """Whether the fastest rate is 1.2x the one at the last energy test (the kinetic energy, an H+ evaluation,

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import ShapeError
+from ..mechanics._arrays import real_array
 
 __all__ = ["JointPD"]
 
@@ -40,11 +41,16 @@ class JointPD:
 
     def __post_init__(self) -> None:
         for name in ("kp", "kd", "q_ref", "qdot_ref"):
-            arr = np.asarray(getattr(self, name), dtype=float)
+            arr = real_array(getattr(self, name), f"JointPD.{name}")
             if not np.all(np.isfinite(arr)):
                 raise ValueError(f"JointPD.{name}: has NaN or infinite entries")
+            if name in ("kp", "kd") and np.any(arr < 0):
+                raise ValueError(
+                    f"JointPD.{name}: must be >= 0 (a negative gain drives the joints away from the reference and pumps energy "
+                    f"in), got {getattr(self, name)!r}"
+                )
         if self.feedforward is not None:
-            ff = np.asarray(self.feedforward, dtype=float)
+            ff = real_array(self.feedforward, "JointPD.feedforward")
             if ff.ndim < 2:
                 raise ShapeError(f"JointPD.feedforward: expected (K, N) or (K, B, N) torques per sample, got shape {ff.shape}")
             if not np.all(np.isfinite(ff)):

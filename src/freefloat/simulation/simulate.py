@@ -270,7 +270,9 @@ def _wall_limit(max_wall_time: Any, estimate: float) -> float | None:
 
 
 def _positive(name: str, value: Any) -> float:
-    """``value`` as a positive finite float, or a ValueError naming ``name``."""
+    """``value`` as a positive finite float, or a ValueError naming ``name`` (text and booleans are not numbers here)."""
+    if isinstance(value, (str, bytes, bool, np.bool_)):
+        raise ValueError(f"{name}: expected a positive number, got {type(value).__name__} {value!r}")
     try:
         out = float(value)
     except (TypeError, ValueError) as exc:
@@ -337,6 +339,14 @@ def rollout(
             return (*zero, np.zeros(batch, dtype=bool))
         return limits.apply(*_call_controller(controller, model, t, xx, batch))
 
+    if batch[0] == 0:  # an empty batch: an empty result, as every batched call gives (J* of 0 configurations is (0, 6E, N))
+        times = np.arange(0, steps + 1, stride) * dt
+        if times[-1] < steps * dt - 1e-12 * duration:
+            times = np.append(times, steps * dt)
+        t_n = times.size
+        empty = np.zeros((t_n, 0, x.shape[-1]))
+        nothing = (np.zeros((t_n, 0, model.n_joints)), np.zeros((t_n, 0, 3)), np.zeros((t_n, 0, 3)), np.zeros((t_n, 0), dtype=bool))
+        return _trajectory(model, times, empty, nothing)
     rec = _Recorder(model)
     bar = Progress(progress, float(duration))
     try:

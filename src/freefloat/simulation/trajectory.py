@@ -164,22 +164,25 @@ class Trajectory:
 
         return plot_path(self, ax, snapshots=snapshots)
 
-    def animate(self, path: str | Path, *, fps: int = 20, max_frames: int = 120, dpi: int = 80, overwrite: bool = False) -> Path:
+    def animate(
+        self, path: str | Path, *, fps: int = 20, max_frames: int = 120, dpi: int = 80, overwrite: bool = False, progress: Any = None
+    ) -> Path:
         """Write an animation of the motion to ``path``: ``.gif`` (Pillow) or ``.mp4`` (ffmpeg); returns the path.
 
         At most ``max_frames`` frames (evenly spaced output samples) at ``fps``
         frames per second. Never overwrites an existing file unless ``overwrite=True``.
+        ``progress``: as :func:`freefloat.simulate`'s, counting frames (a 120-frame GIF takes ~20 s).
         """
         from .trajectory_plots import animate_trajectory
 
-        return animate_trajectory(self, path, fps=fps, max_frames=max_frames, dpi=dpi, overwrite=overwrite)
+        return animate_trajectory(self, path, fps=fps, max_frames=max_frames, dpi=dpi, overwrite=overwrite, progress=progress)
 
     # ----------------------------------------------------------- files
     def save(self, path: str | Path, *, overwrite: bool = False) -> Path:
         """Write ``.npz`` (all arrays and metadata) or ``.csv`` (one row per time). Never overwrites unless asked.
 
-        The CSV has one header row of plain column names (``t``, ``q_0``, ``q_1``, ...,
-        ``attitude_3``, ..., ``saturated``) that ``pandas.read_csv`` reads as is; its metadata
+        The CSV has one header row of column names (``t``, ``q[shoulder]``, ... one per joint by name,
+        ``omega[x]``, ..., ``attitude[w]``, ..., ``saturated``) that ``pandas.read_csv`` reads as is; its metadata
         (status, message, model name, array shapes) go to the sidecar ``PATH.json``
         (``trajectory.csv`` -> ``trajectory.csv.json``).
         """
@@ -213,13 +216,28 @@ class Trajectory:
         return path
 
     def _columns(self) -> tuple[list[str], list[np.ndarray]]:
+        """CSV column names and values: ``t``, ``q[joint]`` per joint (by name when the model is known), ``omega[x]``
+        ... per component, ``attitude[x]`` ... ``attitude[w]``; a batched trajectory's columns ``q[b][joint]``."""
         header: list[str] = []
         columns: list[np.ndarray] = []
+        joints = list(self.model.joint_names) if self.model is not None else None
         for name in _ARRAYS:
             arr = np.asarray(getattr(self, name), dtype=float)
-            arr2 = arr.reshape(arr.shape[0], -1)
-            header += [name] if arr.ndim == 1 else [f"{name}_{i}" for i in range(arr2.shape[1])]
-            columns.append(arr2)
+            columns.append(arr.reshape(arr.shape[0], -1))
+            if arr.ndim == 1:
+                header.append(name)
+                continue
+            last = arr.shape[-1]
+            if name in ("q", "qdot", "joint_torque") and joints is not None and len(joints) == last:
+                labels = joints
+            elif name == "attitude":
+                labels = ["x", "y", "z", "w"]
+            elif last == 3 and name != "q":
+                labels = ["x", "y", "z"]
+            else:
+                labels = [str(i) for i in range(last)]
+            batch = ["".join(f"[{i}]" for i in index) for index in np.ndindex(*arr.shape[1:-1])]
+            header += [f"{name}{b}[{label}]" for b in batch for label in labels]
         return header, columns
 
     @classmethod
@@ -296,11 +314,9 @@ def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     shapes = meta.get("shapes", {})
     arrays = {}
     for name in _ARRAYS:
-        cols = [i for i, h in enumerate(header) if h == name or (h.startswith(f"{name}_") and h[len(name) + 1 :].isdigit())]
+        cols = [i for i, h in enumerate(header) if h == name or h.startswith(f"{name}[")]
         if not cols:
-            raise ValueError(
-                f"{path}: not a freefloat trajectory CSV: no column {name!r} (or {name}_0, {name}_1, ...); write it with Trajectory.save"
-            )
+            raise ValueError(f"{path}: not a freefloat trajectory CSV: no column {name!r} (or {name}[...]); write it with Trajectory.save")
         shape = tuple(shapes.get(name, [] if header[cols[0]] == name else [len(cols)]))
         arrays[name] = table[:, cols].reshape((table.shape[0], *shape))
     arrays["saturated"] = arrays["saturated"].astype(bool)

@@ -12,6 +12,7 @@ Pillow (always available), MP4 with ffmpeg when it is installed.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -20,6 +21,7 @@ import numpy as np
 from ..core._figures import draw_box, move_box, new_figure
 from ..core.conventions import attitude_matrix
 from ..mechanics.kinematics import spacecraft_box, stick_figure
+from ._guard import Progress
 
 if TYPE_CHECKING:
     from .trajectory import Trajectory
@@ -156,6 +158,7 @@ def animate_trajectory(
     max_frames: int = 120,
     dpi: int = 80,
     overwrite: bool = False,
+    progress: bool | Callable[[float, float], Any] | None = None,
 ) -> Path:
     """Write an animation of the system moving along the trajectory: ``.gif`` (Pillow) or ``.mp4`` (ffmpeg).
 
@@ -164,6 +167,9 @@ def animate_trajectory(
     bus (:func:`~freefloat.mechanics.kinematics.spacecraft_box`; 3D axes for a spatial model),
     with the end-effector trace so far and the time. Never overwrites an
     existing file unless ``overwrite=True``. Returns the path written.
+    ``progress``: frames drawn, as :func:`freefloat.simulate`'s (None: a bar on a terminal once
+    it has taken 2 s, else lines to the ``freefloat.progress`` logger; a callable
+    ``progress(frame, frames)``).
     """
     import matplotlib.pyplot as plt
     from matplotlib import animation
@@ -226,8 +232,10 @@ def animate_trajectory(
 
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000.0 / fps, blit=False)
     out.parent.mkdir(parents=True, exist_ok=True)
+    bar = Progress(progress, float(len(frames)), what=f"animating {out.name}", unit="frames")
     try:
-        anim.save(out, writer=writer, dpi=dpi)
+        anim.save(out, writer=writer, dpi=dpi, progress_callback=lambda i, n: bar.update(float(i + 1)))
     finally:
+        bar.close()
         plt.close(fig)
     return out
