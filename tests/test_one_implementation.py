@@ -27,6 +27,7 @@ READS_INERTIA = {
     "mechanics/momentum.py::_pair_inertias": "barycentric reference: pair inertias D_ij, 1991 eq. 17",
     "mechanics/dynamics.py::_diagonal_inertias": "barycentric reference: D_ii of C+ (1991 eq. 17)",
     "papers/report.py::model_info": "the report prints the model's mass properties",
+    "mechanics/kinematics.py::spacecraft_box_size": "figures: the bus drawn as the uniform box of the spacecraft's inertia (no dynamics)",
     "mechanics/_specialise.py::<module>": "specialiser: marks the inertia columns as run-time data (traces the engine; no computation)",
 }
 #: Functions allowed to use the pair inertias (each one quantity).

@@ -227,3 +227,22 @@ def test_mjcf_without_mujoco_says_how_to_install_it(tmp_path: Path, monkeypatch:
     monkeypatch.setitem(sys.modules, "mujoco", None)  # as if the package were not installed
     with pytest.raises(ff.ModelError, match=r'pip install "freefloat\[mjcf\]"'):
         ff.load(write(tmp_path, HAND_WRITTEN))
+
+
+def test_mujoco_writes_nothing_into_the_working_directory(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """MuJoCo's MUJOCO_LOG.TXT (written into the working directory on some errors) goes to a scratch folder."""
+    real = mujoco.MjModel.from_xml_path
+
+    def logs_then_fails(path: str) -> object:
+        Path("MUJOCO_LOG.TXT").write_text("ERROR: something\n")  # what MuJoCo's log writer does, in the cwd
+        return real(path)
+
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    broken = tmp_path / "broken.xml"
+    broken.write_text('<mujoco><worldbody><body name="a"><joint type="hinge"/><geom size="x"/></body></worldbody></mujoco>')
+    monkeypatch.setattr(mujoco.MjModel, "from_xml_path", staticmethod(logs_then_fails))
+    with pytest.raises(ff.ModelError, match="MuJoCo could not compile it"):
+        ff.load(broken)
+    assert list(work.iterdir()) == []

@@ -21,6 +21,8 @@ MuJoCo is an optional dependency for this reader: ``pip install "freefloat[mjcf]
 
 from __future__ import annotations
 
+import contextlib
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -44,7 +46,10 @@ def load_mjcf(path: str | Path, *, end_effectors: EndEffectors = None, strict: b
             str(path), "is an MJCF file, which freefloat reads with MuJoCo's own parser", 'install it: pip install "freefloat[mjcf]"'
         ) from None
     try:
-        mj = mujoco.MjModel.from_xml_path(str(path))
+        # MuJoCo writes MUJOCO_LOG.TXT into the working directory on some errors: give it a scratch one
+        # (paths inside the file are resolved from the file's own folder, so the absolute path is all it needs)
+        with tempfile.TemporaryDirectory(prefix="freefloat-mujoco-") as scratch, contextlib.chdir(scratch):
+            mj = mujoco.MjModel.from_xml_path(str(Path(path).resolve()))
     except ValueError as exc:  # MuJoCo's parse and compile errors
         raise ModelError(str(path), f"MuJoCo could not compile it: {exc}".replace("\n", " "), "fix the MJCF file") from None
     return from_mjmodel(mj, source=str(path), end_effectors=end_effectors, strict=strict)

@@ -145,8 +145,13 @@ def read_toml(path: str | Path, what: str = "model file") -> dict[str, Any]:
 
 
 def load_toml(path: str | Path, *, end_effectors: EndEffectors = None) -> Model:
-    """Read a model in freefloat's TOML schema (see docs/model-files.md)."""
-    return from_dict(read_toml(path), source=str(path), end_effectors=end_effectors)
+    """Read a model in freefloat's TOML schema (see docs/model-files.md); errors name the file and the field."""
+    try:
+        return from_dict(read_toml(path), source=str(path), end_effectors=end_effectors)
+    except ModelError as exc:
+        if str(path) in exc.field:
+            raise
+        raise ModelError(f"{path}: {exc.field}", exc.problem, exc.fix) from None
 
 
 def _require(entry: dict[str, Any], key: str, path: str, fix: str) -> Any:

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import contextvars
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -36,8 +38,20 @@ def new_output(shape: tuple[int, ...], dtype: Any = np.float64) -> np.ndarray:
 
 
 #: |q| above this (rad or m) is refused: no joint turns or slides that far, and sin/cos of such angles
-#: lose their precision (an ulp of 1e6 rad is 1e-10 rad).
+#: lose their precision (an ulp of 1e6 rad is 1e-10 rad). Not for states a simulation computed
+#: (:func:`computed_states`): a diverged run's partial trajectory is still plotted and summarised.
 MAX_JOINT_VALUE = 1e6
+_COMPUTED = contextvars.ContextVar("freefloat_computed_states", default=False)
+
+
+@contextmanager
+def computed_states() -> Iterator[None]:
+    """Within this block, joint arrays are states a simulation computed, not a user's input: no magnitude bound."""
+    token = _COMPUTED.set(True)
+    try:
+        yield
+    finally:
+        _COMPUTED.reset(token)
 
 
 def real_array(value: Any, name: str) -> np.ndarray:
@@ -70,7 +84,7 @@ def joint_array(model: Model, q: Any, name: str = "q") -> np.ndarray:
             f"{name}: has NaN or infinite entries (first at index {tuple(int(i) for i in bad)}, joint "
             f"{model.joint_names[int(bad[-1])]!r}); every joint angle must be a finite number in rad"
         )
-    if arr.size and np.abs(arr).max() > MAX_JOINT_VALUE:
+    if arr.size and not _COMPUTED.get() and np.abs(arr).max() > MAX_JOINT_VALUE:
         bad = np.argwhere(np.abs(arr) > MAX_JOINT_VALUE)[0]
         raise ValueError(
             f"{name}: {float(arr[tuple(bad)]):.3g} for joint {model.joint_names[int(bad[-1])]!r} is beyond {MAX_JOINT_VALUE:g} (rad or m), "

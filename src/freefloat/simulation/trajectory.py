@@ -18,6 +18,7 @@ import numpy as np
 from ..core.conventions import attitude_matrix, euler321_from_matrix
 from ..core.model import Model
 from ..core.state import State
+from ..mechanics._arrays import computed_states
 from ..mechanics.kinematics import end_effector_positions, end_effector_rotations, point_positions
 from ..mechanics.momentum import angular_momentum, kinetic_energy
 
@@ -109,7 +110,8 @@ class Trajectory:
     @cached_property
     def angular_momentum(self) -> np.ndarray:
         """Angular momentum about the system CM, inertial frame (T, 3)."""
-        return angular_momentum(self._need_model(), self.q, self.velocity, attitude=self.attitude)
+        with computed_states():
+            return angular_momentum(self._need_model(), self.q, self.velocity, attitude=self.attitude)
 
     @cached_property
     def linear_momentum(self) -> np.ndarray:
@@ -119,24 +121,28 @@ class Trajectory:
     @cached_property
     def kinetic_energy(self) -> np.ndarray:
         """1/2 zdot0^T H+ zdot0 (T,)."""
-        return kinetic_energy(self._need_model(), self.q, self.velocity)
+        with computed_states():
+            return kinetic_energy(self._need_model(), self.q, self.velocity)
 
     @cached_property
     def end_effector_positions(self) -> np.ndarray:
         """End-effector positions in the inertial frame (T, E, 3): r_cm + T0 rho_E."""
-        return self.r_cm[..., None, :] + end_effector_positions(self._need_model(), self.q, attitude=self.attitude)
+        with computed_states():
+            return self.r_cm[..., None, :] + end_effector_positions(self._need_model(), self.q, attitude=self.attitude)
 
     @cached_property
     def end_effector_rotations(self) -> np.ndarray:
         """End-effector frame orientations, body frame -> inertial frame (T, E, 3, 3): T0 R_E."""
         model = self._need_model()
-        return np.einsum("...ij,...ejk->...eik", attitude_matrix(self.attitude), end_effector_rotations(model, self.q))
+        with computed_states():
+            return np.einsum("...ij,...ejk->...eik", attitude_matrix(self.attitude), end_effector_rotations(model, self.q))
 
     @cached_property
     def spacecraft_position(self) -> np.ndarray:
         """Spacecraft CM in the inertial frame (T, 3)."""
         model = self._need_model()
-        rho = point_positions(model, self.q, 0, model.com[0])
+        with computed_states():
+            rho = point_positions(model, self.q, 0, model.com[0])
         return self.r_cm + np.einsum("...ij,...j->...i", attitude_matrix(self.attitude), rho)
 
     @cached_property

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..core._figures import draw_box, move_box, new_figure
 from ..core.conventions import attitude_matrix
+from ..mechanics._arrays import computed_states
 from ..mechanics.kinematics import spacecraft_box, stick_figure
 from ._guard import Progress
 
@@ -126,8 +127,9 @@ def plot_path(traj: Trajectory, ax: Any = None, *, snapshots: int = 4, axis_leng
         if n in (0, len(picks) - 1):
             artists.append(ax.text(*sc[k][:dims], f" t={traj.t[k]:.3g} s", fontsize=7, color="0.25"))
     for n, (k, alpha) in enumerate(((0, 0.35), (len(traj.t) - 1, 1.0))):
-        seg = stick_figure(model, traj.q[k], attitude=traj.attitude[k]) + traj.r_cm[k]
-        bus = spacecraft_box(model, traj.q[k], attitude=traj.attitude[k]) + traj.r_cm[k]
+        with computed_states():
+            seg = stick_figure(model, traj.q[k], attitude=traj.attitude[k]) + traj.r_cm[k]
+            bus = spacecraft_box(model, traj.q[k], attitude=traj.attitude[k]) + traj.r_cm[k]
         artists.append(draw_box(ax, bus, color="0.3", alpha=alpha, label="spacecraft bus" if n else None))
         for a, b in seg:
             artists += ax.plot(*[[a[i], b[i]] for i in range(dims)], "-", color="0.45", lw=2.5, alpha=alpha)
@@ -195,8 +197,9 @@ def animate_trajectory(
         writer = animation.PillowWriter(fps=fps)
     frames = np.unique(np.linspace(0, len(traj.t) - 1, min(max_frames, len(traj.t))).round().astype(int))
     dims = 3 if _spatial(traj) else 2
-    seg = stick_figure(model, traj.q[frames], attitude=traj.attitude[frames]) + traj.r_cm[frames][:, None, None, :]
-    bus = spacecraft_box(model, traj.q[frames], attitude=traj.attitude[frames]) + traj.r_cm[frames][:, None, :]
+    with computed_states():
+        seg = stick_figure(model, traj.q[frames], attitude=traj.attitude[frames]) + traj.r_cm[frames][:, None, None, :]
+        bus = spacecraft_box(model, traj.q[frames], attitude=traj.attitude[frames]) + traj.r_cm[frames][:, None, :]
     ee = traj.end_effector_positions
     fig = new_figure(figsize=(5.5, 5.0))
     ax = fig.add_subplot(projection="3d" if dims == 3 else None)
