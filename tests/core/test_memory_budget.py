@@ -23,6 +23,10 @@ from freefloat.core.resources import available_memory, format_bytes, require_mem
             r"sampling 1e\+09 configurations",
         ),
         (lambda: ff.workspace.workspace_cloud(ff.models.spacecraft_7dof(), 0, samples=10**10), r"sampling .* configurations"),
+        (
+            lambda: ff.rollout(ff.models.papadopoulos1992(), ff.State(q=np.zeros((10_000, 4))), 1000.0, dt=1e-3),
+            r"a rollout of 10000 trajectories",
+        ),
     ],
 )
 def test_huge_sampling_and_maps_are_refused_up_front(call: object, message: str) -> None:

@@ -170,3 +170,17 @@ def test_an_earlier_run_is_refused_before_the_work(tmp_path: Path, command: list
     result = CliRunner().invoke(app, [*command, *target])
     assert result.exit_code == 1 and "nothing was run" in result.output, result.output
     assert not list(out.rglob(".freefloat-staging-*"))
+
+
+def test_a_python_controlled_rollout_beyond_meaning_fails_with_what_it_computed() -> None:
+    """It used to finish with NaN states and status "finished"; now it stops as simulate does (a joint's angle beyond
+    1e4 rad is fine: a wheel turns for ever; its rate is what the bound is about)."""
+    model = ff.models.papadopoulos1992()
+    states = ff.State(q=np.zeros((3, 4)))
+    with pytest.raises(ff.SimulationError, match=r"trajectory 0 of the rollout became non-finite or moves beyond 10000 rad/s") as info:
+        ff.rollout(model, states, 1.0, dt=0.01, controller=lambda t, s: np.full((3, 4), 1e12))
+    assert info.value.trajectory is not None and info.value.trajectory.status == "failed"
+    spinning = ff.rollout(
+        model, ff.State(q=np.full((2, 4), 2e4), qdot=np.full((2, 4), 50.0)), 0.05, dt=1e-3, controller=lambda t, s: 0 * s.q
+    )
+    assert spinning.status == "finished" and np.isfinite(spinning.q).all()

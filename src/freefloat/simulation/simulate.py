@@ -28,9 +28,11 @@ import numpy as np
 
 from ..core.errors import FreefloatError, LongRunWarning, ShapeError, SimulationError
 from ..core.model import Model
+from ..core.resources import require_memory
 from ..core.state import Actuation, ActuatorLimits, State, pack_state, unpack_state
 from ..mechanics import _engine
 from ._guard import (
+    MAX_RATE,
     MIN_WALL_BUDGET,
     PROGRESS_DELAY,
     WALL_BUDGET_FACTOR,
@@ -332,6 +334,12 @@ def rollout(
         raise ValueError(f"dt: {dt} must divide duration {duration}")
     hold = round((sample_period or dt) / dt)
     stride = max(1, round((output_period or dt) / dt))
+    outputs = steps // stride + 2
+    require_memory(  # the recorded states and actuation of every trajectory
+        float(outputs) * batch[0] * (x.shape[-1] + model.n_joints + 7) * 8,
+        f"a rollout of {batch[0]} trajectories x {outputs} recorded states",
+        "record fewer states (a longer output_period), run fewer trajectories per call, or a shorter duration",
+    )
     zero = (np.zeros((*batch, model.n_joints)), np.zeros((*batch, 3)), np.zeros((*batch, 3)))
 
     def command(t: float, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -359,9 +367,21 @@ def rollout(
         act = command(0.0, x)
         rec.add(0.0, x, act)
         try:
+            n = model.n_joints
             for i in range(1, steps + 1):
                 tau, force, torque, _ = act
                 x = step(x, tau, force, torque)
+                with np.errstate(invalid="ignore"):
+                    rates = np.concatenate([x[:, 10:13], x[:, 13 + n :]], axis=-1)  # omega0 and qdot
+                    bad = ~(np.abs(rates) <= MAX_RATE).all(axis=-1) | ~np.isfinite(x[:, : 13 + n]).all(axis=-1)
+                if bad.any():  # the divergence guard of simulate: a non-finite state, or a rate beyond what the model can mean
+                    first = int(np.argmax(bad))
+                    rec.add(i * dt, x, act)
+                    message = (
+                        f"trajectory {first} of the rollout became non-finite or moves beyond {MAX_RATE:g} rad/s at t = {i * dt:.6g} s: "
+                        "the controller's output (or the initial state) is not physical, or the step too long"
+                    )
+                    raise SimulationError(message, _batch_limits(rec.trajectory("failed", message)))
                 if i % hold == 0 and i < steps:
                     act = command(i * dt, x)
                 if i % stride == 0 or i == steps:
