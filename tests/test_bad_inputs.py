@@ -279,6 +279,7 @@ def scratch(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[P
     work = tmp_path / "work"
     work.mkdir()
     monkeypatch.chdir(work)
+    monkeypatch.setenv("FREEFLOAT_MEMORY_LIMIT", "16G")  # memory answers independent of the machine
 
     def timeout(signum: int, frame: Any) -> None:
         raise TimeoutError("the case ran over 60 s: a hang")

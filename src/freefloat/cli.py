@@ -21,6 +21,7 @@ their body in ``with user_errors():``.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import json
 import warnings
 from collections.abc import Iterator
@@ -75,6 +76,12 @@ def user_errors() -> Iterator[None]:
                 flush()
                 message = " ".join(str(exc).split()) or type(exc).__name__
                 typer.echo(f"error: {message}", err=True)
+                raise typer.Exit(1) from None
+            except MemoryError as exc:  # a last resort: the calls check their memory before they take it
+                flush()
+                typer.echo(
+                    f"error: out of memory ({' '.join(str(exc).split())}); ask for less: fewer samples, states or trajectories", err=True
+                )
                 raise typer.Exit(1) from None
             finally:
                 flush()
@@ -446,7 +453,6 @@ def capture_command(
     """Plan a payload capture (1992 §V): approach distance, CM+, R+, capture posture and spacecraft orientation.
 
     --rows/--measure/--threshold/--strategy override the scenario's [singularity] table."""
-    import dataclasses
 
     from .analysis.capture import STRATEGIES
     from .scenarios.capture_scenario import load_capture_scenario, run_capture_scenario, write_capture_outputs
@@ -483,7 +489,11 @@ def simulate_command(
         ),
     ] = Path("out"),
     progress: Annotated[
-        bool | None, typer.Option("--progress/--no-progress", help="Progress bar on stderr (default: when stderr is a terminal).")
+        bool | None,
+        typer.Option(
+            "--progress/--no-progress",
+            help="Progress on stderr (default: a bar on a terminal once the run has lasted 2 s; elsewhere a line every 10 s).",
+        ),
     ] = None,
     animate: Annotated[
         Path | None,
@@ -494,6 +504,10 @@ def simulate_command(
         bool, typer.Option("--yes", "-y", help=f"Run without asking even when the run is estimated to take over {LONG_RUN_S:g} s.")
     ] = False,
     end_effector: EndEffectorOption = None,
+    max_wall_time: Annotated[
+        float | None,
+        typer.Option("--max-wall-time", metavar="SECONDS", help="Stop the run after this much computing and write what it computed."),
+    ] = None,
 ) -> None:
     """Simulate a scenario (model, initial state, actuation or controller, duration); write the trajectory and its plots.
 
@@ -507,6 +521,10 @@ def simulate_command(
 
     with user_errors(), _warnings_as_lines():
         loaded = load_scenario(scenario, end_effectors=end_effector or None)
+        if max_wall_time is not None:
+            if not (max_wall_time > 0 and max_wall_time < float("inf")):
+                raise ValueError(f"--max-wall-time: expected a positive number of seconds, got {max_wall_time}")
+            loaded = dataclasses.replace(loaded, options={**loaded.options, "max_wall_time": max_wall_time})
         if isinstance(out, _EmptyPath):
             output_directory("")
         check_targets(out, output_names(loaded), overwrite=overwrite)
@@ -519,9 +537,7 @@ def simulate_command(
                 raise ValueError(f"this run is estimated to take over {LONG_RUN_S:g} s ({estimate.describe()}); pass --yes to run it")
             typer.confirm(f"This run is estimated to take over {LONG_RUN_S:g} s. Run it?", abort=True, err=True)
         with _staged(out, overwrite, "simulate") as target:
-            written = simulate_scenario(
-                loaded, target.stage, progress=sys.stderr.isatty() if progress is None else progress, animation=animate
-            )
+            written = simulate_scenario(loaded, target.stage, progress=progress, animation=animate)
         written = target.final(written)
         status = json.loads(written[0].read_text())["status"] if written and written[0].suffix == ".json" else ""
     for path in written:
@@ -574,4 +590,12 @@ def main() -> None:
 
     with contextlib.suppress(ValueError):  # not the main thread (an embedding application): leave the signal alone
         signal.signal(signal.SIGTERM, interrupt)
+    # progress outside a terminal (a batch job's log): the freefloat.progress logger's lines on stderr
+    import logging
+
+    handler = logging.StreamHandler()
+    handler.setFormatter(logging.Formatter("freefloat: %(message)s"))
+    progress_log = logging.getLogger("freefloat.progress")
+    progress_log.addHandler(handler)
+    progress_log.setLevel(logging.INFO)
     app(prog_name="freefloat")

@@ -90,11 +90,14 @@ def test_capture_scenarios_take_end_effectors(robot: Path, tmp_path: Path) -> No
     scenario.write_text(CAPTURE.format(model=robot.name, key='end_effectors = ["tool0"]'))
     result = runner.invoke(app, ["capture", str(scenario), "--out", str(tmp_path / "out")])
     assert result.exit_code == 0, result.output
-    assert json.loads((tmp_path / "out" / "capture.json").read_text())["end_effector"] == "tool0"
+    data = json.loads((tmp_path / "out" / "capture.json").read_text())
+    assert data["end_effector"] == "tool0" and data["end_effectors"] == ["tool0"]  # J* of the tool alone, not of the sensors
     scenario.write_text(CAPTURE.format(model=robot.name, key=""))
     option = runner.invoke(app, ["capture", str(scenario), "-e", "tool0", "--out", str(tmp_path / "out2")])
     assert option.exit_code == 0, option.output
-    assert json.loads((tmp_path / "out2" / "capture.json").read_text())["end_effector"] == "tool0"
+    assert json.loads((tmp_path / "out2" / "capture.json").read_text())["end_effectors"] == ["tool0"]
+    every = runner.invoke(app, ["capture", str(scenario), "--out", str(tmp_path / "out3")])  # the leaf rule: 3 end effectors
+    assert every.exit_code != 0 or len(json.loads((tmp_path / "out3" / "capture.json").read_text())["end_effectors"]) == 3
 
 
 @pytest.mark.parametrize(

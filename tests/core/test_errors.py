@@ -118,14 +118,14 @@ def test_malformed_toml(tmp_path: Path) -> None:
 def test_toml_with_an_unknown_key(tmp_path: Path) -> None:
     path = tmp_path / "unknown.toml"
     path.write_text('[[bodies]]\nname = "bus"\nmass = 10.0\ninertia = 1.0\ncolour = "red"\n', encoding="utf-8")
-    with raises_model_error("bodies[0].colour", "unknown key", "allowed keys", "mass"):
+    with raises_model_error(f"{path}: bodies[0].colour", "unknown key", "allowed keys", "mass"):  # the file and the field
         ff.load(path)
 
 
 def test_toml_with_a_missing_mass(tmp_path: Path) -> None:
     path = tmp_path / "nomass.toml"
     path.write_text('[[bodies]]\nname = "bus"\ninertia = 1.0\n', encoding="utf-8")
-    with raises_model_error("bodies[0].mass", "is missing", "give the mass in kg"):
+    with raises_model_error(f"{path}: bodies[0].mass", "is missing", "give the mass in kg"):
         ff.load(path)
 
 

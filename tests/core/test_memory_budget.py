@@ -29,7 +29,8 @@ from freefloat.core.resources import available_memory, format_bytes, require_mem
         ),
     ],
 )
-def test_huge_sampling_and_maps_are_refused_up_front(call: object, message: str) -> None:
+def test_huge_sampling_and_maps_are_refused_up_front(call: object, message: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("FREEFLOAT_MEMORY_LIMIT", "16G")  # the same answer on a machine with more memory free
     with pytest.raises(MemoryBudgetError, match=message + r".* would need about .* more than this machine has free .*; "):
         call()  # type: ignore[operator]
 
@@ -45,6 +46,7 @@ def test_a_batch_whose_result_does_not_fit_is_refused(monkeypatch: pytest.Monkey
 
 
 def test_the_cli_prints_one_line(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("FREEFLOAT_MEMORY_LIMIT", "16G")
     result = CliRunner().invoke(app, ["workspace", "papadopoulos1992", "--samples", "1000000000"])
     assert result.exit_code == 1 and result.output.startswith("error: sampling 1e+09 configurations along lines would need about")
     assert len(result.output.splitlines()) == 1
@@ -61,3 +63,12 @@ def test_the_budget_reads_the_machine_or_the_variable(monkeypatch: pytest.Monkey
     with pytest.raises(MemoryBudgetError, match="FREEFLOAT_MEMORY_LIMIT='lots': expected bytes"):
         require_memory(1e9, "x", "y")
     assert format_bytes(3.2e9) == "3.2 GB" and format_bytes(12) == "12 B"
+
+
+def test_a_simulation_stops_recording_before_the_memory_runs_out(monkeypatch: pytest.MonkeyPatch) -> None:
+    """simulate records as it goes (a 1e12 s run allocates nothing up front); past the free memory it stops with what it has."""
+    monkeypatch.setenv("FREEFLOAT_MEMORY_LIMIT", "50M")
+    model = ff.models.papadopoulos1992()
+    with pytest.raises(ff.SimulationError, match=r"has recorded 65,535 states .* would exceed the memory this machine has free") as info:
+        ff.simulate(model, ff.State(q=[0.1, 0.2, 0.3, 0.4], qdot=[0.1, 0, 0, 0]), 100.0, fixed_step=1e-4, output_period=1e-4)
+    assert info.value.trajectory is not None and len(info.value.trajectory) == 65_535

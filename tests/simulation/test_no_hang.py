@@ -91,7 +91,7 @@ def test_a_killed_cli_run_writes_what_it_computed_and_leaves_no_staging_folder(t
     deadline = time.monotonic() + 120
     while not any(out.glob(".freefloat-staging-*")) and time.monotonic() < deadline and proc.poll() is None:
         time.sleep(0.05)
-    time.sleep(1.0)  # into the run
+    time.sleep(3.0)  # into the run (the staging folder is made just before it starts)
     proc.send_signal(signal.SIGTERM)
     _, stderr = proc.communicate(timeout=120)
     assert proc.returncode == 130, stderr.decode()[-2000:]
@@ -103,15 +103,20 @@ def test_a_killed_cli_run_writes_what_it_computed_and_leaves_no_staging_folder(t
 
 
 def test_a_staging_folder_of_a_dead_process_is_removed_by_the_next_run(tmp_path: Path) -> None:
+    import socket
+
+    host = socket.gethostname().replace("-", "_")
     dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True, check=True)
-    stale = tmp_path / f".freefloat-staging-{dead.stdout.strip()}-abc123"
+    stale = tmp_path / f".freefloat-staging-{dead.stdout.strip()}@{host}-abc123"
     stale.mkdir()
     (stale / "half_written.csv").write_text("t\n0\n")
-    mine = tmp_path / f".freefloat-staging-{os.getpid()}-live"  # a running process's folder stays
+    mine = tmp_path / f".freefloat-staging-{os.getpid()}@{host}-live"  # a running process's folder stays
     mine.mkdir()
+    other_host = tmp_path / f".freefloat-staging-{dead.stdout.strip()}@another_host-x"  # a shared disk: not ours to judge
+    other_host.mkdir()
     with staged_outputs(tmp_path, overwrite=False, command="test") as target:
         (target.stage / "a.txt").write_text("a")
-    assert not stale.exists() and mine.exists() and (tmp_path / "a.txt").is_file()
+    assert not stale.exists() and mine.exists() and other_host.exists() and (tmp_path / "a.txt").is_file()
 
 
 def test_a_failed_run_removes_the_folders_it_created(tmp_path: Path) -> None:

@@ -294,7 +294,10 @@ class DeterminantMap:
 
 
 def _grid_size(n: int | Sequence[int]) -> tuple[int, int]:
-    sizes = (n, n) if isinstance(n, (int, np.integer)) else tuple(n)
+    try:
+        sizes = (n, n) if isinstance(n, (int, np.integer)) else tuple(n)
+    except TypeError:
+        raise ValueError(f"n: expected an integer >= 2 or two of them (points per joint), got {n!r}") from None
     if len(sizes) != 2 or any(isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s < 2 for s in sizes):
         raise ValueError(f"n: expected an integer >= 2 or two of them (points per joint), got {n!r}")
     return int(sizes[0]), int(sizes[1])

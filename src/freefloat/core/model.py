@@ -332,6 +332,8 @@ class Model:
         e = self.end_effector_index(end_effector)
         path = f"with_payload(end_effector={self.end_effector_names[e]!r})"
         try:
+            if isinstance(mass, (bool, np.bool_, str, bytes)):
+                raise TypeError
             m_p = float(mass)
         except (TypeError, ValueError):
             raise ModelError(f"{path}.mass", f"cannot read {mass!r} as a number", "give the payload mass in kg") from None

@@ -29,6 +29,7 @@ from scipy.spatial.transform import Rotation
 from .conventions import as_quaternion
 from .errors import ShapeError
 from .model import Model
+from .numbers import MAX_JOINT_VALUE, real_array
 
 __all__ = ["Actuation", "ActuatorLimits", "State", "pack_state", "state_size", "unpack_state"]
 
@@ -36,15 +37,15 @@ _FIELDS = ("q", "qdot", "omega", "attitude", "r_cm", "v_cm")
 
 
 def _finite(name: str, value: Any, size: int, what: str) -> np.ndarray:
-    """``value`` as a float array of shape (..., size) with finite entries, or an error naming ``name``."""
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"State.{name}: expected numbers ({what}), got {value!r}") from exc
+    """``value`` as a float array of shape (..., size) with finite, real entries, or an error naming ``name``;
+    joint values beyond :data:`~freefloat.core.numbers.MAX_JOINT_VALUE` are refused too."""
+    arr = real_array(value, f"State.{name}")
     if arr.ndim == 0 or arr.shape[-1] != size:
         raise ShapeError(f"State.{name}: expected shape (..., {size}) ({what}), got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"State.{name}: has NaN or infinite entries; give finite values")
+    if name == "q" and arr.size and max(float(arr.max()), -float(arr.min())) > MAX_JOINT_VALUE:
+        raise ValueError(f"State.q: a joint value beyond {MAX_JOINT_VALUE:g} (rad or m), which no joint reaches; check the units")
     return arr
 
 
@@ -196,8 +197,8 @@ class ActuatorLimits:
             if limit is None:
                 continue
             try:
-                lim = np.asarray(limit, dtype=float)
-            except (TypeError, ValueError) as exc:
+                lim = real_array(limit, f"ActuatorLimits.{name}")
+            except TypeError as exc:
                 raise ValueError(f"ActuatorLimits.{name}: expected a positive number or an array of them, got {limit!r}") from exc
             if lim.ndim > 1 or np.any(~np.isfinite(lim)) or np.any(lim <= 0):
                 raise ValueError(

@@ -22,6 +22,7 @@ import hashlib
 import json
 import os
 import shutil
+import socket
 import tempfile
 from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
@@ -102,11 +103,17 @@ def _make_output_directory(path: Path | str) -> tuple[Path, list[Path]]:
     return path, created
 
 
+def _stage_owner() -> str:
+    """``PID@HOST`` of this process: the staging folder's name says who writes it (a shared disk has other hosts' runs)."""
+    return f"{os.getpid()}@{socket.gethostname().replace('-', '_')}"
+
+
 def _remove_stale_stages(out: Path) -> None:
-    """Remove the staging folders of runs that were killed (their process no longer exists)."""
+    """Remove the staging folders of runs that were killed: this host's, whose process no longer exists."""
+    host = _stage_owner().split("@", 1)[1]
     for stage in out.glob(f"{_STAGING_PREFIX}*"):
-        pid = stage.name[len(_STAGING_PREFIX) :].split("-", 1)[0]
-        if pid.isdigit() and not _alive(int(pid)):
+        pid, _, owner_host = stage.name[len(_STAGING_PREFIX) :].split("-", 1)[0].partition("@")
+        if owner_host == host and pid.isdigit() and not _alive(int(pid)):
             shutil.rmtree(stage, ignore_errors=True)
 
 
@@ -215,13 +222,13 @@ def staged_outputs(path: Path | str, *, overwrite: bool, command: str) -> Iterat
     A :class:`~freefloat.SimulationError` (a simulation that failed part-way and wrote its partial
     trajectory) commits what was written, then propagates with the staging folder's name replaced
     by ``path``; any other error discards the staged files, and the folders this run created are
-    removed again if they are empty. The staging folder carries the process id: a run that was
-    killed (SIGKILL; the command line turns SIGTERM into an interruption that ends cleanly) leaves
-    one behind, and the next run into ``path`` removes it.
+    removed again if they are empty. The staging folder carries the process id and host name: a run
+    that was killed (SIGKILL; the command line turns SIGTERM into an interruption that ends cleanly)
+    leaves one behind, and the next run on that host into ``path`` removes it (never another host's).
     """
     out, created = _make_output_directory(path)
     _remove_stale_stages(out)
-    stage = Path(tempfile.mkdtemp(prefix=f"{_STAGING_PREFIX}{os.getpid()}-", dir=out))
+    stage = Path(tempfile.mkdtemp(prefix=f"{_STAGING_PREFIX}{_stage_owner()}-", dir=out))
     target = OutputDirectory(out, stage, overwrite, command)
     committed = False
     try:

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..core.errors import ShapeError
+from ..core.numbers import MAX_JOINT_VALUE, real_array
 from ..core.resources import require_memory
 
 if TYPE_CHECKING:
@@ -37,10 +38,6 @@ def new_output(shape: tuple[int, ...], dtype: Any = np.float64) -> np.ndarray:
     return arr
 
 
-#: |q| above this (rad or m) is refused: no joint turns or slides that far, and sin/cos of such angles
-#: lose their precision (an ulp of 1e6 rad is 1e-10 rad). Not for states a simulation computed
-#: (:func:`computed_states`): a diverged run's partial trajectory is still plotted and summarised.
-MAX_JOINT_VALUE = 1e6
 _COMPUTED = contextvars.ContextVar("freefloat_computed_states", default=False)
 
 
@@ -52,21 +49,6 @@ def computed_states() -> Iterator[None]:
         yield
     finally:
         _COMPUTED.reset(token)
-
-
-def real_array(value: Any, name: str) -> np.ndarray:
-    """``value`` as a float array; booleans, complex numbers, text and other objects are a TypeError naming ``name``."""
-    try:
-        arr = np.asarray(value)
-    except (TypeError, ValueError) as exc:  # ragged nested lists
-        raise TypeError(f"{name}: expected real numbers in a regular array, got {value!r:.80} ({exc})") from None
-    kind = arr.dtype.kind
-    if kind in "iuf":
-        return arr.astype(float, copy=False)
-    what = {"b": "booleans", "c": "complex numbers", "U": "text", "S": "bytes", "O": "objects that are not all numbers"}.get(
-        kind, str(arr.dtype)
-    )
-    raise TypeError(f"{name}: expected real numbers, got {what} ({value!r:.80})")
 
 
 def joint_array(model: Model, q: Any, name: str = "q") -> np.ndarray:
@@ -84,7 +66,7 @@ def joint_array(model: Model, q: Any, name: str = "q") -> np.ndarray:
             f"{name}: has NaN or infinite entries (first at index {tuple(int(i) for i in bad)}, joint "
             f"{model.joint_names[int(bad[-1])]!r}); every joint angle must be a finite number in rad"
         )
-    if arr.size and not _COMPUTED.get() and np.abs(arr).max() > MAX_JOINT_VALUE:
+    if arr.size and not _COMPUTED.get() and max(float(arr.max()), -float(arr.min())) > MAX_JOINT_VALUE:
         bad = np.argwhere(np.abs(arr) > MAX_JOINT_VALUE)[0]
         raise ValueError(
             f"{name}: {float(arr[tuple(bad)]):.3g} for joint {model.joint_names[int(bad[-1])]!r} is beyond {MAX_JOINT_VALUE:g} (rad or m), "

@@ -344,11 +344,13 @@ class CaptureResult:
             "family_postures": [posture(f) for f in self.family_postures],
             "method": p.method,
             "why_path": p.why_path,
+            "end_effectors": list(p.before.end_effector_names),  # the model's, in J* row order
             "singularity": {**p.criterion.as_dict(), "described": p.criterion.describe(p.captured)},
             "motion": None if p.motion is None else _motion_dict(p.motion),
             # every check a plan must pass (plan_capture returns no plan that fails one)
             "checks": {
-                "path_in_workspace": placement.margin >= 0.0,
+                # a PIW plan's path lies in the PIW (place_path); a path-checked plan is checked by its motion instead
+                "path_in_workspace": bool(placement.margin >= 0.0) if p.method == "piw" else None,
                 "motion_follows_path": None if p.motion is None else p.motion.follows_path,
                 "singularity_free": None if p.motion is None else p.motion.singularity_free,
                 "within_joint_limits": None if p.motion is None else p.motion.within_limits,

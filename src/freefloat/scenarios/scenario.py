@@ -27,6 +27,7 @@ controller. Schema (docs/simulation.md)::
     # fixed_step = 0.001                   # s, RK4 only
     output_period = 0.01                   # s between recorded states
     # sample_period = 0.01                 # s, zero-order hold of the actuation
+    # max_wall_time = 600.0                # s of computing, then the run stops with what it computed (default: no limit)
 
     [actuation]                            # open loop, one of: constant, piecewise, sinusoid
     type = "sinusoid"
@@ -102,7 +103,7 @@ _TOP_KEYS = {
 }  # fmt: skip
 _JOINT_LIMIT_KEYS = {"mode", "restitution"}
 _INITIAL_KEYS = {"q", "q_deg", "qdot", "qdot_deg", "omega", "omega_deg", "attitude", "euler321_deg", "r_cm", "v_cm"}
-_INTEGRATOR_KEYS = {"method", "rtol", "atol", "fixed_step", "output_period", "sample_period"}
+_INTEGRATOR_KEYS = {"method", "rtol", "atol", "fixed_step", "output_period", "sample_period", "max_wall_time"}
 _ACTUATION_KEYS = {
     "constant": {"type", "joint_torque", "spacecraft_force", "spacecraft_torque"},
     "piecewise": {"type", "times", "joint_torque", "spacecraft_force", "spacecraft_torque"},
@@ -242,7 +243,7 @@ def _integrator(data: Any, source: str, duration: float) -> dict[str, Any]:
     if method not in choices:
         raise ModelError(_where(source, "integrator.method"), f"unknown integrator {method!r}", f"choose one of {', '.join(choices)}")
     options: dict[str, Any] = {}
-    for key in ("rtol", "atol", "fixed_step", "output_period", "sample_period"):
+    for key in ("rtol", "atol", "fixed_step", "output_period", "sample_period", "max_wall_time"):
         if key in table:
             options[key] = _number(table[key], source, f"integrator.{key}", "give a positive number", positive=True)
     if method == "RK4":

@@ -112,7 +112,7 @@ def simulate_scenario(scenario: Scenario, out: Path, *, progress: Any = None, an
         written = write_trajectory_outputs(exc.trajectory, out, scenario)
         raise SimulationError(f"{exc} (partial trajectory up to the failure written to {written[0].parent})", exc.trajectory) from exc
     written = write_trajectory_outputs(traj, out, scenario)
-    if animation is not None:
+    if animation is not None and traj.status != "interrupted":  # an interrupted run is written at once, not animated
         written.append(traj.animate(animation, progress=progress))
     return written
 

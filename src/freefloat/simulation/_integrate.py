@@ -20,6 +20,7 @@ from scipy.integrate import solve_ivp
 
 from ..core.errors import ShapeError, SimulationError
 from ..core.model import Model
+from ..core.resources import MEMORY_FRACTION, available_memory, format_bytes
 from ..core.state import unpack_state
 from ..mechanics import _engine
 from ..mechanics.forces import _engine_wrenches, _wrenches
@@ -66,6 +67,10 @@ def _stepper(model: Model, dt: float, external: Any) -> Callable[..., np.ndarray
     return step
 
 
+#: The recorder looks at the free memory every this many recorded states.
+RECORD_CHECK = 1 << 16
+
+
 class _Recorder:
     def __init__(self, model: Model) -> None:
         self.model = model
@@ -74,11 +79,26 @@ class _Recorder:
         self.act: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
 
     def add(self, t: float, x: np.ndarray, act: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> None:
+        if len(self.t) % RECORD_CHECK == RECORD_CHECK - 1:
+            self._check_memory(x)
         self.t.append(float(t))
         x = x.copy()
         x[..., 6:10] /= np.linalg.norm(x[..., 6:10], axis=-1, keepdims=True)
         self.x.append(x)
         self.act.append(act)
+
+    def _check_memory(self, x: np.ndarray) -> None:
+        """A run records its states as it goes (a 1e12 s run allocates nothing up front): stop it, with what it
+        recorded, before the records and their final stacking (about 3 times the records) exceed the free memory."""
+        per_sample = 8 * (x.size + sum(np.size(a) for a in self.act[-1])) + 200  # floats, and the lists' own objects
+        recorded = len(self.t) * per_sample
+        free = available_memory()
+        if free is not None and 3 * recorded > MEMORY_FRACTION * free:
+            raise SimulationError(
+                f"the run has recorded {len(self.t):,} states ({format_bytes(recorded)}), and recording more would exceed the "
+                f"memory this machine has free ({format_bytes(free)}): record fewer states (a longer output_period) or "
+                "shorten the run; the states so far are attached"
+            )
 
     def trajectory(self, status: str = "finished", message: str = "") -> Trajectory:
         model = self.model

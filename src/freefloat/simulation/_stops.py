@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.model import Model
-from ..mechanics.momentum import system_inertia_matrix
+from ..mechanics import _engine
 from .trajectory import JointLimitEvent
 
 __all__ = ["MODES", "JointStops", "limit_violations"]
@@ -108,10 +108,10 @@ class JointStops:
                 continue
             limit = self.upper[i] if side == "upper" else self.lower[i]
             # back on the limit, the angular momentum kept: omega0 = D^-1 (h0 - D_q qdot)
-            block = system_inertia_matrix(self.model, q)[3:, 3:]
+            block = _engine.inertia_matrix(self.model, np.ascontiguousarray(q, dtype=float))[3:, 3:]  # a computed state: no input checks
             h0 = block[:3] @ np.concatenate([omega, qdot])
             q[i] = limit
-            block = system_inertia_matrix(self.model, q)[3:, 3:]
+            block = _engine.inertia_matrix(self.model, np.ascontiguousarray(q, dtype=float))[3:, 3:]  # a computed state: no input checks
             omega[:] = np.linalg.solve(block[:3, :3], h0 - block[:3, 3:] @ qdot)
             rate = float(qdot[i])
             if (rate > 0.0) if side == "upper" else (rate < 0.0):

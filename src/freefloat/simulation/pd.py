@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import ShapeError
-from ..mechanics._arrays import real_array
+from ..core.numbers import real_array
 
 __all__ = ["JointPD"]
 

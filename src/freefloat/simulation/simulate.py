@@ -133,7 +133,7 @@ def simulate(
     divergence_guard: bool = True,
     joint_limits: str = "stop",
     restitution: float = 0.0,
-    max_wall_time: float | str | None = "auto",
+    max_wall_time: float | str | None = None,
 ) -> Trajectory:
     """Simulate ``model`` from ``initial_state`` for ``duration`` seconds.
 
@@ -174,8 +174,9 @@ def simulate(
       or an adaptive step collapsing stops the run with a :class:`SimulationError`
       naming the joint (see :class:`freefloat.simulation._guard.DivergenceGuard`);
     - ``max_wall_time``: the run stops with a :class:`SimulationError` (the trajectory so
-      far attached) once it has computed this many seconds; ``"auto"`` (default) is 20 x the
-      estimate and at least 60 s; None: no limit;
+      far attached) once it has computed this many seconds; ``"auto"`` is 20 x the estimate
+      and at least 60 s (the estimate knows the engine's speed, not a slow Python controller's);
+      None (default): no limit;
     - ``progress``: True a bar on stderr, None (default) a bar once the run
       has lasted 2 s, False none, or a callable ``progress(t, duration)``;
     - Ctrl-C (KeyboardInterrupt) returns the trajectory computed so far with
@@ -332,6 +333,11 @@ def rollout(
     steps = round(float(duration) / dt)
     if steps <= 0 or abs(steps * dt - duration) > 1e-9 * duration:
         raise ValueError(f"dt: {dt} must divide duration {duration}")
+    for name, value in (("sample_period", sample_period), ("output_period", output_period)):
+        if value is not None:
+            period = _positive(name, value)
+            if period < dt * (1 - 1e-9) or abs(period / dt - round(period / dt)) > 1e-6:
+                raise ValueError(f"{name}: {value} s must be a whole multiple of dt = {dt} s")
     hold = round((sample_period or dt) / dt)
     stride = max(1, round((output_period or dt) / dt))
     outputs = steps // stride + 2

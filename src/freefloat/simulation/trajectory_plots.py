@@ -12,6 +12,7 @@ Pillow (always available), MP4 with ffmpeg when it is installed.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -236,9 +237,12 @@ def animate_trajectory(
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000.0 / fps, blit=False)
     out.parent.mkdir(parents=True, exist_ok=True)
     bar = Progress(progress, float(len(frames)), what=f"animating {out.name}", unit="frames")
+    partial = out.with_name(f".{out.stem}.partial-{os.getpid()}{out.suffix}")  # the whole file appears at once, or none
     try:
-        anim.save(out, writer=writer, dpi=dpi, progress_callback=lambda i, n: bar.update(float(i + 1)))
+        anim.save(partial, writer=writer, dpi=dpi, progress_callback=lambda i, n: bar.update(float(i + 1)))
+        os.replace(partial, out)
     finally:
+        partial.unlink(missing_ok=True)
         bar.close()
         plt.close(fig)
     return out
