@@ -70,6 +70,7 @@ def test_animate_writes_a_gif_with_the_expected_frames(spatial: ff.Trajectory, t
     with Image.open(fewer) as gif:
         assert gif.n_frames == 7
     assert seen[-1] == (7.0, 7.0) and all(total == 7.0 for _, total in seen)  # progress counts the frames
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fewer.gif", "motion.gif"]  # no partial file left beside them
     assert plt.get_fignums() == []  # the animation's figure is closed
 
 

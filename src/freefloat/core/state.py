@@ -108,11 +108,15 @@ class State:
         for name in ("q", "qdot"):
             value = getattr(self, name)
             if value is not None:
-                arr = np.asarray(value, dtype=float)
+                arr = real_array(value, f"State.{name}")
                 if arr.ndim == 0:
                     raise ShapeError(f"State.{name}: expected one value per joint, shape (..., N), got a scalar {value!r}")
                 if not np.all(np.isfinite(arr)):
                     raise ValueError(f"State.{name}: has NaN or infinite entries; give finite values")
+                if name == "q" and arr.size and max(float(arr.max()), -float(arr.min())) > MAX_JOINT_VALUE:
+                    raise ValueError(
+                        f"State.q: a joint value beyond {MAX_JOINT_VALUE:g} (rad or m), which no joint reaches; check the units"
+                    )
                 object.__setattr__(self, name, arr)
 
     @classmethod
