@@ -165,7 +165,7 @@ CASES = [
     api("state-wrong-q", lambda f: ff.simulate(M(), ff.State(q=[0.1]), 1.0), ShapeError, r"q"),
     api("state-bool-q", lambda f: ff.State(q=[True, False, True, False]), TypeError, r"State.q: expected real numbers, got booleans"),
     api("state-complex-omega", lambda f: ff.State(omega=[1j, 0, 0]), TypeError, r"State.omega: expected real numbers, got complex"),
-    api("state-huge-q", lambda f: ff.State(q=[1e300, 0, 0, 0]), ValueError, r"State.q: a joint value beyond 1e\+06"),
+    api("state-huge-q", lambda f: ff.State(q=[1e300, 0, 0, 0]), ValueError, r"State.q: 1e\+300 is beyond 1e\+06"),
     api("limits-bool", lambda f: ff.ActuatorLimits(joint_torque=True), ValueError, r"ActuatorLimits.joint_torque"),
     api("payload-bool-mass", lambda f: M().with_payload(0, mass=True, inertia=1.0), ModelError, r"mass.*cannot read True"),
     api("map-fractional-n", lambda f: ff.workspace.jacobian_determinant_map(M(), n=5.5), ValueError, r"n: expected an integer >= 2"),

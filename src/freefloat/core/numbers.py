@@ -6,11 +6,12 @@ infinity and bounds are checked by the callers, who know the field's meaning.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-__all__ = ["MAX_JOINT_VALUE", "real_array"]
+__all__ = ["MAX_JOINT_VALUE", "check_joint_values", "real_array"]
 
 #: |q| above this (rad or m) is refused as input: no joint turns or slides that far, and sin/cos of such
 #: angles lose their precision (an ulp of 1e6 rad is 1e-10 rad).
@@ -29,3 +30,15 @@ def real_array(value: Any, name: str) -> np.ndarray:
     kinds = {"b": "booleans", "c": "complex numbers", "U": "text", "S": "bytes", "O": "objects that are not all numbers"}
     what = kinds.get(kind, str(arr.dtype))
     raise TypeError(f"{name}: expected real numbers, got {what} ({value!r:.80})")
+
+
+def check_joint_values(arr: np.ndarray, name: str, joint_names: Sequence[str] | None = None) -> None:
+    """Refuse joint values (..., N) beyond :data:`MAX_JOINT_VALUE`, naming the largest and its joint."""
+    if not arr.size or max(float(arr.max()), -float(arr.min())) <= MAX_JOINT_VALUE:
+        return
+    index = np.unravel_index(int(np.argmax(np.abs(arr))), arr.shape)
+    joint = f" for joint {joint_names[int(index[-1])]!r}" if joint_names is not None and arr.ndim else ""
+    raise ValueError(
+        f"{name}: {float(arr[index]):.3g}{joint} is beyond {MAX_JOINT_VALUE:g} (rad or m), which no joint reaches; "
+        "check the units (radians, metres)"
+    )

@@ -29,7 +29,7 @@ from scipy.spatial.transform import Rotation
 from .conventions import as_quaternion
 from .errors import ShapeError
 from .model import Model
-from .numbers import MAX_JOINT_VALUE, real_array
+from .numbers import check_joint_values, real_array
 
 __all__ = ["Actuation", "ActuatorLimits", "State", "pack_state", "state_size", "unpack_state"]
 
@@ -38,14 +38,14 @@ _FIELDS = ("q", "qdot", "omega", "attitude", "r_cm", "v_cm")
 
 def _finite(name: str, value: Any, size: int, what: str) -> np.ndarray:
     """``value`` as a float array of shape (..., size) with finite, real entries, or an error naming ``name``;
-    joint values beyond :data:`~freefloat.core.numbers.MAX_JOINT_VALUE` are refused too."""
+    joint values beyond :data:`~freefloat.core.numbers.MAX_JOINT_VALUE` are refused too (:func:`check_joint_values`)."""
     arr = real_array(value, f"State.{name}")
     if arr.ndim == 0 or arr.shape[-1] != size:
         raise ShapeError(f"State.{name}: expected shape (..., {size}) ({what}), got {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"State.{name}: has NaN or infinite entries; give finite values")
-    if name == "q" and arr.size and max(float(arr.max()), -float(arr.min())) > MAX_JOINT_VALUE:
-        raise ValueError(f"State.q: a joint value beyond {MAX_JOINT_VALUE:g} (rad or m), which no joint reaches; check the units")
+    if name == "q":
+        check_joint_values(arr, "State.q")
     return arr
 
 
@@ -113,10 +113,8 @@ class State:
                     raise ShapeError(f"State.{name}: expected one value per joint, shape (..., N), got a scalar {value!r}")
                 if not np.all(np.isfinite(arr)):
                     raise ValueError(f"State.{name}: has NaN or infinite entries; give finite values")
-                if name == "q" and arr.size and max(float(arr.max()), -float(arr.min())) > MAX_JOINT_VALUE:
-                    raise ValueError(
-                        f"State.q: a joint value beyond {MAX_JOINT_VALUE:g} (rad or m), which no joint reaches; check the units"
-                    )
+                if name == "q":
+                    check_joint_values(arr, "State.q")
                 object.__setattr__(self, name, arr)
 
     @classmethod

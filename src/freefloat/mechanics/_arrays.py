@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..core.errors import ShapeError
-from ..core.numbers import MAX_JOINT_VALUE, real_array
+from ..core.numbers import check_joint_values, real_array
 from ..core.resources import require_memory
 
 if TYPE_CHECKING:
@@ -38,6 +38,7 @@ def new_output(shape: tuple[int, ...], dtype: Any = np.float64) -> np.ndarray:
     return arr
 
 
+#: Set within :func:`computed_states`: joint arrays a simulation computed (no magnitude bound: a diverged run is still plotted).
 _COMPUTED = contextvars.ContextVar("freefloat_computed_states", default=False)
 
 
@@ -53,7 +54,7 @@ def computed_states() -> Iterator[None]:
 
 def joint_array(model: Model, q: Any, name: str = "q") -> np.ndarray:
     """``q`` as a float array of shape (..., N); a clear error otherwise (not real numbers, NaN/inf, beyond
-    :data:`MAX_JOINT_VALUE`)."""
+    ``MAX_JOINT_VALUE`` of :mod:`freefloat.core.numbers`)."""
     arr = real_array(q, name)
     n = model.n_joints
     if arr.ndim == 0 or arr.shape[-1] != n:
@@ -66,12 +67,8 @@ def joint_array(model: Model, q: Any, name: str = "q") -> np.ndarray:
             f"{name}: has NaN or infinite entries (first at index {tuple(int(i) for i in bad)}, joint "
             f"{model.joint_names[int(bad[-1])]!r}); every joint angle must be a finite number in rad"
         )
-    if arr.size and not _COMPUTED.get() and max(float(arr.max()), -float(arr.min())) > MAX_JOINT_VALUE:
-        bad = np.argwhere(np.abs(arr) > MAX_JOINT_VALUE)[0]
-        raise ValueError(
-            f"{name}: {float(arr[tuple(bad)]):.3g} for joint {model.joint_names[int(bad[-1])]!r} is beyond {MAX_JOINT_VALUE:g} (rad or m), "
-            "which no joint reaches; check the units (radians, metres)"
-        )
+    if not _COMPUTED.get():
+        check_joint_values(arr, name, model.joint_names)
     return arr
 
 
