@@ -72,3 +72,23 @@ def test_a_simulation_stops_recording_before_the_memory_runs_out(monkeypatch: py
     with pytest.raises(ff.SimulationError, match=r"has recorded 65,535 states .* would exceed the memory this machine has free") as info:
         ff.simulate(model, ff.State(q=[0.1, 0.2, 0.3, 0.4], qdot=[0.1, 0, 0, 0]), 100.0, fixed_step=1e-4, output_period=1e-4)
     assert info.value.trajectory is not None and len(info.value.trajectory) == 65_535
+
+
+def test_a_container_limit_counts(monkeypatch: pytest.MonkeyPatch, tmp_path: object) -> None:
+    """In a container the room under its memory limit is what is free, when smaller than the machine's free memory."""
+    from pathlib import Path
+
+    from freefloat.core import resources
+
+    monkeypatch.delenv("FREEFLOAT_MEMORY_LIMIT", raising=False)
+    files = {"/sys/fs/cgroup/memory.max": "1073741824\n", "/sys/fs/cgroup/memory.current": "268435456\n"}
+    real_read = Path.read_text
+
+    def read_text(self: Path, *args: object, **kwargs: object) -> str:
+        return files[str(self)] if str(self) in files else real_read(self, *args, **kwargs)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(Path, "read_text", read_text)
+    assert resources._cgroup_room() == 1073741824 - 268435456
+    assert available_memory() == 805306368  # 768 MiB left in the container, less than the machine has free
+    files["/sys/fs/cgroup/memory.max"] = "max\n"
+    assert resources._cgroup_room() is None
