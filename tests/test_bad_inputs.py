@@ -65,6 +65,34 @@ BAD_FILES: dict[str, str | bytes] = {
     ),
     "capture_negative_R.toml": CAPTURE.read_text().replace('rule = "perpendicular"', 'rule = "perpendicular"\nR_plus = -0.5'),
     "capture_ee_out_of_range.toml": CAPTURE.read_text().replace('end_effector = "arm1_ee"', "end_effector = 7"),
+    "q_deg_short.toml": SCENARIO.read_text().replace("q_deg = [0.0, 90.0, 180.0, -90.0]", "q_deg = [0.0, 90.0]"),
+    "q_and_q_deg.toml": SCENARIO.read_text().replace(
+        "q_deg = [0.0, 90.0, 180.0, -90.0]", "q_deg = [0.0, 90.0, 180.0, -90.0]\nq = [0, 0, 0, 0]"
+    ),
+    "unknown_joint_ref.toml": SCENARIO.read_text().replace("arm1_q1 = 40.0", "arm9_q1 = 40.0"),
+    "rk4_without_step.toml": SCENARIO.read_text().replace("fixed_step = 0.002                   # s\n", ""),
+    "step_not_dividing.toml": SCENARIO.read_text().replace("fixed_step = 0.002", "fixed_step = 0.003"),
+    "unknown_method.toml": SCENARIO.read_text().replace('method = "RK4"', 'method = "Euler"'),
+    "unknown_controller.toml": SCENARIO.read_text().replace('type = "joint_pd"', 'type = "lqr"'),
+    "negative_limit.toml": SCENARIO.read_text().replace("joint_torque = 10.0", "joint_torque = -10.0"),
+    "text_gain.toml": SCENARIO.read_text().replace("kp = 20.0", 'kp = "stiff"'),
+    "bool_gain.toml": SCENARIO.read_text().replace("kp = 20.0", "kp = true"),
+    "no_model.toml": SCENARIO.read_text().replace('model = "papadopoulos1992"', ""),
+    "missing_model_file.toml": SCENARIO.read_text().replace('model = "papadopoulos1992"', 'model = "nothere.urdf"'),
+    "malformed_scenario.toml": SCENARIO.read_text().replace("[initial]", "[initial"),
+    "capture_inertia_text.toml": CAPTURE.read_text().replace("inertia = 25.0", 'inertia = "heavy"'),
+    "capture_path_1d.toml": CAPTURE.read_text().replace("points = [[0.0, 0.0], [0.0, 0.25]]", "points = [0.0, 0.25]"),
+    "capture_path_nan.toml": CAPTURE.read_text().replace("points = [[0.0, 0.0], [0.0, 0.25]]", "points = [[0.0, nan], [0.0, 0.25]]"),
+    "capture_bad_rule.toml": CAPTURE.read_text().replace('rule = "perpendicular"', 'rule = "diagonal"'),
+    "capture_singularity_key.toml": CAPTURE.read_text() + '\n[singularity]\nrows = "position"\ncolour = "red"\n',
+    "capture_limit_order.toml": CAPTURE.read_text().replace("# [joint_limits_deg]", "[joint_limits_deg]\narm1_q1 = [50.0, -50.0]\n#"),
+    "capture_limit_unknown_joint.toml": CAPTURE.read_text().replace(
+        "# [joint_limits_deg]", "[joint_limits_deg]\narm9_q1 = [-50.0, 50.0]\n#"
+    ),
+    "broken.xml": '<mujoco><worldbody><body name="a"><joint type="hinge"/><geom size="x"/></body></worldbody></mujoco>',
+    "not_mujoco.xml": "<html><body>not a robot</body></html>",
+    "trajectory.csv": "t,q[a]\n0,0\n",
+    "trajectory.npz": "not an npz file",
 }
 
 
@@ -72,11 +100,11 @@ BAD_FILES: dict[str, str | bytes] = {
 class Case:
     id: str
     run: Callable[[Path], Any] | list[str]  # an API call (given the files folder) or a CLI argv ("{files}" is replaced)
-    expect: type[BaseException] | int | type[Warning]  # exception class; CLI exit code; or a warning class
+    expect: Any  # exception class (or a tuple of them); CLI exit code; or a warning class
     match: str
 
 
-def api(id: str, run: Callable[[Path], Any], expect: type[BaseException] | type[Warning], match: str) -> Case:
+def api(id: str, run: Callable[[Path], Any], expect: Any, match: str) -> Case:
     return Case(id, run, expect, match)
 
 
@@ -96,6 +124,41 @@ def _builder_loop(files: Path) -> Any:
     b.add_joint("j1", parent="bus", child="a", axis=[0, 0, 1])
     b.add_joint("j2", parent="a", child="bus", axis=[0, 0, 1])
     return b.build()
+
+
+def _duplicate_body() -> Any:
+    b = ff.ModelBuilder("x")
+    b.add_body("bus", mass=100.0, inertia=10.0)
+    b.add_body("bus", mass=1.0, inertia=0.1)
+    return b.build()
+
+
+def _zero_axis() -> Any:
+    b = ff.ModelBuilder("x")
+    b.add_body("bus", mass=100.0, inertia=10.0)
+    b.add_body("a", mass=1.0, inertia=0.1)
+    b.add_joint("j1", parent="bus", child="a", axis=[0, 0, 0])
+    return b.build()
+
+
+def _unknown_parent() -> Any:
+    b = ff.ModelBuilder("x")
+    b.add_body("bus", mass=100.0, inertia=10.0)
+    b.add_body("a", mass=1.0, inertia=0.1)
+    b.add_joint("j1", parent="nowhere", child="a", axis=[0, 0, 1])
+    return b.build()
+
+
+def _joint_type(kind: str) -> Any:
+    b = ff.ModelBuilder("x")
+    b.add_body("bus", mass=100.0, inertia=10.0)
+    b.add_body("a", mass=1.0, inertia=0.1)
+    b.add_joint("j1", parent="bus", child="a", axis=[0, 0, 1], type=kind)
+    return b.build()
+
+
+def _short_traj() -> ff.Trajectory:
+    return ff.simulate(M(), S, 0.02, fixed_step=0.01)
 
 
 def _builder(**body: Any) -> Callable[[Path], Any]:
@@ -234,6 +297,75 @@ CASES = [
         ff.capture.PathDoesNotFitError,
         r"fits|thrusters",
     ),
+    # ---- more files, models and results
+    api("load-broken-mjcf", lambda f: ff.load(f / "broken.xml"), ModelError, r"broken.xml: MuJoCo could not compile it"),
+    api("load-xml-not-a-robot", lambda f: ff.load(f / "not_mujoco.xml"), ModelError, r"not_mujoco.xml"),
+    api("load-bytes-path", lambda f: ff.load(b"robot.urdf"), TypeError, r"path: expected a model file path"),
+    api("load-end-effector-bad-triple", lambda f: ff.load(ARM_URDF, end_effectors=[("tip", "tool0")]), ModelError, r"end_effectors\[0\]"),
+    api("builder-duplicate-body", lambda f: _duplicate_body(), ModelError, r"duplicate|already"),
+    api("builder-zero-axis", lambda f: _zero_axis(), ModelError, r"axis"),
+    api("builder-unknown-parent", lambda f: _unknown_parent(), (ModelError, UnknownNameError), r"nowhere"),
+    api("builder-unknown-joint-type", lambda f: _joint_type("ball"), ModelError, r"ball"),
+    api("trajectory-load-bad-csv", lambda f: ff.Trajectory.load(f / "trajectory.csv"), ValueError, r"trajectory.csv"),
+    api("trajectory-load-bad-npz", lambda f: ff.Trajectory.load(f / "trajectory.npz"), ValueError, r"trajectory.npz"),
+    api("trajectory-save-unknown-type", lambda f: _short_traj().save(f / "run.xlsx"), ValueError, r"unknown trajectory file type '.xlsx'"),
+    api(
+        "trajectory-save-existing",
+        lambda f: _short_traj().save(f / "trajectory.csv"),
+        FileExistsError,
+        r"never|not overwrite",
+    ),
+    api("animate-bad-type", lambda f: _short_traj().animate(f / "x.avi"), ValueError, r"unknown animation type '.avi'"),
+    api("animate-bad-fps", lambda f: _short_traj().animate(f / "x.gif", fps=0), ValueError, r"fps"),
+    api("save-model-unknown-type", lambda f: ff.save(M(), f / "model.obj2"), ValueError, r"unknown model file type"),
+    api("inverse-dynamics-shape", lambda f: ff.inverse_dynamics(M(), Q, np.zeros(10), np.zeros(9)), ShapeError, r"acceleration"),
+    api("forward-dynamics-torque-shape", lambda f: ff.forward_dynamics(M(), Q, np.zeros(10), np.zeros(3)), ShapeError, r"joint_torque"),
+    api("forward-dynamics-bool-torque", lambda f: ff.forward_dynamics(M(), Q, np.zeros(10), [True] * 4), TypeError, r"joint_torque"),
+    api("task-jacobian-attitude", lambda f: ff.task_jacobian(M(), Q, attitude="up"), (TypeError, ValueError), r"attitude"),
+    api("function-wrong-model-type", lambda f: ff.generalized_jacobian(42, Q), TypeError, r"model: expected a freefloat.Model"),
+    api("function-unknown-model-name", lambda f: ff.generalized_jacobian("papadopoulos1993", Q), ModelError, r"did you mean"),
+    # ---- scenario files, through the API
+    api(
+        "scenario-q-deg-short",
+        lambda f: ff.scenarios.load_scenario(f / "q_deg_short.toml"),
+        ModelError,
+        r"initial.q_deg: expected shape \(4,\)",
+    ),
+    api("scenario-q-and-q-deg", lambda f: ff.scenarios.load_scenario(f / "q_and_q_deg.toml"), ModelError, r"q_deg|one of"),
+    api("scenario-unknown-joint-ref", lambda f: ff.scenarios.load_scenario(f / "unknown_joint_ref.toml"), ModelError, r"arm9_q1"),
+    api("scenario-rk4-without-step", lambda f: ff.scenarios.load_scenario(f / "rk4_without_step.toml"), ModelError, r"fixed_step"),
+    api("scenario-step-not-dividing", lambda f: ff.scenarios.load_scenario(f / "step_not_dividing.toml"), ModelError, r"does not divide"),
+    api(
+        "scenario-unknown-method",
+        lambda f: ff.scenarios.load_scenario(f / "unknown_method.toml"),
+        ModelError,
+        r"unknown integrator 'Euler'",
+    ),
+    api("scenario-unknown-controller", lambda f: ff.scenarios.load_scenario(f / "unknown_controller.toml"), ModelError, r"lqr"),
+    api(
+        "scenario-negative-limit",
+        lambda f: ff.scenarios.load_scenario(f / "negative_limit.toml"),
+        (ModelError, ValueError),
+        r"joint_torque",
+    ),
+    api("scenario-text-gain", lambda f: ff.scenarios.load_scenario(f / "text_gain.toml"), (ModelError, TypeError), r"kp"),
+    api("scenario-bool-gain", lambda f: ff.scenarios.load_scenario(f / "bool_gain.toml"), (ModelError, TypeError), r"kp"),
+    api("scenario-no-model", lambda f: ff.scenarios.load_scenario(f / "no_model.toml"), ModelError, r"model: missing"),
+    api("scenario-missing-model-file", lambda f: ff.scenarios.load_scenario(f / "missing_model_file.toml"), ModelError, r"nothere.urdf"),
+    api("scenario-malformed", lambda f: ff.scenarios.load_scenario(f / "malformed_scenario.toml"), ModelError, r"malformed TOML"),
+    api("scenario-missing-file", lambda f: ff.scenarios.load_scenario(f / "nothere.toml"), FileNotFoundError, r"no such scenario file"),
+    api("capture-inertia-text", lambda f: ff.scenarios.load_capture_scenario(f / "capture_inertia_text.toml"), ModelError, r"inertia"),
+    api("capture-path-1d", lambda f: ff.scenarios.load_capture_scenario(f / "capture_path_1d.toml"), ModelError, r"path.points"),
+    api("capture-path-nan", lambda f: ff.scenarios.load_capture_scenario(f / "capture_path_nan.toml"), ModelError, r"path.points"),
+    api("capture-bad-rule", lambda f: ff.scenarios.load_capture_scenario(f / "capture_bad_rule.toml"), ModelError, r"diagonal"),
+    api("capture-singularity-key", lambda f: ff.scenarios.load_capture_scenario(f / "capture_singularity_key.toml"), ModelError, r"colour"),
+    api("capture-limit-order", lambda f: ff.scenarios.load_capture_scenario(f / "capture_limit_order.toml"), ModelError, r"arm1_q1"),
+    api(
+        "capture-limit-unknown-joint",
+        lambda f: ff.scenarios.load_capture_scenario(f / "capture_limit_unknown_joint.toml"),
+        ModelError,
+        r"arm9_q1",
+    ),
     # ---- the command line
     cli("cli-inspect-missing", "inspect nothere.urdf", r"nothere.urdf"),
     cli("cli-inspect-unknown-name", "inspect papadopoulos1993", r"did you mean"),
@@ -283,6 +415,24 @@ CASES = [
     cli("cli-reproduce-unknown", "reproduce 1993 --out out", r"PAPER '1993': unknown"),
     cli("cli-demo-out-is-a-file", "demo --out {files}/empty.toml", r"not a directory"),
     cli("cli-specialise-unknown", "specialise papadopoulos1993", r"did you mean"),
+    cli("cli-specialise-unknown-kind", "specialise papadopoulos1992 --kind everything", r"everything"),
+    cli("cli-inspect-broken-mjcf", "inspect {files}/broken.xml", r"MuJoCo could not compile it"),
+    cli("cli-inspect-not-mujoco", "inspect {files}/not_mujoco.xml", r"not_mujoco.xml"),
+    cli("cli-inspect-unknown-suffix", "inspect {files}/model.obj", r"unknown model file type|neither"),
+    cli("cli-inspect-payload-bad-inertia", "inspect papadopoulos1992 --payload-mass 5 --payload-inertia heavy", r"--payload-inertia"),
+    cli("cli-inspect-payload-unknown-ee", "inspect papadopoulos1992 --payload-mass 5 --payload-inertia 1 --payload-ee nowhere", r"nowhere"),
+    cli("cli-simulate-unknown-joint-ref", "simulate {files}/unknown_joint_ref.toml --out out", r"arm9_q1"),
+    cli("cli-simulate-rk4-without-step", "simulate {files}/rk4_without_step.toml --out out", r"fixed_step"),
+    cli("cli-simulate-unknown-controller", "simulate {files}/unknown_controller.toml --out out", r"lqr"),
+    cli("cli-simulate-malformed", "simulate {files}/malformed_scenario.toml --out out", r"malformed TOML"),
+    cli("cli-simulate-missing-model-file", "simulate {files}/missing_model_file.toml --out out", r"nothere.urdf"),
+    cli("cli-simulate-binary-scenario", "simulate {files}/binary.toml --out out", r"binary.toml"),
+    cli("cli-capture-path-nan", "capture {files}/capture_path_nan.toml", r"path.points"),
+    cli("cli-capture-limit-order", "capture {files}/capture_limit_order.toml", r"arm1_q1"),
+    cli("cli-capture-singularity-key", "capture {files}/capture_singularity_key.toml", r"colour"),
+    cli("cli-capture-simulation-scenario", f"capture {SCENARIO}", r"payload|path"),
+    cli("cli-workspace-binary-model", "workspace {files}/binary.urdf", r"binary.urdf"),
+    cli("cli-workspace-bad-measure", "workspace papadopoulos1992 --measure volume", r"measure"),
 ]
 
 
@@ -343,4 +493,4 @@ def test_bad_input(case: Case, scratch: tuple[Path, Path]) -> None:
 
 def test_the_table_covers_both_sides() -> None:
     counts = {"api": sum(not isinstance(c.run, list) for c in CASES), "cli": sum(isinstance(c.run, list) for c in CASES)}
-    assert counts["api"] >= 80 and counts["cli"] >= 40 and len({c.id for c in CASES}) == len(CASES), counts
+    assert counts["api"] >= 120 and counts["cli"] >= 60 and len({c.id for c in CASES}) == len(CASES), counts

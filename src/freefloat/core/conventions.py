@@ -56,6 +56,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .errors import ShapeError
+from .numbers import real_array
 
 __all__ = [
     "QUATERNION_ORDER",
@@ -84,6 +85,13 @@ def skew(v: np.ndarray) -> np.ndarray:
     return out
 
 
+def _attitude_numbers(attitude: Any) -> np.ndarray:
+    try:
+        return real_array(attitude, "attitude")
+    except TypeError:
+        raise TypeError(f"attitude: expected a quaternion [x, y, z, w], a scipy Rotation or a 3x3 matrix, got {attitude!r:.80}") from None
+
+
 def as_quaternion(attitude: Any) -> np.ndarray:
     """Return an attitude as unit quaternions ``[x, y, z, w]`` (..., 4).
 
@@ -93,7 +101,7 @@ def as_quaternion(attitude: Any) -> np.ndarray:
     """
     if isinstance(attitude, Rotation):
         return np.asarray(attitude.as_quat(), dtype=float)
-    quat = np.asarray(attitude, dtype=float)
+    quat = _attitude_numbers(attitude)
     if quat.shape[-1:] != (4,):
         raise ShapeError(f"attitude: expected a quaternion [x, y, z, w] of shape (..., 4), got {quat.shape}")
     if not np.all(np.isfinite(quat)):
@@ -119,7 +127,7 @@ def attitude_matrix(attitude: Any) -> np.ndarray:
         return np.eye(3)
     if isinstance(attitude, Rotation):
         return np.asarray(attitude.as_matrix(), dtype=float)
-    arr = np.asarray(attitude, dtype=float)
+    arr = _attitude_numbers(attitude)
     if arr.shape[-2:] == (3, 3):
         return arr
     quat = as_quaternion(arr)

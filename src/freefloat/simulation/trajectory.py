@@ -251,12 +251,17 @@ class Trajectory:
         """Read a trajectory written by :meth:`save`; attach ``model`` for the derived quantities."""
         path = Path(path)
         if path.suffix == ".npz":
-            with np.load(path, allow_pickle=False) as data:
-                missing = [name for name in (*_ARRAYS, "meta") if name not in data.files]
-                if missing:
-                    raise ValueError(f"{path}: not a freefloat trajectory file, missing {', '.join(missing)}")
-                arrays = {name: data[name] for name in _ARRAYS}
-                meta = json.loads(str(data["meta"]))
+            try:
+                with np.load(path, allow_pickle=False) as data:
+                    missing = [name for name in (*_ARRAYS, "meta") if name not in data.files]
+                    if missing:
+                        raise ValueError(f"{path}: not a freefloat trajectory file, missing {', '.join(missing)}")
+                    arrays = {name: data[name] for name in _ARRAYS}
+                    meta = json.loads(str(data["meta"]))
+            except (ValueError, OSError, EOFError, KeyError, AttributeError) as exc:  # numpy's errors for a file that is no .npz
+                if str(path) in str(exc):
+                    raise
+                raise ValueError(f"{path}: not a trajectory file written by Trajectory.save ({exc})") from None
         elif path.suffix == ".csv":
             arrays, meta = _read_csv(path)
         else:
