@@ -117,56 +117,22 @@ Q = [0.1, 0.2, 0.3, 0.4]
 S = ff.State(q=Q)
 
 
-def _builder_loop(files: Path) -> Any:
-    b = ff.ModelBuilder("loop")
-    b.add_body("bus", mass=100.0, inertia=10.0)
-    b.add_body("a", mass=1.0, inertia=0.1)
-    b.add_joint("j1", parent="bus", child="a", axis=[0, 0, 1])
-    b.add_joint("j2", parent="a", child="bus", axis=[0, 0, 1])
-    return b.build()
-
-
-def _duplicate_body() -> Any:
-    b = ff.ModelBuilder("x")
-    b.add_body("bus", mass=100.0, inertia=10.0)
-    b.add_body("bus", mass=1.0, inertia=0.1)
-    return b.build()
-
-
-def _zero_axis() -> Any:
-    b = ff.ModelBuilder("x")
-    b.add_body("bus", mass=100.0, inertia=10.0)
-    b.add_body("a", mass=1.0, inertia=0.1)
-    b.add_joint("j1", parent="bus", child="a", axis=[0, 0, 0])
-    return b.build()
-
-
-def _unknown_parent() -> Any:
-    b = ff.ModelBuilder("x")
-    b.add_body("bus", mass=100.0, inertia=10.0)
-    b.add_body("a", mass=1.0, inertia=0.1)
-    b.add_joint("j1", parent="nowhere", child="a", axis=[0, 0, 1])
-    return b.build()
-
-
-def _joint_type(kind: str) -> Any:
-    b = ff.ModelBuilder("x")
-    b.add_body("bus", mass=100.0, inertia=10.0)
-    b.add_body("a", mass=1.0, inertia=0.1)
-    b.add_joint("j1", parent="bus", child="a", axis=[0, 0, 1], type=kind)
-    return b.build()
-
-
 def _short_traj() -> ff.Trajectory:
     return ff.simulate(M(), S, 0.02, fixed_step=0.01)
 
 
-def _builder(**body: Any) -> Callable[[Path], Any]:
+def _builder(body: dict[str, Any] | None = None, joint: dict[str, Any] | None = None, *, extra: str = "") -> Callable[[Path], Any]:
+    """A bus and one link ``a`` on joint ``j1``, with the link's and the joint's arguments changed as given; ``extra``:
+    "loop" adds a joint from ``a`` back to the bus, "duplicate" adds a second body named ``bus``."""
+
     def run(files: Path) -> Any:
         b = ff.ModelBuilder("x")
         b.add_body("bus", mass=100.0, inertia=10.0)
-        b.add_body("a", **{"mass": 1.0, "inertia": 0.1, **body})
-        b.add_joint("j1", parent="bus", child="a", axis=[0, 0, 1])
+        b.add_body("bus" if extra == "duplicate" else "a", **{"mass": 1.0, "inertia": 0.1, **(body or {})})
+        if extra != "duplicate":
+            b.add_joint("j1", **{"parent": "bus", "child": "a", "axis": [0, 0, 1], **(joint or {})})
+        if extra == "loop":
+            b.add_joint("j2", parent="a", child="bus", axis=[0, 0, 1])
         return b.build()
 
     return run
@@ -200,11 +166,11 @@ CASES = [
     api("models-unknown-name", lambda f: ff.models.load_model("astrobee"), ModelError, r"did you mean 'astrobee-arm'"),
     api("models-strict-corrected", lambda f: ff.models.load_model("ets7", strict=True), ModelError, r"which strict refuses"),
     api("models-builtin-end-effectors", lambda f: ff.models.load_model("ets7", end_effectors=["hand"]), ModelError, r"fixed"),
-    api("builder-loop", _builder_loop, ModelError, r"loop|cycle|already|parent"),
-    api("builder-negative-mass", _builder(mass=-1.0), ModelError, r"mass"),
-    api("builder-nan-mass", _builder(mass=float("nan")), ModelError, r"mass"),
-    api("builder-triangle-inertia", _builder(inertia=[1.0, 1.0, 5.0]), ModelError, r"inertia"),
-    api("builder-huge-mass", _builder(mass=1e30), ModelError, r"mass"),
+    api("builder-loop", _builder(extra="loop"), ModelError, r"loop|cycle|already|parent"),
+    api("builder-negative-mass", _builder({"mass": -1.0}), ModelError, r"mass"),
+    api("builder-nan-mass", _builder({"mass": float("nan")}), ModelError, r"mass"),
+    api("builder-triangle-inertia", _builder({"inertia": [1.0, 1.0, 5.0]}), ModelError, r"inertia"),
+    api("builder-huge-mass", _builder({"mass": 1e30}), ModelError, r"mass"),
     api("payload-negative-mass", lambda f: M().with_payload(0, mass=-1.0, inertia=1.0), ModelError, r"mass"),
     api("payload-end-effector-out-of-range", lambda f: M().with_payload(5, mass=1.0, inertia=1.0), UnknownNameError, r"end effector"),
     api("payload-bad-inertia", lambda f: M().with_payload(0, mass=1.0, inertia=[1.0, 1.0, 5.0]), ModelError, r"inertia"),
@@ -302,10 +268,10 @@ CASES = [
     api("load-xml-not-a-robot", lambda f: ff.load(f / "not_mujoco.xml"), ModelError, r"not_mujoco.xml"),
     api("load-bytes-path", lambda f: ff.load(b"robot.urdf"), TypeError, r"path: expected a model file path"),
     api("load-end-effector-bad-triple", lambda f: ff.load(ARM_URDF, end_effectors=[("tip", "tool0")]), ModelError, r"end_effectors\[0\]"),
-    api("builder-duplicate-body", lambda f: _duplicate_body(), ModelError, r"duplicate|already"),
-    api("builder-zero-axis", lambda f: _zero_axis(), ModelError, r"axis"),
-    api("builder-unknown-parent", lambda f: _unknown_parent(), (ModelError, UnknownNameError), r"nowhere"),
-    api("builder-unknown-joint-type", lambda f: _joint_type("ball"), ModelError, r"ball"),
+    api("builder-duplicate-body", _builder(extra="duplicate"), ModelError, r"duplicate|already"),
+    api("builder-zero-axis", _builder(joint={"axis": [0, 0, 0]}), ModelError, r"axis"),
+    api("builder-unknown-parent", _builder(joint={"parent": "nowhere"}), (ModelError, UnknownNameError), r"nowhere"),
+    api("builder-unknown-joint-type", _builder(joint={"type": "ball"}), ModelError, r"ball"),
     api("trajectory-load-bad-csv", lambda f: ff.Trajectory.load(f / "trajectory.csv"), ValueError, r"trajectory.csv"),
     api("trajectory-load-bad-npz", lambda f: ff.Trajectory.load(f / "trajectory.npz"), ValueError, r"trajectory.npz"),
     api("trajectory-save-unknown-type", lambda f: _short_traj().save(f / "run.xlsx"), ValueError, r"unknown trajectory file type '.xlsx'"),
