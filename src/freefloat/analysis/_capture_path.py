@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..core import feedback
 from ..core.model import Model
 from ..mechanics.jacobians import generalized_jacobian
 from ..mechanics.kinematics import end_effector_positions
@@ -244,7 +245,12 @@ def path_checked_candidates(
     first (see :meth:`CheckedCandidate.score`)."""
     a = _pad3(path[0])
     cms, rps, qs, atts = [], [], [], []
+    step = feedback.current()  # progress: the postures of each radius, then the batch integration
+    if step is not None:
+        step.expect(len(radii) + 1, "stages")
     for r_plus in radii:
+        if step is not None:
+            step.advance(1)
         for q in postures(float(r_plus)):
             r0 = end_effector_positions(model, q)[end_effector]
             for n in directions:
@@ -260,6 +266,8 @@ def path_checked_candidates(
     motions = free_floating_path_motion(
         model, end_effector, np.array(qs), np.array(atts), np.array(cms), path, criterion=criterion, step=length / steps
     )
+    if step is not None:
+        step.advance(1)
     out = [CheckedCandidate(c, r, q, att, m) for c, r, q, att, m in zip(cms, rps, qs, atts, motions, strict=True)]
     return sorted(out, key=CheckedCandidate.score, reverse=True)
 

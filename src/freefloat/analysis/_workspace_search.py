@@ -29,6 +29,7 @@ import numpy as np
 from scipy.optimize import least_squares, minimize
 from scipy.stats import qmc
 
+from ..core import feedback
 from ..core.errors import ModelError
 from ..core.resources import require_memory
 
@@ -79,11 +80,20 @@ def model_box(model: Any) -> JointBox:
     return JointBox(lo=np.where(sliding, lower, box.lo), hi=np.where(sliding, upper, box.hi), free=free)
 
 
-def batched(fun: Batch, q: np.ndarray, chunk: int = CHUNK) -> np.ndarray:
-    """``fun`` over the rows of q (M, N) in chunks; concatenated along axis 0."""
-    if q.shape[0] <= chunk:
+def batched(fun: Batch, q: np.ndarray, chunk: int = CHUNK, *, count: str = "") -> np.ndarray:
+    """``fun`` over the rows of q (M, N) in chunks; concatenated along axis 0. With ``count`` (a unit, "configurations"),
+    the rows done are counted in the current :func:`freefloat.core.feedback.status` step (a bar with M as its total)."""
+    step = feedback.current() if count else None
+    if step is not None:
+        step.expect(q.shape[0], count)
+    if q.shape[0] == 0:
         return fun(q)
-    return np.concatenate([fun(q[s : s + chunk]) for s in range(0, q.shape[0], chunk)], axis=0)
+    out = []
+    for s in range(0, q.shape[0], chunk):
+        out.append(fun(q[s : s + chunk]))
+        if step is not None:
+            step.advance(min(chunk, q.shape[0] - s))
+    return out[0] if len(out) == 1 else np.concatenate(out, axis=0)
 
 
 def sobol(n: int, lo: np.ndarray, hi: np.ndarray, seed: int) -> np.ndarray:
@@ -310,11 +320,11 @@ def singular_points(
     if grid:  # evaluate every node once; the lines along each axis are views of the grid
         nodes = [box.lo[a] + t * span[a] for a in range(n)]
         full = np.array(np.meshgrid(*nodes, indexing="ij")).reshape(n, -1).T
-        values_grid = batched(measure, full).reshape((t.size,) * n)
+        values_grid = batched(measure, full, count="configurations").reshape((t.size,) * n)
         values = np.concatenate([np.moveaxis(values_grid, a, -1).reshape(-1, t.size) for a in range(n)])
         evaluated = int(full.shape[0])
     else:
-        values = batched(measure, q_lines.reshape(-1, n)).reshape(base.shape[0], t.size)
+        values = batched(measure, q_lines.reshape(-1, n), count="configurations").reshape(base.shape[0], t.size)
         evaluated = int(base.shape[0] * t.size)
     step = span / (t.size - 1)
     if square:

@@ -445,6 +445,10 @@ def plan_capture(
     the one whose smallest measure along it is largest, above the threshold),
     or ``"auto"`` (the PIW, else the path check). Raises
     :class:`PathDoesNotFitError` when no plan is found.
+
+    Progress: the post-capture PIW sampling and the path-checked search show a spinner, their elapsed time and a count
+    (configurations; stages: one per candidate R+, then the batch integration) on a terminal, and log the same to the
+    ``freefloat.progress`` logger elsewhere.
     """
     if strategy not in STRATEGIES:
         raise ValueError(f"strategy: expected one of {', '.join(STRATEGIES)}, got {strategy!r}")
