@@ -22,13 +22,11 @@ CARRIERS = ("core", "io", "models", "scenarios")
 
 #: Functions allowed to read inertias (attribute ``inertia``/``diagonal_inertia``, or the engine's column ``_I``).
 READS_INERTIA = {
-    "mechanics/_tree.py::tree": "the model as the engine's arrays (data, no computation)",
     "mechanics/_recursions.py::mass_properties": "engine: inertias about O, composite bodies (H+, C+, J* of the engine)",
     "mechanics/momentum.py::_pair_inertias": "barycentric reference: pair inertias D_ij, 1991 eq. 17",
     "mechanics/dynamics.py::_diagonal_inertias": "barycentric reference: D_ii of C+ (1991 eq. 17)",
     "papers/report.py::model_info": "the report prints the model's mass properties",
     "mechanics/kinematics.py::spacecraft_box_size": "figures: the bus drawn as the uniform box of the spacecraft's inertia (no dynamics)",
-    "mechanics/_specialise.py::<module>": "specialiser: marks the inertia columns as run-time data (traces the engine; no computation)",
 }
 #: Functions allowed to use the pair inertias (each one quantity).
 USES_PAIRS = {
@@ -92,7 +90,7 @@ def test_only_the_listed_functions_read_inertias() -> None:
         )
 
     sites = _sites(reads)
-    sites.discard("mechanics/_tree.py::<module>")  # the column constant itself
+    sites.discard("mechanics/_tree.py::<module>")  # the model layout: the field "inertia" read from the model (data, no computation)
     assert sites == set(READS_INERTIA), (
         f"unlisted readers: {sorted(sites - set(READS_INERTIA))}; gone: {sorted(set(READS_INERTIA) - sites)}"
     )

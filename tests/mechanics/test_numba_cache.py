@@ -25,7 +25,7 @@ import freefloat as ff
 from freefloat.mechanics import _drivers, _numba_cache
 m = ff.models.papadopoulos1991()
 j = ff.generalized_jacobian(m, np.linspace(-1.0, 1.0, m.n_joints))
-stats = _drivers._jstar_range.stats
+stats = _drivers.jstar_batch.serial.stats
 print(json.dumps({"hits": sum(stats.cache_hits.values()), "misses": sum(stats.cache_misses.values()),
                   "jstar": j.tolist(), "folder": str(_numba_cache.cache_dir())}))
 """
@@ -79,7 +79,7 @@ def test_a_broken_cache_warns_recompiles_and_is_rewritten(tmp_path: Path) -> Non
     for f in files:  # truncate / overwrite every cache file
         f.write_bytes(b"not a numba cache file")
     ((broken, err),) = run_probes(tmp_path, 1)
-    assert "CacheWarning" in err and "_jstar_range" in err, err
+    assert "CacheWarning" in err and "jstar_serial" in err, err
     assert broken["jstar"] == good["jstar"] and broken["misses"] == 1
     ((healed, err),) = run_probes(tmp_path, 1)
     assert healed["hits"] == 1 and "CacheWarning" not in err  # the cache was rewritten

@@ -27,26 +27,18 @@ from ._recursions import (
     solve3,
     unit_momenta,
 )
+from ._tree import arrays, buffer_lengths
 
 
 @kernel(inline="always")
-def jstar_one(
-    q: np.ndarray,
-    parent: np.ndarray,
-    body: np.ndarray,
-    ancestor: np.ndarray,
-    total_mass: float,
-    ee_body: np.ndarray,
-    ee_point: np.ndarray,
-    s: Any,
-    out: np.ndarray,
-) -> None:  # pragma: no cover - compiled
-    """J* (6E, N) at q (1992 eq. 14; the formula is in :mod:`._recursions`)."""
-    nb = parent.shape[0]
-    prepare(q, parent, body, s, True)
+def jstar_one(q: np.ndarray, m: Any, s: Any, out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """J* (6E, N) at q of the model ``m`` (:data:`~._tree.Arrays`; 1992 eq. 14, the formula is in :mod:`._recursions`)."""
+    nb = m.parent.shape[0]
+    ancestor, total_mass, ee_body, ee_point = m.ancestor, m.total_mass, m.ee_body, m.ee_point
+    prepare(q, m, s, True)
     pos, axis, mom, cf, g, x, re = s.pos, s.axis, s.mom, s.cf, s.g, s.x, s.re
-    unit_momenta(body, axis, mom, cf, s.ci, g, s.h, True)
-    centroidal_blocks(body, ancestor, total_mass, axis, mom, cf, s.ci, g, s.h, s.a, False)
+    unit_momenta(m, axis, mom, cf, s.ci, g, s.h, True)
+    centroidal_blocks(m, axis, mom, cf, s.ci, g, s.h, s.a, False)
     solve3(s.a, x)
     c0, c1, c2 = cf[0, 0] / total_mass, cf[0, 1] / total_mass, cf[0, 2] / total_mass
     for e in range(ee_body.shape[0]):
@@ -77,15 +69,7 @@ def jstar_one(
 
 @kernel(inline="always")
 def point_jacobian_one(
-    q: np.ndarray,
-    parent: np.ndarray,
-    body: np.ndarray,
-    ancestor: np.ndarray,
-    total_mass: float,
-    pbody: np.ndarray,
-    ppoint: np.ndarray,
-    s: Any,
-    out: np.ndarray,
+    q: np.ndarray, m: Any, pbody: np.ndarray, ppoint: np.ndarray, s: Any, out: np.ndarray
 ) -> None:  # pragma: no cover - compiled
     """J+ (P, 6, 6 + N) of points ``ppoint`` (body frames of ``pbody``), spacecraft frame (1991 eqs. 7-10).
 
@@ -93,10 +77,11 @@ def point_jacobian_one(
     J12[:, l] = [l inboard of P] (m_l + u_l x r_P) - g_l / M and J22[:, l] = [l inboard of P] u_l, with
     S_l = [u_l; m_l] the motion axis at O (m_l = p_l x u_l when revolute; u_l = 0, m_l = the axis when prismatic).
     """
-    nb = parent.shape[0]
-    prepare(q, parent, body, s, False)
+    nb = m.parent.shape[0]
+    ancestor, total_mass = m.ancestor, m.total_mass
+    prepare(q, m, s, False)
     pos, axis, mom, cf, g, rp = s.pos, s.axis, s.mom, s.cf, s.g, s.re
-    unit_momenta(body, axis, mom, cf, s.ci, g, s.h, False)
+    unit_momenta(m, axis, mom, cf, s.ci, g, s.h, False)
     c0, c1, c2 = cf[0, 0] / total_mass, cf[0, 1] / total_mass, cf[0, 2] / total_mass
     for e in range(pbody.shape[0]):
         k = pbody[e]
@@ -124,17 +109,11 @@ def point_jacobian_one(
 
 @kernel(inline="always")
 def points_one(
-    q: np.ndarray,
-    parent: np.ndarray,
-    body: np.ndarray,
-    total_mass: float,
-    pbody: np.ndarray,
-    ppoint: np.ndarray,
-    s: Any,
-    out: np.ndarray,
+    q: np.ndarray, m: Any, pbody: np.ndarray, ppoint: np.ndarray, s: Any, out: np.ndarray
 ) -> None:  # pragma: no cover - compiled
     """Positions (P, 3) of points (body frames of ``pbody``) relative to the system CM, spacecraft frame."""
-    prepare(q, parent, body, s, False)
+    total_mass = m.total_mass
+    prepare(q, m, s, False)
     rot, pos, cf = s.rot, s.pos, s.cf
     for e in range(pbody.shape[0]):
         k = pbody[e]
@@ -145,14 +124,13 @@ def points_one(
 
 
 @kernel(inline="always")
-def hplus_one(
-    q: np.ndarray, parent: np.ndarray, body: np.ndarray, ancestor: np.ndarray, total_mass: float, s: Any, out: np.ndarray
-) -> None:  # pragma: no cover - compiled
+def hplus_one(q: np.ndarray, m: Any, s: Any, out: np.ndarray) -> None:  # pragma: no cover - compiled
     """H+ (6 + N, 6 + N) at q, 1991 eq. 15, order [r_cm, omega0, q]."""
-    nb = parent.shape[0]
-    prepare(q, parent, body, s, True)
-    unit_momenta(body, s.axis, s.mom, s.cf, s.ci, s.g, s.h, True)
-    centroidal_blocks(body, ancestor, total_mass, s.axis, s.mom, s.cf, s.ci, s.g, s.h, s.a, True)
+    nb = m.parent.shape[0]
+    total_mass = m.total_mass
+    prepare(q, m, s, True)
+    unit_momenta(m, s.axis, s.mom, s.cf, s.ci, s.g, s.h, True)
+    centroidal_blocks(m, s.axis, s.mom, s.cf, s.ci, s.g, s.h, s.a, True)
     for i in range(5 + nb):
         for j in range(5 + nb):
             out[i, j] = 0.0
@@ -185,10 +163,7 @@ def accelerations_one(
     velocity: np.ndarray,
     u: np.ndarray,
     t0: np.ndarray,
-    parent: np.ndarray,
-    body: np.ndarray,
-    ancestor: np.ndarray,
-    total_mass: float,
+    m: Any,
     ext_i: np.ndarray,
     ext_f: np.ndarray,
     s: Any,
@@ -198,14 +173,15 @@ def accelerations_one(
 
     velocity = zdot0 (6 + N); u = [tau, f_S, n_S]; t0 the attitude (inertial <- spacecraft).
     """
-    n = parent.shape[0] - 1
-    m = 3 + n
-    prepare(q, parent, body, s, True)
-    unit_momenta(body, s.axis, s.mom, s.cf, s.ci, s.g, s.h, True)
-    centroidal_blocks(body, ancestor, total_mass, s.axis, s.mom, s.cf, s.ci, s.g, s.h, s.a, True)
+    n = m.parent.shape[0] - 1
+    rows = 3 + n
+    total_mass = m.total_mass
+    prepare(q, m, s, True)
+    unit_momenta(m, s.axis, s.mom, s.cf, s.ci, s.g, s.h, True)
+    centroidal_blocks(m, s.axis, s.mom, s.cf, s.ci, s.g, s.h, s.a, True)
     b = s.b
-    newton_euler(body, parent, total_mass, s, velocity, velocity, False, u, t0, ext_i, ext_f, b)
-    for i in range(m):
+    newton_euler(m, s, velocity, velocity, False, u, t0, ext_i, ext_f, b)
+    for i in range(rows):
         b[i] = -b[i]
     ok = cholesky_solve(s.a, b, s.low)
     f = s.total  # the external forces, summed by newton_euler
@@ -213,33 +189,21 @@ def accelerations_one(
         f[i] += u[n + i]
     for i in range(3):
         out[i] = (t0[i, 0] * f[0] + t0[i, 1] * f[1] + t0[i, 2] * f[2]) / total_mass
-    for i in range(m):
+    for i in range(rows):
         out[3 + i] = b[i]
     return ok
 
 
 @kernel(inline="always")
 def state_derivative_one(
-    x: np.ndarray,
-    u: np.ndarray,
-    parent: np.ndarray,
-    body: np.ndarray,
-    ancestor: np.ndarray,
-    total_mass: float,
-    ext_i: np.ndarray,
-    ext_f: np.ndarray,
-    s: Any,
-    q: np.ndarray,
-    dx: np.ndarray,
-    row: int,
+    x: np.ndarray, u: np.ndarray, m: Any, ext_i: np.ndarray, ext_f: np.ndarray, s: Any, dx: np.ndarray, row: int
 ) -> bool:  # pragma: no cover - compiled
     """dx[row] = d/dt of the flat state x = [r_cm, v_cm, quat [x, y, z, w], omega0, q, qdot] (13 + 2N) under u = [tau, f_S, n_S].
 
-    dquat/dt = 1/2 quat ⊗ [omega0, 0] (omega0 in the spacecraft frame). ``q`` (N) is scratch for the
-    joint angles. False if H+ is not positive definite.
+    dquat/dt = 1/2 quat ⊗ [omega0, 0] (omega0 in the spacecraft frame). False if H+ is not positive definite.
     """
-    n = parent.shape[0] - 1
-    t0, vel, acc = s.t0, s.vel, s.acc
+    n = m.parent.shape[0] - 1
+    t0, vel, acc, q = s.t0, s.vel, s.acc, s.joints
     quaternion_matrix(x, 6, t0)
     for i in range(3):
         vel[i] = x[3 + i]
@@ -247,7 +211,7 @@ def state_derivative_one(
     for j in range(n):
         q[j] = x[13 + j]
         vel[6 + j] = x[13 + n + j]
-    ok = accelerations_one(q, vel, u, t0, parent, body, ancestor, total_mass, ext_i, ext_f, s, acc)
+    ok = accelerations_one(q, vel, u, t0, m, ext_i, ext_f, s, acc)
     norm = math.sqrt(x[6] * x[6] + x[7] * x[7] + x[8] * x[8] + x[9] * x[9])
     qx, qy, qz, qw = x[6] / norm, x[7] / norm, x[8] / norm, x[9] / norm
     o0, o1, o2 = x[10], x[11], x[12]
@@ -267,17 +231,7 @@ def state_derivative_one(
 
 @kernel(inline="always")
 def rk4_step(
-    x: np.ndarray,
-    u: np.ndarray,
-    dt: float,
-    parent: np.ndarray,
-    body: np.ndarray,
-    ancestor: np.ndarray,
-    total_mass: float,
-    ext_i: np.ndarray,
-    ext_f: np.ndarray,
-    s: Any,
-    q: np.ndarray,
+    x: np.ndarray, u: np.ndarray, dt: float, m: Any, ext_i: np.ndarray, ext_f: np.ndarray, s: Any
 ) -> bool:  # pragma: no cover - compiled
     """One classical RK4 step of x in place (u held), then the quaternion renormalised; False if H+ failed.
 
@@ -289,7 +243,7 @@ def rk4_step(
     for i in range(size):
         y[i] = x[i]
     for stage in range(4):
-        ok &= state_derivative_one(y, u, parent, body, ancestor, total_mass, ext_i, ext_f, s, q, k, stage)
+        ok &= state_derivative_one(y, u, m, ext_i, ext_f, s, k, stage)
         if stage < 3:
             c = dt if stage == 2 else 0.5 * dt
             for i in range(size):
@@ -308,29 +262,24 @@ def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     """The model, its external wrenches and the scratch of one trajectory from the two buffers of
     :func:`~._engine.Stepper` (fewer arguments: numba unboxes each array argument at ~0.1 us a call).
 
-    ints = [B, W, NF, WATCH, REASON, parent (B), ancestor (B x B), ext_i (W x 2)];
-    floats = [total mass, body (B x NF), ext_f (W x 9), watch (1 + 2N), work (work_size(B) + N)].
-    WATCH 1: :func:`rk4_steps` watches the state (see there); REASON: why it stopped early.
+    ints = [the model's ints (:func:`~._tree.arrays`), W, WATCH, REASON, ext_i (W x 2)];
+    floats = [the model's floats, ext_f (W x 9), watch (1 + 2N), work (work_size(B))].
+    WATCH 1: :func:`rk4_steps` watches the state (see there); REASON: why it stopped early (ints[o + 2]).
     """
+    m = arrays(ints, floats)
+    o, f = buffer_lengths(ints)
     ints = unowned_ints(ints)  # views without reference counting: the caller holds both buffers
     floats = unowned_floats(floats)
-    nb, nw, nf = ints[0], ints[1], ints[2]
-    o = 5
-    parent = ints[o : o + nb]
-    o += nb
-    ancestor = ints[o : o + nb * nb].reshape((nb, nb))
-    o += nb * nb
-    ext_i = ints[o : o + 2 * nw].reshape((nw, 2))
-    total_mass = floats[0]
-    f = 1
-    body = floats[f : f + nb * nf].reshape((nb, nf))
-    f += nb * nf
+    nb = m.parent.shape[0]
+    nw = ints[o]
+    header = ints[o : o + 3]
+    ext_i = ints[o + 3 : o + 3 + 2 * nw].reshape((nw, 2))
     ext_f = floats[f : f + 9 * nw].reshape((nw, 9))
     f += 9 * nw
     watch = floats[f : f + 2 * nb - 1]
     f += 2 * nb - 1
     work = floats[f:]
-    return parent, ancestor, ext_i, total_mass, body, ext_f, watch, ints, scratch(work, nb), work[work.shape[0] - (nb - 1) :]
+    return m, ext_i, ext_f, watch, header, scratch(work, nb)
 
 
 @kernel(inline="always")
@@ -365,20 +314,20 @@ def rk4_steps(
     it also stops after the step k whose state needs a look (:func:`watched`: a fast rate, a joint
     beyond a limit), returns k + 1 and leaves the reason in ints[4] (0 otherwise).
     """
-    parent, ancestor, ext_i, total_mass, body, ext_f, watch, header, s, q = unpack(ints, floats)
-    header[4] = 0
+    m, ext_i, ext_f, watch, header, s = unpack(ints, floats)
+    header[2] = 0
     for step in range(nsteps):
-        if not rk4_step(x, u, dt, parent, body, ancestor, total_mass, ext_i, ext_f, s, q):
+        if not rk4_step(x, u, dt, m, ext_i, ext_f, s):
             return step
         total = 0.0
         for i in range(x.shape[0]):
             total += x[i]
         if not math.isfinite(total):
             return -(step + 1)
-        if header[3] != 0:
+        if header[1] != 0:
             reason = watched(x, watch)
             if reason != 0:
-                header[4] = reason
+                header[2] = reason
                 return step + 1
     return nsteps
 
@@ -388,5 +337,5 @@ def state_derivative(
     ints: np.ndarray, floats: np.ndarray, x: np.ndarray, u: np.ndarray, dx: np.ndarray
 ) -> bool:  # pragma: no cover - compiled
     """:func:`state_derivative_one` from Python (the model in the buffers of :func:`unpack`)."""
-    parent, ancestor, ext_i, total_mass, body, ext_f, _, _, s, q = unpack(ints, floats)
-    return state_derivative_one(x, u, parent, body, ancestor, total_mass, ext_i, ext_f, s, q, dx.reshape((1, dx.shape[0])), 0)
+    m, ext_i, ext_f, _, _, s = unpack(ints, floats)
+    return state_derivative_one(x, u, m, ext_i, ext_f, s, dx.reshape((1, dx.shape[0])), 0)

@@ -83,7 +83,7 @@ def frames(model: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n_b = t.parent.shape[0]
     rot = new_output((flat.shape[0], n_b, 3, 3))
     pos = new_output((flat.shape[0], n_b, 3))
-    _drivers.frames_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, rot, pos)
+    _drivers.frames_batch(flat.shape[0], t, flat, rot, pos)
     return rot.reshape((*batch, n_b, 3, 3)), pos.reshape((*batch, n_b, 3))
 
 
@@ -100,7 +100,7 @@ def points(model: Any, q: np.ndarray, bodies: Any, pts: Any) -> np.ndarray:
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
     out = new_output((flat.shape[0], b.shape[0], 3))
-    _drivers.points_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.total_mass, b, p, out)
+    _drivers.points_batch(flat.shape[0], t, flat, b, p, out)
     return out.reshape((*batch, b.shape[0], 3))
 
 
@@ -111,7 +111,7 @@ def point_jacobians(model: Any, q: np.ndarray, bodies: Any, pts: Any) -> np.ndar
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
     out = new_output((flat.shape[0], b.shape[0], 6, 6 + t.n_joints))
-    _drivers.point_jacobian_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, b, p, out)
+    _drivers.point_jacobian_batch(flat.shape[0], t, flat, b, p, out)
     return out.reshape((*batch, b.shape[0], 6, 6 + t.n_joints))
 
 
@@ -126,7 +126,7 @@ def generalized_jacobian(model: Any, q: np.ndarray) -> np.ndarray:
     if fast is not None:
         _specialise.jstar(fast, t, flat, out.reshape((flat.shape[0], rows * t.n_joints)))
         return out.reshape((*batch, rows, t.n_joints))
-    _drivers.jstar_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, t.ee_body, t.ee_point, out)
+    _drivers.jstar_batch(flat.shape[0], t, flat, out)
     return out.reshape((*batch, rows, t.n_joints))
 
 
@@ -137,7 +137,7 @@ def inertia_matrix(model: Any, q: np.ndarray) -> np.ndarray:
     flat = _flat(q, batch, (t.n_joints,))
     size = 6 + t.n_joints
     out = new_output((flat.shape[0], size, size))
-    _drivers.hplus_batch(flat.shape[0], t.parent.shape[0], flat, t.parent, t.body, t.ancestor, t.total_mass, out)
+    _drivers.hplus_batch(flat.shape[0], t, flat, out)
     return out.reshape((*batch, size, size))
 
 
@@ -189,9 +189,7 @@ def residual_rows(
     acc_in = np.zeros(6 + n) if acceleration is None else acceleration
     batch, (qf, vf, af, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext, acc_in)
     out = new_output((qf.shape[0], 3 + n))
-    _drivers.inverse_batch(
-        qf.shape[0], t.parent.shape[0], qf, vf, af, uf, t0f, t.parent, t.body, t.total_mass, ext_i, ext_f, acceleration is not None, out
-    )
+    _drivers.inverse_batch(qf.shape[0], t, qf, vf, af, uf, t0f, ext_i, ext_f, acceleration is not None, out)
     return out.reshape((*batch, 3 + n))
 
 
@@ -209,9 +207,7 @@ def accelerations(
     batch, (qf, vf, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext)
     out = new_output((qf.shape[0], 6 + n))
     ok = np.empty(qf.shape[0], dtype=np.bool_)
-    _drivers.forward_batch(
-        qf.shape[0], t.parent.shape[0], qf, vf, uf, t0f, t.parent, t.body, t.ancestor, t.total_mass, ext_i, ext_f, out, ok
-    )
+    _drivers.forward_batch(qf.shape[0], t, qf, vf, uf, t0f, ext_i, ext_f, out, ok)
     return out.reshape((*batch, 6 + n)), ok.reshape(batch)
 
 
@@ -226,9 +222,7 @@ def state_derivative(
     ext_i, ext_f = _wrench_data(ext, batch)
     out = np.empty_like(xf)
     ok = np.empty(xf.shape[0], dtype=np.bool_)
-    _drivers.derivative_batch(
-        xf.shape[0], t.parent.shape[0], xf, _actuation(u, t, batch), t.parent, t.body, t.ancestor, t.total_mass, ext_i, ext_f, out, ok
-    )
+    _drivers.derivative_batch(xf.shape[0], t, xf, _actuation(u, t, batch), ext_i, ext_f, out, ok)
     return out.reshape((*batch, size)), ok.reshape(batch)
 
 
@@ -261,37 +255,14 @@ def rollout(
     done = np.empty(k, dtype=np.int64)
     kp, kd, qref, vref = (_own(np.broadcast_to(g, (k, n))) for g in gains)
     ext_i, ext_f = _wrench_data(ext, (k,))
+    timing = (float(dt), int(steps), int(hold), int(stride))
     if specialised_rollouts(model, k, ext):
         fast = _specialise.find(t, "rollout")
         assert fast is not None
-        timing = (float(dt), int(steps), int(hold), int(stride))
         _specialise.rollout(fast, t, _own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), xs, us, sat, done)
         return xs, us, sat, done
-    _drivers.rollout_batch(
-        k,
-        t.parent.shape[0],
-        _own(x0),
-        float(dt),
-        int(steps),
-        int(hold),
-        int(stride),
-        kp,
-        kd,
-        qref,
-        vref,
-        _own(feedforward),
-        _own(limit),
-        t.parent,
-        t.body,
-        t.ancestor,
-        t.total_mass,
-        ext_i,
-        ext_f,
-        xs,
-        us,
-        sat,
-        done,
-    )
+    timing = (float(dt), int(steps), int(hold), int(stride))
+    _drivers.rollout_batch(k, t, _own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), ext_i, ext_f, xs, us, sat, done)
     return xs, us, sat, done
 
 
@@ -326,14 +297,14 @@ class Stepper:
         self.size = 13 + 2 * t.n_joints
         ext_i = np.asarray(ext[0], dtype=np.int64).reshape(-1, 2)
         ext_f = np.asarray(ext[1], dtype=np.float64).reshape(-1, 9)
-        nb = t.parent.shape[0]
-        header = [nb, ext_i.shape[0], t.body.shape[1], 0, 0]  # B, W, NF, WATCH, REASON (see _configuration.unpack)
-        self.ints = np.concatenate([header, t.parent, t.ancestor.ravel(), ext_i.ravel()]).astype(np.int64)
-        work = np.empty(work_size(nb) + t.n_joints)
-        self._watch_at = 1 + t.body.size + ext_f.size
+        header = [ext_i.shape[0], 0, 0]  # W, WATCH, REASON (see _configuration.unpack)
+        self._header = t.ints.shape[0]
+        self.ints = np.concatenate([t.ints, header, ext_i.ravel()]).astype(np.int64)
+        work = np.empty(work_size(t.n_bodies))
+        self._watch_at = t.floats.shape[0] + ext_f.size
         watch = np.full(1 + 2 * t.n_joints, np.inf)
         watch[1 : 1 + t.n_joints] = -np.inf
-        self.floats = np.concatenate([[t.total_mass], t.body.ravel(), ext_f.ravel(), watch, work])
+        self.floats = np.concatenate([t.floats, ext_f.ravel(), watch, work])
         self.rk4: Callable[[np.ndarray, np.ndarray, float, int], int] = functools.partial(_configuration.rk4_steps, self.ints, self.floats)
 
     def watch(self, rate: float = np.inf, lower: Any = None, upper: Any = None) -> None:
@@ -344,12 +315,12 @@ class Stepper:
         w[0] = rate
         w[1 : 1 + n] = -np.inf if lower is None else lower
         w[1 + n :] = np.inf if upper is None else upper
-        self.ints[3] = int(np.isfinite(w).any())
+        self.ints[self._header + 1] = int(np.isfinite(w).any())
 
     @property
     def reason(self) -> int:
         """Why the last :attr:`rk4` call stopped early under :meth:`watch` (0: it did not)."""
-        return int(self.ints[4])
+        return int(self.ints[self._header + 2])
 
     def derivative(self, x: np.ndarray, u: np.ndarray, out: np.ndarray) -> bool:
         """out = d/dt x under u; False if H+ is not positive definite."""

@@ -52,7 +52,6 @@ from typing import Any
 import numpy as np
 
 from ._numba_cache import kernel, unowned_floats
-from ._tree import _AX, _C, _I, _M, _P0, _P1, _P2, _PR, _S, _T
 
 #: Scratch space of one configuration: views of one flat buffer, made once per batch range (or per
 #: stepper call) and passed down, so no kernel makes a view per configuration (each costs ~25 ns).
@@ -89,13 +88,16 @@ Scratch = namedtuple(
         "acc",  # attitude, zdot0, zddot0
         "k",
         "y",  # RK4: the four stage derivatives (4, S), the stage state
+        "joints",  # (N): joint values read from a state
+        "state",
+        "control",  # (S), (N + 6): the state and the actuation of a trajectory (rollouts)
     ],
 )
 
 
 @kernel(inline="always")
 def scratch(work: np.ndarray, nb: int) -> Any:  # pragma: no cover - compiled
-    """The :data:`Scratch` views of ``work`` (length :func:`work_size_jit`) for a tree of ``nb`` bodies.
+    """The :data:`Scratch` views of ``work`` (length :func:`~._tree.work_size`) for a tree of ``nb`` bodies.
 
     The views do not count references to ``work`` (cheaper: no atomic operations), so ``work`` must
     outlive them: it is always an argument of the calling kernel (or a slice of one), held by the
@@ -142,6 +144,12 @@ def scratch(work: np.ndarray, nb: int) -> Any:  # pragma: no cover - compiled
     acc = work[o : o + 6 + n]
     o += 6 + n
     stages = work[o : o + 5 * size].reshape((5, size))
+    o += 5 * size
+    joints = work[o : o + n]
+    o += n
+    state = work[o : o + size]
+    o += size
+    control = work[o : o + n + 6]
     return Scratch(
         rot,
         pos,
@@ -173,21 +181,16 @@ def scratch(work: np.ndarray, nb: int) -> Any:  # pragma: no cover - compiled
         acc,
         stages[0:4],
         stages[4],
+        joints,
+        state,
+        control,
     )
-
-
-@kernel(inline="always")
-def work_size_jit(n_bodies: int) -> int:  # pragma: no cover - compiled
-    """:func:`~._tree.work_size` inside kernels."""
-    n = n_bodies - 1
-    m = 3 + n
-    return 66 * n_bodies + 15 + 2 * m * m + m + 3 * n + 9 + 2 * (6 + n) + 5 * (13 + 2 * n)
 
 
 # ----------------------------------------------------------------- kinematics
 @kernel(inline="always")
 def kinematics(
-    q: np.ndarray, parent: np.ndarray, body: np.ndarray, rot: np.ndarray, pos: np.ndarray, axis: np.ndarray, mom: np.ndarray
+    q: np.ndarray, m: Any, rot: np.ndarray, pos: np.ndarray, axis: np.ndarray, mom: np.ndarray
 ) -> None:  # pragma: no cover - compiled
     """Body rotations ⁰T_k, joint positions p_k (from O) and the motion axes of the joints at O.
 
@@ -195,6 +198,7 @@ def kinematics(
     frame): [u_k; p_k x u_k] for a revolute joint, [0; u_k] for a prismatic one. Every recursion
     below uses only these two, so it holds for both joint types unchanged.
     """
+    parent = m.parent
     nb = parent.shape[0]
     for i in range(3):
         for j in range(3):
@@ -204,7 +208,7 @@ def kinematics(
         mom[0, i] = 0.0
     for k in range(1, nb):
         p = parent[k]
-        slide = body[k, _PR] != 0.0
+        slide = m.prismatic[k] != 0.0
         if slide:  # prismatic: no turn (P1 = P2 = 0); the body frame origin moves q along the axis
             s = 0.0
             c = 0.0
@@ -213,15 +217,15 @@ def kinematics(
             s = math.sin(q[k - 1])
             c = 1.0 - math.cos(q[k - 1])
             d = 0.0
-        l00 = body[k, _P0] + s * body[k, _P1] + c * body[k, _P2]
-        l01 = body[k, _P0 + 1] + s * body[k, _P1 + 1] + c * body[k, _P2 + 1]
-        l02 = body[k, _P0 + 2] + s * body[k, _P1 + 2] + c * body[k, _P2 + 2]
-        l10 = body[k, _P0 + 3] + s * body[k, _P1 + 3] + c * body[k, _P2 + 3]
-        l11 = body[k, _P0 + 4] + s * body[k, _P1 + 4] + c * body[k, _P2 + 4]
-        l12 = body[k, _P0 + 5] + s * body[k, _P1 + 5] + c * body[k, _P2 + 5]
-        l20 = body[k, _P0 + 6] + s * body[k, _P1 + 6] + c * body[k, _P2 + 6]
-        l21 = body[k, _P0 + 7] + s * body[k, _P1 + 7] + c * body[k, _P2 + 7]
-        l22 = body[k, _P0 + 8] + s * body[k, _P1 + 8] + c * body[k, _P2 + 8]
+        l00 = m.place[k, 0, 0] + s * m.place_k[k, 0, 0] + c * m.place_k2[k, 0, 0]
+        l01 = m.place[k, 0, 1] + s * m.place_k[k, 0, 1] + c * m.place_k2[k, 0, 1]
+        l02 = m.place[k, 0, 2] + s * m.place_k[k, 0, 2] + c * m.place_k2[k, 0, 2]
+        l10 = m.place[k, 1, 0] + s * m.place_k[k, 1, 0] + c * m.place_k2[k, 1, 0]
+        l11 = m.place[k, 1, 1] + s * m.place_k[k, 1, 1] + c * m.place_k2[k, 1, 1]
+        l12 = m.place[k, 1, 2] + s * m.place_k[k, 1, 2] + c * m.place_k2[k, 1, 2]
+        l20 = m.place[k, 2, 0] + s * m.place_k[k, 2, 0] + c * m.place_k2[k, 2, 0]
+        l21 = m.place[k, 2, 1] + s * m.place_k[k, 2, 1] + c * m.place_k2[k, 2, 1]
+        l22 = m.place[k, 2, 2] + s * m.place_k[k, 2, 2] + c * m.place_k2[k, 2, 2]
         for i in range(3):
             r0 = rot[p, i, 0]
             r1 = rot[p, i, 1]
@@ -229,8 +233,8 @@ def kinematics(
             rot[k, i, 0] = r0 * l00 + r1 * l10 + r2 * l20
             rot[k, i, 1] = r0 * l01 + r1 * l11 + r2 * l21
             rot[k, i, 2] = r0 * l02 + r1 * l12 + r2 * l22
-            a = r0 * body[k, _AX] + r1 * body[k, _AX + 1] + r2 * body[k, _AX + 2]
-            pos[k, i] = pos[p, i] + r0 * body[k, _T] + r1 * body[k, _T + 1] + r2 * body[k, _T + 2] + d * a
+            a = r0 * m.axis[k, 0] + r1 * m.axis[k, 1] + r2 * m.axis[k, 2]
+            pos[k, i] = pos[p, i] + r0 * m.origin[k, 0] + r1 * m.origin[k, 1] + r2 * m.origin[k, 2] + d * a
             axis[k, i] = a
         if slide:  # motion axis [0; u]: no angular part, linear part u at every point
             for i in range(3):
@@ -253,8 +257,7 @@ def point_from_origin(
 
 @kernel(inline="always")
 def mass_properties(
-    body: np.ndarray,
-    parent: np.ndarray,
+    m: Any,
     rot: np.ndarray,
     pos: np.ndarray,
     own_f: np.ndarray,
@@ -264,28 +267,29 @@ def mass_properties(
     inertia: bool,
 ) -> None:  # pragma: no cover - compiled
     """First moments (and, with ``inertia``, inertias) about O of every body and of every subtree."""
+    parent = m.parent
     nb = parent.shape[0]
     for k in range(nb):
-        m = body[k, _M]
-        c0 = pos[k, 0] + rot[k, 0, 0] * body[k, _C] + rot[k, 0, 1] * body[k, _C + 1] + rot[k, 0, 2] * body[k, _C + 2]
-        c1 = pos[k, 1] + rot[k, 1, 0] * body[k, _C] + rot[k, 1, 1] * body[k, _C + 1] + rot[k, 1, 2] * body[k, _C + 2]
-        c2 = pos[k, 2] + rot[k, 2, 0] * body[k, _C] + rot[k, 2, 1] * body[k, _C + 1] + rot[k, 2, 2] * body[k, _C + 2]
-        own_f[k, 0] = cf[k, 0] = m * c0
-        own_f[k, 1] = cf[k, 1] = m * c1
-        own_f[k, 2] = cf[k, 2] = m * c2
+        mk = m.mass[k]
+        c0 = pos[k, 0] + rot[k, 0, 0] * m.com[k, 0] + rot[k, 0, 1] * m.com[k, 1] + rot[k, 0, 2] * m.com[k, 2]
+        c1 = pos[k, 1] + rot[k, 1, 0] * m.com[k, 0] + rot[k, 1, 1] * m.com[k, 1] + rot[k, 1, 2] * m.com[k, 2]
+        c2 = pos[k, 2] + rot[k, 2, 0] * m.com[k, 0] + rot[k, 2, 1] * m.com[k, 1] + rot[k, 2, 2] * m.com[k, 2]
+        own_f[k, 0] = cf[k, 0] = mk * c0
+        own_f[k, 1] = cf[k, 1] = mk * c1
+        own_f[k, 2] = cf[k, 2] = mk * c2
         if inertia:
             sq = c0 * c0 + c1 * c1 + c2 * c2
             for i in range(3):
                 # row i of T I, then its products with the rows of T
-                a0 = rot[k, i, 0] * body[k, _I] + rot[k, i, 1] * body[k, _I + 3] + rot[k, i, 2] * body[k, _I + 6]
-                a1 = rot[k, i, 0] * body[k, _I + 1] + rot[k, i, 1] * body[k, _I + 4] + rot[k, i, 2] * body[k, _I + 7]
-                a2 = rot[k, i, 0] * body[k, _I + 2] + rot[k, i, 1] * body[k, _I + 5] + rot[k, i, 2] * body[k, _I + 8]
+                a0 = rot[k, i, 0] * m.inertia[k, 0, 0] + rot[k, i, 1] * m.inertia[k, 1, 0] + rot[k, i, 2] * m.inertia[k, 2, 0]
+                a1 = rot[k, i, 0] * m.inertia[k, 0, 1] + rot[k, i, 1] * m.inertia[k, 1, 1] + rot[k, i, 2] * m.inertia[k, 2, 1]
+                a2 = rot[k, i, 0] * m.inertia[k, 0, 2] + rot[k, i, 1] * m.inertia[k, 1, 2] + rot[k, i, 2] * m.inertia[k, 2, 2]
                 ci_ = c0 if i == 0 else (c1 if i == 1 else c2)
                 for j in range(i, 3):
                     cj = c0 if j == 0 else (c1 if j == 1 else c2)
-                    v = a0 * rot[k, j, 0] + a1 * rot[k, j, 1] + a2 * rot[k, j, 2] - m * ci_ * cj
+                    v = a0 * rot[k, j, 0] + a1 * rot[k, j, 1] + a2 * rot[k, j, 2] - mk * ci_ * cj
                     if i == j:
-                        v += m * sq
+                        v += mk * sq
                     own_i[k, i, j] = v
                     own_i[k, j, i] = v
                     ci[k, i, j] = v
@@ -302,12 +306,12 @@ def mass_properties(
 
 @kernel(inline="always")
 def unit_momenta(
-    body: np.ndarray, axis: np.ndarray, mom: np.ndarray, cf: np.ndarray, ci: np.ndarray, g: np.ndarray, h: np.ndarray, angular: bool
+    m: Any, axis: np.ndarray, mom: np.ndarray, cf: np.ndarray, ci: np.ndarray, g: np.ndarray, h: np.ndarray, angular: bool
 ) -> None:  # pragma: no cover - compiled
     """g_l, h_l: linear and angular (about O) momentum of the subtree of joint l turning at unit rate."""
-    nb = body.shape[0]
+    nb = m.parent.shape[0]
     for k in range(1, nb):
-        s = body[k, _S]
+        s = m.subtree_mass[k]
         u0, u1, u2 = axis[k, 0], axis[k, 1], axis[k, 2]
         w0, w1, w2 = mom[k, 0], mom[k, 1], mom[k, 2]
         f0, f1, f2 = cf[k, 0], cf[k, 1], cf[k, 2]
@@ -324,9 +328,7 @@ def unit_momenta(
 
 @kernel(inline="always")
 def centroidal_blocks(
-    body: np.ndarray,
-    ancestor: np.ndarray,
-    total_mass: float,
+    m: Any,
     axis: np.ndarray,
     mom: np.ndarray,
     cf: np.ndarray,
@@ -337,8 +339,9 @@ def centroidal_blocks(
     joint_block: bool,
 ) -> None:  # pragma: no cover - compiled
     """The [omega0, q] block of H+ into a ((3 + N) x (3 + N)): D, D_q (and D_qq with ``joint_block``)."""
-    nb = body.shape[0]
-    big = total_mass
+    nb = m.parent.shape[0]
+    ancestor = m.ancestor
+    big = m.total_mass
     f0, f1, f2 = cf[0, 0], cf[0, 1], cf[0, 2]
     sq = f0 * f0 + f1 * f1 + f2 * f2
     for i in range(3):
@@ -412,9 +415,7 @@ def cholesky_solve(a: np.ndarray, b: np.ndarray, low: np.ndarray) -> bool:  # pr
 # ----------------------------------------------------------------- Newton-Euler at O
 @kernel(inline="always")
 def newton_euler(
-    body: np.ndarray,
-    parent: np.ndarray,
-    total_mass: float,
+    m: Any,
     s: Any,
     vel: np.ndarray,
     acc: np.ndarray,
@@ -434,6 +435,7 @@ def newton_euler(
     zdot0 and acc = zddot0 (6 + N; rdot_cm and rddot_cm are not used). Needs :func:`prepare` with
     inertias in ``s``; leaves the sum of the external forces (spacecraft frame) in ``s.total``.
     """
+    parent, total_mass = m.parent, m.total_mass
     nb = parent.shape[0]
     n = nb - 1
     rot, pos, axis, mom, own_f, own_i, cf = s.rot, s.pos, s.axis, s.mom, s.own_f, s.own_i, s.cf
@@ -464,7 +466,7 @@ def newton_euler(
         be[k, 1] = be[p, 1] + (wk2 * sw0 - wk0 * sw2) + (vk2 * su0 - vk0 * su2) + mom[k, 1] * qdd
         be[k, 2] = be[p, 2] + (wk0 * sw1 - wk1 * sw0) + (vk0 * su1 - vk1 * su0) + mom[k, 2] * qdd
     for k in range(nb):  # f_k = I_k a_k + V_k x* I_k V_k, spatial inertia of body k at O
-        m = body[k, _M]
+        mk = m.mass[k]
         h0, h1, h2 = own_f[k, 0], own_f[k, 1], own_f[k, 2]
         w0, w1, w2 = w[k, 0], w[k, 1], w[k, 2]
         v0, v1, v2 = v[k, 0], v[k, 1], v[k, 2]
@@ -473,20 +475,20 @@ def newton_euler(
         an0 = own_i[k, 0, 0] * w0 + own_i[k, 0, 1] * w1 + own_i[k, 0, 2] * w2 + (h1 * v2 - h2 * v1)
         an1 = own_i[k, 1, 0] * w0 + own_i[k, 1, 1] * w1 + own_i[k, 1, 2] * w2 + (h2 * v0 - h0 * v2)
         an2 = own_i[k, 2, 0] * w0 + own_i[k, 2, 1] * w1 + own_i[k, 2, 2] * w2 + (h0 * v1 - h1 * v0)
-        li0 = m * v0 - (h1 * w2 - h2 * w1)
-        li1 = m * v1 - (h2 * w0 - h0 * w2)
-        li2 = m * v2 - (h0 * w1 - h1 * w0)
+        li0 = mk * v0 - (h1 * w2 - h2 * w1)
+        li1 = mk * v1 - (h2 * w0 - h0 * w2)
+        li2 = mk * v2 - (h0 * w1 - h1 * w0)
         for i in range(3):
             nf[k, i] = own_i[k, i, 0] * a0 + own_i[k, i, 1] * a1 + own_i[k, i, 2] * a2
         nf[k, 0] += (h1 * b2 - h2 * b1) + (w1 * an2 - w2 * an1) + (v1 * li2 - v2 * li1)
         nf[k, 1] += (h2 * b0 - h0 * b2) + (w2 * an0 - w0 * an2) + (v2 * li0 - v0 * li2)
         nf[k, 2] += (h0 * b1 - h1 * b0) + (w0 * an1 - w1 * an0) + (v0 * li1 - v1 * li0)
-        ff[k, 0] = m * b0 - (h1 * a2 - h2 * a1) + (w1 * li2 - w2 * li1)
-        ff[k, 1] = m * b1 - (h2 * a0 - h0 * a2) + (w2 * li0 - w0 * li2)
-        ff[k, 2] = m * b2 - (h0 * a1 - h1 * a0) + (w0 * li1 - w1 * li0)
+        ff[k, 0] = mk * b0 - (h1 * a2 - h2 * a1) + (w1 * li2 - w2 * li1)
+        ff[k, 1] = mk * b1 - (h2 * a0 - h0 * a2) + (w2 * li0 - w0 * li2)
+        ff[k, 2] = mk * b2 - (h0 * a1 - h1 * a0) + (w0 * li1 - w1 * li0)
     # thrusters: force f_S at the spacecraft CM and couple n_S, spacecraft frame
     fs0, fs1, fs2 = u[n], u[n + 1], u[n + 2]
-    c0, c1, c2 = body[0, _C], body[0, _C + 1], body[0, _C + 2]
+    c0, c1, c2 = m.com[0, 0], m.com[0, 1], m.com[0, 2]
     nf[0, 0] -= u[n + 3] + (c1 * fs2 - c2 * fs1)
     nf[0, 1] -= u[n + 4] + (c2 * fs0 - c0 * fs2)
     nf[0, 2] -= u[n + 5] + (c0 * fs1 - c1 * fs0)
@@ -528,7 +530,7 @@ def newton_euler(
     out[1] = nf[0, 1] + (cf[0, 2] * d0 - cf[0, 0] * d2)
     out[2] = nf[0, 2] + (cf[0, 0] * d1 - cf[0, 1] * d0)
     for k in range(1, nb):
-        s = body[k, _S]
+        s = m.subtree_mass[k]
         t0_ = nf[k, 0] + (cf[k, 1] * d2 - cf[k, 2] * d1)
         t1_ = nf[k, 1] + (cf[k, 2] * d0 - cf[k, 0] * d2)
         t2_ = nf[k, 2] + (cf[k, 0] * d1 - cf[k, 1] * d0)
@@ -539,7 +541,7 @@ def newton_euler(
 
 # ----------------------------------------------------------------- one configuration
 @kernel(inline="always")
-def prepare(q: np.ndarray, parent: np.ndarray, body: np.ndarray, s: Any, inertia: bool) -> None:  # pragma: no cover - compiled
-    """Kinematics and mass properties at q into the scratch ``s``."""
-    kinematics(q, parent, body, s.rot, s.pos, s.axis, s.mom)
-    mass_properties(body, parent, s.rot, s.pos, s.own_f, s.own_i, s.cf, s.ci, inertia)
+def prepare(q: np.ndarray, m: Any, s: Any, inertia: bool) -> None:  # pragma: no cover - compiled
+    """Kinematics and mass properties at q into the scratch ``s`` (the model ``m``: :data:`~._tree.Arrays`)."""
+    kinematics(q, m, s.rot, s.pos, s.axis, s.mom)
+    mass_properties(m, s.rot, s.pos, s.own_f, s.own_i, s.cf, s.ci, inertia)

@@ -44,15 +44,12 @@ import numpy as np
 from ._lanes import LANES
 from ._numba_cache import CacheWarning, cache_dir
 from ._trace import Graph, Sym, traced
-from ._tree import _C, _I, _M, _S, NF, Tree, work_size
+from ._tree import BODY_FIELDS, Arrays, Tree, work_size
 
 __all__ = ["KINDS", "SINCOS", "emit", "find", "load", "specialise", "structure_key", "trace"]
 
 #: What can be specialised: J* of a batch of configurations, RK4 rollouts (their state derivative).
 KINDS = ("jstar", "rollout")
-
-#: Columns of ``Tree.body`` that are data (mass properties): symbols, never folded.
-_DATA_COLUMNS = (_M, *range(_C, _C + 3), *range(_I, _I + 9), _S)
 
 #: sin and cos of one angle without calls (vectorisable): the reduction by the nearest multiple k
 #: of pi/2 in four parts (Cody-Waite; the first two products exact for |k| < 2^20), then fdlibm's minimax
@@ -78,25 +75,32 @@ SINCOS = """\
 
 # ----------------------------------------------------------------- tracing
 def data_vector(t: Tree) -> np.ndarray:
-    """The model's data as the kernels read it: [body (flat), total mass, end-effector points (flat)]."""
-    return np.concatenate([t.body.ravel(), [t.total_mass], t.ee_point.ravel()])
+    """The model's data as the kernels read it: the model's float buffer (:func:`~._tree.arrays`)."""
+    return t.floats
 
 
-def _symbolic_model(t: Tree, g: Graph) -> tuple[np.ndarray, Any, np.ndarray]:
-    """body, total mass and end-effector points with the structure as numbers and the data as inputs "data"."""
-    body = np.empty(t.body.shape, dtype=object)
-    for k in range(t.body.shape[0]):
-        for c in range(NF):
-            body[k, c] = float(t.body[k, c])
-        for c in _DATA_COLUMNS:
-            body[k, c] = g.input("data", k * NF + c)
-    base = t.body.size
-    total = g.input("data", base)
-    points = np.empty((t.ee_point.shape[0], 3), dtype=object)
-    for e in range(points.shape[0]):
-        for i in range(3):
-            points[e, i] = g.input("data", base + 1 + 3 * e + i)
-    return body, total, points
+def _symbolic_model(t: Tree, g: Graph) -> Any:
+    """The model's :data:`~._tree.Arrays` with the structure as numbers and the data as inputs "data" (slots of
+    ``t.floats``): every body field of role "data" in :data:`~._tree.BODY_FIELDS`, the total mass and the
+    end-effector points."""
+    fields: dict[str, np.ndarray] = {}
+    for f in BODY_FIELDS:
+        values = t.fields[f.name]
+        sym = np.array([float(v) for v in values.ravel()], dtype=object).reshape(values.shape)
+        if f.role == "data":
+            start = t.field_offset(f.name)
+            sym = np.array([g.input("data", start + i) for i in range(values.size)], dtype=object).reshape(values.shape)
+        fields[f.name] = sym
+    total_at = t.floats.shape[0] - t.ee_point.size - 1
+    points = np.array([g.input("data", total_at + 1 + i) for i in range(t.ee_point.size)], dtype=object).reshape(t.ee_point.shape)
+    return Arrays(
+        parent=_ints(t.parent),
+        ancestor=_ints(t.ancestor),
+        ee_body=_ints(t.ee_body),
+        total_mass=g.input("data", total_at),
+        ee_point=points,
+        **fields,
+    )
 
 
 def _ints(a: np.ndarray) -> np.ndarray:
@@ -111,16 +115,15 @@ def trace(t: Tree, kind: str) -> tuple[Graph, list[Any], int]:
     """
     mod = traced()
     g = Graph()
-    body, total, points = _symbolic_model(t, g)
-    nb = t.parent.shape[0]
+    m = _symbolic_model(t, g)
+    nb = t.n_bodies
     n = t.n_joints
     work = np.full(work_size(nb), 0.0, dtype=object)
     s = mod.recursions.scratch(work, nb)
-    parent, ancestor = _ints(t.parent), _ints(t.ancestor)
     if kind == "jstar":
         q = np.array([g.input("W", j) for j in range(n)], dtype=object)
         out = np.full((6 * t.ee_body.shape[0], n), 0.0, dtype=object)
-        mod.configuration.jstar_one(q, parent, body, ancestor, total, _ints(t.ee_body), points, s, out)
+        mod.configuration.jstar_one(q, m, s, out)
         if g.guards:  # map_blocks has no row to report a failed configuration
             raise AssertionError("freefloat: J* traced with guards; give the J* lane driver a row for them")
         return g, list(out.ravel()), n
@@ -130,8 +133,7 @@ def trace(t: Tree, kind: str) -> tuple[Graph, list[Any], int]:
         u = np.array([g.input("W", size + j) for j in range(n + 6)], dtype=object)
         dx = np.full((1, size), 0.0, dtype=object)
         none_i, none_f = np.zeros((0, 2), dtype=object), np.zeros((0, 9), dtype=object)
-        q = np.full(n, 0.0, dtype=object)
-        ok = mod.configuration.state_derivative_one(x, u, parent, body, ancestor, total, none_i, none_f, s, q, dx, 0)
+        ok = mod.configuration.state_derivative_one(x, u, m, none_i, none_f, s, dx, 0)
         if ok is not True:  # a pivot that folded to a number <= 0: the structure itself is singular
             raise AssertionError("freefloat: the traced state derivative failed on numbers alone")
         return g, list(dx.ravel()), size + n + 6
@@ -246,9 +248,6 @@ def source(t: Tree, kind: str) -> tuple[str, list[int], int]:
 
 
 # ----------------------------------------------------------------- the cache of structures
-_STRUCTURE_COLUMNS = tuple(c for c in range(NF) if c not in _DATA_COLUMNS)
-
-
 @functools.cache
 def _engine_key() -> str:
     here = Path(__file__).parent
@@ -261,7 +260,8 @@ def _engine_key() -> str:
 def structure_key(t: Tree, kind: str) -> str:
     """What the specialised kernels depend on: the tree, joint types, placements and axes, the end-effector bodies."""
     digest = hashlib.sha256(f"{kind}:{LANES}:{_engine_key()}".encode())
-    for arr in (t.parent, t.ancestor, t.ee_body, np.ascontiguousarray(t.body[:, _STRUCTURE_COLUMNS])):
+    structure = [t.fields[f.name] for f in BODY_FIELDS if f.role == "structure"]
+    for arr in (t.ints, *structure):
         digest.update(str(arr.shape).encode())
         digest.update(np.ascontiguousarray(arr).tobytes())
     return f"{kind}_{t.n_joints}j_{digest.hexdigest()[:20]}"

@@ -1,50 +1,219 @@
-"""The model as the arrays the engine's kernels take (:class:`Tree`), built once per model.
+"""The model layout: the model as named arrays, the form every kernel of the engine takes (built once per model).
 
-Mass properties are data here, never code: a new model or a payload variant
+A model reaches the kernels as two flat buffers, ``ints`` and ``floats`` (:class:`Tree`), and each
+kernel opens them with :func:`arrays` into an :data:`Arrays` named tuple: ``m.parent[k]``,
+``m.mass[k]``, ``m.inertia[k, i, j]``, ``m.total_mass``. Two buffers keep a kernel's argument
+list short (numba unboxes every array argument at each call from Python) and the names keep the
+kernels readable. Mass properties are data here, never code: a new model or a payload variant
 (:meth:`~freefloat.Model.with_payload`) is a new :class:`Tree` and compiles nothing.
+
+**Adding a per-body or per-joint parameter** (row k of a body field is body k; the joint of body k
+is joint k - 1, row 0 the spacecraft): add a :class:`Field` to :data:`BODY_FIELDS` (its shape, its
+role, and how it is read from the model), the same name to :data:`Arrays` and its view to
+:func:`arrays` (all three in this file; ``tests/mechanics/test_engine.py`` checks that they
+agree), then use ``m.<name>`` in the recursions (:mod:`._recursions`). The specialiser
+(:mod:`._specialise`) reads the layout from :data:`BODY_FIELDS`: a ``"data"`` field is read at run
+time by the specialised kernels (so payload variants share them), a ``"structure"`` field is folded
+into them as numbers.
 """
 
 from __future__ import annotations
 
 import threading
 import weakref
+from collections import namedtuple
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-__all__ = ["NF", "Tree", "tree", "work_size"]
+from ._numba_cache import kernel, unowned_floats, unowned_ints
 
-# columns of Tree.body (one row per body; row 0 the spacecraft)
-_T = 0  # joint position in the parent frame (3)
-_P0 = 3  # joint placement P (3x3, row-major)
-_P1 = 12  # P K, K the cross-product matrix of the axis
-_P2 = 21  # P K^2
-_AX = 30  # joint axis in the parent frame, P u (3)
-_M = 33  # mass
-_C = 34  # CM in the body frame (3)
-_I = 37  # inertia about the CM, body axes (3x3, row-major)
-_S = 46  # mass of the subtree of the body (itself included)
-_PR = 47  # 1.0 when the body's joint is prismatic (slides along the axis), 0.0 when revolute
-NF = 48
+__all__ = ["BODY_FIELDS", "Arrays", "Field", "Tree", "arrays", "tree", "work_size"]
+
+
+def _skew(u: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+
+
+def _turn_axis(model: Any, k: int) -> np.ndarray:
+    """The axis joint k - 1 turns about (zero for a prismatic joint and for the spacecraft row)."""
+    sliding = k > 0 and bool(model.prismatic[k - 1])
+    return np.zeros(3) if sliding else np.asarray(model.joint_axis[k], dtype=float)
+
+
+@dataclass(frozen=True)
+class Field:
+    """A named per-body array of the layout: ``shape`` per body, ``role`` ``"structure"`` (folded into specialised
+    kernels) or ``"data"`` (read at run time), ``read(model, k)`` the value of body k, and what it is."""
+
+    name: str
+    shape: tuple[int, ...]
+    role: str
+    read: Callable[[Any, int], Any]
+    doc: str
+
+    @property
+    def width(self) -> int:
+        return int(np.prod(self.shape, dtype=np.int64))
+
+
+#: The per-body fields, in buffer order (each one contiguous block of B rows).
+BODY_FIELDS: tuple[Field, ...] = (
+    Field("origin", (3,), "structure", lambda m, k: m.joint_origin[k], "joint position t_k in the parent frame (m)"),
+    Field("place", (3, 3), "structure", lambda m, k: m.joint_rotation[k], "joint placement P_k: parent <- joint frame at q = 0"),
+    Field(
+        "place_k",
+        (3, 3),
+        "structure",
+        lambda m, k: np.asarray(m.joint_rotation[k], dtype=float) @ _skew(_turn_axis(m, k)),
+        "P_k K_k, K_k the cross-product matrix of the turning axis (zero for a prismatic joint)",
+    ),
+    Field(
+        "place_k2",
+        (3, 3),
+        "structure",
+        lambda m, k: np.asarray(m.joint_rotation[k], dtype=float) @ _skew(_turn_axis(m, k)) @ _skew(_turn_axis(m, k)),
+        "P_k K_k^2 (Rodrigues: the joint rotation is P_k + sin q P_k K_k + (1 - cos q) P_k K_k^2)",
+    ),
+    Field(
+        "axis",
+        (3,),
+        "structure",
+        lambda m, k: np.asarray(m.joint_rotation[k], dtype=float) @ np.asarray(m.joint_axis[k], dtype=float),
+        "joint axis in the parent frame, P_k u_k",
+    ),
+    Field(
+        "prismatic",
+        (),
+        "structure",
+        lambda m, k: 1.0 if k > 0 and bool(m.prismatic[k - 1]) else 0.0,
+        "1.0 when the joint slides along its axis, 0.0 when it turns",
+    ),
+    Field("mass", (), "data", lambda m, k: m.mass[k], "mass m_k (kg)"),
+    Field("com", (3,), "data", lambda m, k: m.com[k], "CM in the body frame (m)"),
+    Field("inertia", (3, 3), "data", lambda m, k: m.inertia[k], "inertia about the CM, body axes (kg m^2)"),
+    Field(
+        "subtree_mass",
+        (),
+        "data",
+        lambda m, k: float(np.asarray(m.subtree, dtype=float)[k] @ np.asarray(m.mass, dtype=float)),
+        "mass of the subtree of body k, itself included (kg)",
+    ),
+)
+
+#: Floats per body (the sum of the field widths).
+BODY_WIDTH = sum(f.width for f in BODY_FIELDS)
+
+#: The model as the kernels see it: the tree (ints), the body fields of :data:`BODY_FIELDS` (floats, row k = body k),
+#: the total mass and the end-effector points.
+Arrays = namedtuple(
+    "Arrays",
+    [
+        "parent",  # (B,) int64: the parent body, -1 for the spacecraft
+        "ancestor",  # (B, B) int64: [i, k] = 1 when body i is body k or on its path to the spacecraft
+        "ee_body",  # (E,) int64: the body of each end effector
+        "origin",
+        "place",
+        "place_k",
+        "place_k2",
+        "axis",
+        "prismatic",
+        "mass",
+        "com",
+        "inertia",
+        "subtree_mass",  # the body fields, in BODY_FIELDS order
+        "total_mass",  # float: the system mass (kg)
+        "ee_point",  # (E, 3): each end effector in its body frame (m)
+    ],
+)
+
+
+@kernel(inline="always")
+def arrays(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - compiled
+    """The :data:`Arrays` of a model from its two buffers (:class:`Tree`; a buffer may continue past the model).
+
+    ints = [B, E, parent (B), ancestor (B x B), ee_body (E)]; floats = [the body fields of :data:`BODY_FIELDS`,
+    each (B, *shape), total mass, ee_point (E x 3)]. The views count no references (cheaper): the buffers
+    must be arguments of the calling kernel, held by its caller.
+    """
+    ints = unowned_ints(ints)
+    floats = unowned_floats(floats)
+    nb = ints[0]
+    ne = ints[1]
+    o = 2
+    parent = ints[o : o + nb]
+    o += nb
+    ancestor = ints[o : o + nb * nb].reshape((nb, nb))
+    o += nb * nb
+    ee_body = ints[o : o + ne]
+    f = 0
+    origin = floats[f : f + 3 * nb].reshape((nb, 3))
+    f += 3 * nb
+    place = floats[f : f + 9 * nb].reshape((nb, 3, 3))
+    f += 9 * nb
+    place_k = floats[f : f + 9 * nb].reshape((nb, 3, 3))
+    f += 9 * nb
+    place_k2 = floats[f : f + 9 * nb].reshape((nb, 3, 3))
+    f += 9 * nb
+    axis = floats[f : f + 3 * nb].reshape((nb, 3))
+    f += 3 * nb
+    prismatic = floats[f : f + nb]
+    f += nb
+    mass = floats[f : f + nb]
+    f += nb
+    com = floats[f : f + 3 * nb].reshape((nb, 3))
+    f += 3 * nb
+    inertia = floats[f : f + 9 * nb].reshape((nb, 3, 3))
+    f += 9 * nb
+    subtree_mass = floats[f : f + nb]
+    f += nb
+    total_mass = floats[f]
+    ee_point = floats[f + 1 : f + 1 + 3 * ne].reshape((ne, 3))
+    return Arrays(
+        parent, ancestor, ee_body, origin, place, place_k, place_k2, axis, prismatic, mass, com, inertia, subtree_mass, total_mass, ee_point
+    )
+
+
+@kernel(inline="always")
+def buffer_lengths(ints: np.ndarray) -> tuple[int, int]:  # pragma: no cover - compiled
+    """(length of the model's ints, of its floats) from the head of its ints: what follows them is the caller's."""
+    nb = ints[0]
+    ne = ints[1]
+    return 2 + nb + nb * nb + ne, nb * BODY_WIDTH + 1 + 3 * ne
 
 
 @dataclass(frozen=True, eq=False)
 class Tree:
-    """A model as the arrays the kernels take (read-only).
+    """A model as the engine's two buffers (read-only), with named views of them for Python.
 
-    parent (B,) int64, -1 for the spacecraft; body (B, NF) float64, the columns above;
-    ancestor (B, B) uint8, [i, k] = 1 when body i is body k or on its path to the spacecraft;
-    ee_body (E,) int64 and ee_point (E, 3), the end effectors (point in the body frame).
+    ``ints`` and ``floats``: see :func:`arrays`. ``fields``: the body fields by name, (B, *shape) views of
+    ``floats``. parent (B,), ancestor (B, B), ee_body (E,) and ee_point (E, 3) are views of the buffers.
     """
 
+    ints: np.ndarray
+    floats: np.ndarray
+    fields: dict[str, np.ndarray]
     parent: np.ndarray
-    body: np.ndarray
     ancestor: np.ndarray
     ee_body: np.ndarray
     ee_point: np.ndarray
     total_mass: float
     n_joints: int
+
+    @property
+    def n_bodies(self) -> int:
+        return int(self.parent.shape[0])
+
+    def field_offset(self, name: str) -> int:
+        """Where body field ``name`` starts in ``floats``."""
+        offset = 0
+        for f in BODY_FIELDS:
+            if f.name == name:
+                return offset
+            offset += f.width * self.n_bodies
+        raise KeyError(name)
 
 
 _TREES: weakref.WeakKeyDictionary[Any, Tree] = weakref.WeakKeyDictionary()
@@ -57,44 +226,39 @@ def tree(model: Any) -> Tree:
     if found is not None:
         return found
     n_b = model.n_bodies
-    body = np.zeros((n_b, NF))
-    axis = np.asarray(model.joint_axis, dtype=float)
-    for k in range(n_b):
-        u = axis[k]
-        sliding = k > 0 and bool(model.prismatic[k - 1])
-        w = 0.0 * u if sliding else u  # a prismatic joint does not turn: K = 0
-        kx = np.array([[0.0, -w[2], w[1]], [w[2], 0.0, -w[0]], [-w[1], w[0], 0.0]])
-        place = np.asarray(model.joint_rotation[k], dtype=float)
-        body[k, _T : _T + 3] = model.joint_origin[k]
-        body[k, _P0 : _P0 + 9] = place.ravel()
-        body[k, _P1 : _P1 + 9] = (place @ kx).ravel()
-        body[k, _P2 : _P2 + 9] = (place @ kx @ kx).ravel()
-        body[k, _AX : _AX + 3] = place @ u
-        body[k, _PR] = 1.0 if sliding else 0.0
-        body[k, _M] = model.mass[k]
-        body[k, _C : _C + 3] = model.com[k]
-        body[k, _I : _I + 9] = np.asarray(model.inertia[k], dtype=float).ravel()
-    ancestor = np.asarray(model.subtree, dtype=np.uint8)
-    body[:, _S] = ancestor.astype(float) @ np.asarray(model.mass, dtype=float)
+    ee_body = np.asarray(model.end_effector_body, dtype=np.int64)
+    ee_point = np.asarray(model.end_effector_point, dtype=float).reshape(-1, 3)
+    ancestor = np.asarray(model.subtree, dtype=np.int64)
+    ints = np.concatenate([[n_b, ee_body.shape[0]], np.asarray(model.parent, dtype=np.int64), ancestor.ravel(), ee_body]).astype(np.int64)
+    blocks = [np.array([np.asarray(f.read(model, k), dtype=float).reshape(f.shape) for k in range(n_b)]).ravel() for f in BODY_FIELDS]
+    floats = np.concatenate([*blocks, [float(model.total_mass)], ee_point.ravel()])
+    ints.setflags(write=False)
+    floats.setflags(write=False)
+    fields: dict[str, np.ndarray] = {}
+    offset = 0
+    for f in BODY_FIELDS:
+        fields[f.name] = floats[offset : offset + f.width * n_b].reshape((n_b, *f.shape))
+        offset += f.width * n_b
+    o = 2 + n_b
     out = Tree(
-        parent=np.ascontiguousarray(model.parent, dtype=np.int64),
-        body=body,
-        ancestor=np.ascontiguousarray(ancestor),
-        ee_body=np.ascontiguousarray(model.end_effector_body, dtype=np.int64),
-        ee_point=np.ascontiguousarray(np.asarray(model.end_effector_point, dtype=float).reshape(-1, 3)),
-        total_mass=float(model.total_mass),
+        ints=ints,
+        floats=floats,
+        fields=fields,
+        parent=ints[2:o],
+        ancestor=ints[o : o + n_b * n_b].reshape((n_b, n_b)),
+        ee_body=ints[o + n_b * n_b :],
+        ee_point=floats[offset + 1 :].reshape((-1, 3)),
+        total_mass=float(floats[offset]),
         n_joints=int(model.n_joints),
     )
-    for arr in (out.parent, out.body, out.ancestor, out.ee_body, out.ee_point):
-        arr.setflags(write=False)
     with _TREES_LOCK:
         _TREES[model] = out
     return out
 
 
-# One flat float64 buffer, sliced into views by _views (no allocation per configuration).
 def work_size(n_bodies: int) -> int:
     """Length of the scratch buffer of one configuration (the views of ``_recursions.Scratch``) for ``n_bodies`` bodies."""
     n = n_bodies - 1
     m = 3 + n
-    return 66 * n_bodies + 15 + 2 * m * m + m + 3 * n + 9 + 2 * (6 + n) + 5 * (13 + 2 * n)
+    size = 13 + 2 * n
+    return 66 * n_bodies + 15 + 2 * m * m + m + 3 * n + 9 + 2 * (6 + n) + 5 * size + n + size + (n + 6)
