@@ -363,3 +363,36 @@ def test_rollout_shows_progress_and_ctrl_c_keeps_the_finished_trajectories(monke
     calls.clear()
     stepped = rollout(model, states, 0.02, dt=1e-3, controller=batch_setup(model, 300)[1], progress=False)
     assert stepped.status == "interrupted" and stepped.t[-1] == pytest.approx(0.002) and stepped.q.shape[1] == 300
+
+
+def test_the_model_layout_is_one_named_list() -> None:
+    """The three parts of the model layout agree (mechanics/_tree.py): the fields of BODY_FIELDS, the names of Arrays
+    and the views arrays() makes of the buffers (run through the specialiser's traced twin: the same code)."""
+    from freefloat.mechanics import _trace, _tree
+
+    names = [f.name for f in _tree.BODY_FIELDS]
+    assert list(_tree.Arrays._fields) == ["parent", "ancestor", "ee_body", *names, "total_mass", "ee_point"]
+    assert _tree.BODY_WIDTH == sum(f.width for f in _tree.BODY_FIELDS)
+    model = build_random_model(np.random.default_rng(3), [3, 2], [0, None], [1, None], prismatic=0.5)
+    t = _tree.tree(model)
+    m = _trace.traced().configuration.arrays(t.ints, t.floats)
+    for f in _tree.BODY_FIELDS:
+        np.testing.assert_array_equal(getattr(m, f.name), t.fields[f.name])
+        for k in range(model.n_bodies):
+            np.testing.assert_array_equal(getattr(m, f.name)[k], np.reshape(f.read(model, k), f.shape))
+    np.testing.assert_array_equal(m.mass, model.mass)
+    np.testing.assert_array_equal(m.parent, model.parent)
+    np.testing.assert_array_equal(m.ee_point, np.reshape(model.end_effector_point, (-1, 3)))
+    assert m.total_mass == model.total_mass
+    assert _trace.traced().configuration.buffer_lengths(t.ints) == (t.ints.size, t.floats.size)
+
+
+def test_the_specialiser_traces_the_engine_kernels_themselves() -> None:
+    """The specialiser's interface to the engine (mechanics/_trace.py: ENTRY_POINTS, traced()): the traced functions
+    run the compiled kernels' own code (no copy of the source, no file read by path)."""
+    from freefloat.mechanics import _configuration, _recursions, _trace
+
+    space = _trace.traced().configuration
+    for name in (*_trace.ENTRY_POINTS.values(), "prepare", "newton_euler", "scratch"):
+        kernel = getattr(_configuration, name, None) or getattr(_recursions, name)
+        assert getattr(space, name).__code__ is kernel.py_func.__code__

@@ -41,9 +41,10 @@ from typing import Any
 
 import numpy as np
 
+from . import _configuration, _lanes, _numba_cache, _recursions, _trace, _tree
 from ._lanes import LANES
 from ._numba_cache import CacheWarning, cache_dir
-from ._trace import Graph, Sym, traced
+from ._trace import ENTRY_POINTS, Graph, Sym, traced
 from ._tree import BODY_FIELDS, Arrays, Tree, work_size
 
 __all__ = ["KINDS", "SINCOS", "emit", "find", "load", "specialise", "structure_key", "trace"]
@@ -123,7 +124,7 @@ def trace(t: Tree, kind: str) -> tuple[Graph, list[Any], int]:
     if kind == "jstar":
         q = np.array([g.input("W", j) for j in range(n)], dtype=object)
         out = np.full((6 * t.ee_body.shape[0], n), 0.0, dtype=object)
-        mod.configuration.jstar_one(q, m, s, out)
+        getattr(mod.configuration, ENTRY_POINTS["jstar"])(q, m, s, out)
         if g.guards:  # map_blocks has no row to report a failed configuration
             raise AssertionError("freefloat: J* traced with guards; give the J* lane driver a row for them")
         return g, list(out.ravel()), n
@@ -133,7 +134,7 @@ def trace(t: Tree, kind: str) -> tuple[Graph, list[Any], int]:
         u = np.array([g.input("W", size + j) for j in range(n + 6)], dtype=object)
         dx = np.full((1, size), 0.0, dtype=object)
         none_i, none_f = np.zeros((0, 2), dtype=object), np.zeros((0, 9), dtype=object)
-        ok = mod.configuration.state_derivative_one(x, u, m, none_i, none_f, s, dx, 0)
+        ok = getattr(mod.configuration, ENTRY_POINTS["rollout"])(x, u, m, none_i, none_f, s, dx, 0)
         if ok is not True:  # a pivot that folded to a number <= 0: the structure itself is singular
             raise AssertionError("freefloat: the traced state derivative failed on numbers alone")
         return g, list(dx.ravel()), size + n + 6
@@ -250,10 +251,9 @@ def source(t: Tree, kind: str) -> tuple[str, list[int], int]:
 # ----------------------------------------------------------------- the cache of structures
 @functools.cache
 def _engine_key() -> str:
-    here = Path(__file__).parent
     digest = hashlib.sha256()
-    for name in ("_trace.py", "_specialise.py", "_lanes.py", "_recursions.py", "_configuration.py", "_tree.py", "_numba_cache.py"):
-        digest.update((here / name).read_bytes())
+    for module in (_trace, sys.modules[__name__], _lanes, _recursions, _configuration, _tree, _numba_cache):  # what a kernel is made of
+        digest.update(Path(str(module.__file__)).read_bytes())
     return digest.hexdigest()[:12]
 
 

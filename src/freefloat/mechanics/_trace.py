@@ -30,16 +30,15 @@ compiled kernel, which reports the configurations where it fails, as the generic
 from __future__ import annotations
 
 import functools
-import importlib.util
 import math
-import sys
 import types
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["Graph", "Sym", "traced"]
+from . import _configuration, _recursions, _tree
+
+__all__ = ["ENTRY_POINTS", "Graph", "Sym", "traced"]
 
 Number = float
 
@@ -296,37 +295,30 @@ def _identity(x: Any) -> Any:
     return x
 
 
+#: The interface between the engine and the specialiser: the engine's one-configuration kernels the specialiser
+#: traces, by kind. Each is plain scalar Python over arrays (numba compiles it as written): arithmetic, ``math.sqrt``,
+#: ``math.sin``, ``math.cos``, loops and branches on the model's *structure* (numbers while tracing), and branches on
+#: data only through ``>`` / ``<`` comparisons (traced as guards). Every kernel they call is traced with them.
+ENTRY_POINTS = {"jstar": "jstar_one", "rollout": "state_derivative_one"}
+
+
 @functools.cache
 def traced() -> types.SimpleNamespace:
-    """The modules :mod:`._recursions` and :mod:`._configuration` loaded again, as plain Python on :class:`Sym` values.
+    """The engine's kernels (:mod:`._tree`, :mod:`._recursions`, :mod:`._configuration`) as plain Python on :class:`Sym` values.
 
-    The same source files are executed as modules of their own; then every kernel name in them is
-    rebound to the kernel's Python function (``py_func``), the views without reference counting to
-    the identity and ``math`` to the shim above: the one source, run by the interpreter instead of
-    numba (nothing is compiled).
+    Each kernel's Python function (``py_func``, the one source numba compiles) is rebound to a namespace in which
+    every kernel name is its traced twin, the views without reference counting are the identity and ``math`` is
+    the shim above: the same code, run by the interpreter instead of numba (nothing is compiled, no file is read).
     """
-    here = Path(__file__).parent
-    package = __name__.rpartition(".")[0]
-    loaded: dict[str, types.ModuleType] = {}
-    for name in ("_recursions", "_configuration"):
-        spec = importlib.util.spec_from_file_location(f"{package}._traced{name}", here / f"{name}.py")
-        assert spec is not None and spec.loader is not None
-        module = importlib.util.module_from_spec(spec)
-        module.__package__ = package
-        # the source's own imports run first and bind the compiled kernels; rebind them afterwards
-        spec.loader.exec_module(module)
-        for key, value in list(vars(module).items()):
-            py_func = getattr(value, "py_func", None)
-            if py_func is not None:
-                setattr(module, key, py_func)
-        module.math = _MATH  # type: ignore[attr-defined]
-        module.unowned_floats = _identity  # type: ignore[attr-defined]
-        module.unowned_ints = _identity  # type: ignore[attr-defined]
-        loaded[name] = module
-    conf = loaded["_configuration"]
-    for key in vars(conf):  # _configuration's names of _recursions' kernels: the traced ones
-        if key in vars(loaded["_recursions"]) and callable(getattr(loaded["_recursions"], key)):
-            setattr(conf, key, getattr(loaded["_recursions"], key))
-    sys.modules.pop(f"{package}._traced_recursions", None)
-    sys.modules.pop(f"{package}._traced_configuration", None)
-    return types.SimpleNamespace(recursions=loaded["_recursions"], configuration=loaded["_configuration"])
+    names: dict[str, Any] = {}
+    for module in (_tree, _recursions, _configuration):
+        names.update(vars(module))
+    twins: dict[str, Any] = {}
+    for key, value in list(names.items()):
+        py_func = getattr(value, "py_func", None)
+        if py_func is not None:
+            twins[key] = types.FunctionType(py_func.__code__, names, key, py_func.__defaults__, py_func.__closure__)
+    names.update(twins)
+    names.update(math=_MATH, unowned_floats=_identity, unowned_ints=_identity)
+    space = types.SimpleNamespace(**twins)
+    return types.SimpleNamespace(recursions=space, configuration=space)
