@@ -139,8 +139,11 @@ def test_the_allowed_homes_exist_and_are_the_two_algorithms() -> None:
         "J*": ("mechanics/_configuration.py::jstar_one", "mechanics/jacobians.py::_gj_barycentric"),
     }
     # the specialised kernels are the engine's J* and state derivative traced, not a third home
-    specialiser = (PACKAGE / "mechanics/_specialise.py").read_text(encoding="utf-8")
-    assert "configuration.jstar_one(" in specialiser and "configuration.state_derivative_one(" in specialiser
+    from freefloat.mechanics import _configuration, _trace
+
+    assert _trace.ENTRY_POINTS == {"jstar": "jstar_one", "rollout": "state_derivative_one"}
+    for name in _trace.ENTRY_POINTS.values():  # the traced functions run the engine kernels' own code
+        assert getattr(_trace.traced().configuration, name).__code__ is getattr(_configuration, name).py_func.__code__
     for quantity, pair in homes.items():
         for site in pair:
             rel, name = site.split("::")

@@ -210,3 +210,34 @@ def test_pair_inertias_are_transposes_of_each_other() -> None:
     rot = ff.body_rotations(model, np.random.default_rng(9).uniform(-np.pi, np.pi, size=model.n_joints))
     pair = _pair_inertias(model, rot[None])[0]
     np.testing.assert_allclose(pair, np.swapaxes(np.swapaxes(pair, 0, 1), -1, -2), rtol=0, atol=1e-12 * np.max(np.abs(pair)))
+
+
+def test_zero_momentum_rate_is_eq12_and_the_only_solve_of_d() -> None:
+    """zero_momentum_rate: the angular momentum of [0, omega0, qdot] is the h0 asked for (1992 eq. 12), in the vector,
+    matrix and map forms alike; and no other function of the package solves with the D block of H+."""
+    import ast
+    from pathlib import Path
+
+    model = ff.models.spacecraft_7dof()
+    rng = np.random.default_rng(11)
+    q = rng.uniform(-2.0, 2.0, (4, model.n_joints))
+    qdot = rng.normal(size=(4, model.n_joints))
+    h0 = rng.normal(size=(4, 3)) * 50.0
+    h_plus = ff.mechanics.system_inertia_matrix(model, q)
+    omega = ff.mechanics.zero_momentum_rate(h_plus, qdot, h0)
+    velocity = np.concatenate([np.zeros((4, 3)), omega, qdot], axis=1)
+    np.testing.assert_allclose(ff.mechanics.angular_momentum(model, q, velocity), h0, rtol=0, atol=1e-12 * np.abs(h0).max())
+    free = ff.mechanics.zero_momentum_rate(h_plus, qdot)
+    np.testing.assert_allclose(ff.mechanics.angular_momentum(model, q, np.concatenate([np.zeros((4, 3)), free, qdot], 1)), 0.0, atol=1e-11)
+    matrix = ff.mechanics.zero_momentum_rate(h_plus, qdot[..., None])  # K = 1 column
+    np.testing.assert_allclose(matrix[..., 0], free, rtol=1e-13, atol=1e-15)
+    np.testing.assert_allclose(np.einsum("kij,kj->ki", ff.mechanics.zero_momentum_rate(h_plus), qdot), free, rtol=1e-12, atol=1e-14)
+    package = Path(ff.__file__).parent
+    solvers = []
+    for path in sorted(package.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Call) and ast.unparse(node.func).endswith("linalg.solve"):
+                text = ast.unparse(node.args[0])
+                if "3:6, 3:6" in text or text.endswith(".D") or "[:3, :3]" in text or text == "d":  # the D block, however named
+                    solvers.append(f"{path.relative_to(package)}: {ast.unparse(node)}")
+    assert sorted(solvers) == ["mechanics/momentum.py: np.linalg.solve(d, d_q)", "mechanics/momentum.py: np.linalg.solve(d, rhs)"], solvers

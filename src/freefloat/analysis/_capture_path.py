@@ -30,7 +30,7 @@ from ..core import feedback
 from ..core.model import Model
 from ..mechanics.jacobians import generalized_jacobian
 from ..mechanics.kinematics import end_effector_positions
-from ..mechanics.momentum import system_inertia_matrix
+from ..mechanics.momentum import system_inertia_matrix, zero_momentum_rate
 from ._workspace_results import _freeze
 from .singularity import SingularityCriterion
 
@@ -121,7 +121,7 @@ def _rates(model: Model, e: int, q: np.ndarray, rot: np.ndarray, step_i: np.ndar
     step_0 = np.einsum("kji,kj->ki", rot, step_i)  # inertial -> spacecraft frame
     dq = np.einsum("kij,kj->ki", np.linalg.pinv(jac), step_0)  # minimum-norm joint step
     h = system_inertia_matrix(model, q)
-    dphi = -np.linalg.solve(h[:, 3:6, 3:6], np.einsum("kij,kj->ki", h[:, 3:6, 6:], dq)[..., None])[..., 0]  # D ω0 + D_q q̇ = 0 (eq. 12)
+    dphi = zero_momentum_rate(h, dq)  # D ω0 + D_q q̇ = 0 (eq. 12)
     return dq, dphi
 
 

@@ -32,7 +32,7 @@ from scipy.spatial.transform import Rotation
 from ..core.builder import ModelBuilder
 from ..core.errors import ModelError
 from ..core.model import Model
-from .model_files import EndEffectors, _end_effector_specs, physical_inertia
+from ._readers import EndEffectors, end_effector_specs, physical_inertia
 
 __all__ = ["from_mjmodel", "load_mjcf"]
 
@@ -139,7 +139,7 @@ def from_mjmodel(mj: Any, source: str = "", *, end_effectors: EndEffectors = Non
         )
 
     sites = {_name(mujoco, mj, obj.mjOBJ_SITE, s, "site"): s for s in range(mj.nsite)}
-    named = _end_effector_specs(end_effectors, where)
+    named = end_effector_specs(end_effectors, where)
     rule = None
     if not named:
         leaf_sites = [n for n, s in sites.items() if int(mj.site_bodyid[s]) not in has_child and int(mj.site_bodyid[s]) != 0]

@@ -28,7 +28,9 @@ from scipy.spatial.transform import Rotation
 
 from ..core.builder import ModelBuilder
 from ..core.errors import ModelCorrectionWarning, ModelError
-from ..core.model import Model, inertia_defect, nearest_physical_inertia, resolve_model
+from ..core.model import Model, resolve_model
+from ._readers import EndEffectors, end_effector_specs, physical_inertia
+from .mjcf import load_mjcf
 
 __all__ = ["load", "load_toml", "load_urdf", "save", "to_toml_dict", "to_urdf_string"]
 
@@ -37,9 +39,6 @@ _JOINT_KEYS = {"name", "type", "parent", "child", "origin", "rpy", "axis", "limi
 _TOP_KEYS = {"name", "description", "bodies", "joints", "end_effectors", "corrections"}
 _CORRECTION_KEYS = {"body", "field", "given", "why"}
 _EE_KEYS = {"name", "body", "point"}
-
-#: What a user may pass as ``end_effectors=``: link (body) names, or (name, link, point) triples.
-EndEffectors = Sequence[str | tuple[str, str, Sequence[float]]] | None
 
 
 def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool = False) -> Model:
@@ -69,8 +68,6 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
     elif suffix == ".urdf" or (suffix == ".xml" and not _is_mjcf(path)):
         model = load_urdf(path, end_effectors=end_effectors, strict=strict)
     elif suffix in (".xml", ".mjcf"):
-        from .mjcf import load_mjcf
-
         model = load_mjcf(path, end_effectors=end_effectors, strict=strict)
     else:
         raise ModelError(str(path), f"unknown model file type {suffix!r}", "use a .toml (freefloat schema), .urdf or MJCF .xml file")
@@ -117,22 +114,6 @@ def check_whole_model(model: Model) -> None:
         )
 
 
-def _end_effector_specs(end_effectors: EndEffectors, source: str) -> list[tuple[str, str, Any]]:
-    """(name, body, point) for each entry of ``end_effectors=``."""
-    out: list[tuple[str, str, Any]] = []
-    for i, entry in enumerate(end_effectors or ()):
-        if isinstance(entry, str):
-            out.append((entry, entry, (0.0, 0.0, 0.0)))
-        elif isinstance(entry, (tuple, list)) and len(entry) == 3:
-            out.append((str(entry[0]), str(entry[1]), entry[2]))
-        else:
-            raise ModelError(
-                f"{source}: end_effectors[{i}]", f"cannot read {entry!r}", "give a link name or a (name, link, [x, y, z]) triple"
-            )
-    return out
-
-
-# --------------------------------------------------------------------- TOML
 def read_toml(path: str | Path, what: str = "model file") -> dict[str, Any]:
     """The table of a TOML file; malformed TOML or text that is not UTF-8 is a ModelError naming the file."""
     path = Path(path)
@@ -209,7 +190,7 @@ def from_dict(data: dict[str, Any], source: str = "", *, end_effectors: EndEffec
             type=joint.get("type", "revolute"),
             limits=joint.get("limits"),
         )
-    named = _end_effector_specs(end_effectors, source)
+    named = end_effector_specs(end_effectors, source)
     if not named:
         for path, entry in _table_array(data, "end_effectors", _EE_KEYS):
             named.append(
@@ -366,40 +347,6 @@ def load_urdf(path: str | Path, *, end_effectors: EndEffectors = None, strict: b
     return from_urdf_robot(urdf.robot, source=str(path), end_effectors=end_effectors, strict=strict)
 
 
-def physical_inertia(inertia: np.ndarray, path: str, strict: bool, corrections: list[dict[str, Any]]) -> np.ndarray:
-    """``inertia`` if physical (zero and semi-definite allowed); else the nearest physical one, with a warning and a record.
-
-    ``strict``: a non-physical inertia is a :class:`ModelError` instead. Shared by the URDF and MJCF readers.
-    """
-    defect = inertia_defect(inertia, degenerate_ok=True)
-    if defect is None:
-        return inertia
-    fix = "use the inertia of a real body about its CM (symmetric, principal moments >= 0, each <= the sum of the other two)"
-    if strict:
-        raise ModelError(path, defect, f"{fix}; or load with strict=False to use the nearest physical inertia, with a warning")
-    fixed = nearest_physical_inertia(inertia)
-    change = float(np.linalg.norm(fixed - inertia))
-    largest = float(np.max(np.abs(np.linalg.eigvalsh(0.5 * (inertia + inertia.T))))) if np.all(np.isfinite(inertia)) else np.inf
-    record = {
-        "where": path,
-        "field": "inertia",
-        "defect": defect,
-        "correction": "nearest physical inertia (Frobenius norm): principal axes kept, moments projected onto {I_k >= 0, I_a <= I_b + I_c}",
-        "given": np.asarray(inertia, dtype=float).tolist(),
-        "used": fixed.tolist(),
-        "change_kg_m2": change,
-        "relative_change": change / largest if largest > 0 else np.inf,
-    }
-    corrections.append(record)
-    warnings.warn(
-        f"{path} {defect}; using the nearest physical inertia (change {change:.3g} kg m^2,"
-        f" {record['relative_change']:.1%} of the largest moment). Load with strict=True to refuse instead.",
-        ModelCorrectionWarning,
-        stacklevel=3,
-    )
-    return fixed
-
-
 def missing_limit(path: str, kind: str, strict: bool, corrections: list[dict[str, Any]]) -> None:
     """A URDF revolute or prismatic joint without ``<limit>``, which the URDF specification requires: taken as
     unlimited (a continuous joint, an unlimited slide) with a warning and a record; ``strict``: a ModelError."""
@@ -483,7 +430,7 @@ def from_urdf_robot(robot: Any, source: str = "", *, end_effectors: EndEffectors
             )
         except ModelError as exc:
             raise ModelError(f"{path}.{exc.field.split('.')[-1]}", exc.problem, exc.fix) from None
-    for name, body, point in _end_effector_specs(end_effectors, source or "urdf"):
+    for name, body, point in end_effector_specs(end_effectors, source or "urdf"):
         builder.add_end_effector(name, body=body, point=point)
     return builder.build(source=source, corrections=corrections)
 

@@ -59,6 +59,7 @@ from .momentum import (
     kinetic_energy,
     linear_momentum,
     system_inertia_matrix,
+    zero_momentum_rate,
 )
 from .specialised import is_specialised, specialise
 
@@ -98,4 +99,5 @@ __all__ = [
     "system_inertia_matrix",
     "system_inertia_matrix_rate",
     "task_jacobian",
+    "zero_momentum_rate",
 ]

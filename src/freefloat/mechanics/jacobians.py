@@ -32,7 +32,7 @@ from . import _engine
 from ._arrays import chunked, finite_vector, joint_array, pieces
 from ._inputs import check_method
 from .kinematics import _rotations, _slides, body_rotations
-from .momentum import _hplus_barycentric
+from .momentum import _hplus_barycentric, zero_momentum_rate
 
 __all__ = [
     "actuation_jacobian",
@@ -213,7 +213,7 @@ def _gj_barycentric(model: Model, qq: np.ndarray) -> np.ndarray:
     """Kernel: J* (C, 6E, N) from the barycentric J+ terms and inertia blocks (1992 eqs. 12-14), the reference."""
     rot = _rotations(model, qq)
     h = _hplus_barycentric(model, qq)
-    x = np.linalg.solve(h[:, 3:6, 3:6], h[:, 3:6, 6:])  # omega0 = -x qdot   (1992 eq. 12 with zero momentum)
+    x = -zero_momentum_rate(h)  # omega0 = -x qdot   (1992 eq. 12 with zero momentum)
     rho, j12, j22 = _point_terms(model, rot, model.bary.end_effector_table, model.end_effector_body, qq)
     n_e = rho.shape[1]
     out = np.empty((qq.shape[0], n_e, 6, model.n_joints))
@@ -250,8 +250,8 @@ def generalized_jacobian_drift(
     t0 = attitude_matrix(attitude)
     h = finite_vector(angular_momentum, 3, "angular_momentum", "N m s, inertial frame")
     h0 = np.einsum("...ji,...j->...i", t0, h)
-    d = _engine.inertia_matrix(model, q)[..., 3:6, 3:6]
-    wd = np.linalg.solve(d, h0[..., None])[..., 0]
+    h_plus = _engine.inertia_matrix(model, q)
+    wd = zero_momentum_rate(h_plus, np.zeros((*h_plus.shape[:-2], model.n_joints)), h0)  # at qdot = 0
     rho = _engine.points(model, q, model.end_effector_body, model.end_effector_point)  # (..., E, 3)
     wd_e = np.broadcast_to(wd[..., None, :], np.broadcast_shapes(wd[..., None, :].shape, rho.shape))
     drift0 = np.concatenate([np.cross(wd_e, rho), wd_e], axis=-1)  # (..., E, 6)

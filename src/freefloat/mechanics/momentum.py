@@ -46,6 +46,7 @@ __all__ = [
     "kinetic_energy",
     "linear_momentum",
     "system_inertia_matrix",
+    "zero_momentum_rate",
 ]
 
 
@@ -171,6 +172,30 @@ def inertia_blocks(model: Model, q: Any, *, method: str = "recursive") -> Inerti
     return InertiaBlocks(D=h[..., 3:6, 3:6], D_q=h[..., 3:6, 6:], D_qq=h[..., 6:, 6:])
 
 
+def zero_momentum_rate(h_plus: np.ndarray, qdot: np.ndarray | None = None, h0: np.ndarray | None = None) -> np.ndarray:
+    """The spacecraft rate of a free-floating system, from H+: the one home of 1992 eq. 12.
+
+    The angular momentum about the system CM, spacecraft frame, is h0 = D omega0 + D_q qdot, so
+    omega0 = D^-1 (h0 - D_q qdot) (spacecraft frame, rad/s). ``h_plus``: H+ (..., 6 + N, 6 + N) (1991 eq. 15);
+    ``qdot``: joint rates (..., N) giving (..., 3), or K columns of them (..., N, K) giving (..., 3, K); None: the
+    map itself, -D^-1 D_q (..., 3, N) (omega0 = map qdot at zero momentum); ``h0``: (..., 3), None for zero
+    momentum.
+    """
+    d = h_plus[..., 3:6, 3:6]
+    d_q = h_plus[..., 3:6, 6:]
+    if qdot is None:
+        if h0 is not None:
+            raise ValueError("zero_momentum_rate: h0 needs qdot")
+        return -np.linalg.solve(d, d_q)
+    qd = np.asarray(qdot, dtype=float)
+    column = qd.ndim == h_plus.ndim - 1  # (..., N): one rate vector
+    rhs = -(d_q @ (qd[..., None] if column else qd))
+    if h0 is not None:
+        rhs = rhs + np.asarray(h0, dtype=float)[..., :, None]
+    out = np.linalg.solve(d, rhs)
+    return out[..., 0] if column else out
+
+
 def free_floating_joint_inertia(model: Model, q: Any) -> np.ndarray:
     """Joint-space inertia with the spacecraft free, (..., N, N): D_qq - D_q^T D^-1 D_q.
 
@@ -179,8 +204,8 @@ def free_floating_joint_inertia(model: Model, q: Any) -> np.ndarray:
     generalized inertia matrix of the free-floating system). Its diagonal entry i
     is joint i's effective inertia (kg m^2) with the other joints held.
     """
-    blocks = inertia_blocks(model, q)
-    return blocks.D_qq - np.swapaxes(blocks.D_q, -1, -2) @ np.linalg.solve(blocks.D, blocks.D_q)
+    h = system_inertia_matrix(model, q)
+    return h[..., 6:, 6:] + np.swapaxes(h[..., 3:6, 6:], -1, -2) @ zero_momentum_rate(h)
 
 
 def _velocity(model: Model, velocity: Any) -> np.ndarray:

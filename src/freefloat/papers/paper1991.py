@@ -39,7 +39,7 @@ from ..core.state import State
 from ..mechanics.dynamics import spacecraft_fixed_dynamics
 from ..mechanics.jacobians import generalized_jacobian, jacobian_determinant, point_jacobian
 from ..mechanics.kinematics import end_effector_positions, point_positions
-from ..mechanics.momentum import inertia_blocks
+from ..mechanics.momentum import system_inertia_matrix, zero_momentum_rate
 from ..models import papadopoulos1991
 from ..simulation.simulate import simulate
 from ..simulation.trajectory import Trajectory
@@ -180,8 +180,7 @@ def run_free_floating(steps: int = 400) -> FreeFloatingPath:
         x, rot = ee(y)
         jac = rot @ generalized_jacobian(model, y[1:])[0:2]
         qdot = np.linalg.solve(jac, (b - a) + PATH_GAIN * (a + s * (b - a) - x))
-        blocks = inertia_blocks(model, y[1:])
-        omega0 = -np.linalg.solve(blocks.D, blocks.D_q @ qdot)[2]  # zero angular momentum (1992 eq. 12)
+        omega0 = zero_momentum_rate(system_inertia_matrix(model, y[1:]), qdot)[2]  # zero angular momentum (1992 eq. 12)
         return np.concatenate([[omega0], qdot])
 
     def det_event(s: float, y: np.ndarray) -> float:

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..core.model import Model
 from ..mechanics import _engine
+from ..mechanics.momentum import zero_momentum_rate
 from .trajectory import JointLimitEvent
 
 __all__ = ["MODES", "JointStops", "limit_violations"]
@@ -108,11 +109,12 @@ class JointStops:
                 continue
             limit = self.upper[i] if side == "upper" else self.lower[i]
             # back on the limit, the angular momentum kept: omega0 = D^-1 (h0 - D_q qdot)
-            block = _engine.inertia_matrix(self.model, np.ascontiguousarray(q, dtype=float))[3:, 3:]  # a computed state: no input checks
-            h0 = block[:3] @ np.concatenate([omega, qdot])
+            h_plus = _engine.inertia_matrix(self.model, np.ascontiguousarray(q, dtype=float))  # a computed state: no input checks
+            h0 = h_plus[3:6, 3:] @ np.concatenate([omega, qdot])
             q[i] = limit
-            block = _engine.inertia_matrix(self.model, np.ascontiguousarray(q, dtype=float))[3:, 3:]  # a computed state: no input checks
-            omega[:] = np.linalg.solve(block[:3, :3], h0 - block[:3, 3:] @ qdot)
+            h_plus = _engine.inertia_matrix(self.model, np.ascontiguousarray(q, dtype=float))
+            omega[:] = zero_momentum_rate(h_plus, qdot, h0)
+            block = h_plus[3:, 3:]
             rate = float(qdot[i])
             if (rate > 0.0) if side == "upper" else (rate < 0.0):
                 unit = np.zeros(n + 3)
