@@ -326,10 +326,10 @@ def test_scratch_buffers_are_always_kernel_arguments() -> None:
                     ok = isinstance(arg, ast.Name) and arg.id in params | sliced
                     assert ok, f"{name}::{func.name}: {ast.unparse(call)}"
     assert sorted(sites) == [
-        "_configuration.py::unpack::arrays",
-        "_configuration.py::unpack::scratch",
         "_drivers.py::_serial_template::arrays",
         "_drivers.py::_serial_template::scratch",
+        "_drivers.py::unpack::arrays",
+        "_drivers.py::unpack::scratch",
     ]
 
 

@@ -16,18 +16,16 @@ from typing import Any
 
 import numpy as np
 
-from ._numba_cache import kernel, unowned_floats, unowned_ints
+from ._numba_cache import kernel
 from ._recursions import (
     centroidal_blocks,
     cholesky_solve,
     newton_euler,
     point_from_origin,
     prepare,
-    scratch,
     solve3,
     unit_momenta,
 )
-from ._tree import arrays, buffer_lengths
 
 
 @kernel(inline="always")
@@ -230,112 +228,16 @@ def state_derivative_one(
 
 
 @kernel(inline="always")
-def rk4_step(
-    x: np.ndarray, u: np.ndarray, dt: float, m: Any, ext_i: np.ndarray, ext_f: np.ndarray, s: Any
-) -> bool:  # pragma: no cover - compiled
-    """One classical RK4 step of x in place (u held), then the quaternion renormalised; False if H+ failed.
+def state_derivative_lane(W: np.ndarray, P: Any) -> None:  # pragma: no cover - compiled
+    """:func:`state_derivative_one` as the lane kernel of one trajectory for the RK4 rows of :mod:`._lanes` (width 1).
 
-    The four stages run in one loop so that the derivative is compiled (inlined) once.
+    W = [y (S), u (N + 6), dy/dt (S), ok (1), ...]; P = (model, ext_i, ext_f of the trajectory, scratch). ok is set
+    to 0.0 when H+ is not positive definite.
     """
-    size = x.shape[0]
-    k, y = s.k, s.y
-    ok = True
-    for i in range(size):
-        y[i] = x[i]
-    for stage in range(4):
-        ok &= state_derivative_one(y, u, m, ext_i, ext_f, s, k, stage)
-        if stage < 3:
-            c = dt if stage == 2 else 0.5 * dt
-            for i in range(size):
-                y[i] = x[i] + c * k[stage, i]
-    c = dt / 6.0
-    for i in range(size):
-        x[i] = x[i] + c * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
-    norm = math.sqrt(x[6] * x[6] + x[7] * x[7] + x[8] * x[8] + x[9] * x[9])
-    for i in range(6, 10):
-        x[i] = x[i] / norm
-    return ok
-
-
-@kernel(inline="always")
-def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - compiled
-    """The model, its external wrenches and the scratch of one trajectory from the two buffers of
-    :func:`~._engine.Stepper` (fewer arguments: numba unboxes each array argument at ~0.1 us a call).
-
-    ints = [the model's ints (:func:`~._tree.arrays`), W, WATCH, REASON, ext_i (W x 2)];
-    floats = [the model's floats, ext_f (W x 9), watch (1 + 2N), work (work_size(B))].
-    WATCH 1: :func:`rk4_steps` watches the state (see there); REASON: why it stopped early (ints[o + 2]).
-    """
-    m = arrays(ints, floats)
-    o, f = buffer_lengths(ints)
-    ints = unowned_ints(ints)  # views without reference counting: the caller holds both buffers
-    floats = unowned_floats(floats)
-    nb = m.parent.shape[0]
-    nw = ints[o]
-    header = ints[o : o + 3]
-    ext_i = ints[o + 3 : o + 3 + 2 * nw].reshape((nw, 2))
-    ext_f = floats[f : f + 9 * nw].reshape((nw, 9))
-    f += 9 * nw
-    watch = floats[f : f + 2 * nb - 1]
-    f += 2 * nb - 1
-    work = floats[f:]
-    return m, ext_i, ext_f, watch, header, scratch(work, nb)
-
-
-@kernel(inline="always")
-def watched(x: np.ndarray, watch: np.ndarray) -> int:  # pragma: no cover - compiled
-    """Why x needs a look from Python (0: it does not): 1 a rate above watch[0] (joint rates, or sqrt(3) times a
-    spacecraft rate component: a bound on |omega0|), 2 a joint beyond [watch[1 + j], watch[1 + N + j]], 3 both."""
-    n = (watch.shape[0] - 1) // 2
-    fast = watch[0]
-    reason = 0
-    for i in range(3):
-        if 1.7320508075688772 * abs(x[10 + i]) > fast:
-            reason = 1
-    for j in range(n):
-        if abs(x[13 + n + j]) > fast:
-            reason = 1
-    for j in range(n):
-        v = x[13 + j]
-        if v < watch[1 + j] or v > watch[1 + n + j]:
-            reason |= 2
-            break
-    return reason
-
-
-@kernel()
-def rk4_steps(
-    ints: np.ndarray, floats: np.ndarray, x: np.ndarray, u: np.ndarray, dt: float, nsteps: int
-) -> int:  # pragma: no cover - compiled
-    """``nsteps`` RK4 steps of one state x in place under the held u (the model in the buffers of :func:`unpack`).
-
-    Returns ``nsteps``; or k < nsteps when H+ was not positive definite in step k (k steps done);
-    or -(k + 1) when x became non-finite in step k (k + 1 steps done). When the buffers say WATCH,
-    it also stops after the step k whose state needs a look (:func:`watched`: a fast rate, a joint
-    beyond a limit), returns k + 1 and leaves the reason in ints[4] (0 otherwise).
-    """
-    m, ext_i, ext_f, watch, header, s = unpack(ints, floats)
-    header[2] = 0
-    for step in range(nsteps):
-        if not rk4_step(x, u, dt, m, ext_i, ext_f, s):
-            return step
-        total = 0.0
-        for i in range(x.shape[0]):
-            total += x[i]
-        if not math.isfinite(total):
-            return -(step + 1)
-        if header[1] != 0:
-            reason = watched(x, watch)
-            if reason != 0:
-                header[2] = reason
-                return step + 1
-    return nsteps
-
-
-@kernel()
-def state_derivative(
-    ints: np.ndarray, floats: np.ndarray, x: np.ndarray, u: np.ndarray, dx: np.ndarray
-) -> bool:  # pragma: no cover - compiled
-    """:func:`state_derivative_one` from Python (the model in the buffers of :func:`unpack`)."""
-    m, ext_i, ext_f, _, _, s = unpack(ints, floats)
-    return state_derivative_one(x, u, m, ext_i, ext_f, s, dx.reshape((1, dx.shape[0])), 0)
+    m, ext_i, ext_f, s = P
+    n = m.parent.shape[0] - 1
+    size = 13 + 2 * n
+    nu = n + 6
+    dy = W[size + nu : 2 * size + nu].reshape((1, size))
+    if not state_derivative_one(W[:size], W[size : size + nu], m, ext_i, ext_f, s, dy, 0):
+        W[2 * size + nu] = 0.0

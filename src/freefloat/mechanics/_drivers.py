@@ -25,11 +25,19 @@ import numba
 import numpy as np
 from numba import prange
 
-from ._configuration import accelerations_one, hplus_one, jstar_one, point_jacobian_one, points_one, rk4_step, state_derivative_one
-from ._lanes import joint_pd
-from ._numba_cache import kernel
+from ._configuration import (
+    accelerations_one,
+    hplus_one,
+    jstar_one,
+    point_jacobian_one,
+    points_one,
+    state_derivative_lane,
+    state_derivative_one,
+)
+from ._lanes import rk4_rows, rollout_blocks
+from ._numba_cache import kernel, unowned_floats, unowned_ints
 from ._recursions import kinematics, newton_euler, prepare, scratch
-from ._tree import Tree, arrays, work_size
+from ._tree import Tree, arrays, buffer_lengths, work_size
 
 __all__ = [
     "BLOCK",
@@ -107,6 +115,102 @@ def driver(name: str, row: Any, *, block: int = BLOCK, parallel_min: int | None 
     return Batched(serial, parallel, parallel_min)
 
 
+# ----------------------------------------------------------------- one trajectory stepped from Python (the Stepper)
+@kernel(inline="always")
+def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - compiled
+    """The model, its external wrenches and the scratch of one trajectory from the two buffers of
+    :func:`~._engine.Stepper` (fewer arguments: numba unboxes each array argument at ~0.1 us a call).
+
+    ints = [the model's ints (:func:`~._tree.arrays`), W, WATCH, REASON, ext_i (W x 2)];
+    floats = [the model's floats, ext_f (W x 9), watch (1 + 2N), work (work_size(B))].
+    WATCH 1: :func:`rk4_steps` watches the state (see there); REASON: why it stopped early (ints[o + 2]).
+    """
+    m = arrays(ints, floats)
+    o, f = buffer_lengths(ints)
+    ints = unowned_ints(ints)  # views without reference counting: the caller holds both buffers
+    floats = unowned_floats(floats)
+    nb = m.parent.shape[0]
+    nw = ints[o]
+    header = ints[o : o + 3]
+    ext_i = ints[o + 3 : o + 3 + 2 * nw].reshape((nw, 2))
+    ext_f = floats[f : f + 9 * nw].reshape((nw, 9))
+    f += 9 * nw
+    watch = floats[f : f + 2 * nb - 1]
+    f += 2 * nb - 1
+    work = floats[f:]
+    return m, ext_i, ext_f, watch, header, scratch(work, nb)
+
+
+@kernel(inline="always")
+def watched(x: np.ndarray, watch: np.ndarray) -> int:  # pragma: no cover - compiled
+    """Why x needs a look from Python (0: it does not): 1 a rate above watch[0] (joint rates, or sqrt(3) times a
+    spacecraft rate component: a bound on |omega0|), 2 a joint beyond [watch[1 + j], watch[1 + N + j]], 3 both."""
+    n = (watch.shape[0] - 1) // 2
+    fast = watch[0]
+    reason = 0
+    for i in range(3):
+        if 1.7320508075688772 * abs(x[10 + i]) > fast:
+            reason = 1
+    for j in range(n):
+        if abs(x[13 + n + j]) > fast:
+            reason = 1
+    for j in range(n):
+        v = x[13 + j]
+        if v < watch[1 + j] or v > watch[1 + n + j]:
+            reason |= 2
+            break
+    return reason
+
+
+@kernel()
+def rk4_steps(
+    ints: np.ndarray, floats: np.ndarray, x: np.ndarray, u: np.ndarray, dt: float, nsteps: int
+) -> int:  # pragma: no cover - compiled
+    """``nsteps`` RK4 steps of one state x in place under the held u (the model in the buffers of :func:`unpack`).
+
+    Returns ``nsteps``; or k < nsteps when H+ was not positive definite in step k (k steps done);
+    or -(k + 1) when x became non-finite in step k (k + 1 steps done). When the buffers say WATCH,
+    it also stops after the step k whose state needs a look (:func:`watched`: a fast rate, a joint
+    beyond a limit), returns k + 1 and leaves the reason in ints[4] (0 otherwise).
+    """
+    m, ext_i, ext_f, watch, header, s = unpack(ints, floats)
+    header[2] = 0
+    size = x.shape[0]
+    nu = u.shape[0]
+    W = s.rows  # the RK4 rows of one trajectory: [y, u, dy/dt, ok, x, ...] (_lanes.rk4_rows)
+    o_ok = 2 * size + nu
+    for i in range(nu):
+        W[size + i] = u[i]
+    P = (m, ext_i, ext_f, s)
+    for step in range(nsteps):
+        for i in range(size):
+            W[o_ok + 1 + i] = x[i]
+        rk4_rows(state_derivative_lane, P, W, 1, size, nu, dt)
+        if W[o_ok] == 0.0:
+            return step
+        total = 0.0
+        for i in range(size):
+            x[i] = W[o_ok + 1 + i]
+            total += x[i]
+        if not math.isfinite(total):
+            return -(step + 1)
+        if header[1] != 0:
+            reason = watched(x, watch)
+            if reason != 0:
+                header[2] = reason
+                return step + 1
+    return nsteps
+
+
+@kernel()
+def state_derivative(
+    ints: np.ndarray, floats: np.ndarray, x: np.ndarray, u: np.ndarray, dx: np.ndarray
+) -> bool:  # pragma: no cover - compiled
+    """:func:`state_derivative_one` from Python (the model in the buffers of :func:`unpack`)."""
+    m, ext_i, ext_f, _, _, s = unpack(ints, floats)
+    return state_derivative_one(x, u, m, ext_i, ext_f, s, dx.reshape((1, dx.shape[0])), 0)
+
+
 # ----------------------------------------------------------------- the rows
 @kernel(inline="always")
 def _frames_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
@@ -168,50 +272,32 @@ def _derivative_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
 
 @kernel(inline="always")
 def _rollout_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
-    """Fixed-step RK4 of trajectory b (row of X0 (K, S)) with the joint PD u = ff[k] + kp (qref - q) + kd (vref - qdot).
-
-    a = (X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, ext_i, EXT, XS, US, SAT, DONE). The controller
-    is sampled every ``hold`` steps (ff[k] at sample k, the last one held), clipped to +-lim; states, actuations
-    and saturation flags are recorded at step 0, every ``stride`` steps and at the last step. DONE[b] = the steps
-    completed (fewer: a non-finite state or H+ failed; the records after it are NaN).
-    """
+    """Trajectory b of a rollout (the loop of :func:`~._lanes.rollout_blocks`, one lane wide, on the engine's state
+    derivative). a = (X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, ext_i, EXT, XS, US, SAT, DONE)."""
     X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, ext_i, EXT, XS, US, SAT, DONE = a
-    n = m.parent.shape[0] - 1
-    size = X0.shape[1]
-    x, u = s.state, s.control
-    for j in range(n + 6):
-        u[j] = 0.0
-    for i in range(size):
-        x[i] = X0[b, i]
-    row = 0
-    sample = 0
-    flag = False
-    DONE[b] = steps
-    for step in range(steps + 1):
-        if step > 0:
-            ok = rk4_step(x, u, dt, m, ext_i, EXT[b], s)
-            total = 0.0
-            for i in range(size):
-                total += x[i]
-            if not ok or not math.isfinite(total):
-                DONE[b] = step - 1 if not ok else step
-                for r in range(row, XS.shape[0]):
-                    for i in range(size):
-                        XS[r, b, i] = np.nan
-                    for j in range(n + 6):
-                        US[r, b, j] = np.nan
-                    SAT[r, b] = False
-                break
-        if step == 0 or (step % hold == 0 and step < steps):
-            flag = joint_pd(ff, min(sample, ff.shape[0] - 1), b, kp, kd, qref, vref, lim, x, 0, u, 0, 1)
-            sample += 1
-        if step == 0 or step % stride == 0 or step == steps:
-            for i in range(size):
-                XS[row, b, i] = x[i]
-            for j in range(n + 6):
-                US[row, b, j] = u[j]
-            SAT[row, b] = flag
-            row += 1
+    rollout_blocks(
+        state_derivative_lane,
+        (m, ext_i, EXT[b], s),
+        1,
+        b,
+        b + 1,
+        X0,
+        dt,
+        steps,
+        hold,
+        stride,
+        kp,
+        kd,
+        qref,
+        vref,
+        ff,
+        lim,
+        XS,
+        US,
+        SAT,
+        DONE,
+        s.rows,
+    )
 
 
 frames_batch = driver("frames", _frames_row)

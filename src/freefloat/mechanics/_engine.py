@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _configuration, _drivers, _specialise
+from . import _drivers, _specialise
 from ._arrays import new_output
 from ._tree import Tree, tree, work_size
 
@@ -305,7 +305,7 @@ class Stepper:
         watch = np.full(1 + 2 * t.n_joints, np.inf)
         watch[1 : 1 + t.n_joints] = -np.inf
         self.floats = np.concatenate([t.floats, ext_f.ravel(), watch, work])
-        self.rk4: Callable[[np.ndarray, np.ndarray, float, int], int] = functools.partial(_configuration.rk4_steps, self.ints, self.floats)
+        self.rk4: Callable[[np.ndarray, np.ndarray, float, int], int] = functools.partial(_drivers.rk4_steps, self.ints, self.floats)
 
     def watch(self, rate: float = np.inf, lower: Any = None, upper: Any = None) -> None:
         """Make :attr:`rk4` stop after a step that leaves a joint rate (or sqrt(3) |omega0_i|) above ``rate`` or a
@@ -324,4 +324,4 @@ class Stepper:
 
     def derivative(self, x: np.ndarray, u: np.ndarray, out: np.ndarray) -> bool:
         """out = d/dt x under u; False if H+ is not positive definite."""
-        return bool(_configuration.state_derivative(self.ints, self.floats, x, u, out))
+        return bool(_drivers.state_derivative(self.ints, self.floats, x, u, out))

@@ -6,11 +6,11 @@ flat buffer of rows of LANES values (its inputs first, then its outputs), P the 
 adjacent memory with constant offsets, which the compiler turns into SIMD instructions (eight
 float64 lanes on AVX-512). These drivers copy each block of a user's batch into W (rows), call the
 lane kernel, and copy the outputs back; they hold no physics: J* and the state derivative are the
-traced recursions of :mod:`._recursions`. The rollout below does per lane what the generic rollout
-kernel (:func:`~._drivers._rollout_range`) does per trajectory: the joint PD is one function for
-both (:func:`joint_pd`); the RK4 combination of the four stage derivatives and the records are
-written for rows of lanes here. They are inlined into the kernels of each generated module
-(:func:`~._specialise.load`), and :func:`joint_pd` into the generic rollout kernel.
+traced recursions of :mod:`._recursions`. The rollout loop (:func:`rollout_blocks`: RK4, the joint PD, the
+records and the failures) is written once, for rows of ``width`` lanes: the specialised rollouts run it with
+:data:`LANES` lanes and their lane kernel, the generic rollout (:mod:`._drivers`) with one lane and the engine's
+state derivative. They are inlined into the kernels of each generated module (:func:`~._specialise.load`) and
+into the generic rollout kernel.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from typing import Any
 import numba
 import numpy as np
 
-__all__ = ["LANES", "joint_pd", "map_blocks", "rollout_blocks"]
+__all__ = ["LANES", "joint_pd", "map_blocks", "rk4_rows", "rollout_blocks", "rollout_rows"]
 
 #: Configurations per lane block (a multiple of the SIMD width). Measured on the 7-DOF arm: 16 is 10-20% slower,
 #: 32, 64 and 128 within the machine's noise of each other.
@@ -47,7 +47,7 @@ def joint_pd(
     """The joint PD of the rollouts at one sample of trajectory b: u = ff[sample, b] + kp (qref - q) + kd (vref - qdot), clipped to +-lim.
 
     The state is x[x0 + i * step] (i = 0 .. 13 + 2N) and u is written to u[u0 + j * step] (j = 0 .. N + 6):
-    step 1 for one trajectory (:func:`~._drivers._rollout_range`), LANES for a lane of a block. True if any
+    step 1 for one trajectory, LANES for a lane of a block (:func:`rollout_blocks`). True if any
     component was clipped.
     """
     n = kp.shape[1]
@@ -88,9 +88,49 @@ def map_blocks(lane: Any, Q: np.ndarray, P: np.ndarray, OUT: np.ndarray, W: np.n
 
 
 @numba.njit(inline="always", nogil=True, error_model="numpy")
+def rk4_rows(lane: Any, P: Any, W: np.ndarray, width: int, size: int, nu: int, dt: float) -> None:  # pragma: no cover
+    """One classical RK4 step, written once, of the ``width`` states in the x rows of W (u held), each quaternion
+    renormalised after it; the ok row is 1.0 where every stage's H+ was positive definite, else 0.0.
+
+    W = [y (S rows), u (N + 6 rows), dy/dt (S rows), ok (1 row), x (S rows), sum of the stage derivatives (S rows),
+    ...], rows of ``width`` values; ``lane(W, P)`` writes dy/dt at y and u (and multiplies ok by 0.0 where H+
+    failed). The four stages run in a loop, so that the lane kernel is inlined once (compile time).
+    """
+    o_k = (size + nu) * width
+    o_ok = o_k + size * width
+    o_x = o_ok + width
+    o_acc = o_x + size * width
+    for i in range(size * width):
+        W[i] = W[o_x + i]
+        W[o_acc + i] = 0.0
+    for lane_ in range(width):
+        W[o_ok + lane_] = 1.0
+    for stage in range(4):
+        lane(W, P)
+        weight = 1.0 if stage == 0 or stage == 3 else 2.0
+        c = dt if stage == 2 else 0.5 * dt
+        for i in range(size * width):
+            W[o_acc + i] += weight * W[o_k + i]
+            if stage < 3:
+                W[i] = W[o_x + i] + c * W[o_k + i]
+    c = dt / 6.0
+    for i in range(size * width):
+        W[o_x + i] += c * W[o_acc + i]
+    for lane_ in range(width):  # the quaternion renormalised
+        a = W[o_x + 6 * width + lane_]
+        b = W[o_x + 7 * width + lane_]
+        cc = W[o_x + 8 * width + lane_]
+        d = W[o_x + 9 * width + lane_]
+        norm = math.sqrt(a * a + b * b + cc * cc + d * d)
+        for i in range(6, 10):
+            W[o_x + i * width + lane_] /= norm
+
+
+@numba.njit(inline="always", nogil=True, error_model="numpy")
 def rollout_blocks(
     lane: Any,
-    P: np.ndarray,
+    P: Any,
+    width: int,
     first: int,
     last: int,
     X0: np.ndarray,
@@ -110,30 +150,36 @@ def rollout_blocks(
     DONE: np.ndarray,
     W: np.ndarray,
 ) -> None:  # pragma: no cover
-    """:func:`~._drivers._rollout_range` on the trajectories of blocks first..last, LANES at a time.
+    """The rollout loop, written once: fixed-step RK4 of the trajectories of blocks first..last, ``width`` at a time,
+    with the joint PD in the loop (:func:`joint_pd`; the generic rollout runs it with width 1, the specialised one
+    with :data:`LANES`). Each step is :func:`rk4_rows`.
 
-    W = [y (S rows), u (N + 6 rows), dy/dt (S rows), ok (1 row), x (S rows), sum of the stage
-    derivatives (S rows), failed (1 row), saturated (1 row)]: the lane kernel reads y and u and writes dy/dt and ok
-    (1.0 when H+ was positive definite in every lane's factorisation).
+    Trajectory b (a row of X0 (K, S)): u = ff[k] + kp (qref - q) + kd (vref - qdot) at sample k (every ``hold``
+    steps; ff's last sample held), clipped to +-lim; states, actuations and saturation flags recorded at step 0,
+    every ``stride`` steps and the last step into XS, US, SAT; DONE[b] = the steps completed (fewer: a non-finite
+    state or H+ not positive definite; the records after it are NaN).
+
+    ``lane(W, P)`` computes the state derivative of ``width`` trajectories: W = [y (S rows), u (N + 6 rows),
+    dy/dt (S rows), ok (1 row), x (S rows), sum of the stage derivatives (S rows), failed (1 row), saturated
+    (1 row)], rows of ``width`` values; the lane kernel reads y and u and writes dy/dt, and multiplies ok by 0.0 in
+    a lane whose H+ was not positive definite. ``P``: what the lane kernel reads besides W (the model's data).
     """
     size = X0.shape[1]
     n = (size - 13) // 2
     nu = n + 6
     k_total = X0.shape[0]
-    o_u = size * LANES
-    o_k = o_u + nu * LANES
-    o_ok = o_k + size * LANES
-    o_x = o_ok + LANES
-    o_acc = o_x + size * LANES
-    o_fail = o_acc + size * LANES
-    o_flag = o_fail + LANES
+    o_u = size * width
+    o_ok = o_u + (nu + size) * width
+    o_x = o_ok + width
+    o_fail = o_x + 2 * size * width
+    o_flag = o_fail + width
     for block in range(first, last):
-        b0 = block * LANES
-        count = min(LANES, k_total - b0)
-        for lane_ in range(LANES):
+        b0 = block * width
+        count = min(width, k_total - b0)
+        for lane_ in range(width):
             src = b0 + (lane_ if lane_ < count else count - 1)
             for i in range(size):
-                W[o_x + i * LANES + lane_] = X0[src, i]
+                W[o_x + i * width + lane_] = X0[src, i]
             W[o_fail + lane_] = 0.0
         for lane_ in range(count):
             DONE[b0 + lane_] = steps
@@ -141,36 +187,13 @@ def rollout_blocks(
         sample = 0
         for step in range(steps + 1):
             if step > 0:
-                for i in range(size * LANES):
-                    W[i] = W[o_x + i]
-                    W[o_acc + i] = 0.0
-                for lane_ in range(LANES):
-                    W[o_ok + lane_] = 1.0
-                for stage in range(4):
-                    lane(W, P)
-                    weight = 1.0 if stage == 0 or stage == 3 else 2.0
-                    c = dt if stage == 2 else 0.5 * dt
-                    for i in range(size * LANES):
-                        W[o_acc + i] += weight * W[o_k + i]
-                        if stage < 3:
-                            W[i] = W[o_x + i] + c * W[o_k + i]
-                c = dt / 6.0
-                for i in range(size * LANES):
-                    W[o_x + i] += c * W[o_acc + i]
-                for lane_ in range(LANES):  # the quaternion renormalised
-                    a = W[o_x + 6 * LANES + lane_]
-                    b = W[o_x + 7 * LANES + lane_]
-                    cc = W[o_x + 8 * LANES + lane_]
-                    d = W[o_x + 9 * LANES + lane_]
-                    norm = math.sqrt(a * a + b * b + cc * cc + d * d)
-                    for i in range(6, 10):
-                        W[o_x + i * LANES + lane_] /= norm
+                rk4_rows(lane, P, W, width, size, nu, dt)
                 for lane_ in range(count):
                     if W[o_fail + lane_] != 0.0:
                         continue
                     total = 0.0
                     for i in range(size):
-                        total += W[o_x + i * LANES + lane_]
+                        total += W[o_x + i * width + lane_]
                     ok = W[o_ok + lane_] != 0.0
                     if not ok or not math.isfinite(total):
                         DONE[b0 + lane_] = step - 1 if not ok else step
@@ -178,11 +201,11 @@ def rollout_blocks(
             if step == 0 or (step % hold == 0 and step < steps):
                 sk = min(sample, ff.shape[0] - 1)
                 for lane_ in range(count):
-                    sat = joint_pd(ff, sk, b0 + lane_, kp, kd, qref, vref, lim, W, o_x + lane_, W, o_u + lane_, LANES)
+                    sat = joint_pd(ff, sk, b0 + lane_, kp, kd, qref, vref, lim, W, o_x + lane_, W, o_u + lane_, width)
                     W[o_flag + lane_] = 1.0 if sat else 0.0
-                for lane_ in range(count, LANES):  # lanes past the batch: copy lane 0's controls
+                for lane_ in range(count, width):  # lanes past the batch: copy lane 0's controls
                     for j in range(nu):
-                        W[o_u + j * LANES + lane_] = W[o_u + j * LANES]
+                        W[o_u + j * width + lane_] = W[o_u + j * width]
                 sample += 1
             if step == 0 or step % stride == 0 or step == steps:
                 for lane_ in range(count):
@@ -195,8 +218,13 @@ def rollout_blocks(
                         SAT[row, b] = False
                         continue
                     for i in range(size):
-                        XS[row, b, i] = W[o_x + i * LANES + lane_]
+                        XS[row, b, i] = W[o_x + i * width + lane_]
                     for j in range(nu):
-                        US[row, b, j] = W[o_u + j * LANES + lane_]
+                        US[row, b, j] = W[o_u + j * width + lane_]
                     SAT[row, b] = W[o_flag + lane_] != 0.0
                 row += 1
+
+
+def rollout_rows(size: int, nu: int) -> int:
+    """Rows of the W buffer of :func:`rollout_blocks` for states of ``size`` and actuations of ``nu`` components."""
+    return 4 * size + nu + 3

@@ -89,8 +89,7 @@ Scratch = namedtuple(
         "k",
         "y",  # RK4: the four stage derivatives (4, S), the stage state
         "joints",  # (N): joint values read from a state
-        "state",
-        "control",  # (S), (N + 6): the state and the actuation of a trajectory (rollouts)
+        "rows",  # (4 S + N + 9): the rows of one trajectory in the rollout loop (_lanes.rollout_blocks, width 1)
     ],
 )
 
@@ -147,9 +146,7 @@ def scratch(work: np.ndarray, nb: int) -> Any:  # pragma: no cover - compiled
     o += 5 * size
     joints = work[o : o + n]
     o += n
-    state = work[o : o + size]
-    o += size
-    control = work[o : o + n + 6]
+    rows = work[o : o + 4 * size + n + 9]
     return Scratch(
         rot,
         pos,
@@ -182,8 +179,7 @@ def scratch(work: np.ndarray, nb: int) -> Any:  # pragma: no cover - compiled
         stages[0:4],
         stages[4],
         joints,
-        state,
-        control,
+        rows,
     )
 
 

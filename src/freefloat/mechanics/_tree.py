@@ -261,4 +261,4 @@ def work_size(n_bodies: int) -> int:
     n = n_bodies - 1
     m = 3 + n
     size = 13 + 2 * n
-    return 66 * n_bodies + 15 + 2 * m * m + m + 3 * n + 9 + 2 * (6 + n) + 5 * size + n + size + (n + 6)
+    return 66 * n_bodies + 15 + 2 * m * m + m + 3 * n + 9 + 2 * (6 + n) + 5 * size + n + (4 * size + n + 9)
