@@ -1,6 +1,13 @@
 """Batch first (STYLE.md): every batched function takes (..., N), an unbatched input gives an
 unbatched output, and a batch equals the loop over single configurations, also across the
-internal chunks of ``freefloat.mechanics._arrays.CHUNK`` configurations."""
+internal chunks of ``freefloat.mechanics._arrays.CHUNK`` configurations.
+
+Two kinds of path: the engine (the default ``method="recursive"``, numba kernels that cut a batch
+into blocks of their own) and the numpy reference forms (``method="barycentric"``,
+dH+/dt, the point bias acceleration), which run through ``_arrays.chunked``. ``CHUNKED`` names the
+cases of the second kind; a counting spy (tests/spies.py) asserts that exactly these reach
+``chunked`` and that the chunk tests really cut their batch into several chunks.
+"""
 
 from __future__ import annotations
 
@@ -13,6 +20,7 @@ from scipy.spatial.transform import Rotation
 
 import freefloat as ff
 import freefloat.mechanics._arrays
+from spies import count_chunks
 from trees import build_random_model
 
 PAPER = ff.models.papadopoulos1992()  # planar, two arms, square planar J* (4 x 4)
@@ -49,7 +57,21 @@ CASES: dict[str, Case] = {
     "generalized_jacobian": lambda m, x: ff.generalized_jacobian(m, x["q"]),
     "generalized_jacobian_drift": lambda m, x: ff.mechanics.generalized_jacobian_drift(m, x["q"], x["h"], x["p"], attitude=x["attitude"]),
     "manipulability": lambda m, x: ff.manipulability(m, x["q"]),
+    # the numpy reference forms: through _arrays.chunked
+    "end_effector_positions(attitude, barycentric)": lambda m, x: ff.end_effector_positions(
+        m, x["q"], attitude=x["attitude"], method="barycentric"
+    ),
+    "point_positions(barycentric)": lambda m, x: ff.point_positions(m, x["q"], 2, [0.1, -0.2, 0.3], method="barycentric"),
+    "system_inertia_matrix(barycentric)": lambda m, x: ff.system_inertia_matrix(m, x["q"], method="barycentric"),
+    "inertia_blocks(barycentric)": lambda m, x: ff.inertia_blocks(m, x["q"], method="barycentric"),
+    "point_jacobian(barycentric)": lambda m, x: ff.point_jacobian(m, x["q"], 2, [0.1, -0.2, 0.3], method="barycentric"),
+    "generalized_jacobian(barycentric)": lambda m, x: ff.generalized_jacobian(m, x["q"], method="barycentric"),
+    "nonlinear_forces(barycentric)": lambda m, x: ff.nonlinear_forces(m, x["q"], x["velocity"], method="barycentric"),
+    "system_inertia_matrix_rate": lambda m, x: ff.mechanics.system_inertia_matrix_rate(m, x["q"], x["velocity"][..., 6:]),
+    "point_bias_acceleration": lambda m, x: ff.mechanics.point_bias_acceleration(m, x["q"], x["velocity"], 2, attitude=x["attitude"]),
 }
+#: The cases that run through ``_arrays.chunked`` (the others run on the engine's blocks); asserted below.
+CHUNKED = {name for name in CASES if "barycentric" in name} | {"system_inertia_matrix_rate", "point_bias_acceleration"}
 PLANAR_CASES: dict[str, Case] = {
     "jacobian_determinant": lambda m, x: ff.jacobian_determinant(m, x["q"]),
     "planar.end_effector_positions": lambda m, x: ff.planar.end_effector_positions(m, x["q"]),
@@ -60,6 +82,16 @@ PLANAR_CASES: dict[str, Case] = {
 PARAMS = [pytest.param(PAPER, name, id=f"paper-{name}") for name in [*CASES, *PLANAR_CASES]] + [
     pytest.param(TREE, name, id=f"tree-{name}") for name in CASES
 ]
+CHUNKED_PARAMS = [p for p in PARAMS if p.values[1] in CHUNKED]
+#: Reference forms built on B x B pair arrays: slow on 8199 configurations, chunk-tested at CHUNK = 5 only.
+PAIR_FORMS = {
+    "system_inertia_matrix(barycentric)",
+    "inertia_blocks(barycentric)",
+    "generalized_jacobian(barycentric)",
+    "nonlinear_forces(barycentric)",
+    "system_inertia_matrix_rate",
+}
+LARGE_PARAMS = [p for p in PARAMS if p.values[1] not in PAIR_FORMS]
 ALL_CASES = {**CASES, **PLANAR_CASES}
 
 
@@ -87,8 +119,11 @@ def at(x: Inputs, index: tuple[int, ...]) -> Inputs:
     return {key: value[index] for key, value in x.items()}
 
 
-def assert_batch_equals_loop(case: Case, model: ff.Model, x: Inputs, indices: list[tuple[int, ...]]) -> None:
-    batch = arrays(case(model, x))
+def assert_batch_equals_loop(
+    case: Case, model: ff.Model, x: Inputs, indices: list[tuple[int, ...]], batch: tuple[np.ndarray, ...] | None = None
+) -> None:
+    """The batch result (``batch``, or computed here) equals the single calls at ``indices``."""
+    batch = arrays(case(model, x)) if batch is None else batch
     shape = x["q"].shape[:-1]
     for index in indices:
         single = arrays(case(model, at(x, index)))
@@ -115,30 +150,55 @@ def test_batch_equals_loop(model: ff.Model, name: str) -> None:
     assert_batch_equals_loop(ALL_CASES[name], model, x, [(a, b) for a in range(3) for b in range(4)])
 
 
-@pytest.mark.parametrize(("model", "name"), PARAMS)
+def test_exactly_the_chunked_cases_reach_chunked(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The list ``CHUNKED`` is what the code does: a reference form that left ``chunked`` (or an engine path
+    that took it) would otherwise leave the chunk tests below checking a path they do not reach."""
+    runs = count_chunks(monkeypatch)
+    for param in PARAMS:
+        model, name = param.values
+        runs.clear()
+        ALL_CASES[name](model, make_inputs(model, (3, 4), seed=3))
+        assert bool(runs) == (name in CHUNKED), f"{param.id}: chunked called {len(runs)} times"
+
+
+@pytest.mark.parametrize(("model", "name"), CHUNKED_PARAMS)
 def test_batch_equals_loop_across_small_chunks(model: ff.Model, name: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """With CHUNK = 5 a (3, 4) batch runs in three pieces; the pieces must join in order."""
     monkeypatch.setattr(freefloat.mechanics._arrays, "CHUNK", 5)
     x = make_inputs(model, (3, 4), seed=3)
-    assert_batch_equals_loop(ALL_CASES[name], model, x, [(a, b) for a in range(3) for b in range(4)])
+    runs = count_chunks(monkeypatch)
+    batch = arrays(ALL_CASES[name](model, x))
+    assert runs and all(r == 3 for r in runs), f"chunk counts {runs}: the batch was not cut into three chunks of CHUNK = 5"
+    assert_batch_equals_loop(ALL_CASES[name], model, x, [(a, b) for a in range(3) for b in range(4)], batch)
 
 
-@pytest.mark.parametrize(("model", "name"), PARAMS)
-def test_batch_larger_than_the_chunk_equals_loop(model: ff.Model, name: str) -> None:
+@pytest.mark.parametrize(("model", "name"), LARGE_PARAMS)
+def test_batch_larger_than_the_chunk_equals_loop(model: ff.Model, name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """2 CHUNK + 7 configurations: the reference forms run in three chunks (asserted); the engine, which
+    does not chunk, runs the same batch on its threaded blocks."""
     chunk = freefloat.mechanics._arrays.CHUNK  # 4096
     size = 2 * chunk + 7  # three chunks, the last one short
     x = make_inputs(model, (size,), seed=4)
+    runs = count_chunks(monkeypatch)
+    batch = arrays(ALL_CASES[name](model, x))
+    assert all(r == 3 for r in runs) and bool(runs) == (name in CHUNKED), f"chunk counts {runs}"
     picks = {0, 1, chunk - 1, chunk, chunk + 1, 2 * chunk - 1, 2 * chunk, size - 1}
     picks |= set(np.random.default_rng(5).integers(0, size, size=4).tolist())
-    assert_batch_equals_loop(ALL_CASES[name], model, x, [(i,) for i in sorted(picks)])
+    assert_batch_equals_loop(ALL_CASES[name], model, x, [(i,) for i in sorted(picks)], batch)
 
 
-def test_two_dimensional_batch_across_the_chunk_boundary() -> None:
+def test_two_dimensional_batch_across_the_chunk_boundary(monkeypatch: pytest.MonkeyPatch) -> None:
     chunk = freefloat.mechanics._arrays.CHUNK
     cols = chunk // 2 + 52  # 2 * cols > chunk: the boundary falls inside row 1, at column chunk - cols
     x = make_inputs(PAPER, (2, cols), seed=6)
     picks = [(0, 0), (0, cols - 1), (1, chunk - cols - 1), (1, chunk - cols), (1, cols - 1)]
-    for name in ("generalized_jacobian", "jacobian_determinant", "inertia_blocks", "forward_kinematics", "angular_momentum(attitude)"):
+    runs = count_chunks(monkeypatch)
+    for name in ("generalized_jacobian(barycentric)", "inertia_blocks(barycentric)", "body_cm_positions(barycentric)"):
+        runs.clear()
+        batch = arrays(ALL_CASES[name](PAPER, x))
+        assert runs == [2], f"{name}: chunk counts {runs}, expected one call cut into two chunks"
+        assert_batch_equals_loop(ALL_CASES[name], PAPER, x, picks, batch)
+    for name in ("generalized_jacobian", "jacobian_determinant", "forward_kinematics", "angular_momentum(attitude)"):  # the engine
         assert_batch_equals_loop(ALL_CASES[name], PAPER, x, picks)
 
 

@@ -12,7 +12,7 @@
 - Q^T zdot0 equals the power of every force, with point velocities taken by
   central differences of plain forward kinematics (virtual work, eq. 18);
 - the spacecraft-fixed mode leaves the spacecraft at rest;
-- batch equals loop; bad inputs give clear errors.
+- batch equals loop, each entry on the path its label names; bad inputs give clear errors.
 """
 
 from __future__ import annotations
@@ -26,6 +26,9 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 import freefloat as ff
+from freefloat.mechanics import _engine
+from freefloat.mechanics._arrays import PAIR_BUDGET
+from spies import count_calls, count_pieces
 from trees import build_random_model, random_trees
 
 SEEDS = st.integers(0, 2**32 - 1)
@@ -283,48 +286,67 @@ def test_spacecraft_fixed_mode_keeps_the_spacecraft_at_rest(model: ff.Model) -> 
 
 
 # ----------------------------------------------------------------- batches
+Inputs = dict[str, np.ndarray]
+#: label -> call; a label that names a method says the path the call takes (asserted by the test below).
+BATCHED: dict[str, Callable[[ff.Model, Inputs, ff.ExternalWrench], np.ndarray]] = {
+    "C+ barycentric": lambda m, x, w: ff.nonlinear_forces(m, x["q"], x["v"], method="barycentric"),
+    "C+ recursive": lambda m, x, w: ff.nonlinear_forces(m, x["q"], x["v"], method="recursive"),
+    "Hdot": lambda m, x, w: ff.mechanics.system_inertia_matrix_rate(m, x["q"], x["v"][..., 6:]),
+    "Q": lambda m, x, w: ff.generalized_forces(m, x["q"], x["tau"], x["f_s"], x["n_s"], external=[w], attitude=x["att"]),
+    "forward barycentric": lambda m, x, w: ff.forward_dynamics(
+        m, x["q"], x["v"], x["tau"], x["f_s"], x["n_s"], x["att"], external=[w], method="barycentric"
+    ),
+    "forward recursive": lambda m, x, w: ff.forward_dynamics(
+        m, x["q"], x["v"], x["tau"], x["f_s"], x["n_s"], x["att"], external=[w], method="recursive"
+    ),
+    "inverse barycentric": lambda m, x, w: np.concatenate(
+        ff.inverse_dynamics(m, x["q"], x["v"], x["acc"], x["att"], external=[w], method="barycentric"), axis=-1
+    ),
+    "inverse recursive": lambda m, x, w: np.concatenate(
+        ff.inverse_dynamics(m, x["q"], x["v"], x["acc"], x["att"], external=[w], method="recursive"), axis=-1
+    ),
+    "fixed": lambda m, x, w: np.concatenate(
+        ff.mechanics.spacecraft_fixed_dynamics(m, x["q"], x["v"][..., 6:], x["tau"], x["att"], external=[w]), axis=-1
+    ),
+    "bias": lambda m, x, w: ff.mechanics.point_bias_acceleration(m, x["q"], x["v"], 2, [0.1, 0.0, 0.0], attitude=x["att"]),
+}
+
+
 @pytest.mark.parametrize("model", MODELS[1:], ids=IDS[1:])
-def test_batch_equals_loop(model: ff.Model) -> None:
+def test_batch_equals_loop(model: ff.Model, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each call on a (2, 3) batch equals the loop; "barycentric" entries reach the closed form of C+ and
+    not the engine, "recursive" entries the engine and not the closed form (counting spies)."""
+    closed_form = count_calls(monkeypatch, ff.mechanics.dynamics._c_plus_barycentric)
+    engine = [count_calls(monkeypatch, f) for f in (_engine.residual_rows, _engine.accelerations)]
     rng = np.random.default_rng(6)
     shape = (2, 3)
     n = model.n_joints
-    q = rng.uniform(-3, 3, (*shape, n))
-    v = rng.normal(size=(*shape, 6 + n))
-    acc = rng.normal(size=(*shape, 6 + n))
-    att = Rotation.random(6, random_state=rng).as_quat().reshape((*shape, 4))
-    tau, f_s, n_s = rng.normal(size=(*shape, n)), rng.normal(size=(*shape, 3)), rng.normal(size=(3,))  # n_s broadcasts
-    w = ff.ExternalWrench(body=1, force=rng.normal(size=(*shape, 3)), torque=rng.normal(size=3), point=[0.1, 0.2, 0.3], frame="body")
-    batched = {
-        "C+ barycentric": ff.nonlinear_forces(model, q, v),
-        "C+ recursive": ff.nonlinear_forces(model, q, v, method="recursive"),
-        "Hdot": ff.mechanics.system_inertia_matrix_rate(model, q, v[..., 6:]),
-        "Q": ff.generalized_forces(model, q, tau, f_s, n_s, external=[w], attitude=att),
-        "forward": ff.forward_dynamics(model, q, v, tau, f_s, n_s, att, external=[w]),
-        "forward recursive": ff.forward_dynamics(model, q, v, tau, f_s, n_s, att, external=[w], method="recursive"),
-        "inverse": np.concatenate(ff.inverse_dynamics(model, q, v, acc, att, external=[w]), axis=-1),
-        "inverse recursive": np.concatenate(ff.inverse_dynamics(model, q, v, acc, att, external=[w], method="recursive"), axis=-1),
-        "fixed": np.concatenate(ff.mechanics.spacecraft_fixed_dynamics(model, q, v[..., 6:], tau, att, external=[w]), axis=-1),
-        "bias": ff.mechanics.point_bias_acceleration(model, q, v, 2, [0.1, 0.0, 0.0], attitude=att),
+    x = {
+        "q": rng.uniform(-3, 3, (*shape, n)),
+        "v": rng.normal(size=(*shape, 6 + n)),
+        "acc": rng.normal(size=(*shape, 6 + n)),
+        "att": Rotation.random(6, random_state=rng).as_quat().reshape((*shape, 4)),
+        "tau": rng.normal(size=(*shape, n)),
+        "f_s": rng.normal(size=(*shape, 3)),
+        "n_s": rng.normal(size=(3,)),  # broadcasts
     }
+    w = ff.ExternalWrench(body=1, force=rng.normal(size=(*shape, 3)), torque=rng.normal(size=3), point=[0.1, 0.2, 0.3], frame="body")
+    batched = {}
+    for key, call in BATCHED.items():
+        closed_form.clear()
+        for calls in engine:
+            calls.clear()
+        batched[key] = call(model, x, w)
+        engine_calls = sum(map(len, engine))
+        if "barycentric" in key:
+            assert closed_form and not engine_calls, f"{key}: closed form {len(closed_form)}, engine {engine_calls} calls"
+        if "recursive" in key:
+            assert engine_calls and not closed_form, f"{key}: closed form {len(closed_form)}, engine {engine_calls} calls"
     for idx in np.ndindex(*shape):
         wi = ff.ExternalWrench(body=1, force=w.force[idx], torque=w.torque, point=w.point, frame="body")
-        single = {
-            "C+ barycentric": ff.nonlinear_forces(model, q[idx], v[idx]),
-            "C+ recursive": ff.nonlinear_forces(model, q[idx], v[idx], method="recursive"),
-            "Hdot": ff.mechanics.system_inertia_matrix_rate(model, q[idx], v[idx][6:]),
-            "Q": ff.generalized_forces(model, q[idx], tau[idx], f_s[idx], n_s, external=[wi], attitude=att[idx]),
-            "forward": ff.forward_dynamics(model, q[idx], v[idx], tau[idx], f_s[idx], n_s, att[idx], external=[wi]),
-            "forward recursive": ff.forward_dynamics(
-                model, q[idx], v[idx], tau[idx], f_s[idx], n_s, att[idx], external=[wi], method="recursive"
-            ),
-            "inverse": np.concatenate(ff.inverse_dynamics(model, q[idx], v[idx], acc[idx], att[idx], external=[wi])),
-            "inverse recursive": np.concatenate(
-                ff.inverse_dynamics(model, q[idx], v[idx], acc[idx], att[idx], external=[wi], method="recursive")
-            ),
-            "fixed": np.concatenate(ff.mechanics.spacecraft_fixed_dynamics(model, q[idx], v[idx][6:], tau[idx], att[idx], external=[wi])),
-            "bias": ff.mechanics.point_bias_acceleration(model, q[idx], v[idx], 2, [0.1, 0.0, 0.0], attitude=att[idx]),
-        }
-        for key, value in single.items():
+        xi = {key: value if key == "n_s" else value[idx] for key, value in x.items()}
+        for key, call in BATCHED.items():
+            value = call(model, xi, wi)
             assert batched[key][idx].shape == value.shape, key
             np.testing.assert_allclose(batched[key][idx], value, rtol=1e-12, atol=1e-12 * np.max(np.abs(value)), err_msg=key)
 
@@ -343,15 +365,21 @@ def test_unbatched_in_unbatched_out_and_broadcasting() -> None:
     assert qdd.shape == (4, n) and f.shape == (4, 3) and t.shape == (4, 3)
 
 
-def test_large_batch_runs_in_pieces() -> None:
-    """More configurations than one kernel slice: still equal to the loop (spot check)."""
+def test_large_batch_runs_in_pieces(monkeypatch: pytest.MonkeyPatch) -> None:
+    """More configurations than one slice of the closed form of C+ (``_arrays.pieces``: at most PAIR_BUDGET / B^2
+    per kernel call): cut into three slices (counted), still equal to the loop at the slice boundaries."""
     model = MODELS[-1]
+    step = PAIR_BUDGET // model.n_bodies**2  # configurations per slice
+    size = 2 * step + 7
     rng = np.random.default_rng(8)
-    q = rng.uniform(-3, 3, (700, model.n_joints))
-    v = rng.normal(size=(700, 6 + model.n_joints))
-    out = ff.nonlinear_forces(model, q, v)
-    for i in (0, 350, 699):
-        np.testing.assert_allclose(out[i], ff.nonlinear_forces(model, q[i], v[i]), rtol=1e-12, atol=1e-12 * np.max(np.abs(out[i])))
+    q = rng.uniform(-3, 3, (size, model.n_joints))
+    v = rng.normal(size=(size, 6 + model.n_joints))
+    slices = count_pieces(monkeypatch)
+    out = ff.nonlinear_forces(model, q, v, method="barycentric")
+    assert slices == [3], f"pieces cut the batch into {slices} slices, expected [3]"
+    for i in (0, step - 1, step, 2 * step - 1, 2 * step, size - 1):
+        one = ff.nonlinear_forces(model, q[i], v[i], method="barycentric")
+        np.testing.assert_allclose(out[i], one, rtol=1e-12, atol=1e-12 * np.max(np.abs(out[i])))
 
 
 # ----------------------------------------------------------------- bad input

@@ -1,0 +1,66 @@
+"""Counting spies on freefloat's private functions, so that a test can assert which path it took.
+
+A test that says it checks the barycentric form, or a batch cut into chunks, must reach that code;
+these wrap the private function with a counter (``pytest.MonkeyPatch``, undone after the test),
+everywhere it is bound: in its own module and in every freefloat module that imported it by name.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable
+from typing import Any
+
+import pytest
+
+import freefloat.mechanics._arrays
+
+
+def replace_everywhere(monkeypatch: pytest.MonkeyPatch, original: Callable[..., Any], replacement: Callable[..., Any]) -> None:
+    """Bind ``replacement`` wherever a loaded freefloat module holds ``original`` under its name."""
+    name = original.__name__
+    modules = [m for key, m in list(sys.modules.items()) if key.startswith("freefloat") and getattr(m, name, None) is original]
+    assert modules, f"{name}: no freefloat module holds it (renamed?): the spy would count nothing"
+    for module in modules:
+        monkeypatch.setattr(module, name, replacement)
+
+
+def count_calls(monkeypatch: pytest.MonkeyPatch, original: Callable[..., Any]) -> list[int]:
+    """Spy on ``original``: the returned list grows by one entry per call."""
+    calls: list[int] = []
+
+    def spy(*args: Any, **kwargs: Any) -> Any:
+        calls.append(1)
+        return original(*args, **kwargs)
+
+    replace_everywhere(monkeypatch, original, spy)
+    return calls
+
+
+def count_kernel_runs(monkeypatch: pytest.MonkeyPatch, original: Callable[..., Any]) -> list[int]:
+    """Spy on a batch driver ``original(kernel, ...)`` (``_arrays.chunked`` or ``_arrays.pieces``): one entry per
+    call of the driver, the number of times it ran its kernel, i.e. the pieces it cut the batch into."""
+    runs: list[int] = []
+
+    def spy(kernel: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        runs.append(0)
+        index = len(runs) - 1
+
+        def counted(*arrays: Any) -> Any:
+            runs[index] += 1
+            return kernel(*arrays)
+
+        return original(counted, *args, **kwargs)
+
+    replace_everywhere(monkeypatch, original, spy)
+    return runs
+
+
+def count_chunks(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """:func:`count_kernel_runs` of ``freefloat.mechanics._arrays.chunked`` (chunks of ``_arrays.CHUNK`` configurations)."""
+    return count_kernel_runs(monkeypatch, freefloat.mechanics._arrays.chunked)
+
+
+def count_pieces(monkeypatch: pytest.MonkeyPatch) -> list[int]:
+    """:func:`count_kernel_runs` of ``freefloat.mechanics._arrays.pieces`` (slices within ``_arrays.PAIR_BUDGET``)."""
+    return count_kernel_runs(monkeypatch, freefloat.mechanics._arrays.pieces)
