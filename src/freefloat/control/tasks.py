@@ -38,9 +38,7 @@ from ..core.conventions import attitude_matrix, euler321_from_matrix, euler321_r
 from ..core.errors import ShapeError
 from ..core.model import Model
 from ..core.state import State
-from ..mechanics.dynamics import _linear_bias, _motion
-from ..mechanics.jacobians import _assemble, _point_terms
-from ..mechanics.kinematics import _rotations
+from ..mechanics import _engine
 
 __all__ = ["TaskItem", "TaskSpace"]
 
@@ -236,44 +234,33 @@ class TaskSpace:
         t0 = attitude_matrix(quat)
         r_cm = np.asarray(s.r_cm).reshape(c, 3)
         vel = np.asarray(s.velocity).reshape(c, 6 + n)
-        rot = _rotations(self.model, qf)
-        positions = [it for it in self.items if it.kind == "position"]
-        tables = (
-            np.stack([self.model.bary.point_vectors(self.model, it.body, np.array(it.point)) for it in positions]) if positions else None
-        )
-        bodies = np.array([it.body for it in positions], dtype=int)
-        if tables is not None:
-            rho, j12, j22 = _point_terms(self.model, rot, tables, bodies, qf)
-        motion = _motion(self.model, qf, vel[:, 3:6], vel[:, 6:]) if need_bias else None
-        linear_bias = _linear_bias(self.model, motion, qf, vel, tables, bodies) if motion is not None and tables is not None else None
+        rot, _ = _engine.frames(self.model, qf)  # ⁰T_k (C, B, 3, 3)
+        # every item's point (an orientation item: its body's origin): J+ rows, positions and Jdot+ zdot0 by the engine
+        bodies = np.array([it.body for it in self.items], dtype=np.int64)
+        points = np.array([it.point if it.kind == "position" else (0.0, 0.0, 0.0) for it in self.items], dtype=float).reshape(-1, 3)
+        j_plus = _engine.point_jacobians(self.model, qf, bodies, points)  # (C, I, 6, 6 + N), spacecraft frame (1991 eqs. 7-10)
+        rho = _engine.points(self.model, qf, bodies, points)  # (C, I, 3) from the system CM
+        biases = _engine.point_biases(self.model, qf, vel, bodies, points) if need_bias else None  # (C, I, 6)
         z = np.zeros((c, self.size))
         jac = np.zeros((c, self.dim, 6 + n))
         bias = np.zeros((c, self.dim)) if need_bias else None
-        k_pos = 0
-        for it, zs, vs in zip(self.items, self._z_slices, self._v_slices, strict=True):
+        for p, (it, zs, vs) in enumerate(zip(self.items, self._z_slices, self._v_slices, strict=True)):
             if it.kind == "position":
-                p = k_pos
-                k_pos += 1
-                full = _assemble(rho[:, p], j12[:, p], j22[:, p], None)[:, 0:3]
+                full = j_plus[:, p, 0:3].copy()
                 full[:, :, 3:] = t0 @ full[:, :, 3:]  # 1991 eq. 9: rows into the inertial frame
                 pos = r_cm + np.einsum("cij,cj->ci", t0, rho[:, p])
                 rows = slice(0, 2) if self.planar else slice(0, 3)
                 z[:, zs] = pos[:, rows]
                 jac[:, vs] = full[:, rows]
                 if bias is not None:
-                    assert linear_bias is not None
-                    bias[:, vs] = np.einsum("cij,cj->ci", t0, linear_bias[:, p])[:, rows]
+                    assert biases is not None
+                    bias[:, vs] = np.einsum("cij,cj->ci", t0, biases[:, p, 0:3])[:, rows]
                 continue
             # orientation of body it.body: R = T0 ⁰T_k, omega_k = T0 (omega0 + F_k qdot)
             r_body = t0 @ rot[:, it.body]
-            w_jac = np.zeros((c, 3, 6 + n))
-            w_jac[:, :, 3:6] = t0
-            sub = self.model.subtree[1:, it.body].astype(float)  # joints l with body outboard of l
-            turning = self.model.joint_axis[1:] * ~self.model.prismatic[:, None]  # a prismatic joint turns nothing
-            axes = np.einsum("clij,lj->cli", rot[:, 1:], turning)  # (C, N, 3) spacecraft frame
-            w_jac[:, :, 6:] = np.einsum("cij,clj->cil", t0, axes * sub[None, :, None])
+            w_jac = t0 @ j_plus[:, p, 3:6]  # [0, 1, J22] (1991 eq. 10) into the inertial frame
             omega_i = np.einsum("cij,cj->ci", w_jac, vel)
-            w_bias = np.einsum("cij,cj->ci", t0, motion.alpha[:, it.body]) if motion is not None else None
+            w_bias = np.einsum("cij,cj->ci", t0, biases[:, p, 3:6]) if biases is not None else None
             if self.planar:
                 z[:, zs] = np.arctan2(r_body[:, 1, 0], r_body[:, 0, 0])[:, None]
                 jac[:, vs] = w_jac[:, 2:3]

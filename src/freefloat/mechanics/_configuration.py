@@ -122,6 +122,53 @@ def points_one(
 
 
 @kernel(inline="always")
+def point_bias_one(
+    q: np.ndarray,
+    velocity: np.ndarray,
+    m: Any,
+    pbody: np.ndarray,
+    ppoint: np.ndarray,
+    ext_i: np.ndarray,
+    ext_f: np.ndarray,
+    s: Any,
+    out: np.ndarray,
+) -> None:  # pragma: no cover - compiled
+    """Jdot+ zdot0 of points (P, 6) at q and zdot0 = ``velocity``: [acceleration of the point; angular acceleration of
+    its body] at zddot0 = 0 (rddot_cm = 0, d/dt omega0 = 0, qddot = 0), inertial, spacecraft-frame components (1991
+    eq. 7 differentiated).
+
+    Newton-Euler's forward pass at O (O held still) gives each body's spatial velocity (w, v) and acceleration
+    (al, be) at O; a point p of body k (from O) then accelerates at be + al x p + w x (v + w x p). Holding the system
+    CM still instead moves O at the uniform acceleration delta = -(sum of m_k times the CM accelerations) / M: the
+    force the backward pass leaves at the spacecraft, without external forces (``ext_i``, ``ext_f``: none, (0, 2) and
+    (0, 9)). Every formula holds for prismatic joints (their motion axes are [0; u]).
+    """
+    n = m.parent.shape[0] - 1
+    prepare(q, m, s, True)
+    none = s.acc  # no joint torques, thrusters or acceleration: zeros (6 + N)
+    for i in range(n + 6):
+        none[i] = 0.0
+    newton_euler(m, s, velocity, none, False, none, s.t0, ext_i, ext_f, s.b)
+    total_mass = m.total_mass
+    d0, d1, d2 = -s.ff[0, 0] / total_mass, -s.ff[0, 1] / total_mass, -s.ff[0, 2] / total_mass
+    w, v, al, be, pt = s.w, s.v, s.al, s.be, s.re
+    for e in range(pbody.shape[0]):
+        k = pbody[e]
+        point_from_origin(s.rot, s.pos, k, ppoint, e, pt)
+        w0, w1, w2 = w[k, 0], w[k, 1], w[k, 2]
+        a0, a1, a2 = al[k, 0], al[k, 1], al[k, 2]
+        x0 = v[k, 0] + (w1 * pt[2] - w2 * pt[1])  # the point's velocity (O held still)
+        x1 = v[k, 1] + (w2 * pt[0] - w0 * pt[2])
+        x2 = v[k, 2] + (w0 * pt[1] - w1 * pt[0])
+        out[e, 0] = be[k, 0] + (a1 * pt[2] - a2 * pt[1]) + (w1 * x2 - w2 * x1) + d0
+        out[e, 1] = be[k, 1] + (a2 * pt[0] - a0 * pt[2]) + (w2 * x0 - w0 * x2) + d1
+        out[e, 2] = be[k, 2] + (a0 * pt[1] - a1 * pt[0]) + (w0 * x1 - w1 * x0) + d2
+        out[e, 3] = a0
+        out[e, 4] = a1
+        out[e, 5] = a2
+
+
+@kernel(inline="always")
 def hplus_one(q: np.ndarray, m: Any, s: Any, out: np.ndarray) -> None:  # pragma: no cover - compiled
     """H+ (6 + N, 6 + N) at q, 1991 eq. 15, order [r_cm, omega0, q]."""
     nb = m.parent.shape[0]

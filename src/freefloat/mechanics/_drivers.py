@@ -29,6 +29,7 @@ from ._configuration import (
     accelerations_one,
     hplus_one,
     jstar_one,
+    point_bias_one,
     point_jacobian_one,
     points_one,
     state_derivative_lane,
@@ -49,6 +50,7 @@ __all__ = [
     "hplus_batch",
     "inverse_batch",
     "jstar_batch",
+    "point_bias_batch",
     "point_jacobian_batch",
     "points_batch",
     "rollout_batch",
@@ -234,6 +236,13 @@ def _point_jacobian_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no c
 
 
 @kernel(inline="always")
+def _point_bias_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
+    """a = (Q, V, bodies (P,), points (P, 3), ext_i (0, 2), ext_f (0, 9), OUT (C, P, 6)): Jdot+ zdot0 of points."""
+    Q, V, pbody, ppoint, ext_i, ext_f, OUT = a
+    point_bias_one(Q[i], V[i], m, pbody, ppoint, ext_i, ext_f, s, OUT[i])
+
+
+@kernel(inline="always")
 def _jstar_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
     """a = (Q, OUT (C, 6E, N)): J*."""
     Q, OUT = a
@@ -303,6 +312,7 @@ def _rollout_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
 frames_batch = driver("frames", _frames_row)
 points_batch = driver("points", _points_row)
 point_jacobian_batch = driver("point_jacobian", _point_jacobian_row)
+point_bias_batch = driver("point_bias", _point_bias_row)
 jstar_batch = driver("jstar", _jstar_row)
 hplus_batch = driver("hplus", _hplus_row)
 inverse_batch = driver("inverse", _inverse_row)

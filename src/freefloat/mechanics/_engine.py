@@ -28,6 +28,7 @@ __all__ = [
     "frames",
     "generalized_jacobian",
     "inertia_matrix",
+    "point_biases",
     "point_jacobians",
     "points",
     "residual_rows",
@@ -113,6 +114,19 @@ def point_jacobians(model: Any, q: np.ndarray, bodies: Any, pts: Any) -> np.ndar
     out = new_output((flat.shape[0], b.shape[0], 6, 6 + t.n_joints))
     _drivers.point_jacobian_batch(flat.shape[0], t, flat, b, p, out)
     return out.reshape((*batch, b.shape[0], 6, 6 + t.n_joints))
+
+
+def point_biases(model: Any, q: np.ndarray, velocity: np.ndarray, bodies: Any, pts: Any) -> np.ndarray:
+    """Jdot+ zdot0 of points ``pts`` (P, 3, body frames of ``bodies``) at q and zdot0 = ``velocity`` (..., 6 + N):
+    [point acceleration; body angular acceleration] at zddot0 = 0, spacecraft frame, (..., P, 6)."""
+    t = tree(model)
+    b, p = _point_data(bodies, pts)
+    batch = _batch((q, 1), (velocity, 1))
+    qf = _flat(q, batch, (t.n_joints,))
+    vf = _flat(velocity, batch, (6 + t.n_joints,))
+    out = new_output((qf.shape[0], b.shape[0], 6))
+    _drivers.point_bias_batch(qf.shape[0], t, qf, vf, b, p, *NO_WRENCHES, out)
+    return out.reshape((*batch, b.shape[0], 6))
 
 
 def generalized_jacobian(model: Any, q: np.ndarray) -> np.ndarray:

@@ -276,23 +276,32 @@ def _point_bias(model: Model, q: np.ndarray, velocity: np.ndarray, body: int, ta
     return np.concatenate([lin, mo.alpha[:, body]], axis=1)
 
 
-def point_bias_acceleration(model: Model, q: Any, velocity: Any, body: str | int, point: Any = None, *, attitude: Any = None) -> np.ndarray:
+def point_bias_acceleration(
+    model: Model, q: Any, velocity: Any, body: str | int, point: Any = None, *, attitude: Any = None, method: str = "recursive"
+) -> np.ndarray:
     """Jdot+_{k,m} zdot0: acceleration of a point and angular acceleration of its body at zddot0 = 0, (..., 6).
 
     The time derivative of 1991 eq. 7: [Rddot_P; omegadot_k] = J+ zddot0 +
     Jdot+ zdot0. ``point`` is in the body frame (default the body CM); the
-    result is inertial (spacecraft frame when ``attitude`` is None). With
-    rho_P = sum_i T_i v_iP (eqs. 1-4) and omega_i = omega0 + F_i qdot (eq. 5):
+    result is inertial (spacecraft frame when ``attitude`` is None).
+    ``method="recursive"`` (default): the engine's Newton-Euler forward pass
+    (velocities and accelerations at the spacecraft origin with zddot0 = 0, then the
+    uniform acceleration that holds the system CM still); ``"barycentric"``: with
+    rho_P = sum_i T_i v_iP (eqs. 1-4) and omega_i = omega0 + F_i qdot (eq. 5),
     Rdot_P = rdot_cm + T0 sum_i omega_i x T_i v_iP, differentiated at constant zdot0.
     """
+    how = _method(method)
     q = _joints(model, q, "q")
     v = _velocity(model, velocity)
     k = model.body_index(body)
     p = model.com[k] if point is None else _vector(point, 3, "point", "a point in the body frame")
     if p.shape != (3,):
         raise ShapeError(f"point: expected shape (3,), got {p.shape}")
-    table = model.bary.point_vectors(model, k, p)
-    out = chunked(lambda qq, vv: _point_bias(model, qq, vv, k, table), q, v, core_ndims=(1, 1))
+    if how == "recursive":
+        out = _engine.point_biases(model, q, v, [k], p[None])[..., 0, :]
+    else:
+        table = model.bary.point_vectors(model, k, p)
+        out = chunked(lambda qq, vv: _point_bias(model, qq, vv, k, table), q, v, core_ndims=(1, 1))
     t0 = _attitude(attitude)
     if t0 is None:
         return out
