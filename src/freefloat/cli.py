@@ -141,6 +141,19 @@ def _staged(out: Path, overwrite: bool, command: str) -> Iterator[OutputDirector
 
 
 @contextmanager
+def _optional_out(out: Path | None, overwrite: bool, command: str, names: list[str]) -> Iterator[OutputDirectory | None]:
+    """``_staged`` for an optional ``--out`` (None: no output folder), entered before the work: a folder that cannot
+    be made, or files of an earlier run among ``names``, are refused before anything is computed."""
+    if out is None:
+        yield None
+        return
+    if not isinstance(out, _EmptyPath):
+        check_targets(out, names, overwrite=overwrite)
+    with _staged(out, overwrite, command) as target:
+        yield target
+
+
+@contextmanager
 def _warnings_as_lines() -> Iterator[None]:
     """Show library warnings (stiff gains, long runs) as one ``warning: ...`` line each, on stderr, when they happen."""
     with warnings.catch_warnings():
@@ -418,13 +431,13 @@ def workspace_command(
         names = loaded.end_effector_names
         chosen = [int(a) if a.isdigit() and a not in names else a for a in arm or []]
         criterion = criterion_options(rows, measure, threshold)
-        limits = workspace_limits(loaded, chosen or None, piw=piw, samples=samples, criterion=criterion)
         written: list[Path] = []
-        if out is not None:
-            with _staged(out, overwrite, "workspace") as target:
+        with _optional_out(out, overwrite, "workspace", ["workspace.json"]) as target:
+            limits = workspace_limits(loaded, chosen or None, piw=piw, samples=samples, criterion=criterion)
+            if target is not None:
                 (target.stage / "workspace.json").write_text(limits_json(limits) + "\n")
                 written = [target.stage / "workspace.json", *write_workspace_plots(limits, target.stage)]
-            written = target.final(written)
+        written = target.final(written) if target is not None else []
     typer.echo(limits_json(limits) if json_output else limits.render_text().rstrip("\n"))
     for path in written:
         typer.echo(f"wrote {path}", err=True)
@@ -468,12 +481,12 @@ def capture_command(
             criterion=criterion_options(rows, measure, threshold, loaded.criterion),
             strategy=loaded.strategy if strategy is None else strategy,
         )
-        result = run_capture_scenario(loaded)
         written: list[Path] = []
-        if out is not None:
-            with _staged(out, overwrite, "capture") as target:
+        with _optional_out(out, overwrite, "capture", ["capture.json", "capture_plan.png"]) as target:
+            result = run_capture_scenario(loaded)
+            if target is not None:
                 written = write_capture_outputs(result, target.stage)
-            written = target.final(written)
+        written = target.final(written) if target is not None else []
     typer.echo(result.render_text().rstrip("\n"))
     for path in written:
         typer.echo(f"wrote {path}", err=True)

@@ -15,6 +15,7 @@ import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
 from ..core.errors import PathDoesNotFitError
+from ..core.model import MAX_LENGTH
 from ._workspace_results import GuaranteedWorkspace, PathIndependentWorkspace, ReachableWorkspace, _axes, _freeze, _ring
 
 if TYPE_CHECKING:
@@ -76,6 +77,8 @@ def _check_path(path: Any) -> np.ndarray:
         raise ValueError("path: needs at least two points, the start A and the next point B")
     if not np.all(np.isfinite(arr)):
         raise ValueError("path: has NaN or infinite coordinates")
+    if np.abs(arr).max() > MAX_LENGTH:
+        raise ValueError(f"path: {np.abs(arr).max():g} m is beyond the {MAX_LENGTH:g} m freefloat accepts for a position (a unit slip?)")
     if np.linalg.norm(arr[1] - arr[0]) <= 0.0:
         raise ValueError("path: the first segment A-B has zero length")
     return arr

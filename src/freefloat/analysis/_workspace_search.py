@@ -31,6 +31,7 @@ from scipy.stats import qmc
 
 from ..core import feedback
 from ..core.errors import ModelError
+from ..core.numbers import MAX_JOINT_VALUE
 from ..core.resources import require_memory
 
 Batch = Callable[[np.ndarray], np.ndarray]
@@ -330,7 +331,7 @@ def singular_points(
     if square:
         zero = values == 0.0
         found = [q_lines[zero]]
-        li, ki = np.nonzero(values[:, :-1] * values[:, 1:] < 0.0)
+        li, ki = np.nonzero(np.sign(values[:, :-1]) * np.sign(values[:, 1:]) < 0.0)  # no overflow of huge values
         if li.size:
             lo_t = box.lo[axes[li]] + t[ki] * span[axes[li]]
             hi_t = box.lo[axes[li]] + t[ki + 1] * span[axes[li]]
@@ -489,12 +490,16 @@ def project_to_singular(crit: Criterion, q: np.ndarray, h: float = 1e-7) -> tupl
         return np.array([f if f is not None else qi for f, qi in zip(found, q, strict=True)]), ok
     x = q.copy()
     eye = np.eye(n)
+    lost = np.zeros(m, dtype=bool)  # configurations that a step threw out of any joint's range (a threshold nothing meets)
     for _ in range(20):
         pts = np.concatenate([x[:, None, :], x[:, None, :] + h * eye, x[:, None, :] - h * eye], axis=1).reshape(-1, n)
         vals = batched(crit.level, pts).reshape(m, 2 * n + 1)
         f, grad = vals[:, 0], (vals[:, 1 : n + 1] - vals[:, n + 1 :]) / (2.0 * h)
         g2 = np.maximum(np.einsum("mi,mi->m", grad, grad), 1e-300)
-        x = x - (f / g2)[:, None] * grad
+        with np.errstate(over="ignore", invalid="ignore"):
+            moved = x - (f / g2)[:, None] * grad
+        lost |= ~np.all(np.abs(moved) <= MAX_JOINT_VALUE, axis=1)
+        x = np.where(lost[:, None], x, moved)
     tol = 1e-12 if crit.threshold > 0.0 else 1e-14
-    ok = (singularity_residual(crit, x) < tol) & np.all(np.isfinite(x), axis=1)
+    ok = (singularity_residual(crit, x) < tol) & ~lost
     return x, ok

@@ -28,10 +28,12 @@ def _rotation_matrix(rotation: Any, path: str) -> np.ndarray:
     if isinstance(rotation, Rotation):
         return np.asarray(rotation.as_matrix())
     arr = np.asarray(rotation, dtype=float)
-    if arr.shape != (3, 3) or not np.all(np.isfinite(arr)):
+    if arr.shape != (3, 3):
         raise ModelError(
             path, f"expected a 3x3 rotation matrix, got shape {arr.shape}", "give a proper rotation (or rpy = [r, p, y] in a file)"
         )
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(path, "has NaN or infinite entries", "give a proper rotation (or rpy = [r, p, y] in a file)")
     if np.max(np.abs(arr @ arr.T - np.eye(3))) > 1e-8 or np.linalg.det(arr) < 0:
         raise ModelError(path, "is not a proper rotation matrix", "give an orthonormal matrix with determinant +1")
     return arr

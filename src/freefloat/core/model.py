@@ -20,6 +20,7 @@ import numpy as np
 
 from . import barycentric
 from .errors import ModelError, UnknownNameError
+from .numbers import real_array
 
 __all__ = [
     "JOINT_TYPES",
@@ -82,8 +83,8 @@ def inertia_matrix(value: Any, path: str, *, degenerate_ok: bool = False) -> np.
     """Read an inertia given as a 3x3 matrix, three principal moments, or one isotropic moment."""
     fix = "give a 3x3 symmetric matrix, [Ixx, Iyy, Izz], or one number (isotropic), in kg m^2 about the CM"
     try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
+        arr = real_array(value, path)  # booleans and text are not moments of inertia
+    except TypeError:
         raise ModelError(path, f"cannot read {value!r} as an inertia", fix) from None
     if arr.shape == ():
         arr = np.eye(3) * arr

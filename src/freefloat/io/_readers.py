@@ -4,15 +4,16 @@ argument and the correction of a non-physical inertia (a warning and a record, o
 from __future__ import annotations
 
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..core.errors import ModelCorrectionWarning, ModelError
-from ..core.model import inertia_defect, nearest_physical_inertia
+from ..core.model import MAX_INERTIA, Model, check_inertia, inertia_defect, nearest_physical_inertia
 
-__all__ = ["EndEffectors", "end_effector_specs", "physical_inertia"]
+__all__ = ["EndEffectors", "end_effector_specs", "naming_file", "physical_inertia"]
 
 #: What a user may pass as ``end_effectors=``: link (body) names, or (name, link, point) triples.
 EndEffectors = Sequence[str | tuple[str, str, Sequence[float]]] | None
@@ -42,6 +43,8 @@ def physical_inertia(inertia: np.ndarray, path: str, strict: bool, corrections: 
     defect = inertia_defect(inertia, degenerate_ok=True)
     if defect is None:
         return inertia
+    if not np.all(np.isfinite(inertia)) or np.abs(inertia).max() > MAX_INERTIA:
+        check_inertia(inertia, path)  # raises: NaN, infinity and unit slips are not corrected
     fix = "use the inertia of a real body about its CM (symmetric, principal moments >= 0, each <= the sum of the other two)"
     if strict:
         raise ModelError(path, defect, f"{fix}; or load with strict=False to use the nearest physical inertia, with a warning")
@@ -66,3 +69,13 @@ def physical_inertia(inertia: np.ndarray, path: str, strict: bool, corrections: 
         stacklevel=3,
     )
     return fixed
+
+
+def naming_file(path: str | Path, build: Callable[[], Model]) -> Model:
+    """``build()``; a ModelError it raises names the file ``path`` (the tree's errors, a loop or a massless moving body, do not)."""
+    try:
+        return build()
+    except ModelError as exc:
+        if str(path) in exc.field:
+            raise
+        raise ModelError(f"{path}: {exc.field}", exc.problem, exc.fix) from None

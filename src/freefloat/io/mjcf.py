@@ -32,7 +32,7 @@ from scipy.spatial.transform import Rotation
 from ..core.builder import ModelBuilder
 from ..core.errors import ModelError
 from ..core.model import Model
-from ._readers import EndEffectors, end_effector_specs, physical_inertia
+from ._readers import EndEffectors, end_effector_specs, naming_file, physical_inertia
 
 __all__ = ["from_mjmodel", "load_mjcf"]
 
@@ -52,7 +52,7 @@ def load_mjcf(path: str | Path, *, end_effectors: EndEffectors = None, strict: b
             mj = mujoco.MjModel.from_xml_path(str(Path(path).resolve()))
     except ValueError as exc:  # MuJoCo's parse and compile errors
         raise ModelError(str(path), f"MuJoCo could not compile it: {exc}".replace("\n", " "), "fix the MJCF file") from None
-    return from_mjmodel(mj, source=str(path), end_effectors=end_effectors, strict=strict)
+    return naming_file(path, lambda: from_mjmodel(mj, source=str(path), end_effectors=end_effectors, strict=strict))
 
 
 def _name(mujoco: Any, mj: Any, kind: Any, index: int, fallback: str) -> str:

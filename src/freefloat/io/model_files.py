@@ -29,7 +29,7 @@ from scipy.spatial.transform import Rotation
 from ..core.builder import ModelBuilder
 from ..core.errors import ModelCorrectionWarning, ModelError
 from ..core.model import Model, resolve_model
-from ._readers import EndEffectors, end_effector_specs, physical_inertia
+from ._readers import EndEffectors, end_effector_specs, naming_file, physical_inertia
 from .mjcf import load_mjcf
 
 __all__ = ["load", "load_toml", "load_urdf", "save", "to_toml_dict", "to_urdf_string"]
@@ -63,12 +63,15 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
     if not path.is_file():
         raise ModelError(str(path), "file not found", "give the path of a .toml, .urdf or MJCF .xml model file")
     suffix = path.suffix.lower()
+    root = _xml_root(path) if suffix == ".xml" else ""
     if suffix == ".toml":
         model = load_toml(path, end_effectors=end_effectors)
-    elif suffix == ".urdf" or (suffix == ".xml" and not _is_mjcf(path)):
+    elif suffix == ".urdf" or root == "robot":
         model = load_urdf(path, end_effectors=end_effectors, strict=strict)
-    elif suffix in (".xml", ".mjcf"):
+    elif suffix == ".mjcf" or root == "mujoco":
         model = load_mjcf(path, end_effectors=end_effectors, strict=strict)
+    elif suffix == ".xml":
+        raise ModelError(str(path), f"the root element <{root}> is neither a URDF <robot> nor an MJCF <mujoco>", "give a URDF or MJCF file")
     else:
         raise ModelError(str(path), f"unknown model file type {suffix!r}", "use a .toml (freefloat schema), .urdf or MJCF .xml file")
     if model.n_joints == 0:
@@ -82,16 +85,16 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
     return model
 
 
-def _is_mjcf(path: Path) -> bool:
-    """True when the XML file's root element is ``<mujoco>`` (MJCF), not ``<robot>`` (URDF)."""
+def _xml_root(path: Path) -> str:
+    """The tag of the XML file's root element: ``mujoco`` (MJCF), ``robot`` (URDF) or another."""
     import xml.etree.ElementTree as ElementTree
 
     try:
         for _, element in ElementTree.iterparse(path, events=("start",)):
-            return element.tag == "mujoco"
+            return str(element.tag)
     except ElementTree.ParseError as exc:
         raise ModelError(str(path), f"malformed XML: {exc}", "fix the file so that it is valid URDF or MJCF XML") from None
-    return False
+    return ""
 
 
 def check_whole_model(model: Model) -> None:
@@ -127,12 +130,7 @@ def read_toml(path: str | Path, what: str = "model file") -> dict[str, Any]:
 
 def load_toml(path: str | Path, *, end_effectors: EndEffectors = None) -> Model:
     """Read a model in freefloat's TOML schema (see docs/model-files.md); errors name the file and the field."""
-    try:
-        return from_dict(read_toml(path), source=str(path), end_effectors=end_effectors)
-    except ModelError as exc:
-        if str(path) in exc.field:
-            raise
-        raise ModelError(f"{path}: {exc.field}", exc.problem, exc.fix) from None
+    return naming_file(path, lambda: from_dict(read_toml(path), source=str(path), end_effectors=end_effectors))
 
 
 def _require(entry: dict[str, Any], key: str, path: str, fix: str) -> Any:
@@ -339,12 +337,13 @@ def load_urdf(path: str | Path, *, end_effectors: EndEffectors = None, strict: b
     except ElementTree.ParseError as exc:
         raise ModelError(str(path), f"malformed URDF XML: {exc}", "fix the file so that it is valid URDF XML") from None
     try:
-        urdf = yourdfpy.URDF.load(
-            str(path), build_scene_graph=False, load_meshes=False, build_collision_scene_graph=False, load_collision_meshes=False
-        )
+        with np.errstate(all="ignore"):  # NaN or infinity in an <origin>: refused below, naming it (not a RuntimeWarning of numpy)
+            urdf = yourdfpy.URDF.load(
+                str(path), build_scene_graph=False, load_meshes=False, build_collision_scene_graph=False, load_collision_meshes=False
+            )
     except Exception as exc:  # yourdfpy and lxml raise many types for bad XML
         raise ModelError(str(path), f"malformed URDF: {type(exc).__name__}: {exc}", "fix the file so that it is valid URDF XML") from None
-    return from_urdf_robot(urdf.robot, source=str(path), end_effectors=end_effectors, strict=strict)
+    return naming_file(path, lambda: from_urdf_robot(urdf.robot, source=str(path), end_effectors=end_effectors, strict=strict))
 
 
 def missing_limit(path: str, kind: str, strict: bool, corrections: list[dict[str, Any]]) -> None:
@@ -368,6 +367,14 @@ _URDF_REFUSED = {
 }
 
 
+def _urdf_origin(origin: Any, path: str) -> np.ndarray:
+    """A URDF ``<origin>`` as a 4x4 transform; NaN or infinity in its xyz or rpy is a ModelError (not a NaN rotation)."""
+    matrix = np.eye(4) if origin is None else np.asarray(origin, dtype=float)
+    if not np.all(np.isfinite(matrix)):
+        raise ModelError(path, "has NaN or infinite entries in xyz or rpy", "give finite numbers: xyz in m, rpy in rad")
+    return matrix
+
+
 def from_urdf_robot(robot: Any, source: str = "", *, end_effectors: EndEffectors = None, strict: bool = False) -> Model:
     """Build a model from a ``yourdfpy.Robot`` (see :func:`load` for ``end_effectors`` and ``strict``)."""
     builder = ModelBuilder(robot.name or "urdf")
@@ -378,7 +385,7 @@ def from_urdf_robot(robot: Any, source: str = "", *, end_effectors: EndEffectors
         if inertial is None or inertial.mass is None or float(inertial.mass) == 0.0:
             builder.add_body(link.name, mass=0.0, inertia=0.0, frame=True)
             continue
-        origin = np.eye(4) if inertial.origin is None else np.asarray(inertial.origin, dtype=float)
+        origin = _urdf_origin(inertial.origin, f"{path}.inertial.origin")
         rot = origin[:3, :3]
         inertia = np.zeros((3, 3)) if inertial.inertia is None else np.asarray(inertial.inertia, dtype=float)
         inertia = physical_inertia(rot @ inertia @ rot.T, f"{path}.inertia", strict, corrections)
@@ -406,7 +413,7 @@ def from_urdf_robot(robot: Any, source: str = "", *, end_effectors: EndEffectors
                 f"mimics joint {joint.mimic.joint!r}: a mimic joint is driven by another joint, and freefloat's joints are independent",
                 "remove the <mimic> element (the joint becomes an independent joint) or make the joint fixed",
             )
-        origin = np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=float)
+        origin = _urdf_origin(joint.origin, f"{path}.origin")
         limits = None
         if (
             joint.type in ("revolute", "prismatic")

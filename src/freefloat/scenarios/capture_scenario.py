@@ -59,9 +59,9 @@ from ..analysis.capture import (
 )
 from ..analysis.singularity import MEASURES, ROWS, SingularityCriterion
 from ..core.errors import ModelError, UnknownNameError
-from ..core.model import Model, inertia_matrix
+from ..core.model import MAX_LENGTH, Model, inertia_matrix
 from ..io.model_files import read_toml
-from .scenario import scenario_model
+from .scenario import refuse_model_file, scenario_model
 
 __all__ = [
     "CaptureResult",
@@ -174,6 +174,9 @@ def _path(table: dict[str, Any], source: str) -> np.ndarray:
     if len({len(r) for r in rows}) != 1:
         raise ModelError(_where(source, "path.points"), "mixes 2D and 3D points", fix)
     arr = np.array(rows, dtype=float)
+    if np.abs(arr).max() > MAX_LENGTH:
+        too_far = f"{np.abs(arr).max():g} m is beyond the {MAX_LENGTH:g} m freefloat accepts for a position (a unit slip?)"
+        raise ModelError(_where(source, "path.points"), too_far, fix)
     if np.linalg.norm(arr[1] - arr[0]) == 0.0:
         raise ModelError(
             _where(source, "path.points"), "the first segment A-B has zero length", "make the second point differ from the first"
@@ -192,6 +195,10 @@ def capture_scenario_from_dict(
     """Validate a scenario given as a dict (the parsed TOML). ``base_dir``: where relative model paths start;
     ``model_loader``: reads the ``model`` key instead (then ``end_effectors`` and ``strict`` are its business);
     ``end_effectors``: replaces the scenario's ``end_effectors`` (the command line's ``-e``)."""
+    if isinstance(data, dict) and "duration" in data and "payload" not in data:
+        where, problem = source or "scenario", "is a simulation scenario (it has a duration and no [payload])"
+        raise ModelError(where, problem, "run it with `freefloat simulate`, not `capture`")
+    refuse_model_file(data, source)
     data = _check_keys(data, _TOP_KEYS, source, "")
     if model_loader is not None and isinstance(data.get("model"), str):
         loaded = model_loader(data["model"])
@@ -250,6 +257,8 @@ def capture_scenario_from_dict(
             raise ModelError(_where(source, "path.R_plus"), f"must be positive, got {r_plus!r}", "give R+ in m (> 0) or leave it out")
     criterion, strategy = _singularity(data.get("singularity", {}), source)
     description = data.get("description", "")
+    if not isinstance(description, str):
+        raise ModelError(_where(source, "description"), f"expected a string, got {description!r}", "write the description in quotes")
     return CaptureScenario(
         source=source,
         model=model,
@@ -291,7 +300,7 @@ def load_capture_scenario(
     scenario's (the command line's ``-e``)."""
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such scenario file")
+        raise FileNotFoundError(f"{path}: is not a file; give a scenario TOML file" if path.exists() else f"{path}: no such scenario file")
     data = read_toml(path, "scenario")
     return capture_scenario_from_dict(data, source=str(path), base_dir=path.parent, model_loader=model_loader, end_effectors=end_effectors)
 

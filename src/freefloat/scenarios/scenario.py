@@ -74,10 +74,11 @@ from scipy.spatial.transform import Rotation
 
 from ..core.errors import ModelError
 from ..core.model import Model
+from ..core.numbers import real_array
 from ..core.state import Actuation, ActuatorLimits, State
 from ..io.model_files import load, read_toml
 from ..models import load_model
-from ..simulation._guard import RunEstimate, estimate_run
+from ..simulation._guard import MAX_RATE, RunEstimate, estimate_run
 from ..simulation.pd import JointPD
 from ..simulation.simulate import METHODS, simulate
 from ..simulation.trajectory import Trajectory
@@ -147,7 +148,8 @@ def _table(value: Any, allowed: set[str], source: str, name: str) -> dict[str, A
         raise ModelError(_where(source, name), f"expected a table, got {value!r}", f"write [{name}] with keys {', '.join(sorted(allowed))}")
     unknown = sorted(set(value) - allowed)
     if unknown:
-        raise ModelError(_where(source, f"{name}.{unknown[0]}"), "unknown key", f"use one of {', '.join(sorted(allowed))}")
+        key = f"{name}.{unknown[0]}" if name else unknown[0]
+        raise ModelError(_where(source, key), "unknown key", f"use one of {', '.join(sorted(allowed))}")
     return value
 
 
@@ -165,10 +167,10 @@ def _number(value: Any, source: str, name: str, fix: str, *, positive: bool = Fa
 def _array(value: Any, shape: tuple[int, ...], source: str, name: str, fix: str) -> np.ndarray:
     """A finite float array of exactly ``shape`` (-1: any length >= 1)."""
     try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
+        arr = real_array(value, name)  # booleans, text and tables are not numbers
+    except TypeError:
         raise ModelError(_where(source, name), f"expected numbers, got {value!r}", fix) from None
-    if isinstance(value, bool) or arr.ndim != len(shape) or any(s not in (-1, a) for s, a in zip(shape, arr.shape, strict=True)):
+    if arr.ndim != len(shape) or any(s not in (-1, a) for s, a in zip(shape, arr.shape, strict=True)):
         want = "(" + ", ".join("n" if s == -1 else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
         raise ModelError(_where(source, name), f"expected shape {want}, got {arr.shape} from {value!r}", fix)
     if not np.all(np.isfinite(arr)):
@@ -193,11 +195,30 @@ def _per_joint(value: Any, model: Model, source: str, name: str, unit: str, *, s
     return _array(value, (n,), source, name, fix)
 
 
+def _built(make: Callable[[], Any], source: str, table: str) -> Any:
+    """``make()`` (a State, a JointPD); its ValueError or TypeError (a joint angle beyond reach) a ModelError naming the table."""
+    try:
+        return make()
+    except (TypeError, ValueError) as exc:
+        raise ModelError(_where(source, table), str(exc), f"fix the [{table}] table") from None
+
+
 def _one_of(table: dict[str, Any], names: tuple[str, str], source: str, where: str) -> tuple[str, Any] | None:
     given = [k for k in names if k in table]
     if len(given) > 1:
         raise ModelError(_where(source, f"{where}.{given[1]}"), f"given together with {where}.{given[0]}", "keep only one of them")
     return (given[0], table[given[0]]) if given else None
+
+
+def _rate(rates: np.ndarray, source: str, name: str) -> None:
+    """Initial rates beyond :data:`~freefloat.simulation._guard.MAX_RATE` are refused when the scenario is read, before the run."""
+    fastest = float(np.max(np.abs(rates), initial=0.0))
+    if fastest > MAX_RATE:
+        raise ModelError(
+            _where(source, name),
+            f"{fastest:.3g} rad/s (or m/s) is beyond {MAX_RATE:g}, which no joint or spacecraft of a space robot reaches",
+            "check the units (rad/s, or deg/s with the _deg key) and the size",
+        )
 
 
 # --------------------------------------------------------------------- sections
@@ -210,11 +231,14 @@ def _initial_state(data: Any, model: Model, source: str) -> State:
             key, value = pick
             arr = _per_joint(value, model, source, f"initial.{key}", "deg" if key.endswith("_deg") else unit)
             fields[base] = np.radians(arr) if key.endswith("_deg") else arr
+            if base == "qdot":
+                _rate(fields[base], source, f"initial.{key}")
     pick = _one_of(table, ("omega", "omega_deg"), source, "initial")
     if pick is not None:
         key, value = pick
         arr = _array(value, (3,), source, f"initial.{key}", "give [wx, wy, wz], spacecraft frame")
         fields["omega"] = np.radians(arr) if key == "omega_deg" else arr
+        _rate(fields["omega"], source, f"initial.{key}")
     pick = _one_of(table, ("attitude", "euler321_deg"), source, "initial")
     if pick is not None:
         key, value = pick
@@ -233,7 +257,7 @@ def _initial_state(data: Any, model: Model, source: str) -> State:
     for key, what in (("r_cm", "m, inertial frame"), ("v_cm", "m/s, inertial frame")):
         if key in table:
             fields[key] = _array(table[key], (3,), source, f"initial.{key}", f"give [x, y, z] ({what})")
-    return State(**fields)
+    return _built(lambda: State(**fields), source, "initial")
 
 
 def _integrator(data: Any, source: str, duration: float) -> dict[str, Any]:
@@ -257,7 +281,7 @@ def _integrator(data: Any, source: str, duration: float) -> dict[str, Any]:
                     f"remove it, or choose method = {METHODS[0]!r}",
                 )
         steps = duration / options["fixed_step"]
-        if abs(steps - round(steps)) > 1e-9 * max(1.0, steps):
+        if round(steps) < 1 or abs(steps - round(steps)) > 1e-9 * max(1.0, steps):
             raise ModelError(
                 _where(source, "integrator.fixed_step"),
                 f"{options['fixed_step']} s does not divide duration {duration} s",
@@ -382,7 +406,7 @@ def _controller(data: Any, model: Model, source: str) -> JointPD:
     qdot_ref = (
         _per_joint(table["qdot_ref"], model, source, "controller.qdot_ref", "rad/s") if "qdot_ref" in table else np.zeros(model.n_joints)
     )
-    return JointPD(kp=gains["kp"], kd=gains["kd"], q_ref=q_ref, qdot_ref=qdot_ref)
+    return _built(lambda: JointPD(kp=gains["kp"], kd=gains["kd"], q_ref=q_ref, qdot_ref=qdot_ref), source, "controller")
 
 
 def _limits(data: Any, model: Model, source: str) -> ActuatorLimits:
@@ -452,6 +476,14 @@ def scenario_model(top: dict[str, Any], source: str, base: Path | None, end_effe
         raise ModelError(_where(source, "model"), str(exc), "fix the model name or path (relative to the scenario file)") from exc
 
 
+def refuse_model_file(data: Any, source: str) -> None:
+    """A model file (its ``[[bodies]]``) given where a scenario belongs: a ModelError that says so."""
+    if isinstance(data, dict) and "bodies" in data:
+        raise ModelError(
+            source or "scenario", "is a model file (it has [[bodies]]), not a scenario", 'name it in a scenario: model = "PATH"'
+        )
+
+
 def scenario_from_dict(data: Any, *, source: str = "", base: Path | None = None, end_effectors: Any = None) -> Scenario:
     """Validate a scenario given as a dict (a parsed TOML file); ``base``: folder of relative model paths;
     ``end_effectors``: replaces the scenario's ``end_effectors`` (the command line's ``-e``)."""
@@ -459,6 +491,7 @@ def scenario_from_dict(data: Any, *, source: str = "", base: Path | None = None,
         raise ModelError(
             source or "scenario", "is a capture scenario (it has [payload] and [path])", "run it with `freefloat capture`, not `simulate`"
         )
+    refuse_model_file(data, source)
     top = _table(data, _TOP_KEYS, source, "")
     model, model_file = scenario_model(top, source, base, end_effectors)
     if "duration" not in top:
@@ -515,7 +548,7 @@ def load_scenario(path: str | Path, *, end_effectors: Any = None) -> Scenario:
     ``end_effectors`` replaces the scenario's (the command line's ``-e``)."""
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"{path}: no such scenario file")
+        raise FileNotFoundError(f"{path}: is not a file; give a scenario TOML file" if path.exists() else f"{path}: no such scenario file")
     data = read_toml(path, "scenario")
     return scenario_from_dict(data, source=str(path), base=path.parent, end_effectors=end_effectors)
 

@@ -185,7 +185,11 @@ def pd_stability(model: Model, kp: Any, kd: Any, q0: Any, period: float) -> tupl
     kd_n = np.broadcast_to(np.asarray(kd, dtype=float), (n,))
 
     def radius(scale: float) -> tuple[float, np.ndarray]:
-        values, vectors = np.linalg.eig(_sampled_pd_map(m, scale * kp_n, scale * kd_n, period))
+        with np.errstate(over="ignore", invalid="ignore"):
+            step = _sampled_pd_map(m, scale * kp_n, scale * kd_n, period)
+        if not np.all(np.isfinite(step)):  # a period or gains so large that the map overflows: unstable
+            return float("inf"), np.ones(n)
+        values, vectors = np.linalg.eig(step)
         worst = int(np.argmax(np.abs(values)))
         return float(np.abs(values[worst])), np.abs(vectors[:n, worst])
 

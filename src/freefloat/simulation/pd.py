@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import ShapeError
-from ..core.numbers import real_array
+from ..core.numbers import check_joint_values, real_array
 
 __all__ = ["JointPD"]
 
@@ -44,6 +44,8 @@ class JointPD:
             arr = real_array(getattr(self, name), f"JointPD.{name}")
             if not np.all(np.isfinite(arr)):
                 raise ValueError(f"JointPD.{name}: has NaN or infinite entries")
+            if name == "q_ref":
+                check_joint_values(arr, "JointPD.q_ref")
             if name in ("kp", "kd") and np.any(arr < 0):
                 raise ValueError(
                     f"JointPD.{name}: must be >= 0 (a negative gain drives the joints away from the reference and pumps energy "

@@ -232,6 +232,7 @@ def simulate(
     guard = DivergenceGuard(model, x0, min(duration, period), h, what, divergence_guard, pd, wall_limit, duration)
     bar = Progress(progress, duration)
     try:
+        guard.check(0.0, x0)  # an initial rate beyond meaning: stopped now, named (its first step would be non-finite)
         if fixed_step is not None:
             status = _run_rk4(
                 model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar, guard, stops
