@@ -67,11 +67,18 @@ CASES: dict[str, Case] = {
     "point_jacobian(barycentric)": lambda m, x: ff.point_jacobian(m, x["q"], 2, [0.1, -0.2, 0.3], method="barycentric"),
     "generalized_jacobian(barycentric)": lambda m, x: ff.generalized_jacobian(m, x["q"], method="barycentric"),
     "nonlinear_forces(barycentric)": lambda m, x: ff.nonlinear_forces(m, x["q"], x["velocity"], method="barycentric"),
+    "system_inertia_matrix_rate(barycentric)": lambda m, x: ff.mechanics.system_inertia_matrix_rate(
+        m, x["q"], x["velocity"][..., 6:], method="barycentric"
+    ),
+    "point_bias_acceleration(barycentric)": lambda m, x: ff.mechanics.point_bias_acceleration(
+        m, x["q"], x["velocity"], 2, attitude=x["attitude"], method="barycentric"
+    ),
+    # the engine (its drivers' blocks)
     "system_inertia_matrix_rate": lambda m, x: ff.mechanics.system_inertia_matrix_rate(m, x["q"], x["velocity"][..., 6:]),
     "point_bias_acceleration": lambda m, x: ff.mechanics.point_bias_acceleration(m, x["q"], x["velocity"], 2, attitude=x["attitude"]),
 }
 #: The cases that run through ``_arrays.chunked`` (the others run on the engine's blocks); asserted below.
-CHUNKED = {name for name in CASES if "barycentric" in name} | {"system_inertia_matrix_rate", "point_bias_acceleration"}
+CHUNKED = {name for name in CASES if "barycentric" in name}
 PLANAR_CASES: dict[str, Case] = {
     "jacobian_determinant": lambda m, x: ff.jacobian_determinant(m, x["q"]),
     "planar.end_effector_positions": lambda m, x: ff.planar.end_effector_positions(m, x["q"]),
@@ -89,7 +96,7 @@ PAIR_FORMS = {
     "inertia_blocks(barycentric)",
     "generalized_jacobian(barycentric)",
     "nonlinear_forces(barycentric)",
-    "system_inertia_matrix_rate",
+    "system_inertia_matrix_rate(barycentric)",
 }
 LARGE_PARAMS = [p for p in PARAMS if p.values[1] not in PAIR_FORMS]
 ALL_CASES = {**CASES, **PLANAR_CASES}

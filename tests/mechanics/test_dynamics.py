@@ -157,6 +157,35 @@ def test_point_bias_acceleration_by_finite_differences(model: ff.Model, seed: in
     close(ours, central(jz), rtol=FD_RTOL, scale=float(np.max(np.abs(ours))))
 
 
+@given(random_trees(), SEEDS)
+@settings(max_examples=60)
+def test_engine_rates_and_biases_equal_the_barycentric_forms(model: ff.Model, seed: int) -> None:
+    """dH+/dt and Jdot+ zdot0 of the engine (differentiated composite bodies; Newton-Euler's forward pass) against the
+    barycentric forms (pair inertias turning with their bodies; the barycentric vectors differentiated)."""
+    rng = np.random.default_rng(seed)
+    q, v, att = random_state(model, rng)
+    fast = ff.mechanics.system_inertia_matrix_rate(model, q, v[6:])
+    ref = ff.mechanics.system_inertia_matrix_rate(model, q, v[6:], method="barycentric")
+    close(fast, ref, rtol=1e-12, scale=float(np.max(np.abs(ref))))
+    for body in range(model.n_bodies):
+        point = rng.normal(size=3)
+        ours = ff.mechanics.point_bias_acceleration(model, q, v, body, point, attitude=att)
+        ref = ff.mechanics.point_bias_acceleration(model, q, v, body, point, attitude=att, method="barycentric")
+        close(ours, ref, rtol=1e-12, scale=float(np.max(np.abs(ref))))
+
+
+def test_engine_rate_of_h_plus_with_prismatic_joints_by_finite_differences() -> None:
+    """The engine's dH+/dt holds for sliding joints too (the barycentric form is revolute-only)."""
+    model = build_random_model(np.random.default_rng(5), [3, 2], [0, None], [1, None], prismatic=0.5)
+    assert model.has_prismatic
+    rng = np.random.default_rng(2)
+    q, qd = rng.uniform(-0.4, 0.4, (5, model.n_joints)), rng.normal(size=(5, model.n_joints))
+    fd = central(lambda t: ff.system_inertia_matrix(model, q + t * qd))
+    close(ff.mechanics.system_inertia_matrix_rate(model, q, qd), fd, rtol=FD_RTOL, scale=float(np.max(np.abs(fd))))
+    with pytest.raises(ValueError, match="prismatic"):
+        ff.mechanics.system_inertia_matrix_rate(model, q, qd, method="barycentric")
+
+
 # ----------------------------------------------------------------- conservation and energy
 def check_free_floating_state(model: ff.Model, q: np.ndarray, v: np.ndarray, att: np.ndarray, tau: np.ndarray, method: str) -> None:
     acc = ff.forward_dynamics(model, q, v, tau, attitude=att, method=method)

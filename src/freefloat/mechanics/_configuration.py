@@ -187,6 +187,142 @@ def hplus_one(q: np.ndarray, m: Any, s: Any, out: np.ndarray) -> None:  # pragma
 
 
 @kernel(inline="always")
+def hplus_rate_one(q: np.ndarray, qdot: np.ndarray, m: Any, s: Any, out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """dH+/dt (6 + N, 6 + N) at q along the joint rates ``qdot``: sum_l dH+/dq_l qdot_l (H+ depends on q only).
+
+    The derivative of each quantity of :func:`hplus_one` with the spacecraft frame held still (omega0 = 0: H+ is
+    in that frame): the bodies move at w_k = sum u_l qdot_l and v_k = sum m_l qdot_l (spatial velocity at O, the
+    sums over the joints inboard of k); a motion axis S_l = [u_l; m_l] fixed to body l turns at
+    [w_l x u_l; w_l x m_l + v_l x u_l]; a body's first moment about O changes at m_k (v_k + w_k x c_k) and its
+    inertia about O at [w]x I_C - I_C [w]x + m_k (2 c.cdot 1 - cdot c^T - c cdot^T) (I_C about its CM, spacecraft
+    axes; c its CM and cdot = v_k + w_k x c_k); composite rates add up the tree. Then the product rule on
+    g_l, h_l and the blocks D, D_q, D_qq (see :mod:`._recursions`).
+    """
+    nb = m.parent.shape[0]
+    parent, ancestor, big = m.parent, m.ancestor, m.total_mass
+    prepare(q, m, s, True)
+    axis, mom, cf, ci, g, h = s.axis, s.mom, s.cf, s.ci, s.g, s.h
+    unit_momenta(m, axis, mom, cf, ci, g, h, True)
+    w, v, fdot, idot = s.w, s.v, s.own_f, s.own_i  # own_f and own_i become the first-moment and inertia rates
+    udot, mdot, hdot, gdot = s.al, s.be, s.nf, s.ff
+    for i in range(3):
+        w[0, i] = 0.0
+        v[0, i] = 0.0
+    for k in range(1, nb):
+        p = parent[k]
+        qd = qdot[k - 1]
+        for i in range(3):
+            w[k, i] = w[p, i] + axis[k, i] * qd
+            v[k, i] = v[p, i] + mom[k, i] * qd
+    rot, pos = s.rot, s.pos
+    for k in range(nb):
+        mk = m.mass[k]
+        c0 = pos[k, 0] + rot[k, 0, 0] * m.com[k, 0] + rot[k, 0, 1] * m.com[k, 1] + rot[k, 0, 2] * m.com[k, 2]
+        c1 = pos[k, 1] + rot[k, 1, 0] * m.com[k, 0] + rot[k, 1, 1] * m.com[k, 1] + rot[k, 1, 2] * m.com[k, 2]
+        c2 = pos[k, 2] + rot[k, 2, 0] * m.com[k, 0] + rot[k, 2, 1] * m.com[k, 1] + rot[k, 2, 2] * m.com[k, 2]
+        w0, w1, w2 = w[k, 0], w[k, 1], w[k, 2]
+        d0 = v[k, 0] + (w1 * c2 - w2 * c1)  # cdot
+        d1 = v[k, 1] + (w2 * c0 - w0 * c2)
+        d2 = v[k, 2] + (w0 * c1 - w1 * c0)
+        fdot[k, 0], fdot[k, 1], fdot[k, 2] = mk * d0, mk * d1, mk * d2
+        sq = c0 * c0 + c1 * c1 + c2 * c2
+        cd = c0 * d0 + c1 * d1 + c2 * d2
+        wx, ic, rate = s.t0, s.low, s.a  # 3 x 3 scratch: [w]x, I_C, the rate
+        wx[0, 0], wx[0, 1], wx[0, 2] = 0.0, -w2, w1
+        wx[1, 0], wx[1, 1], wx[1, 2] = w2, 0.0, -w0
+        wx[2, 0], wx[2, 1], wx[2, 2] = -w1, w0, 0.0
+        for i in range(3):
+            ci_ = c0 if i == 0 else (c1 if i == 1 else c2)
+            di = d0 if i == 0 else (d1 if i == 1 else d2)
+            for j in range(3):
+                cj = c0 if j == 0 else (c1 if j == 1 else c2)
+                dj = d0 if j == 0 else (d1 if j == 1 else d2)
+                ic[i, j] = idot[k, i, j] - mk * ((sq if i == j else 0.0) - ci_ * cj)  # own_i holds I_O: I_C = I_O - m (|c|^2 1 - c c^T)
+                rate[i, j] = mk * ((2.0 * cd if i == j else 0.0) - di * cj - ci_ * dj)
+        for i in range(3):
+            for j in range(3):
+                rate[i, j] += (wx[i, 0] * ic[0, j] + wx[i, 1] * ic[1, j] + wx[i, 2] * ic[2, j]) - (
+                    ic[i, 0] * wx[0, j] + ic[i, 1] * wx[1, j] + ic[i, 2] * wx[2, j]
+                )
+        for i in range(3):
+            for j in range(3):
+                idot[k, i, j] = rate[i, j]
+    for k in range(nb - 1, 0, -1):  # composite rates
+        p = parent[k]
+        for i in range(3):
+            fdot[p, i] += fdot[k, i]
+            for j in range(3):
+                idot[p, i, j] += idot[k, i, j]
+    for l in range(1, nb):
+        u0, u1, u2 = axis[l, 0], axis[l, 1], axis[l, 2]
+        n0, n1, n2 = mom[l, 0], mom[l, 1], mom[l, 2]
+        w0, w1, w2 = w[l, 0], w[l, 1], w[l, 2]
+        v0, v1, v2 = v[l, 0], v[l, 1], v[l, 2]
+        udot[l, 0], udot[l, 1], udot[l, 2] = w1 * u2 - w2 * u1, w2 * u0 - w0 * u2, w0 * u1 - w1 * u0
+        mdot[l, 0] = (w1 * n2 - w2 * n1) + (v1 * u2 - v2 * u1)
+        mdot[l, 1] = (w2 * n0 - w0 * n2) + (v2 * u0 - v0 * u2)
+        mdot[l, 2] = (w0 * n1 - w1 * n0) + (v0 * u1 - v1 * u0)
+        a0, a1, a2 = udot[l, 0], udot[l, 1], udot[l, 2]
+        b0, b1, b2 = mdot[l, 0], mdot[l, 1], mdot[l, 2]
+        f0, f1, f2 = cf[l, 0], cf[l, 1], cf[l, 2]
+        e0, e1, e2 = fdot[l, 0], fdot[l, 1], fdot[l, 2]
+        for i in range(3):
+            hdot[l, i] = (
+                idot[l, i, 0] * u0 + idot[l, i, 1] * u1 + idot[l, i, 2] * u2 + ci[l, i, 0] * a0 + ci[l, i, 1] * a1 + ci[l, i, 2] * a2
+            )
+        hdot[l, 0] += (e1 * n2 - e2 * n1) + (f1 * b2 - f2 * b1)
+        hdot[l, 1] += (e2 * n0 - e0 * n2) + (f2 * b0 - f0 * b2)
+        hdot[l, 2] += (e0 * n1 - e1 * n0) + (f0 * b1 - f1 * b0)
+        sm = m.subtree_mass[l]
+        gdot[l, 0] = sm * b0 - (e1 * u2 - e2 * u1) - (f1 * a2 - f2 * a1)
+        gdot[l, 1] = sm * b1 - (e2 * u0 - e0 * u2) - (f2 * a0 - f0 * a2)
+        gdot[l, 2] = sm * b2 - (e0 * u1 - e1 * u0) - (f0 * a1 - f1 * a0)
+    size = 5 + nb
+    for i in range(size):
+        for j in range(size):
+            out[i, j] = 0.0
+    f0, f1, f2 = cf[0, 0], cf[0, 1], cf[0, 2]
+    e0, e1, e2 = fdot[0, 0], fdot[0, 1], fdot[0, 2]
+    fe = f0 * e0 + f1 * e1 + f2 * e2
+    for i in range(3):
+        fi = f0 if i == 0 else (f1 if i == 1 else f2)
+        ei = e0 if i == 0 else (e1 if i == 1 else e2)
+        for j in range(3):
+            fj = f0 if j == 0 else (f1 if j == 1 else f2)
+            ej = e0 if j == 0 else (e1 if j == 1 else e2)
+            out[3 + i, 3 + j] = idot[0, i, j] + (ei * fj + fi * ej - (2.0 * fe if i == j else 0.0)) / big
+    for l in range(1, nb):
+        col = 5 + l
+        gl0, gl1, gl2 = g[l, 0], g[l, 1], g[l, 2]
+        q0, q1, q2 = gdot[l, 0], gdot[l, 1], gdot[l, 2]
+        out[3, col] = hdot[l, 0] - ((e1 * gl2 - e2 * gl1) + (f1 * q2 - f2 * q1)) / big
+        out[4, col] = hdot[l, 1] - ((e2 * gl0 - e0 * gl2) + (f2 * q0 - f0 * q2)) / big
+        out[5, col] = hdot[l, 2] - ((e0 * gl1 - e1 * gl0) + (f0 * q1 - f1 * q0)) / big
+        for r in range(3):
+            out[col, 3 + r] = out[3 + r, col]
+    for k in range(1, nb):
+        for i in range(1, k + 1):
+            val = (
+                -(
+                    gdot[i, 0] * g[k, 0]
+                    + gdot[i, 1] * g[k, 1]
+                    + gdot[i, 2] * g[k, 2]
+                    + g[i, 0] * gdot[k, 0]
+                    + g[i, 1] * gdot[k, 1]
+                    + g[i, 2] * gdot[k, 2]
+                )
+                / big
+            )
+            if ancestor[i, k]:
+                val += udot[i, 0] * h[k, 0] + udot[i, 1] * h[k, 1] + udot[i, 2] * h[k, 2]
+                val += axis[i, 0] * hdot[k, 0] + axis[i, 1] * hdot[k, 1] + axis[i, 2] * hdot[k, 2]
+                val += mdot[i, 0] * g[k, 0] + mdot[i, 1] * g[k, 1] + mdot[i, 2] * g[k, 2]
+                val += mom[i, 0] * gdot[k, 0] + mom[i, 1] * gdot[k, 1] + mom[i, 2] * gdot[k, 2]
+            out[5 + i, 5 + k] = val
+            out[5 + k, 5 + i] = val
+
+
+@kernel(inline="always")
 def quaternion_matrix(x: np.ndarray, o: int, t0: np.ndarray) -> None:  # pragma: no cover - compiled
     """t0 = the rotation of the unit quaternion [x, y, z, w] = x[o : o + 4] (normalised here)."""
     norm = math.sqrt(x[o] * x[o] + x[o + 1] * x[o + 1] + x[o + 2] * x[o + 2] + x[o + 3] * x[o + 3])

@@ -28,6 +28,7 @@ from numba import prange
 from ._configuration import (
     accelerations_one,
     hplus_one,
+    hplus_rate_one,
     jstar_one,
     point_bias_one,
     point_jacobian_one,
@@ -48,6 +49,7 @@ __all__ = [
     "forward_batch",
     "frames_batch",
     "hplus_batch",
+    "hplus_rate_batch",
     "inverse_batch",
     "jstar_batch",
     "point_bias_batch",
@@ -257,6 +259,13 @@ def _hplus_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
 
 
 @kernel(inline="always")
+def _hplus_rate_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
+    """a = (Q, QD, OUT (C, 6 + N, 6 + N)): dH+/dt along the joint rates QD[i]."""
+    Q, QD, OUT = a
+    hplus_rate_one(Q[i], QD[i], m, s, OUT[i])
+
+
+@kernel(inline="always")
 def _inverse_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
     """a = (Q, V, A, U, T0, ext_i, EXT, accelerate, OUT (C, 3 + N)): rows [omega0, q] of H+ zddot0 + C+ - Q_u - Q_ext
     (accelerate False: zddot0 = 0)."""
@@ -315,6 +324,7 @@ point_jacobian_batch = driver("point_jacobian", _point_jacobian_row)
 point_bias_batch = driver("point_bias", _point_bias_row)
 jstar_batch = driver("jstar", _jstar_row)
 hplus_batch = driver("hplus", _hplus_row)
+hplus_rate_batch = driver("hplus_rate", _hplus_rate_row)
 inverse_batch = driver("inverse", _inverse_row)
 forward_batch = driver("forward", _forward_row)
 derivative_batch = driver("derivative", _derivative_row)

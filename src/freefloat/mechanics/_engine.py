@@ -28,6 +28,7 @@ __all__ = [
     "frames",
     "generalized_jacobian",
     "inertia_matrix",
+    "inertia_matrix_rate",
     "point_biases",
     "point_jacobians",
     "points",
@@ -152,6 +153,18 @@ def inertia_matrix(model: Any, q: np.ndarray) -> np.ndarray:
     size = 6 + t.n_joints
     out = new_output((flat.shape[0], size, size))
     _drivers.hplus_batch(flat.shape[0], t, flat, out)
+    return out.reshape((*batch, size, size))
+
+
+def inertia_matrix_rate(model: Any, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
+    """dH+/dt along the joint rates qdot, (..., 6 + N, 6 + N), order [r_cm, omega0, q]."""
+    t = tree(model)
+    batch = _batch((q, 1), (qdot, 1))
+    qf = _flat(q, batch, (t.n_joints,))
+    vf = _flat(qdot, batch, (t.n_joints,))
+    size = 6 + t.n_joints
+    out = new_output((qf.shape[0], size, size))
+    _drivers.hplus_rate_batch(qf.shape[0], t, qf, vf, out)
     return out.reshape((*batch, size, size))
 
 

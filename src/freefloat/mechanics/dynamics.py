@@ -226,17 +226,21 @@ def _hplus_rate(model: Model, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
     return out
 
 
-def system_inertia_matrix_rate(model: Model, q: Any, qdot: Any) -> np.ndarray:
+def system_inertia_matrix_rate(model: Model, q: Any, qdot: Any, *, method: str = "recursive") -> np.ndarray:
     """dH+/dt along the joint rates ``qdot``, (..., 6 + N, 6 + N): the rates of D, D_q, D_qq.
 
-    H+ (1991 eq. 15) depends on q only, so dH+/dt = sum_l dH+/dq_l qdot_l.
-    Each pair inertia D_ij turns with its bodies (spacecraft frame): d/dt of a
-    body-fixed vector v_i is (F_i qdot) x v_i. Used by the closed form of C+
-    and by momentum checks: d/dt h = Ddot omega0 + D omega0dot + D_q,dot qdot + D_q qddot.
+    H+ (1991 eq. 15) depends on q only, so dH+/dt = sum_l dH+/dq_l qdot_l (spacecraft frame). Used by the
+    closed form of C+ and by momentum checks: d/dt h = Ddot omega0 + D omega0dot + D_q,dot qdot + D_q qddot.
+    ``method="recursive"`` (default): the engine differentiates its composite-body recursion (any joints);
+    ``"barycentric"``: each pair inertia D_ij turns with its bodies (spacecraft frame), d/dt of a body-fixed
+    vector v_i being (F_i qdot) x v_i (revolute joints only).
     """
-    revolute_only(model, "system_inertia_matrix_rate")
+    how = _method(method)
     q = _joints(model, q, "q")
     qd = _joints(model, qdot, "qdot")
+    if how == "recursive":
+        return _engine.inertia_matrix_rate(model, q, qd)
+    revolute_only(model, "system_inertia_matrix_rate(method='barycentric')")
     return chunked(pieces(lambda qq, vv: _hplus_rate(model, qq, vv), model.n_bodies), q, qd, core_ndims=(1, 1))
 
 
