@@ -189,27 +189,8 @@ class SingularSearch:
     method: str
 
 
-def singularity_values(jac: np.ndarray) -> np.ndarray:
-    """det J (square) or the smallest singular value (otherwise), over the leading axes."""
-    if jac.shape[-1] == jac.shape[-2]:
-        return np.linalg.det(jac)
-    return np.linalg.svd(jac, compute_uv=False)[..., -1]
-
-
+#: The measures a criterion may use (computed by the engine's kernel: :func:`freefloat.mechanics.jacobian_measure`).
 MEASURES = ("det", "sigma_min", "manipulability")
-
-
-def measure_values(jac: np.ndarray, measure: str) -> np.ndarray:
-    """A singularity measure of J (..., m, n) over the leading axes.
-
-    ``"det"``: det J (square J only, signed); ``"sigma_min"``: the smallest
-    singular value; ``"manipulability"``: sqrt(det(J Jᵀ)) = the product of the
-    singular values (Yoshikawa's measure; |det J| for a square J).
-    """
-    if measure == "det":
-        return np.linalg.det(jac)
-    s = np.linalg.svd(jac, compute_uv=False)
-    return s[..., -1] if measure == "sigma_min" else np.prod(s, axis=-1)
 
 
 @dataclass(frozen=True)
@@ -225,7 +206,8 @@ class Criterion:
 
     jac_fun: Batch
     measure: str
-    threshold: float = 0.0
+    threshold: float
+    measure_fun: Batch  # the measure at each row of q, computed without J (the engine's kernel)
 
     @property
     def signed(self) -> bool:
@@ -234,7 +216,7 @@ class Criterion:
 
     def values(self, q: np.ndarray) -> np.ndarray:
         """The measure at each row of q (M, N)."""
-        return measure_values(self.jac_fun(q), self.measure)
+        return self.measure_fun(q)
 
     def level(self, q: np.ndarray) -> np.ndarray:
         """Signed level function: det J (threshold 0), else |measure| - threshold; <= 0 inside the set."""

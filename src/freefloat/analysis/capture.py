@@ -29,7 +29,7 @@ from scipy.spatial.transform import Rotation
 from ..core._figures import new_axes
 from ..core.feedback import status
 from ..core.model import Model
-from ..mechanics.jacobians import end_effector_jacobian
+from ..mechanics.jacobians import end_effector_jacobian, jacobian_measure
 from ..mechanics.kinematics import end_effector_positions
 from . import _workspace_search as search
 from ._capture_families import CaptureFamilies, _family_of, _is_two_link, _two_link_coefficients, capture_families
@@ -106,8 +106,7 @@ def _dexterity(model: Model, q: np.ndarray, criterion: SingularityCriterion | No
     """
     crit = criterion if criterion is not None else SingularityCriterion()
     measure = "manipulability" if crit.measure == "auto" else crit.measure
-    jac = crit.jacobian(model, np.asarray(q, dtype=float))
-    return np.abs(search.measure_values(jac, measure))
+    return np.abs(jacobian_measure(model, np.asarray(q, dtype=float), crit.row_indices(model), measure))
 
 
 def _starts(

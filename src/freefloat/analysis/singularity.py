@@ -32,7 +32,7 @@ from ..core._figures import new_axes
 from ..core.errors import ShapeError
 from ..core.model import Model
 from ..core.resources import require_memory
-from ..mechanics.jacobians import generalized_jacobian, jacobian_determinant
+from ..mechanics.jacobians import generalized_jacobian, jacobian_determinant, jacobian_measure
 from . import _workspace_search as search
 
 if TYPE_CHECKING:
@@ -127,9 +127,7 @@ class SingularityCriterion:
         measure = self.resolved_measure(model, end_effector)
         if measure == "det" and self.rows == "auto" and end_effector is None:  # the dedicated determinant
             return np.asarray(jacobian_determinant(model, arr))
-        flat = arr.reshape(-1, model.n_joints)
-        out = search.batched(lambda qq: search.measure_values(self.jacobian(model, qq, end_effector), measure), flat)
-        return out.reshape(arr.shape[:-1])
+        return np.asarray(jacobian_measure(model, arr, self.row_indices(model, end_effector), measure))
 
     def is_singular(self, model: Model, q: Any, end_effector: int | None = None) -> np.ndarray:
         """|measure(q)| <= threshold, (...) booleans."""
@@ -145,7 +143,10 @@ class SingularityCriterion:
         def jac_fun(qq: np.ndarray) -> np.ndarray:
             return generalized_jacobian(model, qq)[..., rows, :]
 
-        return search.Criterion(jac_fun, measure, self.threshold)
+        def measure_fun(qq: np.ndarray) -> np.ndarray:
+            return np.asarray(jacobian_measure(model, qq, rows, measure))
+
+        return search.Criterion(jac_fun, measure, self.threshold, measure_fun)
 
     def describe(self, model: Model, end_effector: int | None = None) -> str:
         """One line for reports: the rows, the measure and the threshold."""

@@ -65,6 +65,107 @@ def jstar_one(q: np.ndarray, m: Any, s: Any, out: np.ndarray) -> None:  # pragma
             out[6 * e + 5, l - 1] = w2
 
 
+#: The measures of :func:`jacobian_measure_one`, by code.
+MEASURE_CODES = {"det": 0, "sigma_min": 1, "manipulability": 2, "condition": 3}
+
+
+@kernel(inline="always")
+def jacobian_measure_one(jac: np.ndarray, rows: np.ndarray, kind: int, buf: np.ndarray) -> float:  # pragma: no cover - compiled
+    """A measure of the rows ``rows`` of ``jac`` (K of its R rows, N columns), without forming anything larger.
+
+    ``kind`` (:data:`MEASURE_CODES`): 0 det (K = N; LU with partial pivoting, signed); 1 the smallest singular value;
+    2 the product of the singular values (sqrt(det(A A^T)) for K <= N: Yoshikawa's manipulability); 3 the condition
+    number sigma_max / sigma_min (inf when sigma_min is 0). The singular values come from one-sided Jacobi
+    (Hestenes: plane rotations of the columns of A^T, or of A when K > N, until they are orthogonal; their norms):
+    backward stable, each within a few ulps of sigma_max (and of itself when the columns are merely badly scaled),
+    as accurate as numpy's SVD near a singularity. ``buf``: at least K N floats of work space.
+    """
+    k_rows = rows.shape[0]
+    n = jac.shape[1]
+    if kind == 0:
+        a = buf[: n * n].reshape((n, n))
+        for i in range(n):
+            for j in range(n):
+                a[i, j] = jac[rows[i], j]
+        det = 1.0
+        for col in range(n):
+            piv = col
+            big = abs(a[col, col])
+            for r in range(col + 1, n):
+                if abs(a[r, col]) > big:
+                    big = abs(a[r, col])
+                    piv = r
+            if big == 0.0:
+                return 0.0
+            if piv != col:
+                det = -det
+                for j in range(n):
+                    tmp = a[col, j]
+                    a[col, j] = a[piv, j]
+                    a[piv, j] = tmp
+            d = a[col, col]
+            det *= d
+            for r in range(col + 1, n):
+                f = a[r, col] / d
+                for j in range(col + 1, n):
+                    a[r, j] -= f * a[col, j]
+        return det
+    # B (r x c, c = min(K, N) columns): A^T when K <= N, else A
+    if k_rows <= n:
+        nr, nc = n, k_rows
+        b = buf[: nr * nc].reshape((nr, nc))
+        for i in range(k_rows):
+            for j in range(n):
+                b[j, i] = jac[rows[i], j]
+    else:
+        nr, nc = k_rows, n
+        b = buf[: nr * nc].reshape((nr, nc))
+        for i in range(k_rows):
+            for j in range(n):
+                b[i, j] = jac[rows[i], j]
+    for _sweep in range(60):
+        rotated = False
+        for p in range(nc - 1):
+            for q in range(p + 1, nc):
+                alpha = 0.0
+                beta = 0.0
+                gamma = 0.0
+                for i in range(nr):
+                    alpha += b[i, p] * b[i, p]
+                    beta += b[i, q] * b[i, q]
+                    gamma += b[i, p] * b[i, q]
+                if gamma == 0.0 or abs(gamma) <= 1e-17 * math.sqrt(alpha * beta):
+                    continue
+                rotated = True
+                zeta = (beta - alpha) / (2.0 * gamma)
+                t = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + math.sqrt(1.0 + zeta * zeta))
+                c = 1.0 / math.sqrt(1.0 + t * t)
+                sn = c * t
+                for i in range(nr):
+                    bp = b[i, p]
+                    bq = b[i, q]
+                    b[i, p] = c * bp - sn * bq
+                    b[i, q] = sn * bp + c * bq
+        if not rotated:
+            break
+    smallest = math.inf
+    largest = 0.0
+    product = 1.0
+    for j in range(nc):
+        norm = 0.0
+        for i in range(nr):
+            norm += b[i, j] * b[i, j]
+        sv = math.sqrt(norm)
+        smallest = min(smallest, sv)
+        largest = max(largest, sv)
+        product *= sv
+    if kind == 1:
+        return smallest
+    if kind == 2:
+        return product
+    return largest / smallest if smallest > 0.0 else math.inf
+
+
 @kernel(inline="always")
 def point_jacobian_one(
     q: np.ndarray, m: Any, pbody: np.ndarray, ppoint: np.ndarray, s: Any, out: np.ndarray

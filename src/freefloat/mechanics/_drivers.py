@@ -29,6 +29,7 @@ from ._configuration import (
     accelerations_one,
     hplus_one,
     hplus_rate_one,
+    jacobian_measure_one,
     jstar_one,
     point_bias_one,
     point_jacobian_one,
@@ -52,6 +53,7 @@ __all__ = [
     "hplus_rate_batch",
     "inverse_batch",
     "jstar_batch",
+    "measure_batch",
     "point_bias_batch",
     "point_jacobian_batch",
     "points_batch",
@@ -68,7 +70,7 @@ _thread = numba.get_thread_id
 def _serial_template(start: int, stop: int, ints: np.ndarray, floats: np.ndarray, a: Any, work: np.ndarray) -> None:  # pragma: no cover
     """ROW over the rows start..stop of a batch of the model in (ints, floats); ``work`` one scratch buffer."""
     m = arrays(ints, floats)
-    s = scratch(work, m.parent.shape[0])
+    s = scratch(work, m.parent.shape[0], m.ee_body.shape[0])
     for i in range(start, stop):
         ROW(i, m, s, a)  # type: ignore[name-defined]  # noqa: F821 (bound by driver())
 
@@ -105,7 +107,7 @@ class Batched:
         The kernels make views of their scratch without reference counting (cheaper), so the
         buffers must outlive the call: they are arguments, held by this frame.
         """
-        length = work_size(t.n_bodies)
+        length = work_size(t.n_bodies, t.ee_body.shape[0])
         if size >= self.PARALLEL_MIN and numba.get_num_threads() > 1:
             threads = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # every thread id is below it
             return self.parallel(size, t.ints, t.floats, a, np.empty((threads, length)))
@@ -126,7 +128,7 @@ def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     :func:`~._engine.Stepper` (fewer arguments: numba unboxes each array argument at ~0.1 us a call).
 
     ints = [the model's ints (:func:`~._tree.arrays`), W, WATCH, REASON, ext_i (W x 2)];
-    floats = [the model's floats, ext_f (W x 9), watch (1 + 2N), work (work_size(B))].
+    floats = [the model's floats, ext_f (W x 9), watch (1 + 2N), work (work_size(B, E))].
     WATCH 1: :func:`rk4_steps` watches the state (see there); REASON: why it stopped early (ints[o + 2]).
     """
     m = arrays(ints, floats)
@@ -142,7 +144,7 @@ def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     watch = floats[f : f + 2 * nb - 1]
     f += 2 * nb - 1
     work = floats[f:]
-    return m, ext_i, ext_f, watch, header, scratch(work, nb)
+    return m, ext_i, ext_f, watch, header, scratch(work, nb, m.ee_body.shape[0])
 
 
 @kernel(inline="always")
@@ -252,6 +254,14 @@ def _jstar_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
 
 
 @kernel(inline="always")
+def _measure_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
+    """a = (Q, rows (K,), kind, OUT (C,)): a measure of the rows ``rows`` of J* (J* stays in the scratch)."""
+    Q, rows, kind, OUT = a
+    jstar_one(Q[i], m, s, s.jac)
+    OUT[i] = jacobian_measure_one(s.jac, rows, kind, s.sel)
+
+
+@kernel(inline="always")
 def _hplus_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
     """a = (Q, OUT (C, 6 + N, 6 + N)): H+."""
     Q, OUT = a
@@ -323,6 +333,7 @@ points_batch = driver("points", _points_row)
 point_jacobian_batch = driver("point_jacobian", _point_jacobian_row)
 point_bias_batch = driver("point_bias", _point_bias_row)
 jstar_batch = driver("jstar", _jstar_row)
+measure_batch = driver("measure", _measure_row)
 hplus_batch = driver("hplus", _hplus_row)
 hplus_rate_batch = driver("hplus_rate", _hplus_rate_row)
 inverse_batch = driver("inverse", _inverse_row)

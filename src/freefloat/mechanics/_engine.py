@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _drivers, _specialise
+from . import _configuration, _drivers, _specialise
 from ._arrays import new_output
 from ._tree import Tree, tree, work_size
 
@@ -29,6 +29,7 @@ __all__ = [
     "generalized_jacobian",
     "inertia_matrix",
     "inertia_matrix_rate",
+    "jacobian_measures",
     "point_biases",
     "point_jacobians",
     "points",
@@ -143,6 +144,18 @@ def generalized_jacobian(model: Any, q: np.ndarray) -> np.ndarray:
         return out.reshape((*batch, rows, t.n_joints))
     _drivers.jstar_batch(flat.shape[0], t, flat, out)
     return out.reshape((*batch, rows, t.n_joints))
+
+
+def jacobian_measures(model: Any, q: np.ndarray, rows: Any, measure: str) -> np.ndarray:
+    """A measure (``"det"``, ``"sigma_min"``, ``"manipulability"``, ``"condition"``) of the rows ``rows`` of J* at
+    each configuration, (...): computed per configuration in the kernel, no J* batch written."""
+    t = tree(model)
+    batch = q.shape[:-1]
+    flat = _flat(q, batch, (t.n_joints,))
+    r = _own(np.atleast_1d(np.asarray(rows, dtype=np.int64)), np.int64)
+    out = new_output((flat.shape[0],))
+    _drivers.measure_batch(flat.shape[0], t, flat, r, _configuration.MEASURE_CODES[measure], out)
+    return out.reshape(batch)
 
 
 def inertia_matrix(model: Any, q: np.ndarray) -> np.ndarray:
@@ -327,7 +340,7 @@ class Stepper:
         header = [ext_i.shape[0], 0, 0]  # W, WATCH, REASON (see _configuration.unpack)
         self._header = t.ints.shape[0]
         self.ints = np.concatenate([t.ints, header, ext_i.ravel()]).astype(np.int64)
-        work = np.empty(work_size(t.n_bodies))
+        work = np.empty(work_size(t.n_bodies, t.ee_body.shape[0]))
         self._watch_at = t.floats.shape[0] + ext_f.size
         watch = np.full(1 + 2 * t.n_joints, np.inf)
         watch[1 : 1 + t.n_joints] = -np.inf

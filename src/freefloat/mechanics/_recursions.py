@@ -90,13 +90,15 @@ Scratch = namedtuple(
         "y",  # RK4: the four stage derivatives (4, S), the stage state
         "joints",  # (N): joint values read from a state
         "rows",  # (4 S + N + 9): the rows of one trajectory in the rollout loop (_lanes.rollout_blocks, width 1)
+        "jac",  # (6E, N): a J* whose measure is wanted
+        "sel",  # (6E N): its chosen rows, and the work space of the measure
     ],
 )
 
 
 @kernel(inline="always")
-def scratch(work: np.ndarray, nb: int) -> Any:  # pragma: no cover - compiled
-    """The :data:`Scratch` views of ``work`` (length :func:`~._tree.work_size`) for a tree of ``nb`` bodies.
+def scratch(work: np.ndarray, nb: int, ne: int) -> Any:  # pragma: no cover - compiled
+    """The :data:`Scratch` views of ``work`` (length :func:`~._tree.work_size`) for ``nb`` bodies and ``ne`` end effectors.
 
     The views do not count references to ``work`` (cheaper: no atomic operations), so ``work`` must
     outlive them: it is always an argument of the calling kernel (or a slice of one), held by the
@@ -147,6 +149,10 @@ def scratch(work: np.ndarray, nb: int) -> Any:  # pragma: no cover - compiled
     joints = work[o : o + n]
     o += n
     rows = work[o : o + 4 * size + n + 9]
+    o += 4 * size + n + 9
+    jac = work[o : o + 6 * ne * n].reshape((6 * ne, n))
+    o += 6 * ne * n
+    sel = work[o : o + 6 * ne * n]
     return Scratch(
         rot,
         pos,
@@ -180,6 +186,8 @@ def scratch(work: np.ndarray, nb: int) -> Any:  # pragma: no cover - compiled
         stages[4],
         joints,
         rows,
+        jac,
+        sel,
     )
 
 

@@ -119,8 +119,8 @@ def trace(t: Tree, kind: str) -> tuple[Graph, list[Any], int]:
     m = _symbolic_model(t, g)
     nb = t.n_bodies
     n = t.n_joints
-    work = np.full(work_size(nb), 0.0, dtype=object)
-    s = mod.recursions.scratch(work, nb)
+    work = np.full(work_size(nb, t.ee_body.shape[0]), 0.0, dtype=object)
+    s = mod.recursions.scratch(work, nb, t.ee_body.shape[0])
     if kind == "jstar":
         q = np.array([g.input("W", j) for j in range(n)], dtype=object)
         out = np.full((6 * t.ee_body.shape[0], n), 0.0, dtype=object)

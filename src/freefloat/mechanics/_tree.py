@@ -256,9 +256,10 @@ def tree(model: Any) -> Tree:
     return out
 
 
-def work_size(n_bodies: int) -> int:
-    """Length of the scratch buffer of one configuration (the views of ``_recursions.Scratch``) for ``n_bodies`` bodies."""
+def work_size(n_bodies: int, n_ee: int) -> int:
+    """Length of the scratch buffer of one configuration (the views of ``_recursions.Scratch``) for ``n_bodies`` bodies
+    and ``n_ee`` end effectors."""
     n = n_bodies - 1
     m = 3 + n
     size = 13 + 2 * n
-    return 66 * n_bodies + 15 + 2 * m * m + m + 3 * n + 9 + 2 * (6 + n) + 5 * size + n + (4 * size + n + 9)
+    return 66 * n_bodies + 15 + 2 * m * m + m + 3 * n + 9 + 2 * (6 + n) + 5 * size + n + (4 * size + n + 9) + 12 * n_ee * n

@@ -40,6 +40,7 @@ __all__ = [
     "generalized_jacobian",
     "generalized_jacobian_drift",
     "jacobian_determinant",
+    "jacobian_measure",
     "manipulability",
     "point_jacobian",
     "task_jacobian",
@@ -291,12 +292,43 @@ def jacobian_determinant(model: Model, q: Any) -> np.ndarray:
             f"J* has shape {(n_rows, model.n_joints)} here, not square, so it has no determinant; "
             "use ff.manipulability(model, q) (sqrt det J* J*^T) or the smallest singular value"
         )
-    return np.linalg.det(_singularity_rows(model, generalized_jacobian(model, q)))
+    return _engine.jacobian_measures(model, q, _singularity_row_indices(model), "det")
 
 
 def manipulability(model: Model, q: Any) -> np.ndarray:
-    """sqrt(det(J* J*^T)) with J* in the plane for planar models (see :func:`jacobian_determinant`), (...)."""
-    jac = _singularity_rows(model, generalized_jacobian(model, q))
-    if jac.shape[-2] > jac.shape[-1]:
-        return np.sqrt(np.abs(np.linalg.det(np.swapaxes(jac, -1, -2) @ jac)))
-    return np.sqrt(np.abs(np.linalg.det(jac @ np.swapaxes(jac, -1, -2))))
+    """sqrt(det(J* J*^T)) with J* in the plane for planar models (see :func:`jacobian_determinant`), (...): the product
+    of the singular values of those rows."""
+    q = joint_array(model, q)
+    return _engine.jacobian_measures(model, q, _singularity_row_indices(model), "manipulability")
+
+
+#: The measures of :func:`jacobian_measure`.
+JACOBIAN_MEASURES = ("det", "sigma_min", "manipulability", "condition")
+
+
+def jacobian_measure(model: Model, q: Any, rows: Any = None, measure: str = "sigma_min") -> np.ndarray:
+    """A measure of the rows ``rows`` of ⁰J* (1992 eq. 14) at each configuration, (...).
+
+    ``rows``: indices into the 6E rows of J* ([v; ω] per end effector); None: the rows of
+    :func:`jacobian_determinant` (the plane's for a planar model, else all). ``measure``: ``"det"`` (square rows
+    only, signed), ``"sigma_min"`` (the smallest singular value), ``"manipulability"`` (the product of the singular
+    values, sqrt(det(J Jᵀ))), ``"condition"`` (σ_max / σ_min, inf at a singularity). Computed per configuration
+    inside the engine's kernel (LU with partial pivoting; one-sided Jacobi for the singular values, as accurate as
+    numpy's det and SVD): no batch of J* is written, so a map of millions of configurations needs memory for the
+    measures only.
+    """
+    if measure not in JACOBIAN_MEASURES:
+        raise ValueError(f"measure: expected one of {', '.join(JACOBIAN_MEASURES)}, got {measure!r}")
+    q = joint_array(model, q)
+    idx = np.asarray(_singularity_row_indices(model) if rows is None else rows)
+    if (
+        idx.ndim != 1
+        or idx.size == 0
+        or not np.issubdtype(idx.dtype, np.integer)
+        or idx.min() < 0
+        or idx.max() >= 6 * model.n_end_effectors
+    ):
+        raise ValueError(f"rows: expected indices of rows of J* (0 .. {6 * model.n_end_effectors - 1}), got {rows!r}")
+    if measure == "det" and idx.size != model.n_joints:
+        raise ShapeError(f"measure='det': the chosen rows form a {idx.size} x {model.n_joints} matrix, not square; use 'sigma_min'")
+    return _engine.jacobian_measures(model, q, idx, measure)

@@ -1,0 +1,177 @@
+"""The singularity measures inside the engine's kernel (issue "One engine a newcomer can extend", item 3).
+
+``ff.mechanics.jacobian_measure`` computes det (LU), the smallest singular value, the manipulability (the product of
+the singular values) and the condition number of chosen rows of J* per configuration, without writing J*. Checked
+against numpy's det and SVD of the J* of the same configurations on the paper systems, the 7-DOF arm, the Panda and
+random trees, at batch sizes across every threshold of the drivers, near-singular configurations included.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import freefloat as ff
+from freefloat.mechanics import _drivers
+from robots import REAL_ROBOTS, spacecraft_urdf
+from trees import random_trees
+
+#: Agreement with numpy relative to each value (numpy's smallest singular value refined, see numpy_measure).
+RTOL = 1e-10
+SIZES = (1, 3, _drivers.BLOCK + 1, _drivers.Batched.PARALLEL_MIN - 1, _drivers.Batched.PARALLEL_MIN, 2 * _drivers.Batched.PARALLEL_MIN + 7)
+
+
+def numpy_measure(jac: np.ndarray, measure: str) -> np.ndarray:
+    """numpy's det, or the singular values from numpy's SVD with the smallest refined as ||u_min^T A|| (K <= N) or
+    ||A v_min|| (K > N): accurate relative to itself, which numpy's own smallest singular value is not near a
+    singularity (its error is eps sigma_max)."""
+    if measure == "det":
+        return np.linalg.det(jac)
+    u, sv, vt = np.linalg.svd(jac)
+    sv = sv.copy()
+    if jac.shape[-2] <= jac.shape[-1]:
+        sv[..., -1] = np.linalg.norm(np.einsum("...i,...ij->...j", u[..., :, jac.shape[-2] - 1], jac), axis=-1)
+    else:
+        sv[..., -1] = np.linalg.norm(np.einsum("...ij,...j->...i", jac, vt[..., jac.shape[-1] - 1, :]), axis=-1)
+    if measure == "sigma_min":
+        return sv[..., -1]
+    if measure == "manipulability":
+        return np.prod(sv, axis=-1)
+    with np.errstate(divide="ignore"):
+        return sv[..., 0] / sv[..., -1]
+
+
+#: The conditioning floor: no algorithm that starts from J* in float64 gets a singular value closer than about
+#: eps sigma_max (numpy's SVD included), so near a singularity the comparison allows that much absolute error.
+FLOOR = 64 * np.finfo(float).eps
+
+
+def check(model: ff.Model, q: np.ndarray, rows: np.ndarray, measures: tuple[str, ...]) -> None:
+    """Each measure against numpy's: |ours - ref| <= RTOL |ref| + the conditioning floor (FLOOR sigma_max for sigma_min;
+    for det and the product, FLOOR times sigma_max times the product of the other singular values: what a
+    perturbation of J* by eps sigma_max changes them by). The condition number only where J* is well conditioned."""
+    jac = ff.generalized_jacobian(model, q)[..., rows, :]
+    sv = np.linalg.svd(jac, compute_uv=False)
+    others = sv[..., 0] * np.prod(sv[..., :-1], axis=-1)
+    for measure in measures:
+        ours = ff.mechanics.jacobian_measure(model, q, rows, measure)
+        ref = numpy_measure(jac, measure)
+        assert ours.shape == q.shape[:-1]
+        if measure in ("det", "manipulability"):
+            allowed = RTOL * np.abs(ref) + FLOOR * others
+        elif measure == "sigma_min":
+            allowed = RTOL * ref + FLOOR * sv[..., 0]
+        else:
+            keep = sv[..., -1] > 1e-6 * sv[..., 0]
+            ours, ref = ours[keep], ref[keep]
+            allowed = RTOL * ref
+        excess = np.abs(ours - ref) / allowed
+        assert np.all(excess <= 1.0), (measure, float(np.max(excess)))
+
+
+def panda() -> ff.Model:
+    import tempfile
+    from pathlib import Path
+
+    relative, ees = REAL_ROBOTS["panda"]
+    with tempfile.TemporaryDirectory() as folder:
+        return ff.load(spacecraft_urdf(relative, Path(folder)), end_effectors=ees)
+
+
+@pytest.mark.parametrize("size", SIZES)
+def test_measures_of_the_paper_systems_and_the_7dof_arm_at_every_batch_size(size: int) -> None:
+    rng = np.random.default_rng(size)
+    planar = ff.models.papadopoulos1992()
+    check(planar, rng.uniform(-3, 3, (size, 4)), np.array([0, 1, 6, 7]), ("det", "sigma_min", "manipulability", "condition"))
+    check(ff.models.papadopoulos1991(), rng.uniform(-3, 3, (size, 2)), np.array([0, 1]), ("det", "sigma_min", "condition"))
+    arm = ff.models.spacecraft_7dof()
+    q = rng.uniform(-3, 3, (size, 7))
+    check(arm, q, np.arange(6), ("sigma_min", "manipulability", "condition"))
+    check(arm, q, np.array([0, 1, 2]), ("sigma_min", "manipulability", "condition"))
+
+
+def test_measures_of_the_panda() -> None:
+    model = panda()
+    rng = np.random.default_rng(3)
+    lo, hi = model.joint_lower, model.joint_upper
+    q = rng.uniform(lo, hi, (300, model.n_joints))
+    check(model, q, np.arange(6), ("sigma_min", "manipulability", "condition"))
+
+
+def test_measures_near_singular_configurations() -> None:
+    """Configurations 1e-3 .. 1e-9 rad from a singularity (located by numpy alone): det J* of the 1992 one-arm system
+    on either side of a root of det J*, and the 7-DOF arm near a minimum of sigma_min found by scipy on numpy's SVD.
+    The measures go to zero with the distance and stay accurate relative to themselves."""
+    from scipy.optimize import brentq, minimize
+
+    planar = ff.models.papadopoulos1992(arms=1)
+    rows = np.array([0, 1])
+    base, step = np.array([0.3, -1.0]), np.array([0.0, 1.0])
+
+    def det(t: float) -> float:
+        return float(np.linalg.det(ff.generalized_jacobian(planar, base + t * step)[rows]))
+
+    root = brentq(det, 0.0, 2.0, xtol=1e-15)
+    offsets = 10.0 ** -np.arange(3, 10)
+    q = base + (root + np.concatenate([offsets, -offsets]))[:, None] * step
+    check(planar, q, rows, ("det", "sigma_min", "manipulability"))
+    near = np.abs(ff.mechanics.jacobian_measure(planar, q, rows, "det"))
+    assert np.all(np.diff(np.log10(near[:7])) < -0.9)  # det proportional to the distance
+
+    arm = ff.models.spacecraft_7dof()
+
+    def smallest(x: np.ndarray) -> float:
+        return float(np.linalg.svd(ff.generalized_jacobian(arm, x)[:6], compute_uv=False)[-1])
+
+    found = minimize(smallest, np.full(7, 0.4), method="Nelder-Mead", options={"xatol": 1e-12, "fatol": 1e-14, "maxiter": 4000})
+    assert found.fun < 1e-4
+    direction = np.random.default_rng(1).normal(size=7)
+    q = found.x + (offsets / np.linalg.norm(direction))[:, None] * direction
+    ours = ff.mechanics.jacobian_measure(arm, q, np.arange(6), "sigma_min")
+    jac = ff.generalized_jacobian(arm, q)[:, :6]
+    u, _, _ = np.linalg.svd(jac)
+    refined = np.linalg.norm(np.einsum("ci,cij->cj", u[:, :, -1], jac), axis=-1)  # ||A^T u_min||: accurate relative to itself
+    assert np.all(np.abs(ours - refined) <= 1e-10 * refined + FLOOR * 3.0)  # sigma_max of these rows is about 3
+    check(arm, q, np.arange(6), ("sigma_min", "manipulability", "condition"))
+
+
+@given(random_trees(), st.integers(0, 2**31 - 1))
+@settings(max_examples=40, deadline=None)
+def test_measures_of_random_trees(model: ff.Model, seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    q = rng.uniform(-2, 2, (5, model.n_joints))
+    rows = np.sort(rng.choice(6 * model.n_end_effectors, size=min(model.n_joints, 6 * model.n_end_effectors), replace=False))
+    measures = ("det", "sigma_min", "manipulability", "condition") if rows.size == model.n_joints else ("sigma_min", "manipulability")
+    check(model, q, rows, measures)
+
+
+def test_the_map_and_search_paths_use_the_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every public call that needs a measure reaches the measure kernel, not a J* batch and numpy."""
+    from freefloat.mechanics import _engine
+
+    calls: list[str] = []
+    real = _engine.jacobian_measures
+
+    def spy(model: ff.Model, q: np.ndarray, rows: object, measure: str) -> np.ndarray:
+        calls.append(measure)
+        return real(model, q, rows, measure)
+
+    monkeypatch.setattr(_engine, "jacobian_measures", spy)
+    model = ff.models.papadopoulos1992(arms=1)
+    ff.jacobian_determinant(model, [0.1, 0.2])
+    ff.workspace.singularity_measure(model, np.zeros((3, 2)))
+    ff.workspace.jacobian_determinant_map(model, n=5)
+    ff.workspace.path_independent_workspace(model, 0, samples=256)
+    assert calls.count("det") >= 4, calls
+
+
+def test_bad_rows_and_measures_are_refused() -> None:
+    model = ff.models.spacecraft_7dof()
+    with pytest.raises(ValueError, match="measure: expected one of"):
+        ff.mechanics.jacobian_measure(model, np.zeros(7), None, "volume")
+    with pytest.raises(ValueError, match="rows: expected indices"):
+        ff.mechanics.jacobian_measure(model, np.zeros(7), [0, 6], "sigma_min")
+    with pytest.raises(ff.ShapeError, match="not square"):
+        ff.mechanics.jacobian_measure(model, np.zeros(7), None, "det")
