@@ -8,6 +8,9 @@ import pytest
 from hypothesis import settings
 
 matplotlib.use("Agg")
+# no background compiles in the suite's processes and the commands it starts (tests/mechanics/test_auto_specialise.py
+# turns automatic specialisation on where it tests it)
+os.environ["FREEFLOAT_AUTO_SPECIALISE"] = "0"
 sys.path.insert(0, str(Path(__file__).parent))
 
 settings.register_profile("freefloat", derandomize=True, deadline=None, print_blob=True)

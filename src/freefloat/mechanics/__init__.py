@@ -11,8 +11,9 @@ namespace gathers all of them, including the less common ones
 of one configuration), :mod:`._configuration` (J*, J+, H+, forward dynamics,
 RK4), :mod:`._drivers` (batch loops, serial and threaded) and :mod:`._engine`
 (the Python side), compiled once per machine (:mod:`._numba_cache`). For large
-batches on one robot, :func:`specialise` compiles J* and rollouts for the
-model's structure from the same recursions (:mod:`._trace` runs them on
+batches on one robot, the library specialises J* and rollouts for the model's
+structure by itself once the work pays for the compile (:func:`auto_specialise`;
+:func:`specialise` does it up front), from the same recursions (:mod:`._trace` runs them on
 symbols, :mod:`._specialise` emits SIMD code, :mod:`._lanes` drives it). The
 papers' barycentric closed forms (``method="barycentric"``) check it.
 
@@ -62,7 +63,7 @@ from .momentum import (
     system_inertia_matrix,
     zero_momentum_rate,
 )
-from .specialised import is_specialised, specialise
+from .specialised import auto_specialise, is_specialised, specialise
 
 __all__ = [
     "ExternalWrench",
@@ -70,6 +71,7 @@ __all__ = [
     "actuation_from_generalized_forces",
     "actuation_jacobian",
     "angular_momentum",
+    "auto_specialise",
     "body_cm_positions",
     "body_rotations",
     "end_effector_jacobian",

@@ -95,6 +95,8 @@ class Batched:
 
     #: Batches at least this large run on numba's threads (when there is more than one).
     PARALLEL_MIN = 256
+    #: Whether the last call found its kernel compiled (or loaded) already: its time was work, not compiling.
+    compiled = False
 
     def __init__(self, serial: Any, parallel: Any, parallel_min: int | None = None) -> None:
         self.serial, self.parallel = serial, parallel
@@ -110,7 +112,9 @@ class Batched:
         length = work_size(t.n_bodies, t.ee_body.shape[0])
         if size >= self.PARALLEL_MIN and numba.get_num_threads() > 1:
             threads = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # every thread id is below it
+            self.compiled = bool(self.parallel.signatures)
             return self.parallel(size, t.ints, t.floats, a, np.empty((threads, length)))
+        self.compiled = bool(self.serial.signatures)
         return self.serial(0, size, t.ints, t.floats, a, np.empty(length))
 
 

@@ -12,6 +12,7 @@ contiguous float64.
 from __future__ import annotations
 
 import functools
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -142,7 +143,10 @@ def generalized_jacobian(model: Any, q: np.ndarray) -> np.ndarray:
     if fast is not None:
         _specialise.jstar(fast, t, flat, out.reshape((flat.shape[0], rows * t.n_joints)))
         return out.reshape((*batch, rows, t.n_joints))
+    start = time.perf_counter()
     _drivers.jstar_batch(flat.shape[0], t, flat, out)
+    if flat.shape[0] >= _SPECIALISED_MIN and _drivers.jstar_batch.compiled:  # work they would take (not a first compile)
+        _specialise.account(t, "jstar", time.perf_counter() - start)
     return out.reshape((*batch, rows, t.n_joints))
 
 
@@ -302,7 +306,10 @@ def rollout(
         _specialise.rollout(fast, t, _own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), xs, us, sat, done)
         return xs, us, sat, done
     timing = (float(dt), int(steps), int(hold), int(stride))
+    start = time.perf_counter()
     _drivers.rollout_batch(k, t, _own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), ext_i, ext_f, xs, us, sat, done)
+    if k >= _SPECIALISED_ROLLOUTS_MIN and ext_i.shape[0] == 0 and _drivers.rollout_batch.compiled:  # work they would take
+        _specialise.account(t, "rollout", time.perf_counter() - start)
     return xs, us, sat, done
 
 

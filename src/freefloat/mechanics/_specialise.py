@@ -28,10 +28,12 @@ import contextlib
 import functools
 import hashlib
 import importlib.util
+import logging
 import os
 import sys
 import tempfile
 import threading
+import time
 import types
 import warnings
 import weakref
@@ -47,7 +49,24 @@ from ._numba_cache import CacheWarning, cache_dir
 from ._trace import ENTRY_POINTS, Graph, Sym, traced
 from ._tree import BODY_FIELDS, Arrays, Tree, work_size
 
-__all__ = ["KINDS", "SINCOS", "emit", "find", "load", "specialise", "structure_key", "trace"]
+__all__ = [
+    "AUTO_AFTER",
+    "AUTO_ENV",
+    "KINDS",
+    "SINCOS",
+    "account",
+    "auto_enabled",
+    "emit",
+    "find",
+    "load",
+    "set_auto",
+    "specialise",
+    "structure_key",
+    "trace",
+    "wait_for_auto",
+]
+
+logger = logging.getLogger("freefloat")
 
 #: What can be specialised: J* of a batch of configurations, RK4 rollouts (their state derivative).
 KINDS = ("jstar", "rollout")
@@ -368,6 +387,80 @@ def find(t: Tree, kind: str) -> types.ModuleType | None:
     if kind not in memo:
         memo[kind] = load(t, kind, build=False)
     return memo[kind]
+
+
+# ----------------------------------------------------------------- automatic specialisation
+#: Seconds of generic-kernel work on one model structure (in this process) after which that structure is specialised
+#: in the background: about the compile time of each kind (J* 2-5 s, rollouts 9-18 s on the paper systems). Waiting
+#: until the work done equals the compile cost spends at most twice the best choice made knowing the future work
+#: (the ski-rental rule), and a one-off call never pays for a compile.
+AUTO_AFTER = {"jstar": 3.0, "rollout": 12.0}
+#: What each kind usually takes to compile (measured on the paper systems and the 7-DOF arm; docs/performance.md).
+COMPILE_TIME = {"jstar": "2-5 s", "rollout": "9-18 s"}
+#: The environment variable that turns automatic specialisation off ("0", "false", "no" or "off").
+AUTO_ENV = "FREEFLOAT_AUTO_SPECIALISE"
+_AUTO = [True]
+#: Per model tree: seconds of generic work by kind (reset when the structure is specialised).
+_SPENT: weakref.WeakKeyDictionary[Tree, dict[str, float]] = weakref.WeakKeyDictionary()
+#: Structure keys compiling now or compiled by this process automatically (each is built once).
+_STARTED: dict[str, threading.Thread] = {}
+
+
+def auto_enabled() -> bool:
+    """Whether automatic specialisation is on: :func:`set_auto` and the environment variable :data:`AUTO_ENV`."""
+    return _AUTO[0] and os.environ.get(AUTO_ENV, "1").strip().lower() not in ("0", "false", "no", "off")
+
+
+def set_auto(on: bool) -> None:
+    """Turn automatic specialisation on or off for this process."""
+    _AUTO[0] = bool(on)
+
+
+def account(t: Tree, kind: str, seconds: float) -> None:
+    """Count ``seconds`` of generic work of ``kind`` on ``t``'s structure; past :data:`AUTO_AFTER`, specialise it in a
+    background thread (once per structure and process; the kernels then serve every later call and process)."""
+    if not _ENABLED[0] or not auto_enabled():
+        return
+    spent = _SPENT.setdefault(t, {})
+    spent[kind] = spent.get(kind, 0.0) + seconds
+    if spent[kind] < AUTO_AFTER[kind]:
+        return
+    key = structure_key(t, kind)
+    with _LOCK:
+        if key in _STARTED:
+            return
+        worker = threading.Thread(target=_auto_build, args=(t, kind, spent[kind]), name=f"freefloat-specialise-{kind}", daemon=True)
+        _STARTED[key] = worker
+    worker.start()
+
+
+def _auto_build(t: Tree, kind: str, spent: float) -> None:
+    from ..core.feedback import notice
+
+    what = {"jstar": "J*", "rollout": "the rollouts"}[kind]
+    notice(
+        f"specialising {what} for this model structure in the background after {spent:.3g} s of work on the generic kernels "
+        f"({COMPILE_TIME[kind]} to compile, once per machine, kept in {_folder()}; the calls go on meanwhile); "
+        f"set {AUTO_ENV}=0 to turn this off"
+    )
+    start = time.perf_counter()
+    try:
+        specialise(t, (kind,))
+    except Exception as exc:  # a failed background compile must never disturb the user's work: the generic kernels stay
+        warnings.warn(
+            f"freefloat: automatic specialisation of {what} failed ({type(exc).__name__}: {exc}); the generic kernels stay",
+            CacheWarning,
+            stacklevel=1,
+        )
+        return
+    logger.info("specialised %s for this model structure in %.3g s: later calls use it", what, time.perf_counter() - start)
+
+
+def wait_for_auto(timeout: float | None = None) -> bool:
+    """Wait for the automatic specialisations started in this process; True when none is still running."""
+    for worker in list(_STARTED.values()):
+        worker.join(timeout)
+    return not any(w.is_alive() for w in _STARTED.values())
 
 
 @contextlib.contextmanager

@@ -1,8 +1,12 @@
 """Faster J* batches and rollouts for one model structure, compiled once per machine (``ff.mechanics.specialise``).
 
-Every call of freefloat runs without compiling anything per model (the engine's generic kernels).
-Sweeps and campaigns on one robot can ask for more: :func:`specialise` compiles J* and the RK4
-rollouts for the model's *structure* (its tree, joint types, joint placements and axes), from
+Every call of freefloat starts on the engine's generic kernels, which compile nothing per model.
+Sweeps and campaigns on one robot get more **without asking**: once a process has spent about as long on J*
+batches of one model structure as their specialisation takes to compile (3 s of J* work, 12 s of rollouts;
+:data:`AUTO_AFTER`), it specialises that structure in a background thread, says so once on standard error
+(and to the ``freefloat`` logger), and every later call and process uses the result; the calls never wait
+for it. ``FREEFLOAT_AUTO_SPECIALISE=0`` or :func:`auto_specialise` (False) turns this off. :func:`specialise`
+does it up front: it compiles J* and the RK4 rollouts for the model's *structure* (its tree, joint types, joint placements and axes), from
 the same recursions, with the structure folded into the code and several configurations per SIMD
 instruction (eight on AVX-512, four on AVX2). It takes 2-5 s (J*) and 9-18 s (rollouts) once per
 machine on the paper systems (kept in the user's cache folder); from then on, in every process,
@@ -25,7 +29,11 @@ from ..core.errors import UnknownNameError
 from . import _specialise
 from ._tree import tree
 
-__all__ = ["is_specialised", "specialise"]
+__all__ = ["AUTO_AFTER", "auto_specialise", "is_specialised", "specialise"]
+
+#: Seconds of work on the generic kernels (J*, rollouts) of one structure, in one process, after which it is
+#: specialised in the background.
+AUTO_AFTER = _specialise.AUTO_AFTER
 
 
 def specialise(model: Any, kinds: Sequence[str] = _specialise.KINDS, *, progress: Callable[[str], None] | None = None) -> dict[str, float]:
@@ -52,3 +60,15 @@ def is_specialised(model: Any, kind: str = "jstar") -> bool:
     if kind not in _specialise.KINDS:
         raise UnknownNameError("kind of specialised kernel", kind, _specialise.KINDS)
     return _specialise.find(tree(model), kind) is not None
+
+
+def auto_specialise(on: bool | None = None) -> bool:
+    """Turn automatic specialisation on or off for this process (``on``); returns whether it is on now.
+
+    On by default; the environment variable ``FREEFLOAT_AUTO_SPECIALISE=0`` turns it off for every process. When on,
+    a structure whose generic J* batches (or rollouts) have taken :data:`AUTO_AFTER` seconds in this process is
+    specialised in a background thread (once per machine: kept in the cache folder, like :func:`specialise`).
+    """
+    if on is not None:
+        _specialise.set_auto(on)
+    return _specialise.auto_enabled()

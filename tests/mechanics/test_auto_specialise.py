@@ -1,0 +1,87 @@
+"""Specialised when it pays, without being asked (issue "One engine a newcomer can extend", item 4).
+
+A process that has spent AUTO_AFTER seconds of generic J* work on one structure specialises it in a background
+thread, says so once, and later calls use it; a small call never triggers it; FREEFLOAT_AUTO_SPECIALISE=0 and
+ff.mechanics.auto_specialise(False) turn it off; the results equal the generic kernel's to rounding. Everything
+here compiles into a temporary cache folder (never the user's).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import freefloat as ff
+from freefloat.mechanics import _specialise
+from freefloat.mechanics._tree import tree
+
+
+@pytest.fixture
+def auto(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
+    """Automatic specialisation on, in a cache of this test's own, with a threshold a test can reach in a second."""
+    monkeypatch.setenv("FREEFLOAT_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv(_specialise.AUTO_ENV, "1")
+    monkeypatch.setitem(_specialise.AUTO_AFTER, "jstar", 0.05)
+    monkeypatch.setattr(_specialise, "_STARTED", {})
+    before = (_specialise.FOLDER[0], _specialise._ENABLED[0], _specialise._AUTO[0])
+    _specialise.FOLDER[0] = tmp_path / "specialised"
+    _specialise._ENABLED[0] = True  # the suite runs on the generic kernels (tests/conftest.py)
+    _specialise._AUTO[0] = True
+    _specialise._FOUND.clear()
+    _specialise._SPENT.clear()
+    try:
+        yield
+    finally:
+        assert _specialise.wait_for_auto(300)
+        _specialise.FOLDER[0], _specialise._ENABLED[0], _specialise._AUTO[0] = before
+        _specialise._FOUND.clear()
+        _specialise._LOADED.clear()
+
+
+def two_arm_variant() -> ff.Model:
+    """A structure no other test specialises: the 1992 two-arm system with a payload on arm 2 (a new end-effector point)."""
+    return ff.models.papadopoulos1992().with_payload(1, mass=123.0, inertia=4.5, offset=[0.05, 0.0, 0.0])
+
+
+def test_a_large_sweep_triggers_it_and_results_do_not_change(auto: None, capsys: pytest.CaptureFixture[str]) -> None:
+    model = two_arm_variant()
+    t = tree(model)
+    q = np.random.default_rng(0).uniform(-3, 3, (20000, model.n_joints))
+    generic = ff.generalized_jacobian(model, q)
+    while _specialise._SPENT.get(t, {}).get("jstar", 0.0) < _specialise.AUTO_AFTER["jstar"]:
+        ff.generalized_jacobian(model, q)
+    assert len(_specialise._STARTED) == 1
+    assert _specialise.wait_for_auto(300)
+    said = capsys.readouterr().err
+    assert said.count("specialising J* for this model structure in the background") == 1, said
+    assert "FREEFLOAT_AUTO_SPECIALISE=0" in said
+    assert _specialise.find(t, "jstar") is not None  # later calls use it
+    fast = ff.generalized_jacobian(model, q)
+    scale = np.max(np.abs(generic), axis=(-1, -2), keepdims=True)
+    assert np.max(np.abs(fast - generic) / scale) <= 1e-12
+    assert list((Path(str(_specialise._folder()))).glob("jstar_*.py"))  # kept on disk for the next process
+
+
+def test_a_small_call_never_triggers_it(auto: None) -> None:
+    model = two_arm_variant()
+    for _ in range(2000):  # many small calls: below the specialised kernels' batch size, not counted
+        ff.generalized_jacobian(model, np.zeros((8, model.n_joints)))
+    assert _specialise._STARTED == {} and _specialise.find(tree(model), "jstar") is None
+
+
+@pytest.mark.parametrize("how", ["environment", "function"])
+def test_it_can_be_turned_off(auto: None, monkeypatch: pytest.MonkeyPatch, how: str) -> None:
+    if how == "environment":
+        monkeypatch.setenv(_specialise.AUTO_ENV, "0")
+    else:
+        assert ff.mechanics.auto_specialise(False) is False
+    model = two_arm_variant()
+    q = np.random.default_rng(1).uniform(-3, 3, (20000, model.n_joints))
+    for _ in range(20):
+        ff.generalized_jacobian(model, q)
+    assert _specialise._STARTED == {}
+    if how == "function":
+        assert ff.mechanics.auto_specialise(True) is True
