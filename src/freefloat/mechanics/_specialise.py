@@ -12,8 +12,10 @@ cos become :data:`SINCOS` (a vectorisable sin/cos: within 1 ulp of the C library
 |q| <= 7 rad and 2 ulp over |q| <= 1e5 rad, checked by ``tests/mechanics/test_specialise.py``;
 beyond about 1e6 rad the reduction is no longer exact). :mod:`._lanes` drives the blocks.
 
-Nothing compiles unless asked (:func:`specialise`, public as ``ff.mechanics.specialise``): a
-structure takes 2-5 s (J*) and 9-18 s (rollouts) to compile once per machine, measured on the paper
+A structure is specialised when asked (:func:`specialise`, public as ``ff.mechanics.specialise``), or by
+itself in a background thread once a process has spent :data:`AUTO_AFTER` seconds on its generic kernels
+(:func:`account`; ``FREEFLOAT_AUTO_SPECIALISE=0`` turns that off): a structure takes 2-5 s (J*) and 9-18 s
+(rollouts) to compile once per machine, measured on the paper
 systems; the generated source and numba's machine code are then kept in the user's cache folder
 (inside the generic kernels' folder for this numba version and engine source, keyed by the
 structure) and found by every later process, which then uses them for J* batches and rollouts of
