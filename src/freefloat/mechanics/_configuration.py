@@ -134,7 +134,7 @@ def jacobian_measure_one(jac: np.ndarray, rows: np.ndarray, kind: int, buf: np.n
                     alpha += b[i, p] * b[i, p]
                     beta += b[i, q] * b[i, q]
                     gamma += b[i, p] * b[i, q]
-                if gamma == 0.0 or abs(gamma) <= 1e-17 * math.sqrt(alpha * beta):
+                if gamma == 0.0 or abs(gamma) <= 2e-16 * math.sqrt(alpha * beta):  # orthogonal to working precision
                     continue
                 rotated = True
                 zeta = (beta - alpha) / (2.0 * gamma)
