@@ -141,7 +141,13 @@ def test_the_allowed_homes_exist_and_are_the_two_algorithms() -> None:
     # the specialised kernels are the engine's J* and state derivative traced, not a third home
     from freefloat.mechanics import _configuration, _trace
 
-    assert _trace.ENTRY_POINTS == {"jstar": "jstar_one", "rollout": "state_derivative_one"}
+    assert _trace.ENTRY_POINTS == {
+        "jstar": "jstar_one",
+        "rollout": "state_derivative_one",
+        "hplus": "hplus_one",
+        "forward": "accelerations_one",
+        "inverse": "inverse_one",
+    }
     for name in _trace.ENTRY_POINTS.values():  # the traced functions run the engine kernels' own code
         assert getattr(_trace.traced().configuration, name).__code__ is getattr(_configuration, name).py_func.__code__
     for quantity, pair in homes.items():

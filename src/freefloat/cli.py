@@ -300,18 +300,22 @@ def specialise_command(
     model: ModelArg,
     kind: Annotated[
         list[str] | None,
-        typer.Option("--kind", metavar="KIND", help="jstar (batched J*) or rollout (batched RK4 rollouts); repeatable (default: both)."),
+        typer.Option(
+            "--kind",
+            metavar="KIND",
+            help="jstar (J* batches), rollout (RK4 rollouts), hplus (H+), forward or inverse (dynamics); repeatable (default: all).",
+        ),
     ] = None,
     end_effector: EndEffectorOption = None,
     strict: StrictOption = False,
 ) -> None:
     """Compile J* and the rollouts for the structure of MODEL, once per machine (seconds), for sweeps and
     campaigns: later J* batches and rollouts of this robot, in every process, run 4-8x faster (docs/performance.md)."""
-    from .mechanics.specialised import specialise
+    from .mechanics.specialised import KINDS, specialise
 
     with user_errors():
         loaded = load_model(model, end_effectors=end_effector or None, strict=strict)
-        took = specialise(loaded, kind or ("jstar", "rollout"), progress=lambda k: typer.echo(f"specialising {k} ...", err=True))
+        took = specialise(loaded, kind or KINDS, progress=lambda k: typer.echo(f"specialising {k} ...", err=True))
     for k, seconds in took.items():
         typer.echo(f"{k}: ready in {seconds:.1f} s (compiled once per machine; loaded from the cache afterwards)")
 

@@ -424,6 +424,26 @@ def hplus_rate_one(q: np.ndarray, qdot: np.ndarray, m: Any, s: Any, out: np.ndar
 
 
 @kernel(inline="always")
+def inverse_one(
+    q: np.ndarray,
+    velocity: np.ndarray,
+    acceleration: np.ndarray,
+    accelerate: bool,
+    u: np.ndarray,
+    t0: np.ndarray,
+    m: Any,
+    ext_i: np.ndarray,
+    ext_f: np.ndarray,
+    s: Any,
+    out: np.ndarray,
+) -> None:  # pragma: no cover - compiled
+    """Rows [omega0, q] of H+ zddot0 + C+ - Q_u - Q_ext (3 + N) at q, zdot0 = ``velocity`` (1991 eq. 19; ``accelerate``
+    False: zddot0 = 0, then C+ - Q)."""
+    prepare(q, m, s, True)
+    newton_euler(m, s, velocity, acceleration, accelerate, u, t0, ext_i, ext_f, out)
+
+
+@kernel(inline="always")
 def quaternion_matrix(x: np.ndarray, o: int, t0: np.ndarray) -> None:  # pragma: no cover - compiled
     """t0 = the rotation of the unit quaternion [x, y, z, w] = x[o : o + 4] (normalised here)."""
     norm = math.sqrt(x[o] * x[o] + x[o + 1] * x[o + 1] + x[o + 2] * x[o + 2] + x[o + 3] * x[o + 3])

@@ -29,6 +29,7 @@ from ._configuration import (
     accelerations_one,
     hplus_one,
     hplus_rate_one,
+    inverse_one,
     jacobian_measure_one,
     jstar_one,
     point_bias_one,
@@ -39,7 +40,7 @@ from ._configuration import (
 )
 from ._lanes import rk4_rows, rollout_blocks
 from ._numba_cache import kernel, unowned_floats, unowned_ints
-from ._recursions import kinematics, newton_euler, prepare, scratch
+from ._recursions import kinematics, scratch
 from ._tree import Tree, arrays, buffer_lengths, work_size
 
 __all__ = [
@@ -284,8 +285,7 @@ def _inverse_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
     """a = (Q, V, A, U, T0, ext_i, EXT, accelerate, OUT (C, 3 + N)): rows [omega0, q] of H+ zddot0 + C+ - Q_u - Q_ext
     (accelerate False: zddot0 = 0)."""
     Q, V, A, U, T0, ext_i, EXT, accelerate, OUT = a
-    prepare(Q[i], m, s, True)
-    newton_euler(m, s, V[i], A[i], accelerate, U[i], T0[i], ext_i, EXT[i], OUT[i])
+    inverse_one(Q[i], V[i], A[i], accelerate, U[i], T0[i], m, ext_i, EXT[i], s, OUT[i])
 
 
 @kernel(inline="always")

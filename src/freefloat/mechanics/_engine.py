@@ -139,14 +139,8 @@ def generalized_jacobian(model: Any, q: np.ndarray) -> np.ndarray:
     flat = _flat(q, batch, (t.n_joints,))
     rows = 6 * t.ee_body.shape[0]
     out = new_output((flat.shape[0], rows, t.n_joints))
-    fast = _specialise.find(t, "jstar") if flat.shape[0] >= _SPECIALISED_MIN else None
-    if fast is not None:
-        _specialise.jstar(fast, t, flat, out.reshape((flat.shape[0], rows * t.n_joints)))
-        return out.reshape((*batch, rows, t.n_joints))
-    start = time.perf_counter()
-    _drivers.jstar_batch(flat.shape[0], t, flat, out)
-    if flat.shape[0] >= _SPECIALISED_MIN and _drivers.jstar_batch.compiled:  # work they would take (not a first compile)
-        _specialise.account(t, "jstar", time.perf_counter() - start)
+    if not _specialised_map(t, "jstar", flat, out.reshape((flat.shape[0], rows * t.n_joints))):
+        _timed(t, "jstar", flat.shape[0], _drivers.jstar_batch, flat.shape[0], t, flat, out)
     return out.reshape((*batch, rows, t.n_joints))
 
 
@@ -162,6 +156,26 @@ def jacobian_measures(model: Any, q: np.ndarray, rows: Any, measure: str) -> np.
     return out.reshape(batch)
 
 
+def _specialised_map(t: Tree, kind: str, inputs: Any, out: np.ndarray) -> bool:
+    """Run the specialised kernel of the map ``kind`` when made for ``t``'s structure and the batch is large enough:
+    ``inputs`` the (C, inputs) array (or a function making it), ``out`` (C, outputs); False when it did not run."""
+    size = out.shape[0]
+    fast = _specialise.find(t, kind) if size >= _SPECIALISED_MIN else None
+    if fast is None:
+        return False
+    _specialise.mapped(fast, t, _own(inputs() if callable(inputs) else inputs), out.reshape((size, -1)))
+    return True
+
+
+def _timed(t: Tree, kind: str, counted: int, driver: Any, *args: Any) -> None:
+    """``driver(*args)`` on the generic kernels; its time is counted towards specialising ``kind`` when ``counted`` (the
+    batch size, 0 when the specialised kernel could not serve the call) is at least the specialised kernels' minimum."""
+    start = time.perf_counter()
+    driver(*args)
+    if counted >= _SPECIALISED_MIN and driver.compiled:  # work they would take (not a first compile)
+        _specialise.account(t, kind, time.perf_counter() - start)
+
+
 def inertia_matrix(model: Any, q: np.ndarray) -> np.ndarray:
     """H+ (..., 6 + N, 6 + N), order [r_cm, omega0, q] (1991 eq. 15)."""
     t = tree(model)
@@ -169,7 +183,8 @@ def inertia_matrix(model: Any, q: np.ndarray) -> np.ndarray:
     flat = _flat(q, batch, (t.n_joints,))
     size = 6 + t.n_joints
     out = new_output((flat.shape[0], size, size))
-    _drivers.hplus_batch(flat.shape[0], t, flat, out)
+    if not _specialised_map(t, "hplus", flat, out.reshape((flat.shape[0], size * size))):
+        _timed(t, "hplus", flat.shape[0], _drivers.hplus_batch, flat.shape[0], t, flat, out)
     return out.reshape((*batch, size, size))
 
 
@@ -233,7 +248,24 @@ def residual_rows(
     acc_in = np.zeros(6 + n) if acceleration is None else acceleration
     batch, (qf, vf, af, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext, acc_in)
     out = new_output((qf.shape[0], 3 + n))
-    _drivers.inverse_batch(qf.shape[0], t, qf, vf, af, uf, t0f, ext_i, ext_f, acceleration is not None, out)
+    if ext_i.shape[0] > 0 or not _specialised_map(t, "inverse", lambda: np.concatenate([qf, vf, af, uf], axis=1), out):
+        _timed(
+            t,
+            "inverse",
+            qf.shape[0] if ext_i.shape[0] == 0 else 0,
+            _drivers.inverse_batch,
+            qf.shape[0],
+            t,
+            qf,
+            vf,
+            af,
+            uf,
+            t0f,
+            ext_i,
+            ext_f,
+            acceleration is not None,
+            out,
+        )
     return out.reshape((*batch, 3 + n))
 
 
@@ -249,9 +281,28 @@ def accelerations(
     t = tree(model)
     n = t.n_joints
     batch, (qf, vf, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext)
+    if ext_i.shape[0] == 0:
+        both = new_output((qf.shape[0], 7 + n))  # zddot0 and the guards' flag
+        if _specialised_map(t, "forward", lambda: np.concatenate([qf, vf, uf, t0f.reshape(-1, 9)], axis=1), both):
+            return both[:, : 6 + n].reshape((*batch, 6 + n)), (both[:, 6 + n] != 0.0).reshape(batch)
     out = new_output((qf.shape[0], 6 + n))
     ok = np.empty(qf.shape[0], dtype=np.bool_)
-    _drivers.forward_batch(qf.shape[0], t, qf, vf, uf, t0f, ext_i, ext_f, out, ok)
+    _timed(
+        t,
+        "forward",
+        qf.shape[0] if ext_i.shape[0] == 0 else 0,
+        _drivers.forward_batch,
+        qf.shape[0],
+        t,
+        qf,
+        vf,
+        uf,
+        t0f,
+        ext_i,
+        ext_f,
+        out,
+        ok,
+    )
     return out.reshape((*batch, 6 + n)), ok.reshape(batch)
 
 

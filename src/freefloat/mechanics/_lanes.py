@@ -81,6 +81,7 @@ def map_blocks(lane: Any, Q: np.ndarray, P: np.ndarray, OUT: np.ndarray, W: np.n
             src = b0 + (lane_ if lane_ < count else count - 1)  # a short last block repeats its last row
             for j in range(n_in):
                 W[j * LANES + lane_] = Q[src, j]
+            W[off + (n_out - 1) * LANES + lane_] = 1.0  # the guards' row (a lane kernel with guards multiplies it)
         lane(W, P)
         for lane_ in range(count):
             for r in range(n_out):

@@ -70,8 +70,11 @@ __all__ = [
 
 logger = logging.getLogger("freefloat")
 
-#: What can be specialised: J* of a batch of configurations, RK4 rollouts (their state derivative).
-KINDS = ("jstar", "rollout")
+#: What can be specialised: J* of a batch of configurations, RK4 rollouts (their state derivative), H+, forward
+#: dynamics (without external wrenches) and inverse dynamics (C+ - Q without external wrenches).
+KINDS = ("jstar", "rollout", "hplus", "forward", "inverse")
+#: The kinds that map a batch of inputs to a batch of outputs (lane by lane: :func:`~._lanes.map_blocks`).
+MAPS = ("jstar", "hplus", "forward", "inverse")
 
 #: sin and cos of one angle without calls (vectorisable): the reduction by the nearest multiple k
 #: of pi/2 in four parts (Cody-Waite; the first two products exact for |k| < 2^20), then fdlibm's minimax
@@ -146,8 +149,6 @@ def trace(t: Tree, kind: str) -> tuple[Graph, list[Any], int]:
         q = np.array([g.input("W", j) for j in range(n)], dtype=object)
         out = np.full((6 * t.ee_body.shape[0], n), 0.0, dtype=object)
         getattr(mod.configuration, ENTRY_POINTS["jstar"])(q, m, s, out)
-        if g.guards:  # map_blocks has no row to report a failed configuration
-            raise AssertionError("freefloat: J* traced with guards; give the J* lane driver a row for them")
         return g, list(out.ravel()), n
     if kind == "rollout":
         size = 13 + 2 * n
@@ -159,6 +160,27 @@ def trace(t: Tree, kind: str) -> tuple[Graph, list[Any], int]:
         if ok is not True:  # a pivot that folded to a number <= 0: the structure itself is singular
             raise AssertionError("freefloat: the traced state derivative failed on numbers alone")
         return g, list(dx.ravel()), size + n + 6
+    none_i, none_f = np.zeros((0, 2), dtype=object), np.zeros((0, 9), dtype=object)
+    if kind == "hplus":
+        q = np.array([g.input("W", j) for j in range(n)], dtype=object)
+        out = np.full((6 + n, 6 + n), 0.0, dtype=object)
+        getattr(mod.configuration, ENTRY_POINTS["hplus"])(q, m, s, out)
+        return g, list(out.ravel()), n
+    if kind == "forward":  # inputs q (N), zdot0 (6 + N), u (N + 6), T0 (9); outputs zddot0 (6 + N), then the guards' row
+        w = [g.input("W", j) for j in range(n + (6 + n) + (n + 6) + 9)]
+        q, vel = np.array(w[:n], dtype=object), np.array(w[n : 6 + 2 * n], dtype=object)
+        u, t0 = np.array(w[6 + 2 * n : 12 + 3 * n], dtype=object), np.array(w[12 + 3 * n :], dtype=object).reshape(3, 3)
+        out = np.full(6 + n, 0.0, dtype=object)
+        getattr(mod.configuration, ENTRY_POINTS["forward"])(q, vel, u, t0, m, none_i, none_f, s, out)
+        return g, list(out), len(w)
+    if kind == "inverse":  # inputs q (N), zdot0 (6 + N), zddot0 (6 + N), u (N + 6); outputs the rows [omega0, q] (3 + N)
+        w = [g.input("W", j) for j in range(n + 2 * (6 + n) + (n + 6))]
+        q, vel = np.array(w[:n], dtype=object), np.array(w[n : 6 + 2 * n], dtype=object)
+        acc, u = np.array(w[6 + 2 * n : 12 + 3 * n], dtype=object), np.array(w[12 + 3 * n :], dtype=object)
+        out = np.full(3 + n, 0.0, dtype=object)
+        t0 = np.eye(3, dtype=object)  # read only for inertial-frame external wrenches: none here
+        getattr(mod.configuration, ENTRY_POINTS["inverse"])(q, vel, acc, True, u, t0, m, none_i, none_f, s, out)
+        return g, list(out), len(w)
     raise ValueError(f"freefloat: no specialised kernel of kind {kind!r}; the kinds are {KINDS}")
 
 
@@ -222,7 +244,7 @@ def emit(g: Graph, outputs: list[Any], n_in: int, name: str = "lane") -> tuple[s
 
 
 _DRIVERS = {
-    "jstar": """
+    "map": """
 @kernel()
 def serial(Q, P, OUT, W):  # pragma: no cover - compiled
     _lanes.map_blocks(lane, Q, P, OUT, W, 0, (Q.shape[0] + LANES - 1) // LANES)
@@ -255,8 +277,8 @@ def source(t: Tree, kind: str) -> tuple[str, list[int], int]:
     """The generated module of ``kind`` for the structure of ``t``: (source, data slots, rows of W)."""
     g, outputs, n_in = trace(t, kind)
     lane, slots = emit(g, outputs, n_in)
-    if kind == "jstar":
-        rows = n_in + len(outputs)
+    if kind in MAPS:
+        rows = n_in + len(outputs) + (1 if g.guards else 0)
     else:
         size = 13 + 2 * t.n_joints
         rows = _lanes.rollout_rows(size, t.n_joints + 6)  # the W layout of _lanes.rollout_blocks
@@ -267,7 +289,12 @@ def source(t: Tree, kind: str) -> tuple[str, list[int], int]:
         "from freefloat.mechanics._numba_cache import kernel\n\n"
         f"SLOTS = {slots!r}\nROWS = {rows}\n\n\n@kernel()\n"
     )
-    return head + lane + "\n" + _DRIVERS[kind], slots, rows
+    guarded = f"GUARDED = {bool(g.guards)}\n\n\n"
+    return (
+        head.replace("\n\n\n@kernel()\n", "\n" + guarded + "@kernel()\n") + lane + "\n" + _DRIVERS["map" if kind in MAPS else kind],
+        slots,
+        rows,
+    )
 
 
 # ----------------------------------------------------------------- the cache of structures
@@ -396,9 +423,9 @@ def find(t: Tree, kind: str) -> types.ModuleType | None:
 #: in the background: about the compile time of each kind (J* 2-5 s, rollouts 9-18 s on the paper systems). Waiting
 #: until the work done equals the compile cost spends at most twice the best choice made knowing the future work
 #: (the ski-rental rule), and a one-off call never pays for a compile.
-AUTO_AFTER = {"jstar": 3.0, "rollout": 12.0}
+AUTO_AFTER = {"jstar": 3.0, "rollout": 12.0, "hplus": 3.0, "forward": 8.0, "inverse": 5.0}
 #: What each kind usually takes to compile (measured on the paper systems and the 7-DOF arm; docs/performance.md).
-COMPILE_TIME = {"jstar": "2-5 s", "rollout": "9-18 s"}
+COMPILE_TIME = {"jstar": "2-5 s", "rollout": "9-18 s", "hplus": "a few seconds", "forward": "5-15 s", "inverse": "3-10 s"}
 #: The environment variable that turns automatic specialisation off ("0", "false", "no" or "off").
 AUTO_ENV = "FREEFLOAT_AUTO_SPECIALISE"
 _AUTO = [True]
@@ -439,7 +466,7 @@ def account(t: Tree, kind: str, seconds: float) -> None:
 def _auto_build(t: Tree, kind: str, spent: float) -> None:
     from ..core.feedback import notice
 
-    what = {"jstar": "J*", "rollout": "the rollouts"}[kind]
+    what = {"jstar": "J*", "rollout": "the rollouts", "hplus": "H+", "forward": "forward dynamics", "inverse": "inverse dynamics"}[kind]
     notice(
         f"specialising {what} for this model structure in the background after {spent:.3g} s of work on the generic kernels "
         f"({COMPILE_TIME[kind]} to compile, once per machine, kept in {_folder()}; the calls go on meanwhile); "
@@ -483,9 +510,11 @@ def _warm(module: types.ModuleType, t: Tree, kind: str) -> None:
     """Compile (or load from numba's cache) both drivers of a module on a tiny batch."""
     data = data_vector(t)[module.SLOTS]
     n = t.n_joints
-    if kind == "jstar":
-        q = np.zeros((1, n))
-        out = np.empty((1, 6 * t.ee_body.shape[0] * n))
+    if kind in MAPS:
+        q = np.zeros((1, MAP_INPUTS[kind](n)))
+        if kind == "forward":
+            q[0, 12 + 3 * n :: 4] = 1.0  # T0 = 1
+        out = np.empty((1, module.ROWS - q.shape[1]))
         module.serial(q, data, out, np.empty(module.ROWS * LANES))
         module.parallel(q, data, out, np.empty((_threads(), module.ROWS * LANES)))
     else:
@@ -528,8 +557,23 @@ def parallel_worth(size: int) -> bool:
     return size >= 4 * LANES and numba.get_num_threads() > 1
 
 
+#: Inputs per configuration of each map kind, for N joints (the rows of W before the outputs).
+MAP_INPUTS = {
+    "jstar": lambda n: n,
+    "hplus": lambda n: n,
+    "forward": lambda n: n + (6 + n) + (n + 6) + 9,
+    "inverse": lambda n: n + 2 * (6 + n) + (n + 6),
+}
+
+
+def mapped(module: types.ModuleType, t: Tree, q: np.ndarray, out: np.ndarray) -> None:
+    """The outputs of a map kind for the rows of q (C, inputs) into out (C, outputs [+ 1: the guards, 1.0 where
+    every guard held, else 0.0]) by the specialised kernel."""
+    jstar(module, t, q, out)
+
+
 def jstar(module: types.ModuleType, t: Tree, q: np.ndarray, out: np.ndarray) -> None:
-    """J* of the rows of q (C, N) into out (C, 6E * N) by the specialised kernel."""
+    """J* of the rows of q (C, N) into out (C, 6E * N) by the specialised kernel (and any map kind alike)."""
     data = data_vector(t)[module.SLOTS]
     if parallel_worth(q.shape[0]):
         module.parallel(q, data, out, np.empty((_threads(), module.ROWS * LANES)))

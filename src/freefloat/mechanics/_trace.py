@@ -299,7 +299,13 @@ def _identity(x: Any) -> Any:
 #: traces, by kind. Each is plain scalar Python over arrays (numba compiles it as written): arithmetic, ``math.sqrt``,
 #: ``math.sin``, ``math.cos``, loops and branches on the model's *structure* (numbers while tracing), and branches on
 #: data only through ``>`` / ``<`` comparisons (traced as guards). Every kernel they call is traced with them.
-ENTRY_POINTS = {"jstar": "jstar_one", "rollout": "state_derivative_one"}
+ENTRY_POINTS = {
+    "jstar": "jstar_one",
+    "rollout": "state_derivative_one",
+    "hplus": "hplus_one",
+    "forward": "accelerations_one",
+    "inverse": "inverse_one",
+}
 
 
 @functools.cache

@@ -29,7 +29,11 @@ from ..core.errors import UnknownNameError
 from . import _specialise
 from ._tree import tree
 
-__all__ = ["AUTO_AFTER", "auto_specialise", "is_specialised", "specialise"]
+__all__ = ["AUTO_AFTER", "KINDS", "auto_specialise", "is_specialised", "specialise"]
+
+#: What can be specialised: "jstar" (J* batches), "rollout" (RK4 rollouts with the joint PD), "hplus" (H+ batches),
+#: "forward" and "inverse" (forward and inverse dynamics batches without external wrenches).
+KINDS = _specialise.KINDS
 
 #: Seconds of work on the generic kernels (J*, rollouts) of one structure, in one process, after which it is
 #: specialised in the background.
@@ -37,7 +41,7 @@ AUTO_AFTER = _specialise.AUTO_AFTER
 
 
 def specialise(model: Any, kinds: Sequence[str] = _specialise.KINDS, *, progress: Callable[[str], None] | None = None) -> dict[str, float]:
-    """Compile the specialised kernels of ``kinds`` ("jstar", "rollout") for the structure of ``model``.
+    """Compile the specialised kernels of ``kinds`` (:data:`KINDS`; default all) for the structure of ``model``.
 
     Once per machine and structure: a later call (in any process) only loads them (well under a
     second). ``progress(kind)`` is called before each kind. Returns the seconds each kind took.
