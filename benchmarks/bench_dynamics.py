@@ -138,9 +138,22 @@ def per_configuration(model: ff.Model, configs: int, pin_configs: int, repeats: 
     out: dict[str, Any] = {"verification": {"fd_vs_pinocchio_aba": worst}, "configs": configs, "pinocchio_configs": pin_configs}
     for key in ("hplus", "cplus", "fd"):
         log(f"[{model.name}] {key}: freefloat ({configs:,}), Pinocchio loop ({pin_configs:,})")
-        a = rate(best_of(ours[key], repeats), configs, "configs")
+        with generic():
+            a = rate(best_of(ours[key], repeats), configs, "configs")
         c = rate(best_of(lambda key=key: pin_loop.loop(key, items), repeats), pin_configs, "configs")
         out[key] = {"freefloat": a, "pinocchio_loop": c, "ratio": a["configs_per_s"] / c["configs_per_s"]}
+    # the same calls on the kernels specialised to the structure (compiled once per machine; the library does it by itself
+    # after a few seconds of such work, here up front so that the figures are reproducible)
+    t0 = time.perf_counter()
+    ff.mechanics.specialise(model, ["hplus", "inverse", "forward"])
+    out["specialise_dynamics_s"] = time.perf_counter() - t0
+    fd_fast = ours["fd"]()
+    out["verification"]["fd_specialised_vs_generic"] = float(np.max(np.abs(fd_fast - fd_ours)) / np.max(np.abs(fd_ours)))
+    for key in ("hplus", "cplus", "fd"):
+        log(f"[{model.name}] {key}: freefloat specialised ({configs:,})")
+        a = rate(best_of(ours[key], repeats), configs, "configs")
+        out[key]["freefloat_specialised"] = a
+        out[key]["ratio_specialised"] = a["configs_per_s"] / out[key]["pinocchio_loop"]["configs_per_s"]
     return out
 
 
@@ -357,6 +370,11 @@ def table(report: dict[str, Any]) -> str:
                 f"{key:18s} {label:40s} {r['freefloat']['configs_per_s']:14,.0f} {r['pinocchio_loop']['configs_per_s']:14,.0f} "
                 f"{r['ratio']:7.1f}x {check:>9s}"
             )
+            if "freefloat_specialised" in r:
+                lines.append(
+                    f"{key:18s} {label + ' (specialised)':40s} {r['freefloat_specialised']['configs_per_s']:14,.0f} "
+                    f"{r['pinocchio_loop']['configs_per_s']:14,.0f} {r['ratio_specialised']:7.1f}x"
+                )
         s = res["simulation"]
         lines.append(
             f"{key:18s} {'ff.simulate + Py PD (steps) vs MuJoCo':40s} {s['freefloat_simulate']['steps_per_s']:14,.0f} "
