@@ -27,6 +27,9 @@ READS_INERTIA = {
     "mechanics/dynamics.py::_diagonal_inertias": "barycentric reference: D_ii of C+ (1991 eq. 17)",
     "papers/report.py::model_info": "the report prints the model's mass properties",
     "mechanics/kinematics.py::spacecraft_box_size": "figures: the bus drawn as the uniform box of the spacecraft's inertia (no dynamics)",
+    "analysis/singularity.py::SingularityCriterion.measure_bound": (
+        "a bound of the singularity measures from the principal moments (no H+, C+ or J*): refuses thresholds nothing reaches"
+    ),
 }
 #: Functions allowed to use the pair inertias (each one quantity).
 USES_PAIRS = {

@@ -33,7 +33,7 @@ import numpy as np
 import typer
 
 from .analysis.singularity import jacobian_determinant_map
-from .core.errors import FreefloatError, ModelCorrectionWarning
+from .core.errors import FreefloatError, ModelCorrectionWarning, ModelError, UnknownNameError
 from .core.model import Model
 from .io.outputs import OutputDirectory, check_targets, output_directory, staged_outputs
 from .models import BUILTIN_MODELS, load_model
@@ -104,8 +104,12 @@ def _inertia(text: str) -> Any:
     raise ValueError(f"--payload-inertia: expected 1, 3 or 9 numbers, got {len(values)}")
 
 
+_PAYLOAD_OPTIONS = {"mass": "--payload-mass", "inertia": "--payload-inertia"}
+
+
 def with_payload(model: Model, mass: float | None, inertia: str | None, end_effector: str | None) -> Model:
-    """Apply the ``--payload-*`` options: the model after capturing a payload, or the model unchanged."""
+    """Apply the ``--payload-*`` options: the model after capturing a payload, or the model unchanged.
+    Errors name the option (``--payload-mass: must be positive ...``), not the API's field."""
     if mass is None:
         if inertia is not None or end_effector is not None:
             raise ValueError("--payload-inertia and --payload-ee need --payload-mass")
@@ -115,7 +119,15 @@ def with_payload(model: Model, mass: float | None, inertia: str | None, end_effe
     ee: str | int = 0
     if end_effector is not None:
         ee = int(end_effector) if end_effector.isdigit() and end_effector not in model.end_effector_names else end_effector
-    return model.with_payload(end_effector=ee, mass=mass, inertia=_inertia(inertia))
+    try:
+        return model.with_payload(end_effector=ee, mass=mass, inertia=_inertia(inertia))
+    except UnknownNameError as exc:
+        raise ValueError(f"--payload-ee: {exc}") from None
+    except ModelError as exc:
+        option = _PAYLOAD_OPTIONS.get(exc.field.rsplit(".", 1)[-1])
+        if option is None:
+            raise
+        raise ModelError(option, exc.problem, exc.fix) from None
 
 
 def output_dir(path: Path) -> Path:

@@ -22,6 +22,7 @@ carrying a payload CM along a path only the translational rows matter.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, NamedTuple
@@ -31,6 +32,7 @@ import numpy as np
 from ..core._figures import new_axes
 from ..core.errors import ShapeError
 from ..core.model import Model
+from ..core.numbers import MAX_JOINT_VALUE
 from ..core.resources import require_memory
 from ..mechanics.jacobians import generalized_jacobian, jacobian_determinant, jacobian_measure
 from . import _workspace_search as search
@@ -46,6 +48,7 @@ __all__ = ["DeterminantMap", "DeterminantMapArtists", "SingularityCriterion", "j
 ROWS = ("auto", "full", "position")
 _SYMBOLS = {"det": "det ⁰J*", "sigma_min": "σ_min(⁰J*)", "manipulability": "sqrt det(⁰J* ⁰J*ᵀ)"}
 _SUPERSCRIPT = str.maketrans("0123456789", "⁰¹²³⁴⁵⁶⁷⁸⁹")
+_PLAIN_DIGITS = str.maketrans("⁰¹²³⁴⁵⁶⁷⁸⁹", "0123456789")  # "m¹²" -> "m^12" in error messages
 MEASURES = ("auto", *search.MEASURES)
 
 
@@ -69,7 +72,10 @@ class SingularityCriterion:
         ``"auto"`` (default): det where J is square, else σ_min.
     threshold
         A configuration is singular where |measure| <= threshold (default 0:
-        exactly singular, rank-deficient J). In the measure's unit.
+        exactly singular, rank-deficient J). In the measure's unit. A finite
+        number >= 0; once a model is given (the workspaces, the capture
+        planning), a threshold at or above :meth:`measure_bound`, which the
+        measure reaches nowhere, is refused: every configuration would be singular.
 
     Notes
     -----
@@ -133,8 +139,79 @@ class SingularityCriterion:
         """|measure(q)| <= threshold, (...) booleans."""
         return np.abs(self.evaluate(model, q, end_effector)) <= self.threshold
 
+    def measure_bound(self, model: Model, end_effector: int | None = None) -> float:
+        """An upper bound of |measure| over every configuration of ``model`` (inf where none can be given), from its
+        masses, inertias and lengths alone; loose (often by orders of magnitude), but a threshold at or above it makes
+        every configuration singular.
+
+        With zero momentum the kinetic energy is T = 1/2 q̇ᵀ H* q̇, and H* is at most the joint block H_qq of the
+        fixed-spacecraft inertia matrix (the momentum constraint minimises T over the spacecraft's motion). For
+        q̇ = e_i, the end effector's body k (mass m_k, central inertia I_k, end-effector point at distance d from
+        its CM) has m_k |v_k|² <= 2T and λ_min(I_k) |ω_k|² <= 2T, so column i of ⁰J* is at most
+        sqrt(H_qq[i, i]) (1/sqrt(m_k) + d/sqrt(λ_min(I_k))) in its velocity rows and sqrt(H_qq[i, i] / λ_min(I_k))
+        in its rotation rows; H_qq[i, i] <= Σ over the bodies j outboard of joint i of m_j D_ij² + λ_max(I_j)
+        (revolute; m_j prismatic), with D_ij the length of the tree path from the joint to body j's CM (prismatic
+        joints on it at their farthest limit, at most 1e6 m). That bounds the Frobenius norm F of the chosen rows
+        (m of them, r = min(m, N) singular values): σ_min <= F / sqrt(r), |det| and the manipulability
+        (the product of the r singular values) <= (F² / r)^(r/2).
+        """
+        rows = self.row_indices(model, end_effector)
+        if rows.size == 0 or model.n_joints == 0:
+            return float("inf")
+        slide = np.zeros(model.n_bodies)
+        reach = np.maximum(np.abs(model.joint_lower), np.abs(model.joint_upper))
+        slide[1:] = np.where(model.prismatic, np.minimum(reach, MAX_JOINT_VALUE), 0.0)
+        link = np.linalg.norm(model.joint_origin, axis=1) + slide
+        depth = np.zeros(model.n_bodies)  # length of the tree path from the spacecraft's frame to each body's frame
+        for k in range(1, model.n_bodies):
+            depth[k] = depth[model.parent[k]] + link[k]
+        eig = np.linalg.eigvalsh(model.inertia)
+        com = np.linalg.norm(model.com, axis=1)
+        trace = 0.0  # bound of trace H_qq
+        for k in range(1, model.n_bodies):
+            out = np.nonzero(model.subtree[k])[0]
+            if model.prismatic[k - 1]:
+                trace += float(np.sum(model.mass[out]))
+            else:
+                trace += float(np.sum(model.mass[out] * (depth[out] - depth[k] + com[out]) ** 2 + eig[out, -1]))
+        frobenius2 = 0.0
+        for e in np.unique(rows // 6):
+            k = int(model.end_effector_body[e])
+            kind = rows[rows // 6 == e] % 6
+            mass, smallest = float(model.mass[k]), float(eig[k, 0])
+            if mass <= 0.0 or smallest <= 0.0:
+                return float("inf")
+            d = float(np.linalg.norm(model.end_effector_point[e] - model.com[k]))
+            if np.any(kind < 3):
+                frobenius2 += trace * (1.0 / np.sqrt(mass) + d / np.sqrt(smallest)) ** 2
+            if np.any(kind >= 3):
+                frobenius2 += trace / smallest
+        r = min(rows.size, model.n_joints)
+        if self.resolved_measure(model, end_effector) == "sigma_min":
+            return float(np.sqrt(frobenius2 / r))
+        log_bound = 0.5 * r * np.log(frobenius2 / r)
+        return float(np.exp(log_bound)) if log_bound < 700.0 else float("inf")
+
+    def check_threshold(self, model: Model, end_effector: int | None = None) -> None:
+        """Refuse a threshold at or above :meth:`measure_bound` (every configuration of ``model`` would count as
+        singular) with a ValueError that names the bound and its unit."""
+        if self.threshold == 0.0:
+            return
+        bound = self.measure_bound(model, end_effector)
+        if self.threshold < bound:
+            return
+        unit = re.sub("[⁰¹²³⁴⁵⁶⁷⁸⁹]+", lambda m: "^" + m.group().translate(_PLAIN_DIGITS), self.unit(model, end_effector))
+        measure = self.resolved_measure(model, end_effector)
+        raise ValueError(
+            f"threshold: {self.threshold:g} is at or above {bound:.3g} ({unit}), a bound that |{measure}| of J* never reaches "
+            f"on {model.name!r} (from its masses, inertias and lengths): every configuration would count as singular; "
+            f"give a threshold below it, in the measure's unit ({unit}), such as 0 (exact singularities)"
+        )
+
     def search_criterion(self, model: Model, end_effector: int | None = None) -> search.Criterion:
-        """The criterion of the singular-set search (private helper of the workspace and capture modules)."""
+        """The criterion of the singular-set search (private helper of the workspace and capture modules); a threshold
+        that makes every configuration singular is refused (:meth:`check_threshold`)."""
+        self.check_threshold(model, end_effector)
         rows = self.row_indices(model, end_effector)
         measure = self.resolved_measure(model, end_effector)
         if self.threshold == 0.0 and rows.size == model.n_joints:

@@ -157,7 +157,9 @@ def workspace_limits(
     value: minutes for a 7-joint arm). ``samples``: configurations sampled
     for the PIW. ``criterion``: which rows of J* and which measure count as
     singular for the PIW (:class:`~freefloat.analysis.singularity.SingularityCriterion`;
-    default the paper's). Unknown end effectors raise :class:`~freefloat.UnknownNameError`.
+    default the paper's); a threshold that makes every configuration singular (at or above
+    :meth:`~freefloat.analysis.singularity.SingularityCriterion.measure_bound`) is a ValueError,
+    even when the PIW is not computed. Unknown end effectors raise :class:`~freefloat.UnknownNameError`.
 
     Progress: each step ("[3/6] PIW of arm1_ee (65,536 samples)") shows a spinner with its elapsed time on a terminal,
     and the PIW sampling a bar with the count of configurations; outside a terminal the same goes to the
@@ -172,6 +174,7 @@ def workspace_limits(
     if len(set(chosen)) != len(chosen):
         raise ValueError(f"end_effectors: each end effector once, got {list(end_effectors or [])!r}")
     crit = criterion if criterion is not None else SingularityCriterion()
+    crit.check_threshold(model)  # a threshold that makes every configuration singular: refused before the work
     square = crit.square(model) and crit.threshold == 0.0
     do_piw = square if piw is None else bool(piw)
     note = ""

@@ -1,7 +1,9 @@
 """Reading a user's numbers: real numbers only, one rule for every public boundary (core, mechanics, simulation).
 
 Booleans, complex numbers, text and other objects are a ``TypeError`` that names the field; NaN,
-infinity and bounds are checked by the callers, who know the field's meaning.
+infinity and bounds are checked by the callers, who know the field's meaning. The bounds shared by
+several modules live here: finite values beyond them are no space robot's (a unit slip or a typo),
+and are refused with an error that names the field, the bound and the fix.
 """
 
 from __future__ import annotations
@@ -11,11 +13,49 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MAX_JOINT_VALUE", "check_joint_values", "real_array"]
+__all__ = [
+    "MAX_EFFORT",
+    "MAX_FREQUENCY",
+    "MAX_JOINT_VALUE",
+    "MAX_POSITION",
+    "MAX_RATE",
+    "MAX_RTOL",
+    "MAX_SPEED",
+    "MIN_RTOL",
+    "check_joint_rates",
+    "check_joint_values",
+    "check_largest",
+    "real_array",
+    "tolerance_problem",
+]
 
 #: |q| above this (rad or m) is refused as input: no joint turns or slides that far, and sin/cos of such
 #: angles lose their precision (an ulp of 1e6 rad is 1e-10 rad).
 MAX_JOINT_VALUE = 1e6
+#: No joint of a space robot turns faster than this (rad/s; about 95,000 rpm) nor slides faster (m/s), and no
+#: spacecraft spins faster: a rate beyond it means the actuation or the initial state is not physical, and
+#: an adaptive integrator would take forever to resolve the motion. A reference rate beyond it is refused
+#: as input; a simulation that reaches it stops with an error naming it (``simulation._guard.DivergenceGuard``).
+MAX_RATE = 1e4
+#: |r_cm| above this (m) is refused as input: 1e12 m is about 7 astronomical units, past Jupiter's orbit
+#: in a Sun-centred frame (an ulp of 1e12 m is 0.1 mm: beyond it an arm's motion drowns in rounding).
+MAX_POSITION = 1e12
+#: |v_cm| above this (m/s) is refused as input: a third of the speed of light, some 2000 times the fastest
+#: spacecraft launched.
+MAX_SPEED = 1e8
+#: A joint torque (N m) or force (N) above this is refused as input: it would spin the largest inertia a
+#: model may have (1e15 kg m^2, :data:`freefloat.core.model.MAX_INERTIA`) beyond :data:`MAX_RATE` within
+#: one second.
+MAX_EFFORT = 1e19
+#: A sinusoidal actuation faster than this (Hz) is refused: no actuator of a space robot follows a
+#: megahertz, and resolving one would take steps below a microsecond.
+MAX_FREQUENCY = 1e6
+#: The adaptive integrators' relative tolerance ``rtol`` must lie in [MIN_RTOL, MAX_RTOL): below 100 machine
+#: epsilons (2.2e-14) scipy raises it itself; at 1 or more it asks for no accuracy at all. The absolute
+#: tolerance ``atol`` must lie in (0, MAX_RTOL): it applies to every entry of the state, the unit
+#: quaternion and the joint angles (rad) included, where an error of 1 is no accuracy either.
+MIN_RTOL = 100 * float(np.finfo(float).eps)
+MAX_RTOL = 1.0
 
 
 def real_array(value: Any, name: str) -> np.ndarray:
@@ -32,13 +72,43 @@ def real_array(value: Any, name: str) -> np.ndarray:
     raise TypeError(f"{name}: expected real numbers, got {what} ({value!r:.80})")
 
 
-def check_joint_values(arr: np.ndarray, name: str, joint_names: Sequence[str] | None = None) -> None:
-    """Refuse joint values (..., N) beyond :data:`MAX_JOINT_VALUE`, naming the largest and its joint."""
-    if not arr.size or max(float(arr.max()), -float(arr.min())) <= MAX_JOINT_VALUE:
+def check_largest(arr: np.ndarray, name: str, limit: float, unit: str, why: str, fix: str, labels: Sequence[str] | None = None) -> None:
+    """Refuse finite values (..., K) whose magnitude exceeds ``limit``: a ValueError
+    ``"{name}: {value}[ for {label}] is beyond {limit} ({unit}), {why}; {fix}"`` naming the largest one
+    (and its label, ``labels[k]`` for the last axis, when given)."""
+    if not arr.size or max(float(arr.max()), -float(arr.min())) <= limit:
         return
     index = np.unravel_index(int(np.argmax(np.abs(arr))), arr.shape)
-    joint = f" for joint {joint_names[int(index[-1])]!r}" if joint_names is not None and arr.ndim else ""
-    raise ValueError(
-        f"{name}: {float(arr[index]):.3g}{joint} is beyond {MAX_JOINT_VALUE:g} (rad or m), which no joint reaches; "
-        "check the units (radians, metres)"
-    )
+    label = f" for {labels[int(index[-1])]}" if labels is not None and arr.ndim else ""
+    raise ValueError(f"{name}: {float(arr[index]):.3g}{label} is beyond {limit:g} ({unit}), {why}; {fix}")
+
+
+def check_joint_values(arr: np.ndarray, name: str, joint_names: Sequence[str] | None = None) -> None:
+    """Refuse joint values (..., N) beyond :data:`MAX_JOINT_VALUE`, naming the largest and its joint."""
+    labels = None if joint_names is None else [f"joint {j!r}" for j in joint_names]
+    check_largest(arr, name, MAX_JOINT_VALUE, "rad or m", "which no joint reaches", "check the units (radians, metres)", labels)
+
+
+def check_joint_rates(arr: np.ndarray, name: str, joint_names: Sequence[str] | None = None) -> None:
+    """Refuse joint rates (..., N) beyond :data:`MAX_RATE`, naming the largest and its joint."""
+    labels = None if joint_names is None else [f"joint {j!r}" for j in joint_names]
+    check_largest(arr, name, MAX_RATE, "rad/s or m/s", "which no joint of a space robot reaches", "check the units (rad/s, m/s)", labels)
+
+
+def tolerance_problem(name: str, value: float) -> tuple[str, str] | None:
+    """What is wrong with an adaptive integrator's tolerance ``name`` ("rtol" or "atol"), already a positive finite
+    float: ``(problem, fix)``, or None when it lies in range (rtol in [:data:`MIN_RTOL`, :data:`MAX_RTOL`), atol in
+    (0, :data:`MAX_RTOL`))."""
+    if value >= MAX_RTOL:
+        what = "a relative" if name == "rtol" else "an absolute"
+        return (
+            f"{value:g} is not below {MAX_RTOL:g}: {what} tolerance of {MAX_RTOL:g} or more asks for no accuracy at all"
+            + ("" if name == "rtol" else " (it applies to the unit quaternion and the joint angles in rad too)"),
+            f"give a small positive number, such as 1e-10 (rtol in [{MIN_RTOL:.3g}, 1), atol in (0, 1))",
+        )
+    if name == "rtol" and value < MIN_RTOL:
+        return (
+            f"{value:g} is below {MIN_RTOL:.3g}, 100 machine epsilons: no integrator resolves the state more finely",
+            f"give a number in [{MIN_RTOL:.3g}, 1), such as 1e-10",
+        )
+    return None

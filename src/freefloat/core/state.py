@@ -7,10 +7,12 @@ State (all SI, frames as in :mod:`freefloat.conventions`):
     attitude  (4,)  spacecraft attitude T0 (frame 0 -> frame I) as a unit quaternion
                     [x, y, z, w] (scalar last); a scipy ``Rotation`` or a 3x3
                     rotation matrix is accepted too
-    r_cm      (3,)  system CM position, inertial frame
-    v_cm      (3,)  system CM velocity, inertial frame
+    r_cm      (3,)  system CM position, inertial frame (|r_cm| up to MAX_POSITION = 1e12 m)
+    v_cm      (3,)  system CM velocity, inertial frame (|v_cm| up to MAX_SPEED = 1e8 m/s)
 
-Omitted fields are zero (attitude: identity). Every field may carry leading
+Omitted fields are zero (attitude: identity). Values beyond the bounds of :mod:`freefloat.core.numbers`
+(|q| > 1e6 rad or m, a CM position or speed component beyond 1e12 m or 1e8 m/s) are refused as input: no
+space robot has them, they are a unit slip. Every field may carry leading
 batch axes (for batched rollouts); all fields then broadcast to one batch shape.
 
 The flat state vector that the integrators see is
@@ -29,16 +31,28 @@ from scipy.spatial.transform import Rotation
 from .conventions import as_quaternion
 from .errors import ShapeError
 from .model import Model
-from .numbers import check_joint_values, real_array
+from .numbers import MAX_POSITION, MAX_SPEED, check_joint_values, check_largest, real_array
 
 __all__ = ["Actuation", "ActuatorLimits", "State", "pack_state", "state_size", "unpack_state"]
 
 _FIELDS = ("q", "qdot", "omega", "attitude", "r_cm", "v_cm")
+# the CM's bounds: (limit, unit, why, fix) for check_largest
+_CM_BOUNDS = {
+    "r_cm": (
+        MAX_POSITION,
+        "m",
+        "farther than any space robot goes (7 AU, past Jupiter's orbit)",
+        "check the units (metres) and the origin of the inertial frame",
+    ),
+    "v_cm": (MAX_SPEED, "m/s", "a third of the speed of light, which no spacecraft reaches", "check the units (m/s)"),
+}
 
 
 def _finite(name: str, value: Any, size: int, what: str) -> np.ndarray:
     """``value`` as a float array of shape (..., size) with finite, real entries, or an error naming ``name``;
-    joint values beyond :data:`~freefloat.core.numbers.MAX_JOINT_VALUE` are refused too (:func:`check_joint_values`)."""
+    joint values beyond :data:`~freefloat.core.numbers.MAX_JOINT_VALUE` are refused too (:func:`check_joint_values`),
+    and so are CM positions beyond :data:`~freefloat.core.numbers.MAX_POSITION` and CM speeds beyond
+    :data:`~freefloat.core.numbers.MAX_SPEED`."""
     arr = real_array(value, f"State.{name}")
     if arr.ndim == 0 or arr.shape[-1] != size:
         raise ShapeError(f"State.{name}: expected shape (..., {size}) ({what}), got {arr.shape}")
@@ -46,6 +60,8 @@ def _finite(name: str, value: Any, size: int, what: str) -> np.ndarray:
         raise ValueError(f"State.{name}: has NaN or infinite entries; give finite values")
     if name == "q":
         check_joint_values(arr, "State.q")
+    elif name in _CM_BOUNDS:
+        check_largest(arr, f"State.{name}", *_CM_BOUNDS[name])
     return arr
 
 

@@ -333,9 +333,10 @@ def load_urdf(path: str | Path, *, end_effectors: EndEffectors = None, strict: b
 
     path = Path(path)
     try:  # yourdfpy silently falls back to a recovering parser on bad XML: check well-formedness first
-        ElementTree.parse(path)
+        tree = ElementTree.parse(path)
     except ElementTree.ParseError as exc:
         raise ModelError(str(path), f"malformed URDF XML: {exc}", "fix the file so that it is valid URDF XML") from None
+    _check_urdf_elements(tree.getroot(), str(path))  # yourdfpy's own errors name neither the element nor the attribute
     try:
         with np.errstate(all="ignore"):  # NaN or infinity in an <origin>: refused below, naming it (not a RuntimeWarning of numpy)
             urdf = yourdfpy.URDF.load(
@@ -344,6 +345,86 @@ def load_urdf(path: str | Path, *, end_effectors: EndEffectors = None, strict: b
     except Exception as exc:  # yourdfpy and lxml raise many types for bad XML
         raise ModelError(str(path), f"malformed URDF: {type(exc).__name__}: {exc}", "fix the file so that it is valid URDF XML") from None
     return naming_file(path, lambda: from_urdf_robot(urdf.robot, source=str(path), end_effectors=end_effectors, strict=strict))
+
+
+# What yourdfpy reads as numbers: element tag -> {attribute: how many numbers (0: one or more)}; box sizes and mesh
+# scales may be separated by commas too.
+_URDF_NUMBERS: dict[str, dict[str, int]] = {
+    "origin": {"xyz": 3, "rpy": 3},
+    "mass": {"value": 1},
+    "inertia": dict.fromkeys(("ixx", "ixy", "ixz", "iyy", "iyz", "izz"), 1),
+    "axis": {"xyz": 3},
+    "limit": dict.fromkeys(("lower", "upper", "effort", "velocity"), 1),
+    "mimic": dict.fromkeys(("multiplier", "offset"), 1),
+    "calibration": dict.fromkeys(("rising", "falling"), 1),
+    "safety_controller": dict.fromkeys(("soft_lower_limit", "soft_upper_limit", "k_position", "k_velocity"), 1),
+    "box": {"size": 3},
+    "cylinder": {"radius": 1, "length": 1},
+    "sphere": {"radius": 1},
+    "mesh": {"scale": 0},
+    "color": {"rgba": 0},
+}
+# attributes yourdfpy cannot do without: element tag -> attributes
+_URDF_REQUIRED = {"link": ("name",), "joint": ("name",), "box": ("size",), "cylinder": ("radius", "length"), "sphere": ("radius",)}
+
+
+def _urdf_descendants(element: Any, where: str) -> Any:
+    """(path, element) of every element under ``element``: ``where.visual.geometry.box``, with ``[i]`` where a tag repeats."""
+    children = list(element)
+    for child in children:
+        tag = str(child.tag)
+        same = [c for c in children if c.tag == child.tag]
+        path = f"{where}.{tag}" + (f"[{same.index(child)}]" if len(same) > 1 else "")
+        yield path, child
+        yield from _urdf_descendants(child, path)
+
+
+def _urdf_attributes(element: Any, where: str) -> None:
+    """The attributes of one URDF element that yourdfpy reads: present where required, numbers where numbers."""
+    tag = str(element.tag)
+    for attr in _URDF_REQUIRED.get(tag, ()):
+        if attr not in element.attrib:
+            raise ModelError(f"{where}.{attr}", "is missing", f'give the <{tag}> element its {attr}="..." attribute')
+    for attr, count in _URDF_NUMBERS.get(tag, {}).items():
+        text = element.get(attr)
+        if text is None:
+            continue
+        tokens = (text.replace(",", " ") if tag in ("box", "mesh") else text).split()
+        want = "a number" if count == 1 else f"{count} numbers separated by spaces" if count else "numbers separated by spaces"
+        for token in tokens:
+            try:
+                float(token)
+            except ValueError:
+                shown = repr(token) if token == text.strip() else f"{token!r} (in {attr}={text!r})"
+                raise ModelError(
+                    f"{where}.{attr}", f"cannot read {shown} as a number", f"write {want} in SI units (m, rad, kg, kg m^2)"
+                ) from None
+        if (count and len(tokens) != count) or not tokens:
+            raise ModelError(f"{where}.{attr}", f"expected {want}, got {len(tokens)} ({attr}={text!r})", f"write {want}")
+
+
+def _check_urdf_elements(root: Any, source: str) -> None:
+    """What yourdfpy would fail on with an error that names neither the element nor the attribute (a text where a
+    number belongs, a joint without ``<parent>``), refused with a ModelError that names them:
+    ``robot.urdf: link[0] (spacecraft).inertial.mass.value: cannot read 'heavy' ... as a number``.
+    ``root``: the parsed XML root (``xml.etree``); links and joints are numbered as yourdfpy numbers them."""
+    if root.tag != "robot":
+        return
+    if "name" not in root.attrib:
+        raise ModelError(f"{source}: robot.name", "is missing", 'give the robot a name: <robot name="...">')
+    for kind in ("link", "joint", "material"):
+        for i, element in enumerate(root.findall(kind)):
+            if kind != "material":
+                _urdf_attributes(element, f"{source}: {kind}[{i}]")
+            where = f"{source}: {kind}[{i}] ({element.get('name')})"
+            if kind == "joint":
+                for role in ("parent", "child"):
+                    found = element.find(role)
+                    if found is None or not found.get("link"):
+                        problem = "is missing" if found is None else "has no link attribute"
+                        raise ModelError(f"{where}.{role}", problem, f'name the joint\'s {role} link: <{role} link="NAME"/>')
+            for path, child in _urdf_descendants(element, where):
+                _urdf_attributes(child, path)
 
 
 def missing_limit(path: str, kind: str, strict: bool, corrections: list[dict[str, Any]]) -> None:

@@ -17,13 +17,13 @@ controller. Schema (docs/simulation.md)::
     omega = [0.0, 0.0, 0.0]                # rad/s, spacecraft frame (or omega_deg)
     attitude = [0.0, 0.0, 0.0, 1.0]        # quaternion [x, y, z, w], spacecraft -> inertial
     # euler321_deg = [roll, pitch, yaw]    # or the attitude as 1991 eq. 11 Euler angles, degrees
-    r_cm = [0.0, 0.0, 0.0]                 # m, inertial frame
-    v_cm = [0.0, 0.0, 0.0]                 # m/s, inertial frame
+    r_cm = [0.0, 0.0, 0.0]                 # m, inertial frame (each component within 1e12 m)
+    v_cm = [0.0, 0.0, 0.0]                 # m/s, inertial frame (within 1e8 m/s)
 
     [integrator]                           # optional
     method = "DOP853"                      # an adaptive scipy method, or "RK4" (then fixed_step is required)
-    rtol = 1e-10                           # adaptive only
-    atol = 1e-10
+    rtol = 1e-10                           # adaptive only; in [2.2e-14, 1)
+    atol = 1e-10                           # in (0, 1)
     # fixed_step = 0.001                   # s, RK4 only
     output_period = 0.01                   # s between recorded states
     # sample_period = 0.01                 # s, zero-order hold of the actuation
@@ -32,12 +32,13 @@ controller. Schema (docs/simulation.md)::
     [actuation]                            # open loop, one of: constant, piecewise, sinusoid
     type = "sinusoid"
     amplitude = [1.0, 0.5, 1.0, 0.5]       # N m  (sinusoid: offset + amplitude sin(2 pi f t + phase))
-    frequency = [0.1, 0.2, 0.1, 0.2]       # Hz
+    frequency = [0.1, 0.2, 0.1, 0.2]       # Hz, within 1e6 Hz
     phase = [0.0, 0.0, 0.0, 0.0]           # rad (optional)
     offset = [0.0, 0.0, 0.0, 0.0]          # N m (optional)
     # constant:  joint_torque = [...]
     # piecewise: times = [0.0, 2.0, 4.0] and joint_torque = [[...], [...], [...]] (each row held until the next time)
     # every type: spacecraft_force = [...] (N), spacecraft_torque = [...] (N m), constant, spacecraft frame
+    # torques and forces within 1e19 N m (N)
 
     # [controller]                         # instead of [actuation]: a built-in controller
     # type = "joint_pd"                    # tau = kp (q_ref - q) + kd (qdot_ref - qdot)
@@ -59,7 +60,10 @@ controller. Schema (docs/simulation.md)::
     csv = true
     plots = true
 
-Every error names the field and the fix (:class:`~freefloat.ModelError`).
+Every error names the field and the fix (:class:`~freefloat.ModelError`). Finite values that no space
+robot has are refused with the bound they pass (:mod:`freefloat.core.numbers`): an initial position or
+speed of the CM beyond 1e12 m or 1e8 m/s, rates beyond 1e4 rad/s, torques and forces beyond 1e19 N m
+(or N), a sinusoid faster than 1e6 Hz or with a phase beyond 1e6 rad, tolerances outside the ranges above.
 """
 
 from __future__ import annotations
@@ -74,11 +78,11 @@ from scipy.spatial.transform import Rotation
 
 from ..core.errors import ModelError
 from ..core.model import Model
-from ..core.numbers import real_array
+from ..core.numbers import MAX_EFFORT, MAX_FREQUENCY, MAX_JOINT_VALUE, MAX_RATE, real_array, tolerance_problem
 from ..core.state import Actuation, ActuatorLimits, State
 from ..io.model_files import load, read_toml
 from ..models import load_model
-from ..simulation._guard import MAX_RATE, RunEstimate, estimate_run
+from ..simulation._guard import RunEstimate, estimate_run
 from ..simulation.pd import JointPD
 from ..simulation.simulate import METHODS, simulate
 from ..simulation.trajectory import Trajectory
@@ -211,7 +215,7 @@ def _one_of(table: dict[str, Any], names: tuple[str, str], source: str, where: s
 
 
 def _rate(rates: np.ndarray, source: str, name: str) -> None:
-    """Initial rates beyond :data:`~freefloat.simulation._guard.MAX_RATE` are refused when the scenario is read, before the run."""
+    """Initial rates beyond :data:`~freefloat.core.numbers.MAX_RATE` are refused when the scenario is read, before the run."""
     fastest = float(np.max(np.abs(rates), initial=0.0))
     if fastest > MAX_RATE:
         raise ModelError(
@@ -219,6 +223,20 @@ def _rate(rates: np.ndarray, source: str, name: str) -> None:
             f"{fastest:.3g} rad/s (or m/s) is beyond {MAX_RATE:g}, which no joint or spacecraft of a space robot reaches",
             "check the units (rad/s, or deg/s with the _deg key) and the size",
         )
+
+
+def _bounded(arr: np.ndarray, source: str, name: str, limit: float, unit: str, why: str, fix: str) -> np.ndarray:
+    """``arr`` if no entry's magnitude exceeds ``limit``; else a ModelError that names the field, the largest entry and the bound."""
+    largest = float(np.max(np.abs(arr), initial=0.0))
+    if largest > limit:
+        raise ModelError(_where(source, name), f"{largest:.3g} {unit} is beyond {limit:g} {unit}, {why}", fix)
+    return arr
+
+
+def _effort(arr: np.ndarray, source: str, name: str, unit: str) -> np.ndarray:
+    """Torques (N m) or forces (N) up to :data:`~freefloat.core.numbers.MAX_EFFORT`."""
+    why = "which would spin the largest inertia a model may have (1e15 kg m^2) past 1e4 rad/s within a second"
+    return _bounded(arr, source, name, MAX_EFFORT, unit, why, f"check the units ({unit}) and the size")
 
 
 # --------------------------------------------------------------------- sections
@@ -270,6 +288,9 @@ def _integrator(data: Any, source: str, duration: float) -> dict[str, Any]:
     for key in ("rtol", "atol", "fixed_step", "output_period", "sample_period", "max_wall_time"):
         if key in table:
             options[key] = _number(table[key], source, f"integrator.{key}", "give a positive number", positive=True)
+            problem = tolerance_problem(key, options[key]) if key in ("rtol", "atol") else None
+            if problem is not None:
+                raise ModelError(_where(source, f"integrator.{key}"), *problem)
     if method == "RK4":
         if "fixed_step" not in options:
             raise ModelError(_where(source, "integrator.fixed_step"), "missing: RK4 needs a step", "give fixed_step (s), e.g. 0.001")
@@ -299,8 +320,11 @@ def _integrator(data: Any, source: str, duration: float) -> dict[str, Any]:
 def _thrusters(table: dict[str, Any], source: str, where: str) -> tuple[np.ndarray | None, np.ndarray | None]:
     out = []
     for key, unit in (("spacecraft_force", "N"), ("spacecraft_torque", "N m")):
+        name = f"{where}.{key}"
         out.append(
-            _array(table[key], (3,), source, f"{where}.{key}", f"give [x, y, z] ({unit}, spacecraft frame)") if key in table else None
+            _effort(_array(table[key], (3,), source, name, f"give [x, y, z] ({unit}, spacecraft frame)"), source, name, unit)
+            if key in table
+            else None
         )
     return out[0], out[1]
 
@@ -352,6 +376,7 @@ def _actuation(data: Any, model: Model, source: str) -> _OpenLoop:
 
     if kind == "constant":
         params["joint_torque"] = _per_joint(need("joint_torque"), model, source, "actuation.joint_torque", "N m", scalar_ok=True)
+        _effort(params["joint_torque"], source, "actuation.joint_torque", "N m")
     elif kind == "piecewise":
         times = _array(need("times"), (-1,), source, "actuation.times", "give the switching times (s), starting at 0, increasing")
         if times[0] != 0.0 or np.any(np.diff(times) <= 0):
@@ -366,11 +391,32 @@ def _actuation(data: Any, model: Model, source: str) -> _OpenLoop:
             "actuation.joint_torque",
             f"give one row of {n} torques (N m) per time ({times.size} rows)",
         )
+        _effort(params["joint_torque"], source, "actuation.joint_torque", "N m")
     else:
         params["amplitude"] = _per_joint(need("amplitude"), model, source, "actuation.amplitude", "N m", scalar_ok=True)
         params["frequency"] = _per_joint(need("frequency"), model, source, "actuation.frequency", "Hz", scalar_ok=True)
         for key, unit in (("phase", "rad"), ("offset", "N m")):
             params[key] = _per_joint(table[key], model, source, f"actuation.{key}", unit, scalar_ok=True) if key in table else np.zeros(n)
+        for key in ("amplitude", "offset"):
+            _effort(params[key], source, f"actuation.{key}", "N m")
+        _bounded(
+            params["frequency"],
+            source,
+            "actuation.frequency",
+            MAX_FREQUENCY,
+            "Hz",
+            "which no actuator of a space robot follows (resolving it would take steps below a microsecond)",
+            "check the units (Hz, not rad/s) and the size",
+        )
+        _bounded(
+            params["phase"],
+            source,
+            "actuation.phase",
+            MAX_JOINT_VALUE,
+            "rad",
+            "a phase that sin() cannot resolve (its rounding error is 1e-10 rad)",
+            "give the phase in radians, within one turn",
+        )
     force, torque = _thrusters(table, source, "actuation")
     return _OpenLoop(kind, params, force, torque)
 

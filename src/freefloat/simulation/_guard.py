@@ -20,6 +20,7 @@ import numpy as np
 from ..core.errors import SimulationError, StiffGainsWarning
 from ..core.feedback import LOG_PERIOD, interactive, progress_log
 from ..core.model import Model
+from ..core.numbers import MAX_RATE  # beyond it a run stops: the actuation or the initial state is not physical
 from ..mechanics import _engine
 from ..mechanics.momentum import free_floating_joint_inertia
 
@@ -47,10 +48,6 @@ ENERGY_FACTOR = 100.0
 #: period (or of the duration, if shorter): the step size collapsed (the equations are too stiff for
 #: the method, or the state diverges): a billion steps per recorded state.
 MIN_STEP_FRACTION = 1e-9
-#: No joint of a space robot turns faster than this (rad/s; about 95,000 rpm) nor slides faster (m/s), and no
-#: spacecraft spins faster: a rate beyond it means the actuation or the initial state is not physical, and
-#: an adaptive integrator would take forever to resolve the motion. The run stops with an error naming it.
-MAX_RATE = 1e4
 #: The default wall-clock budget of a run (``max_wall_time="auto"``): this many times the estimate of
 #: :func:`estimate_run`, and at least :data:`MIN_WALL_BUDGET` seconds.
 WALL_BUDGET_FACTOR = 20.0

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import ShapeError
-from ..core.numbers import check_joint_values, real_array
+from ..core.numbers import MAX_EFFORT, check_joint_rates, check_joint_values, check_largest, real_array
 
 __all__ = ["JointPD"]
 
@@ -30,6 +30,9 @@ class JointPD:
     or (B, N). ``feedforward``: joint torques per sample, (K, N) or (K, B, N); sample k applies
     from t = k ``feedforward_period`` on and the last one is held after the K-th (None: zero).
     A constant feed-forward is a (1, N) array.
+
+    Values no space robot has are refused as input (:mod:`freefloat.core.numbers`): |q_ref| beyond 1e6 rad
+    (or m), |qdot_ref| beyond 1e4 rad/s (or m/s), feed-forward torques beyond 1e19 N m (or N).
     """
 
     kp: Any
@@ -46,6 +49,8 @@ class JointPD:
                 raise ValueError(f"JointPD.{name}: has NaN or infinite entries")
             if name == "q_ref":
                 check_joint_values(arr, "JointPD.q_ref")
+            if name == "qdot_ref":
+                check_joint_rates(arr, "JointPD.qdot_ref")
             if name in ("kp", "kd") and np.any(arr < 0):
                 raise ValueError(
                     f"JointPD.{name}: must be >= 0 (a negative gain drives the joints away from the reference and pumps energy "
@@ -57,8 +62,25 @@ class JointPD:
                 raise ShapeError(f"JointPD.feedforward: expected (K, N) or (K, B, N) torques per sample, got shape {ff.shape}")
             if not np.all(np.isfinite(ff)):
                 raise ValueError("JointPD.feedforward: has NaN or infinite entries")
-            if ff.shape[0] > 1 and (self.feedforward_period is None or not self.feedforward_period > 0):
-                raise ValueError("JointPD.feedforward_period: give the time between feed-forward samples (s, > 0)")
+            check_largest(
+                ff,
+                "JointPD.feedforward",
+                MAX_EFFORT,
+                "N m or N",
+                "which would spin the largest inertia a model may have (1e15 kg m^2) past 1e4 rad/s within a second",
+                "check the units (N m, N)",
+            )
+            period = self.feedforward_period
+            if ff.shape[0] > 1 and (
+                period is None
+                or isinstance(period, (bool, np.bool_, str, bytes))
+                or not isinstance(period, (int, float, np.number))
+                or not np.isfinite(period)
+                or not period > 0
+            ):
+                raise ValueError(
+                    f"JointPD.feedforward_period: give the time between feed-forward samples (s, a finite number > 0), got {period!r}"
+                )
 
     def sample(self, t: float) -> int:
         """Index of the feed-forward sample in force at time ``t``."""

@@ -28,6 +28,7 @@ import numpy as np
 
 from ..core.errors import FreefloatError, LongRunWarning, ShapeError, SimulationError
 from ..core.model import Model
+from ..core.numbers import tolerance_problem
 from ..core.resources import require_memory
 from ..core.state import Actuation, ActuatorLimits, State, pack_state, unpack_state
 from ..mechanics import _engine
@@ -139,7 +140,8 @@ def simulate(
 
     ``controller(t, state)`` returns joint torques (N,) or an :class:`Actuation`
     (None: free-floating, no actuation). Adaptive integration (scipy
-    ``solve_ivp`` with ``method``, ``rtol``, ``atol``) unless ``fixed_step``
+    ``solve_ivp`` with ``method``, ``rtol`` in [2.2e-14, 1) and ``atol`` in
+    (0, 1): :data:`freefloat.core.numbers.MIN_RTOL`) unless ``fixed_step``
     (s) selects RK4. ``sample_period`` holds the controller output between
     samples. States are output every ``output_period`` (default 0.01 s, or the
     fixed step if larger). ``events``: callables (t, state) -> float; the run
@@ -196,8 +198,10 @@ def simulate(
     if fixed_step is None:
         if not (isinstance(method, str) and method in METHODS) and not isinstance(method, type):
             raise ValueError(f"method: unknown integrator {method!r}; choose one of {', '.join(METHODS)} (or pass fixed_step for RK4)")
-        _positive("rtol", rtol)
-        _positive("atol", atol)
+        for name, value in (("rtol", rtol), ("atol", atol)):
+            problem = tolerance_problem(name, _positive(name, value))
+            if problem is not None:
+                raise ValueError(f"{name}: {problem[0]}; {problem[1]}")
     if controller is not None and not callable(controller):
         raise TypeError(f"controller: expected a callable (t, state) -> joint torques or Actuation, got {type(controller).__name__}")
     limits = limits or ActuatorLimits()
