@@ -453,8 +453,8 @@ def jacobian_determinant_map(
     base = np.zeros(model.n_joints) if q_fixed is None else np.asarray(q_fixed, dtype=float)
     if base.shape != (model.n_joints,):
         raise ShapeError(f"q_fixed: expected shape ({model.n_joints},) ({', '.join(model.joint_names)}), got {base.shape}")
-    # the grid of configurations, J* (6E x N) at each point, and the measure
-    per_point = 8 * (model.n_joints + 6 * model.n_end_effectors * model.n_joints + 2)
+    # the grid of configurations and the measure at each point (the engine computes the measure without a batch of J*)
+    per_point = 8 * (model.n_joints + 2)
     require_memory(
         float(n_x) * n_y * per_point,
         f"a map of {n_x} x {n_y} = {float(n_x) * n_y:.3g} configurations",
