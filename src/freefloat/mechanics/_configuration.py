@@ -532,16 +532,39 @@ def state_derivative_one(
 
 
 @kernel(inline="always")
-def state_derivative_lane(W: np.ndarray, P: Any) -> None:  # pragma: no cover - compiled
-    """:func:`state_derivative_one` as the lane kernel of one trajectory for the RK4 rows of :mod:`._lanes` (width 1).
+def rk4_step(x: np.ndarray, u: np.ndarray, dt: float, m: Any, ext_i: np.ndarray, ext_f: np.ndarray, s: Any) -> bool:  # pragma: no cover
+    """One classical RK4 step of one state x in place (u held), then the quaternion renormalised; False if H+ failed.
 
-    W = [y (S), u (N + 6), dy/dt (S), ok (1), ...]; P = (model, ext_i, ext_f of the trajectory, scratch). ok is set
-    to 0.0 when H+ is not positive definite.
+    The RK4 of one trajectory (the stepper of a Python-controlled simulation, the generic rollout); the specialised
+    rollouts step 64 lanes at once by the same formulas (``_lanes._rk4_rows``; tests/mechanics/test_specialise.py
+    checks the two paths against each other). The four stages run in one loop so that the derivative is compiled
+    (inlined) once; the stage derivatives stay in ``s.k`` (4, S).
     """
+    size = x.shape[0]
+    k, y = s.k, s.y
+    ok = True
+    for i in range(size):
+        y[i] = x[i]
+    for stage in range(4):
+        ok &= state_derivative_one(y, u, m, ext_i, ext_f, s, k, stage)
+        if stage < 3:
+            c = dt if stage == 2 else 0.5 * dt
+            for i in range(size):
+                y[i] = x[i] + c * k[stage, i]
+    c = dt / 6.0
+    for i in range(size):
+        x[i] = x[i] + c * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
+    norm = math.sqrt(x[6] * x[6] + x[7] * x[7] + x[8] * x[8] + x[9] * x[9])
+    for i in range(6, 10):
+        x[i] = x[i] / norm
+    return ok
+
+
+@kernel(inline="always")
+def rk4_step_rows(P: Any, W: np.ndarray, width: int, size: int, nu: int, dt: float) -> None:  # pragma: no cover - compiled
+    """:func:`rk4_step` on the rows of one trajectory in the rollout loop's buffer (``_lanes._rollout_blocks``, width 1):
+    x at W[2 S + N + 7 ...], u at W[S ...], the ok row at W[2 S + N + 6]; P = (model, ext_i, ext_f, scratch)."""
     m, ext_i, ext_f, s = P
-    n = m.parent.shape[0] - 1
-    size = 13 + 2 * n
-    nu = n + 6
-    dy = W[size + nu : 2 * size + nu].reshape((1, size))
-    if not state_derivative_one(W[:size], W[size : size + nu], m, ext_i, ext_f, s, dy, 0):
-        W[2 * size + nu] = 0.0
+    o_ok = 2 * size + nu
+    ok = rk4_step(W[o_ok + 1 : o_ok + 1 + size], W[size : size + nu], dt, m, ext_i, ext_f, s)
+    W[o_ok] = 1.0 if ok else 0.0

@@ -17,8 +17,6 @@ numba's on-disk cache keeps one entry per driver (keyed by the driver's name) ac
 from __future__ import annotations
 
 import math
-import types
-from collections.abc import Callable
 from typing import Any
 
 import numba
@@ -35,11 +33,12 @@ from ._configuration import (
     point_bias_one,
     point_jacobian_one,
     points_one,
-    state_derivative_lane,
+    rk4_step,
+    rk4_step_rows,
     state_derivative_one,
 )
-from ._lanes import rk4_rows, rollout_blocks
-from ._numba_cache import kernel, unowned_floats, unowned_ints
+from ._lanes import rollout_loop
+from ._numba_cache import bind, kernel, unowned_floats, unowned_ints
 from ._recursions import kinematics, scratch
 from ._tree import Tree, arrays, buffer_lengths, work_size
 
@@ -82,15 +81,6 @@ def _parallel_template(size: int, ints: np.ndarray, floats: np.ndarray, a: Any, 
         SERIAL(b * STEP, min(size, (b + 1) * STEP), ints, floats, a, WORK[_thread()])  # type: ignore[name-defined]  # noqa: F821
 
 
-def _bind(template: Callable[..., Any], name: str, **names: Any) -> Callable[..., Any]:
-    """A copy of ``template`` named ``name`` whose global ``names`` are the given objects (numba reads globals as
-    compile-time constants, so ``ROW`` is inlined as if it had been typed there)."""
-    func = types.FunctionType(template.__code__, {**template.__globals__, **names}, name, template.__defaults__)
-    func.__qualname__ = name
-    func.__doc__ = (template.__doc__ or "").replace("ROW", name.rsplit("_", 1)[0])
-    return func
-
-
 class Batched:
     """A driver: the serial range kernel for small batches, its parallel twin from :attr:`PARALLEL_MIN` rows."""
 
@@ -121,12 +111,16 @@ class Batched:
 
 def driver(name: str, row: Any, *, block: int = BLOCK, parallel_min: int | None = None) -> Batched:
     """The serial and parallel drivers of the row kernel ``row`` (``block`` rows per parallel task)."""
-    serial = kernel()(_bind(_serial_template, f"{name}_serial", ROW=row))
-    parallel = kernel(parallel=True)(_bind(_parallel_template, f"{name}_parallel", SERIAL=serial, STEP=block))
+    serial = kernel()(bind(_serial_template, f"{name}_serial", ROW=row))
+    parallel = kernel(parallel=True)(bind(_parallel_template, f"{name}_parallel", SERIAL=serial, STEP=block))
     return Batched(serial, parallel, parallel_min)
 
 
 # ----------------------------------------------------------------- one trajectory stepped from Python (the Stepper)
+#: The rollout loop of _lanes, one trajectory at a time, stepped by the engine's RK4 step (bound as a global: inlined).
+_rollout_blocks = rollout_loop(rk4_step_rows, "generic")
+
+
 @kernel(inline="always")
 def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - compiled
     """The model, its external wrenches and the scratch of one trajectory from the two buffers of
@@ -186,22 +180,11 @@ def rk4_steps(
     """
     m, ext_i, ext_f, watch, header, s = unpack(ints, floats)
     header[2] = 0
-    size = x.shape[0]
-    nu = u.shape[0]
-    W = s.rows  # the RK4 rows of one trajectory: [y, u, dy/dt, ok, x, ...] (_lanes.rk4_rows)
-    o_ok = 2 * size + nu
-    for i in range(nu):
-        W[size + i] = u[i]
-    P = (m, ext_i, ext_f, s)
     for step in range(nsteps):
-        for i in range(size):
-            W[o_ok + 1 + i] = x[i]
-        rk4_rows(state_derivative_lane, P, W, 1, size, nu, dt)
-        if W[o_ok] == 0.0:
+        if not rk4_step(x, u, dt, m, ext_i, ext_f, s):
             return step
         total = 0.0
-        for i in range(size):
-            x[i] = W[o_ok + 1 + i]
+        for i in range(x.shape[0]):
             total += x[i]
         if not math.isfinite(total):
             return -(step + 1)
@@ -307,8 +290,7 @@ def _rollout_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
     """Trajectory b of a rollout (the loop of :func:`~._lanes.rollout_blocks`, one lane wide, on the engine's state
     derivative). a = (X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, ext_i, EXT, XS, US, SAT, DONE)."""
     X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, ext_i, EXT, XS, US, SAT, DONE = a
-    rollout_blocks(
-        state_derivative_lane,
+    _rollout_blocks(
         (m, ext_i, EXT[b], s),
         1,
         b,

@@ -7,7 +7,8 @@ adjacent memory with constant offsets, which the compiler turns into SIMD instru
 float64 lanes on AVX-512). These drivers copy each block of a user's batch into W (rows), call the
 lane kernel, and copy the outputs back; they hold no physics: J* and the state derivative are the
 traced recursions of :mod:`._recursions`. The rollout loop (:func:`rollout_blocks`: RK4, the joint PD, the
-records and the failures) is written once, for rows of ``width`` lanes: the specialised rollouts run it with
+records and the failures) is written once (``_rollout_blocks``, ``_rk4_rows``), for rows of ``width`` lanes, and bound
+to a lane kernel by :func:`bound_loops`: the specialised rollouts run it with
 :data:`LANES` lanes and their lane kernel, the generic rollout (:mod:`._drivers`) with one lane and the engine's
 state derivative. They are inlined into the kernels of each generated module (:func:`~._specialise.load`) and
 into the generic rollout kernel.
@@ -15,13 +16,16 @@ into the generic rollout kernel.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
 import numba
 import numpy as np
 
-__all__ = ["LANES", "joint_pd", "map_blocks", "rk4_rows", "rollout_blocks", "rollout_rows"]
+from ._numba_cache import bind
+
+__all__ = ["LANES", "bound_loops", "joint_pd", "map_blocks", "rollout_loop", "rollout_rows"]
 
 #: Configurations per lane block (a multiple of the SIMD width). Measured on the 7-DOF arm: 16 is 10-20% slower,
 #: 32, 64 and 128 within the machine's noise of each other.
@@ -88,13 +92,13 @@ def map_blocks(lane: Any, Q: np.ndarray, P: np.ndarray, OUT: np.ndarray, W: np.n
                 OUT[b0 + lane_, r] = W[off + r * LANES + lane_]
 
 
-@numba.njit(inline="always", nogil=True, error_model="numpy")
-def rk4_rows(lane: Any, P: Any, W: np.ndarray, width: int, size: int, nu: int, dt: float) -> None:  # pragma: no cover
+def _rk4_rows(P: Any, W: np.ndarray, width: int, size: int, nu: int, dt: float) -> None:  # pragma: no cover
     """One classical RK4 step, written once, of the ``width`` states in the x rows of W (u held), each quaternion
-    renormalised after it; the ok row is 1.0 where every stage's H+ was positive definite, else 0.0.
+    renormalised after it; the ok row is 1.0 where every stage's H+ was positive definite, else 0.0. ``LANE`` (bound by :func:`bound_loops`)
+    is the lane kernel.
 
     W = [y (S rows), u (N + 6 rows), dy/dt (S rows), ok (1 row), x (S rows), sum of the stage derivatives (S rows),
-    ...], rows of ``width`` values; ``lane(W, P)`` writes dy/dt at y and u (and multiplies ok by 0.0 where H+
+    ...], rows of ``width`` values; ``LANE(W, P)`` writes dy/dt at y and u (and multiplies ok by 0.0 where H+
     failed). The four stages run in a loop, so that the lane kernel is inlined once (compile time).
     """
     o_k = (size + nu) * width
@@ -107,7 +111,7 @@ def rk4_rows(lane: Any, P: Any, W: np.ndarray, width: int, size: int, nu: int, d
     for lane_ in range(width):
         W[o_ok + lane_] = 1.0
     for stage in range(4):
-        lane(W, P)
+        LANE(W, P)  # type: ignore[name-defined]  # noqa: F821 (bound by bound_loops)
         weight = 1.0 if stage == 0 or stage == 3 else 2.0
         c = dt if stage == 2 else 0.5 * dt
         for i in range(size * width):
@@ -127,9 +131,7 @@ def rk4_rows(lane: Any, P: Any, W: np.ndarray, width: int, size: int, nu: int, d
             W[o_x + i * width + lane_] /= norm
 
 
-@numba.njit(inline="always", nogil=True, error_model="numpy")
-def rollout_blocks(
-    lane: Any,
+def _rollout_blocks(
     P: Any,
     width: int,
     first: int,
@@ -153,14 +155,14 @@ def rollout_blocks(
 ) -> None:  # pragma: no cover
     """The rollout loop, written once: fixed-step RK4 of the trajectories of blocks first..last, ``width`` at a time,
     with the joint PD in the loop (:func:`joint_pd`; the generic rollout runs it with width 1, the specialised one
-    with :data:`LANES`). Each step is :func:`rk4_rows`.
+    with :data:`LANES`). Each step is ``_rk4_rows``.
 
     Trajectory b (a row of X0 (K, S)): u = ff[k] + kp (qref - q) + kd (vref - qdot) at sample k (every ``hold``
     steps; ff's last sample held), clipped to +-lim; states, actuations and saturation flags recorded at step 0,
     every ``stride`` steps and the last step into XS, US, SAT; DONE[b] = the steps completed (fewer: a non-finite
     state or H+ not positive definite; the records after it are NaN).
 
-    ``lane(W, P)`` computes the state derivative of ``width`` trajectories: W = [y (S rows), u (N + 6 rows),
+    ``LANE(W, P)`` (bound by :func:`bound_loops`) computes the state derivative of ``width`` trajectories: W = [y (S rows), u (N + 6 rows),
     dy/dt (S rows), ok (1 row), x (S rows), sum of the stage derivatives (S rows), failed (1 row), saturated
     (1 row)], rows of ``width`` values; the lane kernel reads y and u and writes dy/dt, and multiplies ok by 0.0 in
     a lane whose H+ was not positive definite. ``P``: what the lane kernel reads besides W (the model's data).
@@ -188,7 +190,7 @@ def rollout_blocks(
         sample = 0
         for step in range(steps + 1):
             if step > 0:
-                rk4_rows(lane, P, W, width, size, nu, dt)
+                RK4_ROWS(P, W, width, size, nu, dt)  # type: ignore[name-defined]  # noqa: F821 (bound by bound_loops)
                 for lane_ in range(count):
                     if W[o_fail + lane_] != 0.0:
                         continue
@@ -224,6 +226,21 @@ def rollout_blocks(
                         US[row, b, j] = W[o_u + j * width + lane_]
                     SAT[row, b] = W[o_flag + lane_] != 0.0
                 row += 1
+
+
+@functools.cache
+def bound_loops(lane: Any, name: str) -> tuple[Any, Any]:
+    """The RK4 step and the rollout loop above for the lane kernel ``lane``: (rk4_rows(P, W, width, size, nu, dt),
+    rollout_blocks(P, width, first, last, X0, ...)), both inlined where called. The lane kernel is bound as a global
+    of copies of the one source (not passed as an argument), so that numba inlines it into the loop as well."""
+    rk4 = numba.njit(inline="always", nogil=True, error_model="numpy")(bind(_rk4_rows, f"rk4_rows_{name}", LANE=lane))
+    return rk4, rollout_loop(rk4, name)
+
+
+@functools.cache
+def rollout_loop(rk4_rows: Any, name: str) -> Any:
+    """The rollout loop above with the RK4 step ``rk4_rows(P, W, width, size, nu, dt)`` (bound as a global: inlined)."""
+    return numba.njit(inline="always", nogil=True, error_model="numpy")(bind(_rollout_blocks, f"rollout_blocks_{name}", RK4_ROWS=rk4_rows))
 
 
 def rollout_rows(size: int, nu: int) -> int:

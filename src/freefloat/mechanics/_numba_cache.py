@@ -25,6 +25,7 @@ import contextlib
 import functools
 import hashlib
 import os
+import types
 import warnings
 from collections.abc import Callable
 from pathlib import Path
@@ -33,14 +34,14 @@ from typing import Any, Literal
 import numba
 import numpy as np
 import platformdirs
-from numba import types
+from numba import types as nbtypes
 from numba.core import cgutils
 from numba.core.caching import CompileResultCacheImpl, FunctionCache, _CacheLocator, _SourceFileBackedLocatorMixin
 from numba.extending import intrinsic
 
 from ..core.feedback import notice
 
-__all__ = ["CacheWarning", "cache_dir", "kernel", "unowned_floats", "unowned_ints"]
+__all__ = ["CacheWarning", "bind", "cache_dir", "kernel", "unowned_floats", "unowned_ints"]
 
 
 class CacheWarning(UserWarning):
@@ -157,6 +158,19 @@ def kernel(*, parallel: bool = False, inline: Literal["never", "always"] = "neve
     return wrap
 
 
+def bind(template: Callable[..., Any], name: str, **names: Any) -> Callable[..., Any]:
+    """A copy of the plain function ``template`` named ``name`` whose global ``names`` are the given objects.
+
+    numba reads globals as compile-time constants, so a kernel made from the copy calls (and inlines) the bound
+    kernels as if their names had been typed there; a copy is not a closure, so numba's on-disk cache keeps it (one
+    entry per name).
+    """
+    func = types.FunctionType(template.__code__, {**template.__globals__, **names}, name, template.__defaults__)
+    func.__qualname__ = name
+    func.__doc__ = template.__doc__
+    return func
+
+
 # ----------------------------------------------------------------- views without reference counting
 @intrinsic
 def _address(typingctx: Any, src: Any) -> Any:  # pragma: no cover - compiled
@@ -165,7 +179,7 @@ def _address(typingctx: Any, src: Any) -> Any:  # pragma: no cover - compiled
     def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
         return builder.inttoptr(args[0], cgutils.voidptr_t)
 
-    return types.voidptr(src), codegen
+    return nbtypes.voidptr(src), codegen
 
 
 @kernel(inline="always")

@@ -256,19 +256,20 @@ def parallel(Q, P, OUT, WS):  # pragma: no cover - compiled
         _lanes.map_blocks(lane, Q, P, OUT, WS[get_thread_id()], block, block + 1)
 """,
     "rollout": """
+_, rollout_blocks = _lanes.bound_loops(lane, "specialised")  # the one rollout loop, with this lane kernel inlined
+
+
 @kernel()
 def serial(P, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, W):  # pragma: no cover - compiled
     blocks = (X0.shape[0] + LANES - 1) // LANES
-    _lanes.rollout_blocks(lane, P, LANES, 0, blocks, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, W)
+    rollout_blocks(P, LANES, 0, blocks, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, W)
 
 
 @kernel(parallel=True)
 def parallel(P, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, WS):  # pragma: no cover - compiled
     for block in prange((X0.shape[0] + LANES - 1) // LANES):
         W = WS[get_thread_id()]
-        _lanes.rollout_blocks(
-            lane, P, LANES, block, block + 1, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, W
-        )
+        rollout_blocks(P, LANES, block, block + 1, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, W)
 """,
 }
 
