@@ -7,6 +7,7 @@ the Makefile, into a scratch folder, and reads the pages it made.
 
 from __future__ import annotations
 
+import html
 import importlib.util
 import os
 import re
@@ -18,6 +19,7 @@ from typing import Any
 import pytest
 
 import freefloat as ff
+from images import check_paper_figure
 
 ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.executable).parent
@@ -63,7 +65,11 @@ def test_the_build_is_strict() -> None:
 
 def test_guides_reference_and_results(site: Path) -> None:
     for guide in ("theory", "dynamics", "simulation", "control", "workspaces", "model-files", "conventions", "paper-notes", "architecture"):
-        assert (site / guide / "index.html").is_file(), guide
+        page = (site / guide / "index.html").read_text(encoding="utf-8")
+        title = (ROOT / "docs" / f"{guide}.md").read_text(encoding="utf-8").splitlines()[0].removeprefix("# ")
+        assert re.search(rf"<h1[^>]*>{re.escape(html.escape(title, quote=False))}", page), (guide, title)  # the guide's own page
+    workspaces = (site / "workspaces" / "index.html").read_text(encoding="utf-8")
+    assert "<td>T6.PIW_min</td>" in workspaces and "<td>0.36886</td>" in workspaces  # its paper-vs-freefloat table
     # the API reference: every exported name of ff and its namespaces, with the paper equation of its docstring
     reference = (site / "reference" / "freefloat" / "index.html").read_text(encoding="utf-8")
     for name in ff.__all__:
@@ -91,7 +97,7 @@ def test_guides_reference_and_results(site: Path) -> None:
         figures = re.findall(r'<img[^>]+src="([^"]+\.png)"', page)
         assert len(figures) >= 4, figures
         for figure in figures:
-            assert (site / "results" / paper / "report" / figure).resolve().is_file(), figure
+            check_paper_figure((site / "results" / paper / "report" / figure).resolve())
     assert "92.T2.arm1.alpha" in (site / "results" / "1992" / "report" / "index.html").read_text(encoding="utf-8")
     overview = (site / "results" / "index.html").read_text(encoding="utf-8")
     assert "agree at the printed precision" in overview and f"freefloat {ff.__version__}" in overview

@@ -29,6 +29,8 @@ def build_random_model(
     fixed_at: list[int | None],
     name: str = "random",
     prismatic: float = 0.0,
+    sliding: tuple[int, int] | None = None,
+    tools: bool = False,
 ) -> ff.Model:
     """A spacecraft with len(joints_per_arm) arms.
 
@@ -36,16 +38,24 @@ def build_random_model(
     branch starts (None: no branch). ``fixed_at[m]``: index of a link that is
     attached through an extra fixed joint and a massive intermediate body
     (None: no fixed joint). ``prismatic``: the probability that a joint slides (limits ±0.5 m)
-    instead of turning.
+    instead of turning. ``sliding`` = (m, k): joint k of arm m slides whatever ``prismatic`` says.
+    ``tools``: every leaf body holds an end effector at a random point of its frame (as a real arm holds
+    its tool away from its last joint); otherwise the end effectors are the leaves' frame origins, on
+    their last joint, which that joint then cannot move relative to its parent.
     """
     b = ff.ModelBuilder(name)
     m0 = rng.uniform(50.0, 500.0)
     b.add_body("bus", mass=m0, inertia=random_inertia(rng, m0), com=rng.normal(scale=0.2, size=3))
 
-    def link(parent: str, body: str, joint: str) -> None:
+    parents: list[str] = []
+    links: list[str] = []
+
+    def link(parent: str, body: str, joint: str, forced: bool = False) -> None:
         m = rng.uniform(1.0, 50.0)
         b.add_body(body, mass=m, inertia=random_inertia(rng, m), com=rng.normal(scale=0.4, size=3))
-        sliding = prismatic > 0.0 and rng.uniform() < prismatic
+        slides = (prismatic > 0.0 and rng.uniform() < prismatic) or forced
+        parents.append(parent)
+        links.append(body)
         b.add_joint(
             joint,
             parent=parent,
@@ -53,8 +63,8 @@ def build_random_model(
             origin=rng.normal(scale=0.5, size=3),
             rotation=Rotation.random(random_state=rng).as_matrix(),
             axis=rng.normal(size=3),
-            type="prismatic" if sliding else "revolute",
-            limits=(-0.5, 0.5) if sliding else (-np.pi, np.pi),
+            type="prismatic" if slides else "revolute",
+            limits=(-0.5, 0.5) if slides else (-np.pi, np.pi),
         )
 
     for arm, n in enumerate(joints_per_arm):
@@ -73,32 +83,40 @@ def build_random_model(
                     rotation=Rotation.random(random_state=rng).as_matrix(),
                     type="fixed",
                 )
+                parents.append(parent)
                 parent = mid
-            link(parent, body, f"a{arm}_q{k}")
+            link(parent, body, f"a{arm}_q{k}", forced=sliding == (arm, k))
             if branch_at[arm] == k:
                 bp = body
                 for j in range(int(rng.integers(1, 3))):
                     link(bp, f"a{arm}_b{j}", f"a{arm}_bq{j}")
                     bp = f"a{arm}_b{j}"
             parent = body
+    if tools:
+        for leaf in (body for body in links if body not in parents):
+            b.add_end_effector(f"{leaf}_tool", body=leaf, point=rng.normal(scale=0.3, size=3))
     model = b.build(source="tests/trees.py")
     return model
 
 
 @st.composite
-def random_trees(draw: st.DrawFn, max_arms: int = 3, max_joints: int = 7, prismatic: float = 0.0) -> ff.Model:
-    """Hypothesis strategy: 1-3 arms, 1-7 joints per arm, optional branch and fixed joint per arm.
+def random_trees(
+    draw: st.DrawFn, max_arms: int = 3, max_joints: int = 7, prismatic: float = 0.0, tools: bool = False, min_joints: int = 1
+) -> ff.Model:
+    """Hypothesis strategy: 1-3 arms, 1-7 joints per arm (``min_joints`` at least), optional branch and fixed joint per arm.
 
-    ``prismatic`` > 0: each joint slides with that probability (and at least one does).
+    ``prismatic`` > 0: each joint slides with that probability, and one drawn joint always does (so every
+    example has a sliding joint, none is rejected). ``tools``: see :func:`build_random_model`.
     """
     n_arms = draw(st.integers(1, max_arms))
-    joints = [draw(st.integers(1, max_joints)) for _ in range(n_arms)]
+    joints = [draw(st.integers(min_joints, max_joints)) for _ in range(n_arms)]
     branch = [draw(st.one_of(st.none(), st.integers(0, n - 1))) for n in joints]
     fixed = [draw(st.one_of(st.none(), st.integers(0, n - 1))) for n in joints]
     seed = draw(st.integers(0, 2**32 - 1))
-    model = build_random_model(np.random.default_rng(seed), joints, branch, fixed, prismatic=prismatic)
+    sliding = None
     if prismatic > 0.0:
-        from hypothesis import assume
-
-        assume(model.has_prismatic)
+        arm = draw(st.integers(0, n_arms - 1))
+        sliding = (arm, draw(st.integers(0, joints[arm] - 1)))
+    model = build_random_model(np.random.default_rng(seed), joints, branch, fixed, prismatic=prismatic, sliding=sliding, tools=tools)
+    assert model.has_prismatic or prismatic == 0.0
     return model

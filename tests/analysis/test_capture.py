@@ -174,6 +174,8 @@ def test_optimal_posture_limits_direction_and_3d() -> None:
 
 def test_plan_capture_end_to_end_and_plots() -> None:
     from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Wedge
 
     plan = plan_capture(ONE, 0, [[0.0, 0.0], [0.0, 0.25]], mass=400.0, inertia=25.0, samples=1 << 16)
     assert plan.captured.total_mass == pytest.approx(870.0)
@@ -182,8 +184,33 @@ def test_plan_capture_end_to_end_and_plots() -> None:
     # the end effector, placed by the posture's attitude around CM+, is at the path start A
     tip = plan.placement.cm_plus + ff.end_effector_positions(plan.captured, plan.posture.q, attitude=plan.posture.attitude)[0, :2]
     np.testing.assert_allclose(tip, plan.placement.start, atol=1e-9)
+    # the plot (Fig. 7) draws the plan's own numbers: the path, CM+ and the free-flyer's CM, the PIW about CM+,
+    # the robot at capture with its end effector on A, and the planned end-effector motion
     ax = Figure().add_subplot()
-    assert plan.plot(ax)
-    assert capture_families(CAPTURED, 0, 0.54, np.linspace(-np.pi, np.pi, 91)).plot()
+    artists = plan.plot(ax)
+    lines = {line.get_label(): line for line in artists if isinstance(line, Line2D)}
+    np.testing.assert_allclose(lines["payload path A→B"].get_xydata(), plan.placement.path, atol=1e-12)
+    np.testing.assert_allclose(lines["CM+ (system CM after capture)"].get_xydata(), [plan.placement.cm_plus[:2]], atol=1e-12)
+    assert plan.placement.approach_point is not None
+    np.testing.assert_allclose(lines["free-flyer CM before capture"].get_xydata(), [plan.placement.approach_point[:2]], atol=1e-12)
+    assert plan.motion is not None
+    np.testing.assert_allclose(lines["planned end-effector motion"].get_xydata(), plan.motion.end_effector[:, :2], atol=1e-12)
+    rings = [a for a in artists if isinstance(a, Wedge)]
+    assert [(w.center, w.r - (w.width or w.r), w.r) for w in rings[: len(plan.piw.piw)]] == [
+        (pytest.approx(plan.placement.cm_plus[:2]), pytest.approx(lo, abs=1e-12), pytest.approx(hi)) for lo, hi in plan.piw.piw
+    ]
+    robot = lines["robot at capture (A)"]
+    links = [a for a in artists[artists.index(robot) :] if isinstance(a, Line2D) and a.get_color() == robot.get_color()]
+    tips = next(a for a in links if a.get_marker() == "o" and a.get_markersize() == 5)
+    np.testing.assert_allclose(tips.get_xydata()[-1], plan.placement.start, atol=1e-9)  # the end effector on A
+    # Fig. 6: q2(q1) of both eq. 21 families, and det J* along them on the second axis
+    families = capture_families(CAPTURED, 0, 0.54, np.linspace(-np.pi, np.pi, 91))
+    drawn = families.plot()
+    assert [a.get_label() for a in drawn] == ["q2, family 1", "det J*, family 1", "q2, family 2", "det J*, family 2"]
+    for k in (0, 1):
+        q2, det = drawn[2 * k].get_xydata(), drawn[2 * k + 1].get_xydata()
+        np.testing.assert_allclose(q2, np.degrees(np.column_stack([families.q1, families.q2[:, k]])), atol=1e-12)
+        np.testing.assert_allclose(det, np.column_stack([np.degrees(families.q1), families.det[:, k]]), atol=1e-12)
+        assert drawn[2 * k + 1].axes is not drawn[2 * k].axes  # det J* on the twin axis
     with pytest.raises(PathDoesNotFitError):
         plan_capture(ONE, 0, [[0.0, 0.0], [0.0, 3.0]], mass=400.0, inertia=25.0, samples=1 << 12)

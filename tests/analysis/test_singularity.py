@@ -88,6 +88,17 @@ def test_plot_on_given_axes(captured_map: ff.workspace.DeterminantMap) -> None:
     assert artists.mesh.axes is ax
     assert artists.contour is not None and artists.contour.axes is ax
     assert sum(len(seg) for seg in artists.contour.allsegs[0]) > 100  # the det J* = 0 curves
+    # the colours are the map's values (one cell per grid point, rows along y), the black curves are det J* = 0:
+    # det J* at their points (deg -> rad; other joints as in the map) is zero to the grid's resolution
+    np.testing.assert_array_equal(np.asarray(artists.mesh.get_array()).reshape(captured_map.values.T.shape), captured_map.values.T)
+    points = np.radians(np.concatenate(artists.contour.allsegs[0]))
+    q = np.tile(captured_map.q_fixed, (len(points), 1))
+    q[:, list(captured_map.joints)] = points
+    step = float(captured_map.angles_x[1] - captured_map.angles_x[0])
+    slope = max(float(np.abs(g).max()) for g in np.gradient(captured_map.values, step))
+    captured = ff.models.papadopoulos1992(arms=1).with_payload(end_effector=0, mass=400.0, inertia=25.0)
+    off = np.abs(ff.jacobian_determinant(captured, q)).max()
+    assert off < 0.01 * slope * step
     assert artists.colorbar.ax is not ax and "det" in artists.colorbar.ax.get_ylabel()
     assert ax.get_xlabel() == "arm1_q1 (deg)" and ax.get_ylabel() == "arm1_q2 (deg)"
     assert ax.get_xlim() == pytest.approx((-180.5, 180.5))

@@ -7,7 +7,6 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
-from PIL import Image
 
 import freefloat as ff
 from freefloat.analysis.capture import CapturePlan, plan_capture
@@ -21,6 +20,7 @@ from freefloat.analysis.workspace import (
     workspace_limits,
     write_workspace_plots,
 )
+from images import check_png
 
 ARM = ff.models.spacecraft_7dof()
 POSITION = SingularityCriterion("position", "sigma_min", 0.02)
@@ -62,11 +62,11 @@ def test_sections_are_labelled_by_their_planes_and_the_cloud_is_3d() -> None:
 def test_write_workspace_plots_3d_and_planar(tmp_path: Path) -> None:
     limits = workspace_limits(ARM, samples=1 << 12, criterion=POSITION, piw=True)
     (png,) = write_workspace_plots(limits, tmp_path, dpi=40, cloud_samples=512)
-    with Image.open(png) as image:
-        width, height = image.size
-    assert width > 400 and height > 400
+    assert png.name == f"workspace_{ARM.name}_{ARM.end_effector_names[0]}.png"
+    check_png(png, (12.0, 11.0), 40, tight=True, min_colours=32)  # three sections and the 3D cloud
     planar = workspace_limits(ff.models.papadopoulos1992(arms=1), samples=1 << 12)
-    assert len(write_workspace_plots(planar, tmp_path / "planar", dpi=40)) == 1
+    (flat,) = write_workspace_plots(planar, tmp_path / "planar", dpi=40)
+    check_png(flat, (6.4, 6.0), 40, tight=True)  # the annuli in the plane
 
 
 @pytest.fixture(scope="module")
@@ -81,6 +81,14 @@ def test_capture_plan_of_a_spatial_arm_plots_in_3d(plan_3d: CapturePlan) -> None
     assert ax.name == "3d" and plt.fignum_exists(ax.get_figure(root=True).number)
     labels = {a.get_label() for a in artists}
     assert {"payload path A→B", "robot at capture (A)", "robot with the payload at B", "CM+ (system CM after capture)"} <= labels
+    # in 3D, the plan's own points: the payload path, CM+, the planned end-effector motion
+    by_label = {a.get_label(): a for a in artists if hasattr(a, "get_data_3d")}
+    np.testing.assert_allclose(np.column_stack(by_label["payload path A→B"].get_data_3d()), plan.placement.path, atol=1e-12)
+    np.testing.assert_allclose(
+        np.column_stack(by_label["CM+ (system CM after capture)"].get_data_3d()), [plan.placement.cm_plus], atol=1e-12
+    )
+    assert plan.motion is not None
+    np.testing.assert_allclose(np.column_stack(by_label["planned end-effector motion"].get_data_3d()), plan.motion.end_effector, atol=1e-12)
 
 
 def test_singularity_map_of_a_spatial_arm_with_the_chosen_measure() -> None:

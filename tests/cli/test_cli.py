@@ -15,6 +15,10 @@ from typer.testing import CliRunner, Result
 
 import freefloat as ff
 from freefloat.cli import app
+from freefloat.papers.paper1991_figures import FIGURE_NAMES as F91_NAMES
+from freefloat.papers.paper1992_figures import FIGURE_NAMES as F92_NAMES
+from images import check_paper_figure, check_png
+from printed_1992 import PAPER
 
 runner = CliRunner()
 
@@ -259,10 +263,29 @@ def test_demo_writes_reports_and_map(demo_run: tuple[Path, Result]) -> None:
         assert any(p.parent == out / paper and p.suffix == ".png" for p in rest), paper
     assert rest[-1] == out / "README.md"
     assert "1991/report.md" in rest[-1].read_text() and "1992/report.md" in rest[-1].read_text()
-    for path in printed:
-        assert path.is_file() and path.stat().st_size > 0
-    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    assert png.stat().st_size > 20_000
+    # every file read back: the model reports hold the models' numbers, the paper reports their rows and the
+    # paper's printed numbers, the figures are images of the size they were drawn at
+    masses = {"papadopoulos1991": ff.models.papadopoulos1991().total_mass, "papadopoulos1992": 540.0, "papadopoulos1992_one_arm": 470.0}
+    masses |= {"papadopoulos1992_one_arm_captured": 870.0, "papadopoulos1992_captured": 940.0}  # 1992 Table I, + 400 kg payload
+    for slug, mass in masses.items():
+        data = json.loads((out / "models" / f"{slug}.json").read_text(encoding="utf-8"))
+        assert data["total_mass"] == pytest.approx(mass), slug
+        section = (out / "models" / f"{slug}.md").read_text(encoding="utf-8")
+        assert f"{data['name']}" in section and "Barycentric vectors" in section, slug
+    for paper in ("1991", "1992"):
+        report = json.loads((out / paper / "report.json").read_text(encoding="utf-8"))
+        table = (out / paper / "report.md").read_text(encoding="utf-8")
+        assert report["paper"] == paper and len(report["rows"]) > 20
+        for row in report["rows"]:
+            assert f"| `{row['id']}` |" in table, row["id"]
+    paper_1992 = {r["id"]: r["paper"] for r in json.loads((out / "1992" / "report.json").read_text(encoding="utf-8"))["rows"]}
+    for key, printed_text in PAPER.items():  # the paper's numbers, typed from the paper (tests/printed_1992.py)
+        assert paper_1992[key] == (None if printed_text is None else float(printed_text)), key
+    figures = [path for path in printed if path.suffix == ".png" and path.parent.name in ("1991", "1992")]
+    assert sorted(path.name for path in figures) == sorted([*F91_NAMES, *F92_NAMES])
+    for path in figures:
+        check_paper_figure(path)
+    check_png(png, (6.4, 5.6), 200, min_colours=64)  # the det J* map: a colour map
 
 
 def test_demo_report_mentions_every_model(demo_run: tuple[Path, Result]) -> None:

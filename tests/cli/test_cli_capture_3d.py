@@ -12,6 +12,7 @@ from typer.testing import CliRunner, Result
 import freefloat as ff
 from freefloat.analysis.singularity import SingularityCriterion
 from freefloat.cli import app
+from images import check_png
 
 runner = CliRunner()
 USER_ARM = Path(__file__).resolve().parents[1] / "data" / "user_arm_6dof.urdf"
@@ -71,7 +72,8 @@ def test_capture_user_arm_6dof_position_rows_returns_a_plan(tmp_path: Path) -> N
     q = np.array(data["posture"]["q"])
     tip = np.array(data["cm_plus"]) + ff.end_effector_positions(model, q, attitude=data["posture"]["attitude_xyzw"])[0]
     np.testing.assert_allclose(tip, [0.0, 0.0, 0.0], atol=1e-9)
-    assert (out / "capture_plan.png").is_file()
+    check_png(out / "capture_plan.png", (7.4, 8.4), 200, tight=True, min_colours=64)  # the plan drawn in 3D (no Fig. 6 for 6 joints)
+    assert not (out / "capture_families.png").exists()
 
 
 def test_capture_options_override_the_scenario(tmp_path: Path) -> None:

@@ -7,12 +7,15 @@ stray blank lines.
 
 from __future__ import annotations
 
+import json
 import os
 import pty
 import re
 import subprocess
 import sys
 from pathlib import Path
+
+from printed_1992 import paper_or_documented
 
 ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 
@@ -49,4 +52,9 @@ def test_workspace_progress_on_a_terminal(tmp_path: Path) -> None:
     final = [line for line in ANSI.sub("", err.replace("\r\n", "\n")).split("\n")]
     kept = [line.rsplit("\r", 1)[-1].strip() for line in final]
     assert "" not in kept[:-1], kept  # no blank line (the last element is after the final newline)
-    assert "workspace.json" in out + err and (tmp_path / "ws" / "workspace.json").is_file()
+    assert "workspace.json" in out + err
+    data = json.loads((tmp_path / "ws" / "workspace.json").read_text())  # what the steps computed, written
+    assert [e["name"] for e in data["end_effectors"]] == ["arm1_ee", "arm2_ee"]
+    for m, entry in enumerate(data["end_effectors"], start=1):
+        paper_or_documented(f"92.T3.arm{m}.R_max", entry["reachable"]["R_max"])  # 1992 Table III: 2.50
+        paper_or_documented(f"92.T3.arm{m}.GW_min", entry["guaranteed"]["R_min"])  # 0.68519, printed 0.686 (documented)

@@ -153,19 +153,63 @@ def test_eq27_gives_the_commanded_task_acceleration(model_name):
     np.testing.assert_allclose(jac @ acc + bias, expected, rtol=1e-8, atol=1e-8)
 
 
-@settings(max_examples=5)
-@given(random_trees(max_arms=2, max_joints=3), st.integers(0, 1000))
-def test_eq27_exact_on_random_trees(model, seed):
-    # end-effector positions and the spacecraft pose: 6 + 3E rows, at most 6 + N when every arm has >= 3 joints
-    orientation = "quaternion" if seed % 2 else "euler321"
-    full = 6 + 3 * model.n_end_effectors <= 6 + model.n_joints
-    task = TaskSpace.create(model, end_effector_orientation=False, spacecraft_orientation=full, orientation=orientation)
+def _start_state(model: ff.Model, rng: np.random.Generator) -> State:
+    """At rest, joints within ±1.5 rad, a random attitude: where the closed-loop tests start."""
+    return State(q=rng.uniform(-1.5, 1.5, model.n_joints), attitude=Rotation.random(random_state=rng).as_quat()).resolve(model)
+
+
+@st.composite
+def well_posed_tasks(
+    draw: st.DrawFn,
+    *,
+    max_arms: int,
+    max_joints: int,
+    prismatic: float = 0.0,
+    ratio: float = 1e-2,
+    at_rest: bool = False,
+    orientations: tuple[str, ...] = ("euler321", "quaternion"),
+    tools: bool = True,
+    min_joints: int = 1,
+) -> tuple[ff.Model, TaskSpace, State, int]:
+    """(model, task, state, seed) where eq. 27 is exact: J_z has full row rank, σ_min > ``ratio`` σ_max at ``state``.
+
+    Built, not filtered: a random tree whose end effectors are tools held away from the last joints (``tools``; on
+    its last joint, an end effector cannot be moved by it, and J_z loses a rank per leaf); a seeded state
+    (``_random_state``, or ``_start_state`` with ``at_rest``); the task: the spacecraft position, then each
+    end effector's position and the spacecraft orientation, each kept where J_z stays that well conditioned
+    (a 2-joint arm cannot hold its tool's position against the spacecraft's pose). A state where no end
+    effector fits is followed by the next of the seed (rarely).
+    """
+    model = draw(random_trees(max_arms=max_arms, max_joints=max_joints, prismatic=prismatic, tools=tools, min_joints=min_joints))
+    seed = draw(st.integers(0, 1000))
+    orientation = draw(st.sampled_from(orientations))
     rng = np.random.default_rng(seed)
-    state = _random_state(model, rng)
-    z0 = task.coordinates(state)
-    ctrl = OperationalSpaceController(model, task, z0, kp=9.0, kd=6.0)
-    sv = np.linalg.svd(task.jacobian(state), compute_uv=False)
-    assume(sv[-1] > 1e-2 * sv[0])  # away from singular J_z, where eq. 28 holds exactly
+
+    def make(chosen: list[int], pose: bool) -> TaskSpace:
+        return TaskSpace.create(
+            model, end_effectors=chosen, end_effector_orientation=False, spacecraft_orientation=pose, orientation=orientation
+        )
+
+    def holds(task: TaskSpace, state: State) -> bool:
+        sv = np.linalg.svd(task.jacobian(state), compute_uv=False)
+        return bool(sv.size == task.dim and sv[-1] > ratio * sv[0])
+
+    for _ in range(20):
+        state = _start_state(model, rng) if at_rest else _random_state(model, rng)
+        chosen: list[int] = []
+        for e in range(model.n_end_effectors):
+            if holds(make([*chosen, e], False), state):
+                chosen.append(e)
+        if chosen:
+            pose = holds(make(chosen, True), state)
+            return model, make(chosen, pose), state, seed
+    assume(False)  # 20 states where no end effector's position can be held: never met in the seeded runs
+    raise AssertionError  # pragma: no cover
+
+
+def _eq27_gives_minus_kd_zdot(model: ff.Model, task: TaskSpace, state: State) -> None:
+    """eq. 27 with an exact model, the target at the current point: the task accelerates at -Kd zdot."""
+    ctrl = OperationalSpaceController(model, task, task.coordinates(state), kp=9.0, kd=6.0)
     act = ctrl(0.0, state)
     acc = ff.forward_dynamics(
         model, state.q, state.velocity, act.joint_torque, act.spacecraft_force, act.spacecraft_torque, attitude=state.attitude
@@ -174,12 +218,19 @@ def test_eq27_exact_on_random_trees(model, seed):
     np.testing.assert_allclose(jac @ acc + bias, -6.0 * zdot, rtol=1e-7, atol=1e-7 * (1 + np.abs(zdot).max()))
 
 
-@settings(max_examples=10)
-@given(random_trees(max_arms=2, max_joints=3, prismatic=0.5), st.integers(0, 1000))
-def test_task_bias_and_eq27_with_prismatic_joints(model, seed):
+@settings(max_examples=25)
+@given(well_posed_tasks(max_arms=2, max_joints=3))
+def test_eq27_exact_on_random_trees(case):
+    model, task, state, _ = case
+    _eq27_gives_minus_kd_zdot(model, task, state)
+
+
+@settings(max_examples=25)
+@given(well_posed_tasks(max_arms=2, max_joints=3, prismatic=0.5))
+def test_task_bias_and_eq27_with_prismatic_joints(case):
     """Sliding joints in the task kinematics: J_z zdot and its bias against finite differences, and eq. 27 exact."""
+    model, position_task, state, _ = case
     task = TaskSpace.create(model, end_effector_orientation=True, spacecraft_orientation=True, orientation="quaternion")
-    state = _random_state(model, np.random.default_rng(seed))
     check_rates_and_bias(task, state)
     h = 1e-5
     body, tip = model.n_bodies - 1, [0.1, -0.2, 0.3]
@@ -187,19 +238,8 @@ def test_task_bias_and_eq27_with_prismatic_joints(model, seed):
     pv = [ff.point_jacobian(model, s.q, body, tip, attitude=s.attitude) @ s.velocity for s in (_advance(state, h), _advance(state, -h))]
     fd_point = (pv[0] - pv[1]) / (2 * h)  # inertial frame: the derivative of the point's velocity at zddot0 = 0
     np.testing.assert_allclose(point, fd_point, atol=1e-6 * (1 + np.abs(point).max()))
-    # eq. 27 with an exact model gives the commanded task acceleration (here: -Kd zdot at the current point),
-    # on the task of test_eq27_exact_on_random_trees (positions, and the spacecraft pose when J_z can hold it)
-    full = 6 + 3 * model.n_end_effectors <= 6 + model.n_joints
-    task = TaskSpace.create(model, end_effector_orientation=False, spacecraft_orientation=full, orientation="quaternion")
-    _, jac, zdot, bias = task.evaluate(state, bias=True)
-    sv = np.linalg.svd(jac, compute_uv=False)
-    assume(sv[-1] > 1e-2 * sv[0])
-    ctrl = OperationalSpaceController(model, task, task.coordinates(state), kp=9.0, kd=6.0)
-    act = ctrl(0.0, state)
-    acc = ff.forward_dynamics(
-        model, state.q, state.velocity, act.joint_torque, act.spacecraft_force, act.spacecraft_torque, attitude=state.attitude
-    )
-    np.testing.assert_allclose(jac @ acc + bias, -6.0 * zdot, rtol=1e-7, atol=1e-7 * (1 + np.abs(zdot).max()))
+    # eq. 27 with an exact model gives the commanded task acceleration, on a task J_z can hold (well_posed_tasks)
+    _eq27_gives_minus_kd_zdot(model, position_task, state)
 
 
 def test_eq27_closed_loop_error_follows_eq28():
@@ -214,18 +254,18 @@ def test_eq27_closed_loop_error_follows_eq28():
     assert np.abs(e[-1]).max() < 0.5 * np.abs(e[0]).max()  # and it did move: not a trivially constant error
 
 
-@settings(max_examples=3)
-@given(random_trees(max_arms=1, max_joints=3), st.integers(0, 1000))
-def test_closed_loop_converges_on_random_trees(model, seed):
-    """eq. 27 and eq. 29 (gains from H~ at the start) bring z1 to a nearby target from a random start."""
-    task = TaskSpace.create(model, end_effector_orientation=False, spacecraft_orientation=model.n_joints >= 3)
-    rng = np.random.default_rng(seed)
-    start = State(q=rng.uniform(-1.5, 1.5, model.n_joints), attitude=Rotation.random(random_state=seed).as_quat()).resolve(model)
+@settings(max_examples=8)
+@given(well_posed_tasks(max_arms=1, max_joints=3, ratio=0.1, at_rest=True, orientations=("euler321",)))
+def test_closed_loop_converges_on_random_trees(case):
+    """eq. 27 and eq. 29 (gains from H~ at the start) bring z1 to a nearby target from a random start.
+
+    The start is well away from a singular J_z (σ_min > 0.1 σ_max): eq. 29's gains are the task inertia at the
+    start, which holds near it only; from starts at 0.05-0.1, 2 of 80 seeded cases passed closer to a singular
+    J_z on the way and eq. 29 had not converged in 6 s."""
+    model, task, start, seed = case
     z0 = task.coordinates(start)
-    sv = np.linalg.svd(task.jacobian(start), compute_uv=False)
-    assume(sv[-1] > 0.05 * sv[0])
     target = z0.copy()
-    target[: task.dim] += 0.02 * rng.normal(size=task.dim)
+    target[: task.dim] += 0.02 * np.random.default_rng(seed).normal(size=task.dim)
     ct = OperationalSpaceController(model, task, target, kp=4.0, kd=4.0, null_space_damping=1.0)
     inertia = ct.task_dynamics(start)[0]
     tj = TransposedJacobianController(model, task, target, kp=4.0 * inertia, kd=4.0 * inertia, null_space_damping=1.0)

@@ -109,7 +109,7 @@ def _run_emitted(source: str, w: np.ndarray, data: np.ndarray) -> np.ndarray:
     return w
 
 
-@settings(max_examples=4)
+@settings(max_examples=25)
 @given(model=random_trees(max_arms=2, max_joints=3, prismatic=0.3), seed=st.integers(0, 2**16))
 def test_emitted_code_equals_the_graph_and_the_generic_kernels_on_random_trees(model: ff.Model, seed: int) -> None:
     """The emitted lane code (plain Python, its sin/cos) = the graph on floats (math.sin) = the generic kernels."""
@@ -175,21 +175,25 @@ def test_sincos_is_within_its_ulp_bound_of_the_c_library() -> None:
 
 # ----------------------------------------------------------------- the compiled kernels
 @pytest.fixture(scope="module")
-def specialised() -> Iterator[Path]:
-    """Specialised kernels on, kept in a test folder of their own (compiled once per machine, like the real ones)."""
-    folder = cache_dir().parent / "specialised-tests"
-    before = _specialise.FOLDER[0]
-    _specialise.FOLDER[0] = folder
-    _specialise._LOADED.clear()
-    _specialise._ENABLED[0] = True
-    _specialise._FOUND.clear()
-    try:
-        yield folder
-    finally:
-        _specialise.FOLDER[0] = before
-        _specialise._ENABLED[0] = False
+def specialised(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """Specialised kernels on, in a cache folder of this module's own (``FREEFLOAT_CACHE_DIR``, a temporary folder):
+    the generated modules and numba's machine code of their kernels go there, never into the user's cache. They
+    compile once per test session (the tests of this module share the folder)."""
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv("FREEFLOAT_CACHE_DIR", str(tmp_path_factory.mktemp("freefloat-cache")))
+        folder = cache_dir() / "specialised"  # where ff.mechanics.specialise keeps them: next to the generic kernels
+        before = _specialise.FOLDER[0]
+        _specialise.FOLDER[0] = None
         _specialise._LOADED.clear()
+        _specialise._ENABLED[0] = True
         _specialise._FOUND.clear()
+        try:
+            yield folder
+        finally:
+            _specialise.FOLDER[0] = before
+            _specialise._ENABLED[0] = False
+            _specialise._LOADED.clear()
+            _specialise._FOUND.clear()
 
 
 def _prismatic_tree() -> ff.Model:
@@ -201,6 +205,7 @@ def test_nothing_is_compiled_unless_asked(specialised: Path) -> None:
     assert not ff.mechanics.is_specialised(model, "jstar")
     ff.generalized_jacobian(model, np.zeros((500, model.n_joints)))
     assert not (specialised / f"{_specialise.structure_key(tree(model), 'jstar')}.py").exists()
+    assert not [p for p in specialised.parent.parent.rglob("*") if p.is_file()]  # nothing generated, nothing compiled there
 
 
 @pytest.mark.parametrize("which", ["papadopoulos1992", "prismatic-tree"])
@@ -343,6 +348,6 @@ def test_an_unwritable_cache_folder_warns_and_still_specialises(specialised: Pat
             slow = ff.generalized_jacobian(model, q)
         np.testing.assert_allclose(fast, slow, rtol=0, atol=1e-12)
     finally:
-        _specialise.FOLDER[0] = specialised
+        _specialise.FOLDER[0] = None
         _specialise._LOADED.clear()
         _specialise._FOUND.clear()

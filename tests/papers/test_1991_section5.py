@@ -9,7 +9,9 @@ import numpy as np
 import pytest
 
 from freefloat.papers.paper1991 import section5_setup
+from freefloat.papers.paper1991_figures import FIGURE_NAMES
 from freefloat.papers.reproduce import reproduce_1991
+from images import check_paper_figure
 
 REQUIRED = [
     "91.S5.initial_ee.x",
@@ -38,10 +40,17 @@ REQUIRED = [
 def report(tmp_path_factory):
     out = tmp_path_factory.mktemp("r1991")
     written = reproduce_1991(out)
-    assert all(p.exists() for p in written)
-    assert {p.name for p in written} >= {"report.json", "report.md", "fig3_coordinated_motion.png", "fig5_thruster_forces.png"}
+    assert [p.name for p in written] == ["report.json", "report.md", *FIGURE_NAMES]
     data = json.loads((out / "report.json").read_text())
-    assert data["paper"] == "1991"
+    assert data["paper"] == "1991" and data["figures"] == list(FIGURE_NAMES)
+    table = (out / "report.md").read_text()
+    for row in data["rows"]:  # report.md: one table line per row, with its printed and computed numbers
+        line = next(line for line in table.splitlines() if line.startswith(f"| `{row['id']}` |"))
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        assert cells[1:3] == ["–" if v is None else f"{v:.6g}" for v in (row["paper"], row["ours"])], line
+    for name in FIGURE_NAMES:
+        check_paper_figure(out / name)
+        assert f"({name})" in table
     return {r["id"]: r for r in data["rows"]}
 
 

@@ -37,6 +37,20 @@ def test_plot_makes_a_pyplot_figure_or_draws_on_given_axes(planar: ff.Trajectory
     drawn = planar.plot(axes)
     assert {a.axes for a in drawn} <= set(axes)
     assert len(plt.get_fignums()) == len(before) + 1  # only the user's figure
+    # what is drawn is the trajectory: joint angles (deg), attitude (deg), spacecraft CM, joint torques, against t
+    expected = [
+        (axes[0], np.degrees(planar.q), ["arm1_q1", "arm1_q2"]),
+        (axes[1], np.degrees(planar.spacecraft_euler321), ["roll", "pitch", "yaw"]),
+        (axes[2], planar.spacecraft_position, ["x", "y", "z"]),
+        (axes[3], planar.joint_torque, ["arm1_q1", "arm1_q2"]),
+    ]
+    for ax, values, labels in expected:
+        lines = ax.get_lines()
+        assert [line.get_label() for line in lines] == labels
+        for k, line in enumerate(lines):
+            np.testing.assert_allclose(line.get_xdata(), planar.t)
+            np.testing.assert_allclose(line.get_ydata(), values[:, k])
+    assert np.ptp(planar.q[:, 1]) > 0.1 and np.ptp(planar.joint_torque[:, 0]) > 0.1  # not a still picture
 
 
 def test_plot_path_spatial_is_3d_with_attitude_over_time(spatial: ff.Trajectory) -> None:
@@ -58,6 +72,11 @@ def test_plot_path_spatial_is_3d_with_attitude_over_time(spatial: ff.Trajectory)
 def test_plot_path_planar_stays_2d(planar: ff.Trajectory) -> None:
     artists = planar.plot_path()
     assert artists[0].axes.name == "rectilinear"
+    # the end-effector and spacecraft CM paths drawn are the trajectory's, in the x-y plane
+    by_label = {a.get_label(): a for a in artists}
+    np.testing.assert_allclose(by_label["end effector arm1_ee"].get_xydata(), planar.end_effector_positions[:, 0, :2])
+    np.testing.assert_allclose(by_label["spacecraft CM"].get_xydata(), planar.spacecraft_position[:, :2])
+    np.testing.assert_allclose(by_label["system CM (t = 0)"].get_xydata(), [planar.r_cm[0, :2]])
 
 
 def test_animate_writes_a_gif_with_the_expected_frames(spatial: ff.Trajectory, tmp_path: Path) -> None:
@@ -90,7 +109,8 @@ def test_animate_planar_and_refusals(planar: ff.Trajectory, tmp_path: Path) -> N
         with pytest.raises(ValueError, match="ffmpeg"):
             planar.animate(tmp_path / "motion.mp4")
     else:
-        assert planar.animate(tmp_path / "motion.mp4").stat().st_size > 0
+        data = planar.animate(tmp_path / "motion.mp4").read_bytes()
+        assert data[4:8] == b"ftyp" and b"moov" in data and b"mdat" in data  # an MP4 container with its index and frames
 
 
 def test_bus_box_has_the_spacecraft_inertia() -> None:
