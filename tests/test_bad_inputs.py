@@ -1009,6 +1009,15 @@ CASES = [
     ),
     api("simulate-tiny-rtol", lambda f: ff.simulate(M(), S, 1.0, rtol=1e-300), ValueError, r"^rtol: 1e-300 is below 2\.22e-14"),
     api("simulate-huge-atol", lambda f: ff.simulate(M(), S, 1.0, atol=1e300), ValueError, r"^atol: 1e\+300 is not below 1"),
+    *(
+        api(
+            f"simulate-controller-torque-{v:.0e}",
+            lambda f, v=v: ff.simulate(M(), S, 1.0, lambda t, s: np.full(4, v)),
+            ff.SimulationError,
+            re.escape(f"controller returned a joint_torque of {v:.0e}, beyond 1e+19 (N m or N)"),
+        )
+        for v in (1e20, 1e200, 1e300)
+    ),
     api(
         "pd-huge-qdot-ref",
         lambda f: ff.JointPD(kp=1.0, kd=1.0, qdot_ref=[1e300, 0, 0, 0]),

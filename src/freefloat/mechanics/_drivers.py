@@ -67,7 +67,7 @@ _thread = numba.get_thread_id
 
 
 # ----------------------------------------------------------------- the two templates, written once
-def _serial_template(start: int, stop: int, ints: np.ndarray, floats: np.ndarray, a: Any, work: np.ndarray) -> None:  # pragma: no cover
+def _serial_template(start: int, stop: int, ints: np.ndarray, floats: np.ndarray, work: np.ndarray, *a: Any) -> None:  # pragma: no cover
     """ROW over the rows start..stop of a batch of the model in (ints, floats); ``work`` one scratch buffer."""
     m = arrays(ints, floats)
     s = scratch(work, m.parent.shape[0], m.ee_body.shape[0])
@@ -75,10 +75,10 @@ def _serial_template(start: int, stop: int, ints: np.ndarray, floats: np.ndarray
         ROW(i, m, s, a)  # type: ignore[name-defined]  # noqa: F821 (bound by driver())
 
 
-def _parallel_template(size: int, ints: np.ndarray, floats: np.ndarray, a: Any, WORK: np.ndarray) -> None:  # pragma: no cover
+def _parallel_template(size: int, ints: np.ndarray, floats: np.ndarray, WORK: np.ndarray, *a: Any) -> None:  # pragma: no cover
     """SERIAL on blocks of STEP rows, one block per thread at a time; WORK one scratch buffer per thread."""
     for b in prange((size + STEP - 1) // STEP):  # type: ignore[name-defined]  # noqa: F821 (bound by driver())
-        SERIAL(b * STEP, min(size, (b + 1) * STEP), ints, floats, a, WORK[_thread()])  # type: ignore[name-defined]  # noqa: F821
+        SERIAL(b * STEP, min(size, (b + 1) * STEP), ints, floats, WORK[_thread()], *a)  # type: ignore[name-defined]  # noqa: F821
 
 
 class Batched:
@@ -103,10 +103,10 @@ class Batched:
         length = work_size(t.n_bodies, t.ee_body.shape[0])
         if size >= self.PARALLEL_MIN and numba.get_num_threads() > 1:
             threads = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # every thread id is below it
-            self.compiled = bool(self.parallel.signatures)
-            return self.parallel(size, t.ints, t.floats, a, np.empty((threads, length)))
-        self.compiled = bool(self.serial.signatures)
-        return self.serial(0, size, t.ints, t.floats, a, np.empty(length))
+            self.compiled = bool(self.parallel.overloads)
+            return self.parallel(size, t.ints, t.floats, np.empty((threads, length)), *a)
+        self.compiled = bool(self.serial.overloads)
+        return self.serial(0, size, t.ints, t.floats, np.empty(length), *a)
 
 
 def driver(name: str, row: Any, *, block: int = BLOCK, parallel_min: int | None = None) -> Batched:

@@ -20,6 +20,7 @@ from scipy.integrate import solve_ivp
 
 from ..core.errors import ShapeError, SimulationError
 from ..core.model import Model
+from ..core.numbers import MAX_EFFORT
 from ..core.resources import MEMORY_FRACTION, available_memory, format_bytes
 from ..core.state import unpack_state
 from ..mechanics import _engine
@@ -42,6 +43,20 @@ def _u(model: Model, tau: np.ndarray, force: np.ndarray, torque: np.ndarray, out
     return out
 
 
+def _check_effort(t: float | None, u: np.ndarray) -> None:
+    """After a failed step: an actuation beyond :data:`~freefloat.core.numbers.MAX_EFFORT` is the cause (it overflows the
+    dynamics), said as such rather than as a failure of H+. Checked only then: the fast path of a controller's torques
+    costs nothing more."""
+    largest = float(np.max(np.abs(u))) if u.size else 0.0
+    if not largest <= MAX_EFFORT:
+        raise SimulationError(
+            f"the actuation reached {largest:.3g} (N m or N) {'at this state' if t is None else f'at t = {t:.6g} s'}, beyond "
+            f"{MAX_EFFORT:.0e}, more than any actuator "
+            "gives (it would spin the largest inertia a model may have beyond 1e4 rad/s within a second); check the "
+            "controller's gains and units"
+        )
+
+
 def _rhs(model: Model, external: Any) -> Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
     """The state derivative ``f(x, tau, force, torque)`` of one state (the engine, one compiled call)."""
     stepper = _engine.Stepper(model, _engine_inputs(model, external))
@@ -50,6 +65,7 @@ def _rhs(model: Model, external: Any) -> Callable[[np.ndarray, np.ndarray, np.nd
     def derivative(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
         out = np.empty(stepper.size)
         if not stepper.derivative(np.ascontiguousarray(x, dtype=float), _u(model, tau, force, torque, u), out):
+            _check_effort(None, u)
             raise SimulationError("H+ (1991 eq. 15) is not positive definite at this state: the mass properties are not physical")
         return out
 
@@ -225,6 +241,7 @@ def _run_rk4(
         if done != todo and not reason:
             i += abs(done)
             t = i * dt
+            _check_effort(t, u)
             _check_finite(t, x)
             raise SimulationError(f"H+ (1991 eq. 15) is not positive definite at t = {t:.6g} s: the mass properties are not physical")
         if reason & 2:  # the step that crossed a limit: the stop acts at its end

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..core.errors import FreefloatError, LongRunWarning, ShapeError, SimulationError
 from ..core.model import Model
-from ..core.numbers import tolerance_problem
+from ..core.numbers import MAX_EFFORT, tolerance_problem
 from ..core.resources import require_memory
 from ..core.state import Actuation, ActuatorLimits, State, pack_state, unpack_state
 from ..mechanics import _engine
@@ -62,8 +62,7 @@ def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarr
     if raw is None:
         raise TypeError(f"controller returned None; return joint torques of shape {(*batch, n)} or a freefloat.Actuation")
     if isinstance(raw, np.ndarray) and raw.shape == (*batch, n) and raw.dtype == np.float64:
-        total = float(raw.dot(raw)) if raw.ndim == 1 else float(raw.sum())
-        if total - total == 0.0:  # finite (NaN and inf propagate): the fast path of plain torques
+        if float(np.abs(raw).max(initial=0.0)) <= MAX_EFFORT:  # finite and in range (NaN fails): the fast path of plain torques
             zeros = _zeros(batch)
             return raw, zeros, zeros
     if not isinstance(raw, Actuation):
@@ -86,6 +85,12 @@ def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarr
             raise ShapeError(f"controller returned {name} of shape {arr.shape}; expected {(*batch, size)} ({what})")
         if not np.isfinite(arr).all():
             raise ValueError(f"controller returned a non-finite {name}: {arr}")
+        if np.abs(arr).max(initial=0.0) > MAX_EFFORT:
+            raise ValueError(
+                f"controller returned a {name} of {np.abs(arr).max():.3g}, beyond {MAX_EFFORT:.0e} (N m or N), more than any actuator "
+                "gives (it would spin the largest inertia a model may have beyond 1e4 rad/s within a second); check the controller's "
+                "gains and units"
+            )
         parts.append(arr)
     return parts[0], parts[1], parts[2]
 
