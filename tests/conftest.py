@@ -13,13 +13,10 @@ matplotlib.use("Agg")
 os.environ["FREEFLOAT_AUTO_SPECIALISE"] = "0"
 sys.path.insert(0, str(Path(__file__).parent))
 
-#: The suite's own cache of compiled kernels (FREEFLOAT_CACHE_DIR), set before freefloat is imported, for this
-#: process and the commands it starts: never the user's cache folder (~/.cache/freefloat). Kept in the checkout's
-#: .pytest_cache (git-ignored, removed by make clean), so the kernels compile once per checkout, not per run;
-#: tests of the cache itself and of the specialiser use temporary folders of their own.
-SUITE_CACHE = Path(__file__).resolve().parents[1] / ".pytest_cache" / "freefloat"
-os.environ["FREEFLOAT_CACHE_DIR"] = str(SUITE_CACHE)
-assert "freefloat" not in sys.modules, "freefloat was imported before tests/conftest.py chose its kernel cache"
+# The generic kernels compile into the user's cache folder, as in any use (keyed by numba's version and the engine's
+# source, so a checkout never loads another's); every test that specialises or breaks a cache uses a temporary
+# folder of its own (tests/mechanics/test_specialise.py, test_auto_specialise.py, test_specialise_dynamics.py,
+# test_numba_cache.py).
 
 settings.register_profile("freefloat", derandomize=True, deadline=None, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "freefloat"))

@@ -314,7 +314,7 @@ def test_a_broken_cache_file_warns_and_is_rebuilt(specialised: Path) -> None:
 
 def test_unknown_kind_is_refused() -> None:
     with pytest.raises(ff.UnknownNameError, match="kind of specialised kernel"):
-        ff.mechanics.specialise(ff.models.papadopoulos1992(), ["hplus"])
+        ff.mechanics.specialise(ff.models.papadopoulos1992(), ["everything"])
 
 
 def test_cli_specialise(specialised: Path) -> None:
