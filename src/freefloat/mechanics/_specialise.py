@@ -569,12 +569,7 @@ MAP_INPUTS = {
 
 def mapped(module: types.ModuleType, t: Tree, q: np.ndarray, out: np.ndarray) -> None:
     """The outputs of a map kind for the rows of q (C, inputs) into out (C, outputs [+ 1: the guards, 1.0 where
-    every guard held, else 0.0]) by the specialised kernel."""
-    jstar(module, t, q, out)
-
-
-def jstar(module: types.ModuleType, t: Tree, q: np.ndarray, out: np.ndarray) -> None:
-    """J* of the rows of q (C, N) into out (C, 6E * N) by the specialised kernel (and any map kind alike)."""
+    every guard held, else 0.0]) by the specialised kernel (J*: q (C, N) into out (C, 6E * N))."""
     data = data_vector(t)[module.SLOTS]
     if parallel_worth(q.shape[0]):
         module.parallel(q, data, out, np.empty((_threads(), module.ROWS * LANES)))

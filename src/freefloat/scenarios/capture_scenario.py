@@ -61,7 +61,7 @@ from ..analysis.singularity import MEASURES, ROWS, SingularityCriterion
 from ..core.errors import ModelError, UnknownNameError
 from ..core.model import MAX_LENGTH, Model, inertia_matrix
 from ..io.model_files import read_toml
-from .scenario import refuse_model_file, scenario_model
+from .scenario import description_of, refuse_model_file, scenario_model
 
 __all__ = [
     "CaptureResult",
@@ -256,9 +256,7 @@ def capture_scenario_from_dict(
         if r_plus <= 0.0:
             raise ModelError(_where(source, "path.R_plus"), f"must be positive, got {r_plus!r}", "give R+ in m (> 0) or leave it out")
     criterion, strategy = _singularity(data.get("singularity", {}), source)
-    description = data.get("description", "")
-    if not isinstance(description, str):
-        raise ModelError(_where(source, "description"), f"expected a string, got {description!r}", "write the description in quotes")
+    description = description_of(data, source)
     return CaptureScenario(
         source=source,
         model=model,

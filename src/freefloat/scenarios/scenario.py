@@ -353,18 +353,26 @@ class _OpenLoop:
         )
 
 
-def _actuation(data: Any, model: Model, source: str) -> _OpenLoop:
+def _table_type(data: Any, source: str, name: str, types: tuple[str, ...]) -> str:
+    """The ``type`` of the table [``name``] (an actuation or a controller), which must be one of ``types``."""
     if not isinstance(data, dict):
-        raise ModelError(
-            _where(source, "actuation"),
-            f"expected a table, got {data!r}",
-            f"write [actuation] with type = one of {', '.join(ACTUATION_TYPES)}",
-        )
+        raise ModelError(_where(source, name), f"expected a table, got {data!r}", f"write [{name}] with type = one of {', '.join(types)}")
     kind = data.get("type")
-    if kind not in ACTUATION_TYPES:
-        raise ModelError(
-            _where(source, "actuation.type"), f"unknown or missing actuation type {kind!r}", f"choose one of {', '.join(ACTUATION_TYPES)}"
-        )
+    if kind not in types:
+        raise ModelError(_where(source, f"{name}.type"), f"unknown or missing {name} type {kind!r}", f"choose one of {', '.join(types)}")
+    return str(kind)
+
+
+def description_of(data: dict[str, Any], source: str) -> str:
+    """The scenario's ``description`` (a string; empty when absent)."""
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise ModelError(_where(source, "description"), f"expected a string, got {description!r}", "write the description in quotes")
+    return description
+
+
+def _actuation(data: Any, model: Model, source: str) -> _OpenLoop:
+    kind = _table_type(data, source, "actuation", ACTUATION_TYPES)
     table = _table(data, _ACTUATION_KEYS[kind], source, "actuation")
     n = model.n_joints
     params: dict[str, np.ndarray] = {}
@@ -422,19 +430,7 @@ def _actuation(data: Any, model: Model, source: str) -> _OpenLoop:
 
 
 def _controller(data: Any, model: Model, source: str) -> JointPD:
-    if not isinstance(data, dict):
-        raise ModelError(
-            _where(source, "controller"),
-            f"expected a table, got {data!r}",
-            f"write [controller] with type = one of {', '.join(CONTROLLER_TYPES)}",
-        )
-    kind = data.get("type")
-    if kind not in CONTROLLER_TYPES:
-        raise ModelError(
-            _where(source, "controller.type"),
-            f"unknown or missing controller type {kind!r}",
-            f"choose one of {', '.join(CONTROLLER_TYPES)}",
-        )
+    kind = _table_type(data, source, "controller", CONTROLLER_TYPES)
     table = _table(data, _CONTROLLER_KEYS[kind], source, "controller")
     gains = {}
     for key, unit in (("kp", "N m/rad"), ("kd", "N m s/rad")):
@@ -570,9 +566,7 @@ def scenario_from_dict(data: Any, *, source: str = "", base: Path | None = None,
         if not isinstance(value, bool):
             raise ModelError(_where(source, f"outputs.{key}"), f"expected true or false, got {value!r}", "write true or false")
         flags[key] = value
-    description = top.get("description", "")
-    if not isinstance(description, str):
-        raise ModelError(_where(source, "description"), f"expected a string, got {description!r}", "write the description in quotes")
+    description = description_of(top, source)
     return Scenario(
         source=source,
         model=model,
