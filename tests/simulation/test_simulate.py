@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -313,6 +314,30 @@ def test_sampled_controller_is_held_and_called_once_per_sample() -> None:
         assert np.allclose(calls, np.arange(10) * 0.1, atol=1e-12), options
         expected = np.sin(np.floor(traj.t[:-1] / 0.1 + 1e-9) * 0.1)
         assert np.allclose(traj.joint_torque[:-1, 0], expected, atol=1e-12), options
+
+
+def test_thrust_that_stops_is_not_held_by_the_fixed_step_loop() -> None:
+    """A controller that fires the thrusters, then returns plain joint torques (which carry the shared zero thrust the
+    loop does not rewrite): the thrust must stop, exactly as when the controller returns the zero thrust itself."""
+    model = two_arm()
+
+    def firing(then_plain: bool):
+        def controller(t: float, state: ff.State) -> Any:
+            tau = np.full(model.n_joints, 0.3 * np.cos(t))
+            if t < 0.5:
+                return ff.Actuation(joint_torque=tau, spacecraft_force=[5.0, -2.0, 1.0], spacecraft_torque=[0.0, 0.4, 0.1])
+            return tau if then_plain else ff.Actuation(joint_torque=tau, spacecraft_force=np.zeros(3), spacecraft_torque=np.zeros(3))
+
+        return controller
+
+    state = ff.State(q=[0.1, 0.2, 3.0, -0.2])
+    plain = ff.simulate(model, state, 1.0, firing(True), fixed_step=0.01, output_period=0.01)
+    explicit = ff.simulate(model, state, 1.0, firing(False), fixed_step=0.01, output_period=0.01)
+    assert np.array_equal(plain.spacecraft_force[-1], np.zeros(3))
+    assert np.max(np.abs(plain.q - explicit.q)) == 0.0
+    assert np.max(np.abs(plain.linear_momentum - explicit.linear_momentum)) == 0.0
+    # and the thrust did act while it fired: the linear momentum changed
+    assert np.linalg.norm(plain.linear_momentum[-1] - plain.linear_momentum[0]) > 1.0
 
 
 def test_actuator_limits_saturate_and_record_it() -> None:

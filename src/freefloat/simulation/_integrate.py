@@ -36,6 +36,19 @@ def _engine_inputs(model: Model, external: Any) -> tuple[np.ndarray, np.ndarray]
     return ext_i, ext_f
 
 
+_ZEROS: dict[tuple[int, ...], np.ndarray] = {}
+
+
+def zero_thrust(batch: tuple[int, ...]) -> np.ndarray:
+    """A shared read-only zero thrust (batch, 3): a controller's plain joint torques carry it as their spacecraft force
+    and torque (the fixed-step loop then writes only the torques)."""
+    if batch not in _ZEROS:
+        zeros = np.zeros((*batch, 3))
+        zeros.flags.writeable = False
+        _ZEROS[batch] = zeros
+    return _ZEROS[batch]
+
+
 def _u(model: Model, tau: np.ndarray, force: np.ndarray, torque: np.ndarray, out: np.ndarray) -> np.ndarray:
     """out = [tau, f_S, n_S] (..., N + 6)."""
     n = model.n_joints
@@ -98,9 +111,7 @@ class _Recorder:
         if len(self.t) % RECORD_CHECK == RECORD_CHECK - 1:
             self._check_memory(x)
         self.t.append(float(t))
-        x = x.copy()
-        x[..., 6:10] /= np.linalg.norm(x[..., 6:10], axis=-1, keepdims=True)
-        self.x.append(x)
+        self.x.append(x.copy())  # the attitudes are normalised at the end, all at once (:meth:`trajectory`)
         self.act.append(act)
 
     def _check_memory(self, x: np.ndarray) -> None:
@@ -121,6 +132,7 @@ class _Recorder:
         n = model.n_joints
         if self.x:
             xs = np.stack(self.x)
+            xs[..., 6:10] /= np.linalg.norm(xs[..., 6:10], axis=-1, keepdims=True)
             acts = [np.stack([a[i] for a in self.act]) for i in range(4)]
         else:
             xs = np.zeros((0, 13 + 2 * n))
@@ -225,8 +237,10 @@ def _run_rk4(
     x = np.array(x0, dtype=float, order="C")
     x[6:10] /= np.linalg.norm(x[6:10])
     u = np.empty(n + 6)
+    quiet = zero_thrust(())  # read-only: a command that carries it has no thrust
     act = command(0.0, x)
     _u(model, act[0], act[1], act[2], u)
+    held = True
     rec.add(0.0, x, act)
     prev_ev = _event_value(events, model, 0.0, x) if events else None
     i = 0
@@ -254,7 +268,11 @@ def _run_rk4(
             continue
         if i < steps and (sample_period is None or t >= next_sample_time - 1e-9 * dt):
             act = command(t, x.copy())  # a copy: x is advanced in place, the controller may keep its state
-            _u(model, act[0], act[1], act[2], u)
+            u[:n] = act[0]
+            thrust = act[1] is not quiet or act[2] is not quiet
+            if thrust or held:  # the thrust held so far or the new one
+                u[n : n + 3], u[n + 3 :] = act[1], act[2]
+            held = thrust
             if sample_period is not None:
                 next_sample_time += sample_period
         if i % stride == 0 or i == steps:

@@ -19,6 +19,7 @@ without it, it is evaluated continuously (adaptive) or once per step (RK4).
 from __future__ import annotations
 
 import dataclasses
+import math
 import os
 import warnings
 from collections.abc import Callable, Sequence
@@ -43,7 +44,7 @@ from ._guard import (
     check_pd_gains,
     estimate_run,
 )
-from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory
+from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory, zero_thrust
 from ._stops import JointStops, limit_violations
 from .pd import JointPD
 from .trajectory import Trajectory
@@ -62,8 +63,8 @@ def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarr
     if raw is None:
         raise TypeError(f"controller returned None; return joint torques of shape {(*batch, n)} or a freefloat.Actuation")
     if isinstance(raw, np.ndarray) and raw.shape == (*batch, n) and raw.dtype == np.float64:
-        if float(np.abs(raw).max(initial=0.0)) <= MAX_EFFORT:  # finite and in range (NaN fails): the fast path of plain torques
-            zeros = _zeros(batch)
+        if _plain_torques(raw):  # the fast path of plain torques, finite and in range
+            zeros = zero_thrust(batch)
             return raw, zeros, zeros
     if not isinstance(raw, Actuation):
         raw = Actuation(joint_torque=raw)
@@ -95,16 +96,14 @@ def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarr
     return parts[0], parts[1], parts[2]
 
 
-_ZEROS: dict[tuple[int, ...], np.ndarray] = {}
-
-
-def _zeros(batch: tuple[int, ...]) -> np.ndarray:
-    """A shared read-only zero thrust (batch, 3)."""
-    if batch not in _ZEROS:
-        zeros = np.zeros((*batch, 3))
-        zeros.flags.writeable = False
-        _ZEROS[batch] = zeros
-    return _ZEROS[batch]
+def _plain_torques(raw: np.ndarray) -> bool:
+    """True when every entry of ``raw`` is finite and within :data:`~freefloat.core.numbers.MAX_EFFORT` (N m or N).
+    For one configuration on Python floats (a third of numpy's reductions on a few values, every step of a
+    simulation); a NaN or inf makes the sum non-finite, a sum that overflows sends finite values to the full check."""
+    if raw.ndim != 1:
+        return bool(np.abs(raw).max(initial=0.0) <= MAX_EFFORT)  # NaN compares false
+    values = raw.tolist()
+    return not values or (math.isfinite(sum(values)) and max(values) <= MAX_EFFORT and min(values) >= -MAX_EFFORT)
 
 
 def _call_controller(controller: Controller, model: Model, t: float, x: np.ndarray, batch: tuple[int, ...]) -> tuple[np.ndarray, ...]:
