@@ -29,6 +29,7 @@ BENCHMARKS: dict[str, str] = {
     "core": "bench_core",
     "dynamics": "bench_dynamics",
     "startup": "bench_startup",
+    "sweep": "bench_sweep",
     "workspace": "bench_workspace",
 }
 
