@@ -10,6 +10,7 @@ build time; see :mod:`freefloat.core.barycentric`.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import os
 from collections.abc import Callable, Sequence
@@ -160,6 +161,31 @@ def nearest_physical_inertia(inertia: np.ndarray) -> np.ndarray:
     return (axes * fixed) @ axes.T
 
 
+#: The per-joint parameters of the joints' own dynamics (rotor inertia, passive torques): name -> what and its unit.
+JOINT_PASSIVE = {
+    "armature": "rotor inertia reflected to the joint, in kg m^2 (kg for a prismatic joint)",
+    "damping": "viscous damping, in N m s/rad (N s/m for a prismatic joint)",
+    "friction": "Coulomb friction torque, in N m (N for a prismatic joint)",
+}
+
+
+def _joint_parameter(model: Any, name: str, value: Any, what: str) -> np.ndarray:
+    """One value >= 0 per joint (zeros for None), each error naming the joint and the fix."""
+    n = len(model.joint_names)
+    if value is None:
+        return np.zeros(n)
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"joint_{name}", f"cannot read {value!r} as numbers", f"give one {what} per joint") from None
+    if arr.shape != (n,):
+        raise ModelError(f"joint_{name}", f"has shape {arr.shape} for {n} joints", f"give one {what} per joint")
+    for j, v in enumerate(arr):
+        if not (np.isfinite(v) and v >= 0.0):
+            raise ModelError(f"joints[{j}] ({model.joint_names[j]}).{name}", f"is {v}", f"give the {what}, finite and >= 0")
+    return arr
+
+
 def _count(n: int, one: str, many: str | None = None) -> str:
     """'1 joint', '2 joints' (English plurals in messages)."""
     return f"{n} {one if n == 1 else (many or one + 's')}"
@@ -187,6 +213,12 @@ class Model:
         joint_type        (N,) "revolute" (q in rad) or "prismatic" (q in m, the body slides
                           along the axis; its frame origin is joint_origin + q axis)
         joint_lower/upper (N,) joint limits in rad or m (±inf when none)
+        joint_armature    (N,) rotor inertia reflected to the joint (kg m² for a revolute joint, kg for a
+                          prismatic one): added to the joint's diagonal entry of H+, as MuJoCo's ``armature``
+                          and Pinocchio's ``armature`` (zeros when not given)
+        joint_damping     (N,) viscous damping: passive torque -damping qdot (N m s/rad, N s/m)
+        joint_friction    (N,) Coulomb friction: passive torque of that size against qdot (N m, N), smooth
+                          (:mod:`freefloat.simulation.passive`)
         end_effector_rule "named" (the model file or builder named them) or "leaves" (every leaf)
         corrections       every change made to the given data when loading (see ``ff.load``)
         mass, com, inertia  per body; inertia about the CM
@@ -213,6 +245,9 @@ class Model:
     joint_type: tuple[str, ...] = ()
     end_effector_rule: str = "leaves"
     corrections: tuple[dict[str, Any], ...] = ()
+    joint_armature: Any = None
+    joint_damping: Any = None
+    joint_friction: Any = None
     # derived at build time
     total_mass: float = field(init=False)
     subtree: np.ndarray = field(init=False, repr=False)
@@ -247,6 +282,8 @@ class Model:
                     f"joints[{j}] ({self.joint_names[j]}).type", f"unknown joint type {kind!r}", f"use one of {', '.join(JOINT_TYPES)}"
                 )
         object.__setattr__(self, "_prismatic", _frozen([t == "prismatic" for t in self.joint_type], bool))
+        for name, what in JOINT_PASSIVE.items():
+            object.__setattr__(self, f"joint_{name}", _frozen(_joint_parameter(self, name, getattr(self, f"joint_{name}"), what)))
         n = len(self.body_names)
         subtree = np.zeros((n, n), dtype=bool)
         for k in range(n):
@@ -366,28 +403,25 @@ class Model:
             "cm": c_p.tolist(),
             "body": self.body_names[k],
         }
-        return Model(
-            name=f"{self.name}+{name}",
-            body_names=self.body_names,
-            parent=self.parent,
-            joint_names=self.joint_names,
-            joint_origin=self.joint_origin,
-            joint_rotation=self.joint_rotation,
-            joint_axis=self.joint_axis,
-            joint_lower=self.joint_lower,
-            joint_upper=self.joint_upper,
-            mass=mass_new,
-            com=com_new,
-            inertia=inertia_new,
-            end_effector_names=self.end_effector_names,
-            end_effector_body=self.end_effector_body,
-            end_effector_point=self.end_effector_point,
-            source=self.source,
-            payloads=(*self.payloads, record),
-            joint_type=self.joint_type,
-            end_effector_rule=self.end_effector_rule,
-            corrections=self.corrections,
+        return dataclasses.replace(
+            self, name=f"{self.name}+{name}", mass=mass_new, com=com_new, inertia=inertia_new, payloads=(*self.payloads, record)
         )
+
+    @property
+    def has_passive(self) -> bool:
+        """True when a joint has viscous damping or Coulomb friction (passive joint torques)."""
+        return bool(np.any(self.joint_damping) or np.any(self.joint_friction))
+
+    def without_passive(self) -> Model:
+        """This model without its joints' damping and friction (the same model when it has none; rotor inertia stays:
+        it is inertia, not a passive torque). Made once per model."""
+        if not self.has_passive:
+            return self
+        found = self.__dict__.get("_without_passive")
+        if found is None:
+            found = dataclasses.replace(self, joint_damping=None, joint_friction=None)
+            object.__setattr__(self, "_without_passive", found)
+        return found
 
     def __repr__(self) -> str:
         return (

@@ -34,6 +34,16 @@ def _fmt(values: Any) -> str:
     return " ".join(repr(float(v)) for v in np.ravel(values))
 
 
+def _passive_attributes(model: Model, j: int) -> str:
+    """MJCF attributes of joint j's rotor inertia, damping and friction (``armature``, ``damping``, ``frictionloss``; MuJoCo's
+    frictionloss is dry friction, exact at rest, where freefloat's is smooth), only where not zero."""
+    out = ""
+    for attribute, values in (("armature", model.joint_armature), ("damping", model.joint_damping), ("frictionloss", model.joint_friction)):
+        if values[j] != 0.0:
+            out += f' {attribute}="{float(values[j])!r}"'
+    return out
+
+
 def to_mjcf(model: Model, *, timestep: float = 1e-3, integrator: str = "RK4") -> str:
     """MJCF text of ``model`` (free-floating, no gravity, one motor per joint)."""
     children: dict[int, list[int]] = {k: [] for k in range(model.n_bodies)}
@@ -54,7 +64,8 @@ def to_mjcf(model: Model, *, timestep: float = 1e-3, integrator: str = "RK4") ->
             kind = _MJCF_JOINT[model.joint_type[k - 1]]
             head = (
                 f'{indent}<body name="{name}" pos="{_fmt(model.joint_origin[k])}" quat="{_fmt(np.roll(quat, 1))}">\n'
-                f'{indent}  <joint name="{model.joint_names[k - 1]}" type="{kind}" axis="{_fmt(model.joint_axis[k])}" limited="false"/>\n'
+                f'{indent}  <joint name="{model.joint_names[k - 1]}" type="{kind}" axis="{_fmt(model.joint_axis[k])}" limited="false"'
+                f"{_passive_attributes(model, k - 1)}/>\n"
             )
         inner = "".join(body(c, indent + "  ") for c in children[k])
         return f"{head}{indent}  {inertial(k)}\n{inner}{indent}</body>\n"

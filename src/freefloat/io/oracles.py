@@ -61,6 +61,7 @@ def to_pinocchio(model: Model) -> Any:
             ids.append(pm.addJoint(ids[int(model.parent[k])], joint, placement, model.joint_names[k - 1]))
         inertia = pin.Inertia(float(model.mass[k]), np.array(model.com[k]), np.array(model.inertia[k]))
         pm.appendBodyToJoint(ids[k], inertia, pin.SE3.Identity())
+    pm.armature[6:] = np.asarray(model.joint_armature, dtype=float)  # the rotors, on the joint diagonal of the CRBA
     for e, name in enumerate(model.end_effector_names):
         k = int(model.end_effector_body[e])
         frame = pin.Frame(name, ids[k], pin.SE3(np.eye(3), np.array(model.end_effector_point[e])), pin.FrameType.OP_FRAME)

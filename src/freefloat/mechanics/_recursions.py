@@ -53,6 +53,11 @@ import numpy as np
 
 from ._numba_cache import kernel, unowned_floats
 
+#: The joint speed (rad/s, m/s) over which Coulomb friction builds up: the friction torque of a joint is
+#: -F tanh(qdot / FRICTION_SPEED) (F = ``Model.joint_friction``), 76 % of F at this speed and 99.9 % at 4 times it.
+#: A smooth model: a joint at rest under a torque below F creeps at a speed below FRICTION_SPEED instead of sticking.
+FRICTION_SPEED = 0.01
+
 #: Scratch space of one configuration: views of one flat buffer, made once per batch range (or per
 #: stepper call) and passed down, so no kernel makes a view per configuration (each costs ~25 ns).
 Scratch = namedtuple(
@@ -367,6 +372,7 @@ def centroidal_blocks(
                     v += mom[i, 0] * g[k, 0] + mom[i, 1] * g[k, 1] + mom[i, 2] * g[k, 2]
                 a[2 + i, 2 + k] = v
                 a[2 + k, 2 + i] = v
+            a[2 + k, 2 + k] += m.armature[k]  # the rotor's inertia, felt by its joint alone
 
 
 @kernel(inline="always")
@@ -540,6 +546,13 @@ def newton_euler(
         t2_ = nf[k, 2] + (cf[k, 0] * d1 - cf[k, 1] * d0)
         row = axis[k, 0] * t0_ + axis[k, 1] * t1_ + axis[k, 2] * t2_
         row += mom[k, 0] * (ff[k, 0] + s * d0) + mom[k, 1] * (ff[k, 1] + s * d1) + mom[k, 2] * (ff[k, 2] + s * d2)
+        # the joint's own dynamics: its rotor (armature), viscous damping and smooth Coulomb friction (passive torques)
+        qd = vel[5 + k]
+        row += m.damping[k] * qd
+        if m.friction[k] > 0.0:  # (a zero friction is folded away by the specialiser: see _tree.Field.fold_zeros)
+            row += m.friction[k] * math.tanh(qd / FRICTION_SPEED)
+        if accelerate:
+            row += m.armature[k] * acc[5 + k]
         out[2 + k] = row - u[k - 1]
 
 

@@ -114,7 +114,10 @@ def _symbolic_model(t: Tree, g: Graph) -> Any:
         sym = np.array([float(v) for v in values.ravel()], dtype=object).reshape(values.shape)
         if f.role == "data":
             start = t.field_offset(f.name)
-            sym = np.array([g.input("data", start + i) for i in range(values.size)], dtype=object).reshape(values.shape)
+            flat = values.ravel()
+            sym = np.array(
+                [0.0 if f.fold_zeros and flat[i] == 0.0 else g.input("data", start + i) for i in range(values.size)], dtype=object
+            ).reshape(values.shape)
         fields[f.name] = sym
     total_at = t.floats.shape[0] - t.ee_point.size - 1
     points = np.array([g.input("data", total_at + 1 + i) for i in range(t.ee_point.size)], dtype=object).reshape(t.ee_point.shape)
@@ -227,8 +230,8 @@ def emit(g: Graph, outputs: list[Any], n_in: int, name: str = "lane") -> tuple[s
             body.extend(text.splitlines())
         elif op == "neg":
             body.append(f"v{i} = -{ref(a[0])}")
-        elif op == "sqrt":
-            body.append(f"v{i} = math.sqrt({ref(a[0])})")
+        elif op in ("sqrt", "tanh"):
+            body.append(f"v{i} = math.{op}({ref(a[0])})")
         elif op == ">":
             body.append(f"v{i} = 1.0 if {ref(a[0])} > {ref(a[1])} else 0.0")
         else:
@@ -311,6 +314,7 @@ def structure_key(t: Tree, kind: str) -> str:
     """What the specialised kernels depend on: the tree, joint types, placements and axes, the end-effector bodies."""
     digest = hashlib.sha256(f"{kind}:{LANES}:{_engine_key()}".encode())
     structure = [t.fields[f.name] for f in BODY_FIELDS if f.role == "structure"]
+    structure += [t.fields[f.name] != 0.0 for f in BODY_FIELDS if f.fold_zeros]  # where the folded fields are zero
     for arr in (t.ints, *structure):
         digest.update(str(arr.shape).encode())
         digest.update(np.ascontiguousarray(arr).tobytes())

@@ -47,7 +47,7 @@ class Graph:
     """Nodes of one trace, in creation order (a topological order). Node i is ``ops[i]``, ``args[i]``.
 
     ops: ``"in"`` (args = (array name, flat index)), ``"+"``, ``"-"``, ``"*"``, ``"/"``, ``"neg"``,
-    ``"sqrt"``, ``"sin"``, ``"cos"``, ``">"`` (a guard's comparison); an argument is a node index
+    ``"sqrt"``, ``"sin"``, ``"cos"``, ``"tanh"``, ``">"`` (a guard's comparison); an argument is a node index
     (int) or a number (float).
     """
 
@@ -103,7 +103,7 @@ class Graph:
                 val[i] = float(np.asarray(inputs[a[0]]).reshape(-1)[a[1]])
             elif op == "neg":
                 val[i] = -arg(a[0])
-            elif op in ("sqrt", "sin", "cos"):
+            elif op in ("sqrt", "sin", "cos", "tanh"):
                 val[i] = getattr(math, op)(arg(a[0]))
             else:
                 x, y = arg(a[0]), arg(a[1])
@@ -287,8 +287,12 @@ def _cos(x: Any) -> Any:
     return x.graph.node("cos", x.index) if isinstance(x, Sym) else math.cos(x)
 
 
+def _tanh(x: Any) -> Any:
+    return x.graph.node("tanh", x.index) if isinstance(x, Sym) else math.tanh(x)
+
+
 #: ``math`` as the traced kernels see it.
-_MATH = types.SimpleNamespace(sqrt=_sqrt, sin=_sin, cos=_cos, isfinite=math.isfinite, pi=math.pi)
+_MATH = types.SimpleNamespace(sqrt=_sqrt, sin=_sin, cos=_cos, tanh=_tanh, isfinite=math.isfinite, pi=math.pi)
 
 
 def _identity(x: Any) -> Any:
@@ -297,7 +301,7 @@ def _identity(x: Any) -> Any:
 
 #: The interface between the engine and the specialiser: the engine's one-configuration kernels the specialiser
 #: traces, by kind. Each is plain scalar Python over arrays (numba compiles it as written): arithmetic, ``math.sqrt``,
-#: ``math.sin``, ``math.cos``, loops and branches on the model's *structure* (numbers while tracing), and branches on
+#: ``math.sin``, ``math.cos``, ``math.tanh``, loops and branches on the model's *structure* (numbers while tracing), and branches on
 #: data only through ``>`` / ``<`` comparisons (traced as guards). Every kernel they call is traced with them.
 ENTRY_POINTS = {
     "jstar": "jstar_one",

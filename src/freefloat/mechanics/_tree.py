@@ -53,6 +53,9 @@ class Field:
     role: str
     read: Callable[[Any, int], Any]
     doc: str
+    #: A "data" field that is zero for most models (a joint's rotor inertia, damping, friction): the specialiser folds
+    #: its zero entries as numbers (their terms vanish from the kernels) and keys the kernels by where they are zero.
+    fold_zeros: bool = False
 
     @property
     def width(self) -> int:
@@ -95,6 +98,16 @@ BODY_FIELDS: tuple[Field, ...] = (
     Field("com", (3,), "data", lambda m, k: m.com[k], "CM in the body frame (m)"),
     Field("inertia", (3, 3), "data", lambda m, k: m.inertia[k], "inertia about the CM, body axes (kg m^2)"),
     Field(
+        "armature",
+        (),
+        "data",
+        lambda m, k: m.joint_armature[k - 1] if k > 0 else 0.0,
+        "rotor inertia reflected to the joint (kg m^2, kg when prismatic): added to its diagonal entry of H+",
+        fold_zeros=True,
+    ),
+    Field("damping", (), "data", lambda m, k: m.joint_damping[k - 1] if k > 0 else 0.0, "viscous joint damping (N m s/rad, N s/m)", True),
+    Field("friction", (), "data", lambda m, k: m.joint_friction[k - 1] if k > 0 else 0.0, "Coulomb joint friction (N m, N)", True),
+    Field(
         "subtree_mass",
         (),
         "data",
@@ -123,6 +136,9 @@ Arrays = namedtuple(
         "mass",
         "com",
         "inertia",
+        "armature",
+        "damping",
+        "friction",
         "subtree_mass",  # the body fields, in BODY_FIELDS order
         "total_mass",  # float: the system mass (kg)
         "ee_point",  # (E, 3): each end effector in its body frame (m)
@@ -167,12 +183,35 @@ def arrays(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     f += 3 * nb
     inertia = floats[f : f + 9 * nb].reshape((nb, 3, 3))
     f += 9 * nb
+    armature = floats[f : f + nb]
+    f += nb
+    damping = floats[f : f + nb]
+    f += nb
+    friction = floats[f : f + nb]
+    f += nb
     subtree_mass = floats[f : f + nb]
     f += nb
     total_mass = floats[f]
     ee_point = floats[f + 1 : f + 1 + 3 * ne].reshape((ne, 3))
     return Arrays(
-        parent, ancestor, ee_body, origin, place, place_k, place_k2, axis, prismatic, mass, com, inertia, subtree_mass, total_mass, ee_point
+        parent,
+        ancestor,
+        ee_body,
+        origin,
+        place,
+        place_k,
+        place_k2,
+        axis,
+        prismatic,
+        mass,
+        com,
+        inertia,
+        armature,
+        damping,
+        friction,
+        subtree_mass,
+        total_mass,
+        ee_point,
     )
 
 

@@ -60,6 +60,7 @@ from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, pieces
 from ._inputs import _attitude, _joints, _rotate, _vector, _velocity, check_method, revolute_only
+from ._recursions import FRICTION_SPEED
 from .forces import _actuation_0, _actuation_vector, _engine_wrenches, _generalized_forces_0, _wrenches
 from .jacobians import actuation_jacobian
 from .kinematics import _rotations, _slides
@@ -69,6 +70,7 @@ __all__ = [
     "forward_dynamics",
     "inverse_dynamics",
     "nonlinear_forces",
+    "passive_torque",
     "point_bias_acceleration",
     "spacecraft_fixed_dynamics",
     "system_inertia_matrix_rate",
@@ -181,7 +183,7 @@ def nonlinear_forces(model: Model, q: Any, velocity: Any, *, method: str = "recu
     q = _joints(model, q, "q")
     v = _velocity(model, velocity)
     if method == "recursive":
-        rows = _engine.residual_rows(model, q, v)
+        rows = _engine.residual_rows(model.without_passive(), q, v)  # the engine counts passive torques in Q
         out = np.zeros((*rows.shape[:-1], 6 + model.n_joints))
         out[..., 3:] = rows
         return out
@@ -368,6 +370,8 @@ def forward_dynamics(
             raise SingularConfigurationError("H+ (1991 eq. 15)", float(np.min(np.linalg.det(h))), "the mass properties are not physical")
         return acc
     q_0 = _generalized_forces_0(model, q, joint_torque, spacecraft_force, spacecraft_torque, _wrenches(external), t0)
+    if model.has_passive:
+        q_0 = _plus_joint_rows(q_0, passive_torque(model, v[..., 6:]))
     batch = np.broadcast_shapes(q.shape[:-1], v.shape[:-1], q_0.shape[:-1])
     out = np.empty((*batch, 6 + model.n_joints))
     out[..., 0:3] = _rotate(t0, q_0[..., 0:3]) / model.total_mass
@@ -408,7 +412,23 @@ def inverse_dynamics(
     wrenches = _wrenches(external)
     if wrenches:
         total = total - _generalized_forces_0(model, q, None, None, None, wrenches, t0)
+    if method == "barycentric" and model.has_passive:  # the engine's rows count them already
+        total = _plus_joint_rows(total, -passive_torque(model, v[..., 6:]))
     return _actuation_0(model, q, total)
+
+
+def _plus_joint_rows(total: np.ndarray, joint_rows: np.ndarray) -> np.ndarray:
+    """total (..., 6 + N) plus ``joint_rows`` (..., N) on its joint rows, broadcast."""
+    return total + np.concatenate([np.zeros((*joint_rows.shape[:-1], 6)), joint_rows], axis=-1)
+
+
+def passive_torque(model: Model, qdot: Any) -> np.ndarray:
+    """The joints' passive torques (..., N) at the joint rates ``qdot`` (N m, N for a prismatic joint): viscous damping
+    -d qdot and smooth Coulomb friction -F tanh(qdot / v_s), with d = ``model.joint_damping``, F = ``model.joint_friction``
+    and v_s = :data:`FRICTION_SPEED` (0.01 rad/s or m/s). The reference form in numpy; the engine adds the same torques
+    in its Newton-Euler rows (:func:`~._recursions.newton_euler`). They are internal: they change no momentum."""
+    qd = _joints(model, qdot, "qdot")
+    return -(model.joint_damping * qd + model.joint_friction * np.tanh(qd / FRICTION_SPEED))
 
 
 def spacecraft_fixed_dynamics(

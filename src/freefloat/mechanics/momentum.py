@@ -145,6 +145,7 @@ def _hplus_barycentric(model: Model, q: np.ndarray) -> np.ndarray:
         block[:, 3:, :] += np.swapaxes(col, 1, 2)
         energy = np.einsum("k,jk,lk->jl", model.mass, coef, coef)
         block[:, 3:, 3:] += energy[None] * np.einsum("cjx,clx->cjl", axes, axes)
+    out[:, 6:, 6:] += np.diag(model.joint_armature)  # each joint's rotor inertia (Model.joint_armature), its diagonal alone
     return out
 
 

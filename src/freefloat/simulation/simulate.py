@@ -106,6 +106,19 @@ def _plain_torques(raw: np.ndarray) -> bool:
     return not values or (math.isfinite(sum(values)) and max(values) <= MAX_EFFORT and min(values) >= -MAX_EFFORT)
 
 
+#: What ``simulate(passive=...)`` and ``rollout(passive=...)`` accept.
+PASSIVE = ("model", "ignore")
+
+
+def _passive_model(model: Model, passive: Any) -> Model:
+    """The model a run simulates: ``model``, or without its joints' damping and friction for ``passive="ignore"``."""
+    if not isinstance(model, Model):
+        raise TypeError(f"model: expected a freefloat.Model, got {type(model).__name__}")
+    if not isinstance(passive, str) or passive not in PASSIVE:
+        raise ValueError(f"passive: {passive!r} is not one of {', '.join(map(repr, PASSIVE))} (the joints' damping and friction)")
+    return model if passive == "model" else model.without_passive()
+
+
 def _call_controller(controller: Controller, model: Model, t: float, x: np.ndarray, batch: tuple[int, ...]) -> tuple[np.ndarray, ...]:
     """Evaluate the controller at (t, x); any failure becomes a SimulationError that says when and what."""
     try:
@@ -139,6 +152,7 @@ def simulate(
     joint_limits: str = "stop",
     restitution: float = 0.0,
     max_wall_time: float | str | None = None,
+    passive: str = "model",
 ) -> Trajectory:
     """Simulate ``model`` from ``initial_state`` for ``duration`` seconds.
 
@@ -166,6 +180,12 @@ def simulate(
     ``traj.joint_limit_events``; ``"flag"`` applies no stops and records each
     span of time beyond a limit there instead (``traj.joint_limits_violated``).
 
+    ``passive``: ``"model"`` (default) applies the joints' passive torques the model has (viscous damping and smooth
+    Coulomb friction, ``model.joint_damping`` / ``joint_friction``: :func:`freefloat.mechanics.passive_torque`);
+    ``"ignore"`` simulates without them (the paper systems have none). The energy they dissipate is
+    ``traj.dissipated_energy``; being internal torques, they change no momentum. The rotors' inertia
+    (``model.joint_armature``) is inertia, always modelled.
+
     Runs cannot hang unnoticed:
 
     - before the run, its steps, samples, outputs and wall time are estimated
@@ -190,6 +210,7 @@ def simulate(
     """
     if not isinstance(initial_state, State):
         raise TypeError(f"initial_state: expected a freefloat.State, got {type(initial_state).__name__}")
+    model = _passive_model(model, passive)
     state = initial_state.resolve(model)
     if np.asarray(state.q).ndim != 1:
         raise ShapeError("initial_state: simulate takes one state; use freefloat.rollout for a batch of states")
@@ -306,6 +327,7 @@ def rollout(
     limits: ActuatorLimits | None = None,
     external: Any = (),
     progress: bool | Callable[[float, float], Any] | None = None,
+    passive: str = "model",
 ) -> Trajectory:
     """Simulate a batch of initial states at once with fixed-step RK4.
 
@@ -326,12 +348,15 @@ def rollout(
     limit is recorded in ``joint_limit_events`` (``kind == "violation"``,
     with the ``trajectory`` index).
 
+    ``passive`` as in :func:`simulate` (the joints' damping and friction: ``"model"`` or ``"ignore"``).
+
     ``progress`` as in :func:`simulate` (a bar once the run has lasted 2 s, True, False, or a
     callable ``progress(t, duration)``; for a compiled rollout, t is the duration times the
     fraction of trajectories finished). Ctrl-C returns what was computed, with status
     ``"interrupted"``: the finished trajectories of a compiled rollout (in chunks of
     trajectories), or every trajectory up to the last step of a Python-controlled one.
     """
+    model = _passive_model(model, passive)
     state = initial_states.resolve(model)
     x = pack_state(state)
     if x.ndim != 2:

@@ -19,6 +19,7 @@ from ..core.conventions import attitude_matrix, euler321_from_matrix
 from ..core.model import Model
 from ..core.state import State
 from ..mechanics._arrays import computed_states
+from ..mechanics.dynamics import passive_torque
 from ..mechanics.kinematics import end_effector_positions, end_effector_rotations, point_positions
 from ..mechanics.momentum import angular_momentum, kinetic_energy
 
@@ -109,7 +110,9 @@ class Trajectory:
 
     @cached_property
     def angular_momentum(self) -> np.ndarray:
-        """Angular momentum about the system CM, inertial frame (T, 3)."""
+        """Angular momentum about the system CM, inertial frame (T, 3): of the bodies (rows [omega0] of H+ zdot0, 1992
+        eq. 12). It does not include the spin of the joints' rotors (``model.joint_armature``): that model, as MuJoCo's
+        and Pinocchio's armature, adds each rotor's inertia to its own joint and gives the spacecraft no reaction to it."""
         with computed_states():
             return angular_momentum(self._need_model(), self.q, self.velocity, attitude=self.attitude)
 
@@ -123,6 +126,22 @@ class Trajectory:
         """1/2 zdot0^T H+ zdot0 (T,)."""
         with computed_states():
             return kinetic_energy(self._need_model(), self.q, self.velocity)
+
+    @cached_property
+    def passive_torque(self) -> np.ndarray:
+        """The joints' passive torques at the output times (T, N) (T, B, N for a rollout): damping and friction
+        (:func:`freefloat.mechanics.passive_torque`; zeros for a model without, or a run with ``passive="ignore"``)."""
+        return passive_torque(self._need_model(), self.qdot)
+
+    @cached_property
+    def dissipated_energy(self) -> np.ndarray:
+        """Energy the joints' damping and friction have dissipated since the start (T,) (T, B for a rollout), J: the
+        integral of -passive_torque . qdot by the trapezoidal rule over the output times (exact to O(h^2) of the output
+        period h: record often for a tight balance). With it, kinetic energy + dissipated = initial kinetic energy +
+        the work of the actuators."""
+        power = -np.sum(self.passive_torque * self.qdot, axis=-1)
+        steps = 0.5 * (power[1:] + power[:-1]) * np.diff(self.t).reshape((-1,) + (1,) * (power.ndim - 1))
+        return np.concatenate([np.zeros_like(power[:1]), np.cumsum(steps, axis=0)], axis=0)
 
     @cached_property
     def end_effector_positions(self) -> np.ndarray:
