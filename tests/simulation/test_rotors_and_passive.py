@@ -20,6 +20,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import freefloat as ff
+from freefloat.core.errors import StiffGainsWarning
 from mechanics.test_specialise_dynamics import own_cache as own_cache  # the fixture
 from oracle.test_pinocchio_dynamics import PAPER_BOUND, paper_systems, run_case
 from oracle_checks import EXCEEDS
@@ -189,3 +190,37 @@ def test_specialised_kernels_with_rotors_damping_and_friction_equal_the_generic(
     assert len(calls) == 4, calls  # H+ and forward dynamics of both models ran specialised
     keys = {_specialise.structure_key(tree(m), "forward") for m in (model, zeros)}
     assert len(keys) == 2, "where the friction is zero is part of the structure"
+
+
+def test_fixed_steps_too_long_for_the_friction_are_refused_before_the_run() -> None:
+    """A light joint with strong friction: its rate near rest decays at (d + F / v_s) / m; RK4 steps longer than 2.785 over
+    that diverge, and the run says so before it starts, naming the joint."""
+    model = with_joints(random_tree(), np.random.default_rng(12))
+    friction = np.zeros(model.n_joints)
+    friction[-1] = 50.0
+    model = dataclasses.replace(model, joint_friction=friction)
+    state = ff.State(q=np.full(model.n_joints, 0.2))
+    with pytest.warns(StiffGainsWarning, match=rf"joint '{model.joint_names[-1]}' .* needs steps below"):
+        ff.simulate(model, state, 0.01, fixed_step=0.01, joint_limits="flag")
+    with pytest.warns(StiffGainsWarning, match="passive='ignore'"):
+        ff.rollout(model, ff.State(q=np.full((2, model.n_joints), 0.2)), 0.01, dt=0.01)
+    ff.simulate(model, state, 0.01, fixed_step=0.01, joint_limits="flag", passive="ignore")  # no warning without them
+
+
+def test_joint_parameters_from_the_builder_and_toml_files(tmp_path) -> None:
+    builder = ff.ModelBuilder("rotor")
+    builder.add_body("bus", mass=500.0, inertia=50.0)
+    builder.add_body("link", mass=5.0, inertia=[0.1, 0.2, 0.3], com=[0.5, 0, 0])
+    builder.add_joint("shoulder", parent="bus", child="link", armature=0.25, damping=1.5, friction=0.3)
+    model = builder.build()
+    assert (model.joint_armature[0], model.joint_damping[0], model.joint_friction[0]) == (0.25, 1.5, 0.3)
+    path = ff.save(model, tmp_path / "rotor.toml")
+    text = path.read_text()
+    assert "armature = 0.25" in text and "damping = 1.5" in text and "friction = 0.3" in text
+    again = ff.load(path)
+    for name in ("armature", "damping", "friction"):
+        assert np.array_equal(getattr(again, f"joint_{name}"), getattr(model, f"joint_{name}"))
+    bad = text.replace("damping = 1.5", 'damping = "lots"')
+    (tmp_path / "bad.toml").write_text(bad)
+    with pytest.raises(ff.ModelError, match=r"joints\[0\] \(shoulder\)\.damping: cannot read 'lots' as a number"):
+        ff.load(tmp_path / "bad.toml")

@@ -17,7 +17,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .errors import ModelError
-from .model import Model, _vector, check_inertia, check_mass, inertia_matrix
+from .model import JOINT_PASSIVE, Model, _vector, check_inertia, check_mass, inertia_matrix
 
 __all__ = ["BodySpec", "EndEffectorSpec", "JointSpec", "ModelBuilder"]
 
@@ -70,6 +70,9 @@ class JointSpec:
     axis: np.ndarray
     lower: float = -np.inf
     upper: float = np.inf
+    armature: float = 0.0
+    damping: float = 0.0
+    friction: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -158,6 +161,9 @@ class ModelBuilder:
         axis: Any = (0.0, 0.0, 1.0),
         type: str = "revolute",
         limits: Sequence[float] | None = None,
+        armature: float = 0.0,
+        damping: float = 0.0,
+        friction: float = 0.0,
     ) -> ModelBuilder:
         """Add a joint from ``parent`` to ``child``.
 
@@ -167,6 +173,9 @@ class ModelBuilder:
         frame and is normalised. ``type`` is ``revolute``, ``continuous`` (a revolute
         joint without limits), ``prismatic`` (the child slides along the axis; q in m) or
         ``fixed``; ``limits`` = (lower, upper) in rad (m for a prismatic joint).
+        The joint's own dynamics (``Model.joint_armature`` / ``joint_damping`` / ``joint_friction``): ``armature``
+        the rotor inertia reflected to the joint (kg m², kg when prismatic: with a gear ratio n and a rotor
+        inertia I_r about its axis, n² I_r), ``damping`` viscous (N m s/rad, N s/m), ``friction`` Coulomb (N m, N).
         """
         index = len(self._joints)
         path = f"joints[{index}] ({name})"
@@ -208,6 +217,7 @@ class ModelBuilder:
                 axis=axis_vec / norm if norm > 0 else axis_vec,
                 lower=lower,
                 upper=upper,
+                **{key: _joint_value(value, f"{path}.{key}", what) for key, value, what in _passive_values(armature, damping, friction)},
             )
         )
         return self
@@ -241,6 +251,23 @@ class ModelBuilder:
 
             model = dataclasses.replace(model, corrections=tuple(dict(c) for c in corrections))
         return model
+
+
+def _passive_values(armature: Any, damping: Any, friction: Any) -> list[tuple[str, Any, str]]:
+    return [(name, value, JOINT_PASSIVE[name]) for name, value in (("armature", armature), ("damping", damping), ("friction", friction))]
+
+
+def _joint_value(value: Any, path: str, what: str) -> float:
+    """A joint parameter >= 0 (a number), or an error naming it."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        raise ModelError(path, f"cannot read {value!r} as a number", f"give the {what}")
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise ModelError(path, f"cannot read {value!r} as a number", f"give the {what}") from None
+    if not (np.isfinite(number) and number >= 0.0):
+        raise ModelError(path, f"is {number}", f"give the {what}, finite and >= 0")
+    return number
 
 
 def _close(name: str, known: Sequence[str]) -> str:
@@ -404,5 +431,8 @@ def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], s
         end_effector_point=np.asarray(ee_point, dtype=float).reshape(-1, 3),
         source=source,
         joint_type=tuple("prismatic" if j.type == "prismatic" else "revolute" for j in movable_joints),
+        joint_armature=[j.armature for j in movable_joints],
+        joint_damping=[j.damping for j in movable_joints],
+        joint_friction=[j.friction for j in movable_joints],
         end_effector_rule="named" if named else "leaves",
     )

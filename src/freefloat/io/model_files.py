@@ -35,7 +35,7 @@ from .mjcf import load_mjcf
 __all__ = ["load", "load_toml", "load_urdf", "save", "to_toml_dict", "to_urdf_string"]
 
 _BODY_KEYS = {"name", "mass", "inertia", "com", "end_effector", "end_effector_name", "frame"}
-_JOINT_KEYS = {"name", "type", "parent", "child", "origin", "rpy", "axis", "limits"}
+_JOINT_KEYS = {"name", "type", "parent", "child", "origin", "rpy", "axis", "limits", "armature", "damping", "friction"}
 _TOP_KEYS = {"name", "description", "bodies", "joints", "end_effectors", "corrections"}
 _CORRECTION_KEYS = {"body", "field", "given", "why"}
 _EE_KEYS = {"name", "body", "point"}
@@ -187,6 +187,9 @@ def from_dict(data: dict[str, Any], source: str = "", *, end_effectors: EndEffec
             axis=joint.get("axis", (0.0, 0.0, 1.0)),
             type=joint.get("type", "revolute"),
             limits=joint.get("limits"),
+            armature=joint.get("armature", 0.0),
+            damping=joint.get("damping", 0.0),
+            friction=joint.get("friction", 0.0),
         )
     named = end_effector_specs(end_effectors, source)
     if not named:
@@ -299,6 +302,10 @@ def to_toml_dict(model: Model) -> dict[str, Any]:
             }
             if joint["type"] != "continuous" and (np.isfinite(model.joint_lower[j]) or np.isfinite(model.joint_upper[j])):
                 joint["limits"] = [float(model.joint_lower[j]), float(model.joint_upper[j])]
+            for key in ("armature", "damping", "friction"):
+                value = float(getattr(model, f"joint_{key}")[j])
+                if value != 0.0:
+                    joint[key] = value
             joints.append(joint)
     for body, joint in frames:
         bodies.append(body)

@@ -244,6 +244,41 @@ def check_pd_gains(model: Model, controller: Any, q0: np.ndarray, period: float 
     return lines
 
 
+#: RK4's stability limit on the negative real axis: a decay rate c (1/s) is integrated stably by steps dt with c dt below it.
+RK4_REAL_LIMIT = 2.785
+
+
+def check_passive_step(model: Model, q0: np.ndarray, step: float | None) -> list[str]:
+    """Warn (:class:`StiffGainsWarning`) where fixed RK4 steps of ``step`` s cannot follow a joint's damping or friction.
+
+    Near rest the smooth friction acts as a damping of F / v_s (:data:`~freefloat.mechanics._recursions.FRICTION_SPEED`);
+    with the joint's viscous damping d and its effective inertia m (the diagonal of
+    :func:`~freefloat.mechanics.free_floating_joint_inertia` at ``q0``), the joint's rate decays at c = (d + F / v_s) / m,
+    and RK4 needs c step < :data:`RK4_REAL_LIMIT`. Returns the messages (one per offending joint).
+    """
+    from ..mechanics._recursions import FRICTION_SPEED
+
+    if step is None or model.n_joints == 0 or not model.has_passive:
+        return []
+    m = np.diagonal(free_floating_joint_inertia(model, q0))
+    rate = (model.joint_damping + model.joint_friction / FRICTION_SPEED) / m
+    lines = [
+        f"joint {model.joint_names[i]!r} (effective inertia {m[i]:.3g}, damping {model.joint_damping[i]:.3g}, friction "
+        f"{model.joint_friction[i]:.3g}: its rate decays at {rate[i]:.3g} 1/s) needs steps below {RK4_REAL_LIMIT / rate[i]:.3g} s"
+        for i in np.argsort(-rate)
+        if rate[i] * step >= RK4_REAL_LIMIT
+    ]
+    if lines:
+        warnings.warn(
+            f"RK4 steps of {step:.3g} s cannot follow the joints' damping and friction: " + "; ".join(lines) + ". Take shorter "
+            "steps, use the adaptive integrator (no fixed_step), or simulate without them (passive='ignore'); the run will "
+            "diverge.",
+            StiffGainsWarning,
+            stacklevel=3,
+        )
+    return lines
+
+
 class Progress:
     """Progress of a run: ``mode`` True (a bar at once), None (a bar once the run has lasted
     :data:`PROGRESS_DELAY` s), False (none), or a callable ``callback(t, duration)`` called each

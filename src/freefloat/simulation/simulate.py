@@ -41,6 +41,7 @@ from ._guard import (
     DivergenceGuard,
     Progress,
     _derivative_cost,
+    check_passive_step,
     check_pd_gains,
     estimate_run,
 )
@@ -256,6 +257,7 @@ def simulate(
             )
     h = sample_period or fixed_step
     check_pd_gains(model, controller, np.asarray(state.q, dtype=float), h)
+    check_passive_step(model, np.asarray(state.q, dtype=float), fixed_step)
     pd = controller if not external else None  # the energy test of a joint PD holds without external wrenches
     what = "controller sample" if sample_period else "RK4 step"
     guard = DivergenceGuard(model, x0, min(duration, period), h, what, divergence_guard, pd, wall_limit, duration)
@@ -365,6 +367,7 @@ def rollout(
     limits = limits or ActuatorLimits()
     duration, dt = _positive("duration", duration), _positive("dt", dt)
     steps = round(float(duration) / dt)
+    check_passive_step(model, x[0, 13 : 13 + model.n_joints], dt)  # at the first trajectory's angles
     if steps <= 0 or abs(steps * dt - duration) > 1e-9 * duration:
         raise ValueError(f"dt: {dt} must divide duration {duration}")
     for name, value in (("sample_period", sample_period), ("output_period", output_period)):
