@@ -189,6 +189,8 @@ class Model:
         joint_lower/upper (N,) joint limits in rad or m (±inf when none)
         end_effector_rule "named" (the model file or builder named them) or "leaves" (every leaf)
         corrections       every change made to the given data when loading (see ``ff.load``)
+        unmodelled        every element of the file that acts on the dynamics and that freefloat
+                          dropped (``freefloat.io.unmodelled``): where, element, effect, items
         mass, com, inertia  per body; inertia about the CM
         end_effector_body, end_effector_point  (E,), (E, 3)
     """
@@ -213,6 +215,7 @@ class Model:
     joint_type: tuple[str, ...] = ()
     end_effector_rule: str = "leaves"
     corrections: tuple[dict[str, Any], ...] = ()
+    unmodelled: tuple[dict[str, Any], ...] = ()
     # derived at build time
     total_mass: float = field(init=False)
     subtree: np.ndarray = field(init=False, repr=False)
@@ -387,6 +390,7 @@ class Model:
             joint_type=self.joint_type,
             end_effector_rule=self.end_effector_rule,
             corrections=self.corrections,
+            unmodelled=self.unmodelled,
         )
 
     def __repr__(self) -> str:
