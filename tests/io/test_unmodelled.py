@@ -151,12 +151,14 @@ def test_mjcf_one_warning_lists_every_joint(tmp_path: Path) -> None:
 
 def test_mjcf_with_only_ignored_elements_loads_without_a_word(tmp_path: Path) -> None:
     """Geometry, contacts, cameras, lights, Earth's gravity, gravity compensation, control ranges, limit softness,
-    a joint motor with gear 1, sensors and keyframes: no effect on freefloat's dynamics, no warning."""
+    a joint motor with gear 1, an actuator's gain and activation dynamics, sensors and keyframes: no effect on
+    freefloat's dynamics, no warning."""
     path = mjcf(
         tmp_path,
         joint_attrs='range="-1 1" solreflimit="0.05 1" margin="0.01" actuatorfrcrange="-50 50" damping="0" armature="0"',
         body='<geom type="sphere" size="0.05" contype="1" conaffinity="1" friction="0.5"/><camera name="wrist_cam"/>',
-        after="""<actuator><motor name="m1" joint="shoulder" gear="1" ctrlrange="-10 10" forcerange="-20 20"/></actuator>
+        after="""<actuator><motor name="m1" joint="shoulder" gear="1" ctrlrange="-10 10" forcerange="-20 20"/>
+    <general name="g2" joint="elbow" gainprm="5" dyntype="filter" dynprm="0.1"/></actuator>
   <sensor><jointpos joint="elbow"/></sensor>
   <contact><exclude body1="bus" body2="fore"/></contact>
   <keyframe><key name="home" qpos="0 0 0 1 0 0 0 0.1 0.2"/></keyframe>""",

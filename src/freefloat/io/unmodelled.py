@@ -125,6 +125,13 @@ ELEMENTS: tuple[Element, ...] = (
     Element("mjcf.visual", "MJCF", "<camera>, <light>, <material>, <texture>, <visual>", IGNORED, "rendering"),
     Element("mjcf.actuator.range", "MJCF", "<actuator ctrlrange forcerange>, <joint actuatorfrcrange>", IGNORED, "control bounds"),
     Element("mjcf.actuator.motor", "MJCF", "<motor> on a joint with gear 1", IGNORED, "a joint torque, freefloat's input"),
+    Element(
+        "mjcf.actuator.gain",
+        "MJCF",
+        "<actuator> gain and activation dynamics (gainprm, dyntype)",
+        IGNORED,
+        "the map from control signal to actuator force: a controller's concern",
+    ),
     Element("mjcf.gravity", "MJCF", "<option gravity>, <body gravcomp>", IGNORED, "a free-floating robot in orbit is weightless"),
     Element("mjcf.limit.softness", "MJCF", "<joint solreflimit solimplimit margin>", IGNORED, "the softness of the limit constraint"),
     Element("mjcf.option", "MJCF", "<option timestep integrator>, <flag>, <size>", IGNORED, "simulator settings"),
