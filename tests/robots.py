@@ -5,6 +5,7 @@ a 500 kg spacecraft link is added as the new root, holding the robot's root link
 joint 0.5 m above its frame origin, and ``<mimic>`` elements are removed (freefloat refuses
 mimic joints with a clear error, tests/io/test_model_corrections.py; Pinocchio's URDF parser,
 by default, also treats them as independent joints). A missing package fails the tests.
+``load_real`` loads one and checks what freefloat drops from it, with a warning: ``UNMODELLED``.
 """
 
 from __future__ import annotations
@@ -12,6 +13,12 @@ from __future__ import annotations
 import xml.etree.ElementTree as ElementTree
 from importlib.metadata import distribution
 from pathlib import Path
+from typing import Any
+
+import pytest
+
+import freefloat as ff
+from freefloat.core.errors import UnmodelledElementWarning
 
 ROBOTS = Path(str(distribution("example-robot-data").locate_file("cmeel.prefix/share/example-robot-data/robots")))
 
@@ -22,6 +29,30 @@ REAL_ROBOTS: dict[str, tuple[str, list[str] | None]] = {
     "panda": ("panda_description/urdf/panda.urdf", ["panda_hand_tcp"]),
     "baxter": ("baxter_description/urdf/baxter.urdf", ["left_gripper", "right_gripper"]),
 }
+
+#: name -> the elements of its file that act on the dynamics and that freefloat drops, each with an
+#: UnmodelledElementWarning (docs/model-files.md, "What is read, ignored and dropped"): the Kinova's
+#: 160:1 gear reductions, the Panda's and Baxter's joint damping. The UR5's are all neutral.
+UNMODELLED: dict[str, tuple[str, ...]] = {
+    "ur5": (),
+    "kinova": ("URDF <transmission> <mechanicalReduction> other than 1",),
+    "panda": ("URDF <joint><dynamics damping>",),
+    "baxter": ("URDF <joint><dynamics damping>",),
+}
+
+
+def load_real(name: str, path: Path, **kwargs: Any) -> ff.Model:
+    """``ff.load(path, **kwargs)`` of the robot ``name`` (a file from :func:`spacecraft_urdf`), asserting that the
+    elements in ``UNMODELLED[name]``, and only those, warn and are recorded in ``Model.unmodelled``."""
+    expected = UNMODELLED[name]
+    if not expected:
+        model = ff.load(path, **kwargs)
+    else:
+        with pytest.warns(UnmodelledElementWarning) as caught:
+            model = ff.load(path, **kwargs)
+        assert len(caught) == len(expected) and all(e in str(w.message) for e, w in zip(expected, caught, strict=True))
+    assert tuple(u["element"] for u in model.unmodelled) == expected
+    return model
 
 
 def spacecraft_urdf(relative: str, directory: Path, *, keep_mimic: bool = False) -> Path:

@@ -105,6 +105,14 @@ BAD_FILES: dict[str, str | bytes] = {
     "no_parent.urdf": _edit(ARM, ('<parent link="spacecraft"/>', "")),
     "parent_without_link.urdf": _edit(ARM, ('<parent link="spacecraft"/>', "<parent/>")),
     "triangle.urdf": _edit(ARM, ('ixx="80"', 'ixx="10000"')),  # corrected with a warning; refused with --strict
+    "geared.urdf": _edit(  # dropped with a warning; refused with --strict
+        ARM,
+        (
+            "</robot>",
+            '<transmission name="t"><joint name="shoulder_yaw"/><actuator name="m"><mechanicalReduction>100'
+            "</mechanicalReduction></actuator></transmission></robot>",
+        ),
+    ),
     "model.obj": "v 0 0 0\n",
     "q_deg_short.toml": SIM.replace("q_deg = [0.0, 90.0, 180.0, -90.0]", "q_deg = [0.0, 90.0]"),
     "q_and_q_deg.toml": SIM.replace("q_deg = [0.0, 90.0, 180.0, -90.0]", "q_deg = [0.0, 90.0, 180.0, -90.0]\nq = [0, 0, 0, 0]"),
@@ -130,6 +138,7 @@ BAD_FILES: dict[str, str | bytes] = {
     "not_mujoco.xml": "<html><body>not a robot</body></html>",
     "ball.xml": _edit(MJCF, ('type="hinge"', 'type="ball"')),
     "huge_mass.xml": _edit(MJCF, ('mass="1"', 'mass="1e12"')),
+    "damped.xml": _edit(MJCF, ('type="hinge"', 'type="hinge" damping="0.5"')),  # dropped with a warning; refused with --strict
     "trajectory.csv": "t,q[a]\n0,0\n",
     "trajectory.npz": "not an npz file",
     "old.gif": b"GIF89a",  # an animation of the user's: --animate never replaces it
@@ -929,6 +938,12 @@ CASES = [
         r"huge_mass\.xml: bodies\[1\] \(a\)\.mass: 1e\+12 kg is above",
     ),
     api(
+        "load-strict-damping",
+        lambda f: ff.load(f / "damped.xml", strict=True),
+        ModelError,
+        r"damped\.xml: MJCF <joint damping>: is not modelled by freefloat \(viscous joint friction.*\): joint 'j' damping=0\.5; remove it",
+    ),
+    api(
         "load-massless-body", lambda f: ff.load(f / "massless.urdf"), ModelError, r"massless\.urdf: bodies \(spacecraft\)\.mass: a massless"
     ),
     api(
@@ -1213,6 +1228,8 @@ CASES += [
         ("ets7", "ets7", r"MODEL 'ets7': is a built-in model whose published data needed 3 correction\(s\) .*which strict refuses"),
         ("triangle", "{files}/triangle.urdf", r"triangle\.urdf: link\[0\] \(spacecraft\)\.inertia: violates the triangle inequality"),
         ("no-limit", "{files}/no_limit.urdf", r"no_limit\.urdf: joint\[0\] \(shoulder_yaw\)\.limit: a revolute joint without <limit>"),
+        ("damping", "{files}/damped.xml", r"damped\.xml: MJCF <joint damping>: is not modelled by freefloat .*joint 'j' damping=0\.5"),
+        ("gear", "{files}/geared.urdf", r"geared\.urdf: URDF <transmission> .*: is not .*'shoulder_yaw'\) mechanicalReduction=100"),
     )
 ]
 _SIM = f"simulate {SCENARIO} --out out"

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 import freefloat as ff
 from freefloat.mechanics import _drivers
-from robots import REAL_ROBOTS, spacecraft_urdf
+from robots import REAL_ROBOTS, load_real, spacecraft_urdf
 from trees import random_trees
 
 #: Agreement with numpy relative to each value (numpy's smallest singular value refined, see numpy_measure).
@@ -77,7 +77,7 @@ def panda() -> ff.Model:
 
     relative, ees = REAL_ROBOTS["panda"]
     with tempfile.TemporaryDirectory() as folder:
-        return ff.load(spacecraft_urdf(relative, Path(folder)), end_effectors=ees)
+        return load_real("panda", spacecraft_urdf(relative, Path(folder)), end_effectors=ees)
 
 
 @pytest.mark.parametrize("size", SIZES)

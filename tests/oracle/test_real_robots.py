@@ -17,12 +17,11 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-import freefloat as ff
 from freefloat.io.oracles import pinocchio_root_joint
 from oracle.test_pinocchio_core import PinocchioSystem, compare
 from oracle.test_pinocchio_dynamics import run_urdf_case
 from oracle_checks import MARGIN
-from robots import REAL_ROBOTS, spacecraft_urdf
+from robots import REAL_ROBOTS, load_real, spacecraft_urdf
 
 #: Agreement with Pinocchio: the worst relative error max |ours - ref| / max |ref| over the four robots, of
 #: ``compare`` (8.4e-15, the Kinova's angular momentum) and of ``run_urdf_case`` (2.9e-13, the Kinova's free-floating
@@ -37,7 +36,7 @@ DYNAMICS_BOUND = MARGIN * MEASURED_DYNAMICS
 def test_real_robot_matches_pinocchio(name: str, tmp_path: Path) -> None:
     relative, tools = REAL_ROBOTS[name]
     path = spacecraft_urdf(relative, tmp_path)
-    model = ff.load(path, end_effectors=tools)
+    model = load_real(name, path, end_effectors=tools)
     assert model.end_effector_rule == "named" and model.end_effector_names == tuple(tools or ())
     assert model.body_names[0] == "spacecraft"
     pm = pin.buildModelFromUrdf(str(path), pinocchio_root_joint())
@@ -57,6 +56,6 @@ def test_real_robot_matches_pinocchio(name: str, tmp_path: Path) -> None:
 def test_unnamed_end_effectors_keep_every_leaf(tmp_path: Path) -> None:
     """Without names, every leaf link is an end effector (today's rule), and the model says so."""
     path = spacecraft_urdf(REAL_ROBOTS["baxter"][0], tmp_path)
-    model = ff.load(path)
+    model = load_real("baxter", path)
     assert model.end_effector_rule == "leaves"
     assert model.n_end_effectors > 20  # cameras, sonar, visual frames...: why users name theirs

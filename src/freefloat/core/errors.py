@@ -23,6 +23,7 @@ __all__ = [
     "SingularConfigurationError",
     "StiffGainsWarning",
     "UnknownNameError",
+    "UnmodelledElementWarning",
 ]
 
 
@@ -75,6 +76,14 @@ class ModelCorrectionWarning(UserWarning):
 
     Every correction is also recorded in ``Model.corrections``. Turn these into errors with
     ``ff.load(path, strict=True)`` (or ``warnings.simplefilter("error", ModelCorrectionWarning)``).
+    """
+
+
+class UnmodelledElementWarning(ModelCorrectionWarning):
+    """A loaded model file has an element that acts on free-floating dynamics but that freefloat does not model
+    (joint damping, a gear ratio, a tendon, ...): it was dropped. The message names the element and every joint,
+    actuator ... it concerns; ``Model.unmodelled`` records it; ``ff.load(path, strict=True)`` refuses the file
+    instead. Which elements are modelled, ignored or dropped: :data:`freefloat.io.unmodelled.ELEMENTS`.
     """
 
 

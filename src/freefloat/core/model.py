@@ -221,6 +221,8 @@ class Model:
                           (:mod:`freefloat.simulation.passive`)
         end_effector_rule "named" (the model file or builder named them) or "leaves" (every leaf)
         corrections       every change made to the given data when loading (see ``ff.load``)
+        unmodelled        every element of the file that acts on the dynamics and that freefloat
+                          dropped (``freefloat.io.unmodelled``): where, element, effect, items
         mass, com, inertia  per body; inertia about the CM
         end_effector_body, end_effector_point  (E,), (E, 3)
     """
@@ -248,6 +250,7 @@ class Model:
     joint_armature: Any = None
     joint_damping: Any = None
     joint_friction: Any = None
+    unmodelled: tuple[dict[str, Any], ...] = ()
     # derived at build time
     total_mass: float = field(init=False)
     subtree: np.ndarray = field(init=False, repr=False)

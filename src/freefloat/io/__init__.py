@@ -1,6 +1,7 @@
 """Reading and writing models, and the bridges to other engines.
 
 - :mod:`.model_files`: TOML and URDF model files (:func:`load`, :func:`save`, :func:`read_toml`).
+- :mod:`.unmodelled`: which elements of a URDF or MJCF file are modelled, ignored or dropped with a warning.
 - :mod:`.mujoco_bridge`: a model and state in MuJoCo (MJCF), imported on demand.
 - :mod:`.oracles`: a model and state in Pinocchio, for the cross-checks; imported on demand.
 

@@ -14,7 +14,11 @@ compiled ``MjModel`` is then read into a :class:`~freefloat.Model`:
   body's; non-physical inertias get the same treatment as in URDF files (warning or ``strict``);
 * ``range`` of limited joints become joint limits (rad, m);
 * end effectors: the sites or bodies named in ``end_effectors=``; else every site on a leaf body
-  (``end_effector_rule = "leaf sites"``); else, when no leaf has a site, every leaf body.
+  (``end_effector_rule = "leaf sites"``); else, when no leaf has a site, every leaf body;
+* what acts on the dynamics but is not modelled (joint damping, armature, tendons, gear ratios, ...:
+  :data:`freefloat.io.unmodelled.ELEMENTS`) is dropped with an ``UnmodelledElementWarning`` and
+  recorded in ``Model.unmodelled`` (``strict``: an error); geometry, cameras, lights, gravity and
+  control ranges are ignored.
 
 MuJoCo is an optional dependency for this reader: ``pip install "freefloat[mjcf]"``.
 """
@@ -33,6 +37,7 @@ from ..core.builder import ModelBuilder
 from ..core.errors import ModelError
 from ..core.model import Model
 from ._readers import EndEffectors, end_effector_specs, naming_file, physical_inertia
+from .unmodelled import mjcf_unmodelled, report_unmodelled
 
 __all__ = ["from_mjmodel", "load_mjcf"]
 
@@ -157,8 +162,9 @@ def from_mjmodel(mj: Any, source: str = "", *, end_effectors: EndEffectors = Non
         else:
             builder.add_end_effector(name, body=target, point=point)  # the builder names the unknown body, with suggestions
     model = builder.build(source=source, corrections=corrections)
-    if rule is not None:
+    unmodelled = report_unmodelled(mjcf_unmodelled(mj), where, strict)
+    if rule is not None or unmodelled:
         import dataclasses
 
-        model = dataclasses.replace(model, end_effector_rule=rule)
+        model = dataclasses.replace(model, end_effector_rule=rule or model.end_effector_rule, unmodelled=unmodelled)
     return model

@@ -11,11 +11,15 @@ Real files have flaws: a link inertia that is not physical is, by default, repla
 nearest physical one with a :class:`~freefloat.core.errors.ModelCorrectionWarning` that names
 the link, the defect and the size of the change, and recorded in ``Model.corrections``;
 ``strict=True`` makes each such defect the clear error it was. Point masses and zero inertias
-of small links are accepted when the whole model is physical (H+ positive definite).
+of small links are accepted when the whole model is physical (H+ positive definite). What acts on
+the dynamics but is not modelled (``<dynamics damping>``, a ``<mechanicalReduction>``, ...:
+:data:`freefloat.io.unmodelled.ELEMENTS`) is dropped with an ``UnmodelledElementWarning`` and
+recorded in ``Model.unmodelled`` (``strict``: an error).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import tomllib
 import warnings
@@ -31,6 +35,7 @@ from ..core.errors import ModelCorrectionWarning, ModelError
 from ..core.model import Model, resolve_model
 from ._readers import EndEffectors, end_effector_specs, naming_file, physical_inertia
 from .mjcf import load_mjcf
+from .unmodelled import report_unmodelled, urdf_unmodelled
 
 __all__ = ["load", "load_toml", "load_urdf", "save", "to_toml_dict", "to_urdf_string"]
 
@@ -351,7 +356,9 @@ def load_urdf(path: str | Path, *, end_effectors: EndEffectors = None, strict: b
             )
     except Exception as exc:  # yourdfpy and lxml raise many types for bad XML
         raise ModelError(str(path), f"malformed URDF: {type(exc).__name__}: {exc}", "fix the file so that it is valid URDF XML") from None
-    return naming_file(path, lambda: from_urdf_robot(urdf.robot, source=str(path), end_effectors=end_effectors, strict=strict))
+    model = naming_file(path, lambda: from_urdf_robot(urdf.robot, source=str(path), end_effectors=end_effectors, strict=strict))
+    unmodelled = report_unmodelled(urdf_unmodelled(tree.getroot()), str(path), strict)
+    return dataclasses.replace(model, unmodelled=unmodelled) if unmodelled else model
 
 
 # What yourdfpy reads as numbers: element tag -> {attribute: how many numbers (0: one or more)}; box sizes and mesh

@@ -56,6 +56,8 @@ def model_info(model: Model) -> dict[str, Any]:
       sites on leaf bodies) or "leaves" (every leaf body, when nothing is named);
     - ``corrections``: every change the loader made to the file's data (where, defect, what was
       used instead, size of the change);
+    - ``unmodelled``: every element of the file that acts on the dynamics and that the loader
+      dropped (where, element, effect, items: the joints, actuators ... it concerns);
     - ``end_effectors``: index, name, body, point (m, body frame), r_star
       (barycenter of the body -> end-effector point, m, body frame, 1992 eq. 10);
     - ``bodies``: index, name, mass (kg), cm (m, body frame), inertia (3x3
@@ -148,6 +150,7 @@ def model_info(model: Model) -> dict[str, Any]:
         "payloads": payloads,
         "end_effector_rule": model.end_effector_rule,
         "corrections": [_jsonable(c) for c in model.corrections],
+        "unmodelled": [_jsonable(u) for u in model.unmodelled],
         "joints": joints,
         "end_effectors": end_effectors,
         "bodies": bodies,
@@ -238,6 +241,7 @@ def _summary(info: dict[str, Any]) -> list[tuple[str, str]]:
         ("system CM at q = 0", f"[{', '.join(_num(x) for x in cm)}] m (spacecraft frame, from its origin)"),
         ("end effectors", _RULES.get(info.get("end_effector_rule", ""), str(info.get("end_effector_rule")))),
         ("corrections", f"{len(info.get('corrections', []))} (listed below)" if info.get("corrections") else "none"),
+        ("not modelled", f"{len(info.get('unmodelled', []))} kind(s) dropped (listed below)" if info.get("unmodelled") else "none"),
     ]
     kinds = [j.get("type", "revolute") for j in info["joints"]]
     if "prismatic" in kinds:
@@ -322,6 +326,21 @@ def _tables(info: dict[str, Any]) -> list[_Table]:
                 ("Load with strict=True (CLI: --strict) to refuse such data instead.",),
             )
         )
+    if info.get("unmodelled"):
+        tables.append(
+            _Table(
+                "Not modelled: dropped when loading",
+                ("#", "element", "effect", "found"),
+                tuple(
+                    (i, str(u.get("element", "")), str(u.get("effect", "")), "; ".join(u.get("items", [])))
+                    for i, u in enumerate(info["unmodelled"])
+                ),
+                (
+                    "These act on the dynamics of the robot in the file; freefloat's model leaves them out (docs/model-files.md).",
+                    "Load with strict=True (CLI: --strict) to refuse such files instead.",
+                ),
+            )
+        )
     return tables
 
 
@@ -351,7 +370,7 @@ def render_text(info: dict[str, Any]) -> str:
 
 
 def _md_escape(text: str) -> str:
-    return text.replace("\\", "\\\\").replace("|", "\\|").replace("*", "\\*")
+    return text.replace("\\", "\\\\").replace("|", "\\|").replace("*", "\\*").replace("<", "&lt;")
 
 
 def render_markdown(info: dict[str, Any], *, level: int = 2, description: str = "") -> str:

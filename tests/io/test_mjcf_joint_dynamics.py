@@ -1,0 +1,160 @@
+"""An MJCF two-arm robot whose joints carry rotor inertia, damping and friction (issue 21), against MuJoCo on the same file.
+
+The file (written here, realistic values: 0.01-0.05 kg m² of armature, 0.5-2 N m s/rad of damping, 0.1-0.4 N m
+of friction) loads with its ``armature``, ``damping`` and ``frictionloss`` read into ``Model.joint_armature``,
+``joint_damping`` and ``joint_friction``, and agrees with MuJoCo on the same file:
+
+* the kinetic energy 1/2 qvel^T M qvel (``mj_fullM``: MuJoCo adds the armature to M's diagonal);
+* forward dynamics: ``mj_forward``'s qacc with damping and without friction (MuJoCo's frictionloss is a
+  constraint, dry friction exact at rest; freefloat's is smooth, so friction is compared on its own law);
+* a 5 s simulation with damping, MuJoCo RK4 at 1 ms against ``ff.simulate`` (final joint angles, rad).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import mujoco  # an oracle: a missing one fails these tests
+import numpy as np
+import pytest
+
+import freefloat as ff
+from freefloat.io.mujoco_bridge import from_mujoco_state, mujoco_state
+from oracle_checks import MARGIN, assert_within, relative_error
+
+ARMS = """
+<mujoco model="two_arm_rotors">
+  <option gravity="0 0 0" timestep="0.001" integrator="RK4"/>
+  <worldbody>
+    <body name="bus" pos="0 0 0">
+      <freejoint name="root"/>
+      <inertial pos="0 0 0" mass="500" diaginertia="60 70 80"/>
+      {arm_a}
+      {arm_b}
+    </body>
+  </worldbody>
+  <actuator>
+    {motors}
+  </actuator>
+</mujoco>
+"""
+
+ARM = """
+      <body name="{p}upper" pos="{x} 0.4 0.5" euler="0 0 {yaw}">
+        <joint name="{p}shoulder" type="hinge" axis="0 0 1" armature="0.05" damping="2.0"{f1}/>
+        <inertial pos="0.35 0 0" mass="6" diaginertia="0.02 0.25 0.25"/>
+        <body name="{p}fore" pos="0.7 0 0">
+          <joint name="{p}elbow" type="hinge" axis="0 1 0" armature="0.03" damping="1.2"{f2}/>
+          <inertial pos="0.3 0 0" mass="4" diaginertia="0.01 0.12 0.12"/>
+          <body name="{p}hand" pos="0.6 0 0">
+            <joint name="{p}wrist" type="hinge" axis="1 0 0" armature="0.01" damping="0.5"{f3}/>
+            <inertial pos="0.05 0 0" mass="1.5" diaginertia="0.004 0.003 0.003"/>
+            <site name="{p}tool" pos="0.1 0 0"/>
+          </body>
+        </body>
+      </body>
+"""
+
+JOINTS = [f"{p}{j}" for p in ("a_", "b_") for j in ("shoulder", "elbow", "wrist")]
+#: Agreement with MuJoCo on this file, measured 2026-11-26 (MuJoCo 4.0.0): see each test.
+ENERGY_MEASURED = 1.0e-15
+FORWARD_MEASURED = 1.0e-14
+
+
+def write(tmp_path: Path, *, friction: bool = True) -> Path:
+    """The two-arm file; ``friction`` False leaves the joints' ``frictionloss`` out."""
+    losses = {f"f{i}": f' frictionloss="{value}"' if friction else "" for i, value in enumerate((0.4, 0.25, 0.1), start=1)}
+    arms = [ARM.format(p="a_", x=0.6, yaw=0.3, **losses), ARM.format(p="b_", x=-0.6, yaw=2.8, **losses)]
+    text = ARMS.format(arm_a=arms[0], arm_b=arms[1], motors="".join(f'<motor joint="{j}" gear="1"/>' for j in JOINTS))
+    path = tmp_path / ("arms.xml" if friction else "arms_no_friction.xml")
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def order(mj: mujoco.MjModel, model: ff.Model) -> tuple[list[int], list[int]]:
+    return [mj.joint(n).qposadr[0] for n in model.joint_names], [mj.joint(n).dofadr[0] for n in model.joint_names]
+
+
+def test_the_joint_parameters_are_read(tmp_path: Path) -> None:
+    model = ff.load(write(tmp_path))
+    assert model.joint_names == tuple(JOINTS)
+    np.testing.assert_array_equal(model.joint_armature, [0.05, 0.03, 0.01] * 2)
+    np.testing.assert_array_equal(model.joint_damping, [2.0, 1.2, 0.5] * 2)
+    np.testing.assert_array_equal(model.joint_friction, [0.4, 0.25, 0.1] * 2)
+
+
+def test_kinetic_energy_and_forward_dynamics_agree_with_mujoco(tmp_path: Path) -> None:
+    path = write(tmp_path, friction=False)
+    model = ff.load(path)
+    assert not model.joint_friction.any() and model.joint_damping.all() and model.joint_armature.all()
+    mj = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(mj)
+    qadr, vadr = order(mj, model)
+    rng = np.random.default_rng(21)
+    worst_energy = worst_forward = 0.0
+    for _ in range(5):
+        state = ff.State(
+            q=rng.uniform(-1.0, 1.0, 6), qdot=rng.normal(size=6), omega=rng.normal(scale=0.05, size=3), v_cm=[0.1, 0.0, -0.05]
+        ).resolve(model)
+        qpos_s, qvel_s = mujoco_state(model, state)
+        data.qpos[0:7], data.qvel[0:6] = qpos_s[0:7], qvel_s[0:6]
+        data.qpos[qadr], data.qvel[vadr] = qpos_s[7:], qvel_s[6:]
+        data.ctrl[:] = 0.0
+        mujoco.mj_forward(mj, data)
+        full = np.zeros((mj.nv, mj.nv))
+        mujoco.mj_fullM(mj, data, full)
+        energy = 0.5 * data.qvel @ full @ data.qvel
+        worst_energy = max(worst_energy, abs(float(ff.kinetic_energy(model, state.q, state.velocity)) - energy) / energy)
+        ours = ff.forward_dynamics(model, state.q, state.velocity, attitude=state.attitude)
+        ref = np.concatenate([data.qacc[3:6], data.qacc[vadr]])  # the spacecraft's angular acceleration (its frame), qddot
+        worst_forward = max(worst_forward, relative_error("forward dynamics", ours[3:], ref))
+        # without its damping, the file's model gives other accelerations: the comparison sees the damping
+        bare = ff.forward_dynamics(model.without_passive(), state.q, state.velocity, attitude=state.attitude)
+        assert relative_error("without damping", bare[3:], ref) > 1e-3
+    assert_within("kinetic energy with armature vs mj_fullM", worst_energy, MARGIN * ENERGY_MEASURED)
+    assert_within("forward dynamics with armature and damping vs mj_forward", worst_forward, MARGIN * FORWARD_MEASURED)
+
+
+def test_five_seconds_with_damping_agree_with_mujoco(tmp_path: Path) -> None:
+    path = write(tmp_path, friction=False)
+    model = ff.load(path)
+    mj = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(mj)
+    qadr, vadr = order(mj, model)
+    state = ff.State(q=np.linspace(-0.8, 0.9, 6), qdot=np.linspace(1.5, -1.0, 6), omega=[0.01, 0.02, -0.03]).resolve(model)
+    qpos_s, qvel_s = mujoco_state(model, state)
+    data.qpos[0:7], data.qvel[0:6] = qpos_s[0:7], qvel_s[0:6]
+    data.qpos[qadr], data.qvel[vadr] = qpos_s[7:], qvel_s[6:]
+    for _ in range(5000):
+        mujoco.mj_step(mj, data)
+    qpos = np.concatenate([data.qpos[0:7], data.qpos[qadr]])
+    qvel = np.concatenate([data.qvel[0:6], data.qvel[vadr]])
+    final = from_mujoco_state(model, qpos, qvel)
+    traj = ff.simulate(model, state, 5.0, fixed_step=1e-3, joint_limits="flag")
+    error = float(np.abs(traj.q[-1] - final.q).max())
+    assert np.abs(traj.q[-1] - traj.q[0]).max() > 0.1, "the arms should move"
+    assert traj.dissipated_energy[-1] > 0.1 * traj.kinetic_energy[0], "the damping should take a good part of the energy"
+    assert error < 1e-6, error  # the issue's bound: final q to 1e-6 rad
+    undamped = ff.simulate(model, state, 5.0, fixed_step=1e-3, joint_limits="flag", passive="ignore")
+    assert np.abs(undamped.q[-1] - final.q).max() > 1e-3
+
+
+def test_armature_error_of_1e_7_is_seen_by_the_energy_bound(tmp_path: Path) -> None:
+    path = write(tmp_path, friction=False)
+    model = ff.load(path)
+    wrong = dataclasses.replace(model, joint_armature=model.joint_armature * (1.0 + 1e-7 * (np.arange(6) == 2)))
+    mj = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(mj)
+    qadr, vadr = order(mj, model)
+    state = ff.State(q=np.zeros(6), qdot=np.array([0.0, 0.0, 3.0, 0.0, 0.0, 0.0])).resolve(model)
+    qpos_s, qvel_s = mujoco_state(model, state)
+    data.qpos[0:7], data.qvel[0:6] = qpos_s[0:7], qvel_s[0:6]
+    data.qpos[qadr], data.qvel[vadr] = qpos_s[7:], qvel_s[6:]
+    mujoco.mj_forward(mj, data)
+    full = np.zeros((mj.nv, mj.nv))
+    mujoco.mj_fullM(mj, data, full)
+    energy = 0.5 * data.qvel @ full @ data.qvel
+    error = abs(float(ff.kinetic_energy(wrong, state.q, state.velocity)) - energy) / energy
+    with pytest.raises(AssertionError, match="exceeds its bound"):
+        assert_within("kinetic energy, armature wrong by 1e-7", error, MARGIN * ENERGY_MEASURED)
