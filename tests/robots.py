@@ -36,8 +36,8 @@ REAL_ROBOTS: dict[str, tuple[str, list[str] | None]] = {
 UNMODELLED: dict[str, tuple[str, ...]] = {
     "ur5": (),
     "kinova": ("URDF <transmission> <mechanicalReduction> other than 1",),
-    "panda": ("URDF <joint><dynamics damping>",),
-    "baxter": ("URDF <joint><dynamics damping>",),
+    "panda": (),  # its <dynamics damping> is modelled (Model.joint_damping)
+    "baxter": (),
 }
 
 

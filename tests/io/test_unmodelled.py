@@ -22,7 +22,9 @@ from freefloat.io.unmodelled import _MJCF_FINDERS, _URDF_FINDERS, ELEMENTS, NOT_
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "model-files.md"
 
 
-def mjcf(tmp_path: Path, joint_attrs: str = "", body: str = "", after: str = "", option: str = "") -> Path:
+def mjcf(
+    tmp_path: Path, joint_attrs: str = "", body: str = "", after: str = "", option: str = "", root: str = '<freejoint name="root"/>'
+) -> Path:
     """A spacecraft with two hinged links; ``joint_attrs`` go on the shoulder, ``body`` into the last link,
     ``after`` after ``<worldbody>``, ``option`` into ``<option>``."""
     path = tmp_path / "arm.xml"
@@ -34,7 +36,7 @@ def mjcf(tmp_path: Path, joint_attrs: str = "", body: str = "", after: str = "",
     <light pos="0 0 3"/>
     <camera name="overview" pos="0 -3 1"/>
     <body name="bus">
-      <freejoint name="root"/>
+      {root}
       <geom type="box" size="0.5 0.5 0.5" mass="400"/>
       <body name="upper" pos="0.6 0 0">
         <joint name="shoulder" axis="0 0 1" {joint_attrs}/>
@@ -84,9 +86,11 @@ def test_the_table_is_complete_and_documented() -> None:
 
 # ----------------------------------------------------------------------------- MJCF
 MJCF_CASES = {
-    "armature": ({"joint_attrs": 'armature="0.02"'}, "MJCF <joint armature>", "joint 'shoulder' armature=0.02"),
-    "damping": ({"joint_attrs": 'damping="0.5"'}, "MJCF <joint damping>", "joint 'shoulder' damping=0.5"),
-    "frictionloss": ({"joint_attrs": 'frictionloss="0.3"'}, "MJCF <joint frictionloss>", "joint 'shoulder' frictionloss=0.3"),
+    "free joint": (
+        {"root": '<joint name="root" type="free" armature="0.02"/>'},
+        "MJCF <freejoint> armature, damping, frictionloss",
+        "joint 'root' armature=0.02",
+    ),
     "stiffness": (
         {"joint_attrs": 'stiffness="4" springref="0.25"'},
         "MJCF <joint stiffness springref>",
@@ -144,10 +148,10 @@ def test_mjcf_element_that_is_not_modelled_warns_once_is_recorded_and_strict_ref
 
 
 def test_mjcf_one_warning_lists_every_joint(tmp_path: Path) -> None:
-    path = mjcf(tmp_path, body="", after="<default><joint damping='0.1'/></default>")
+    path = mjcf(tmp_path, body="", after="<default><joint stiffness='2'/></default>")
     _, texts = loaded(path)
     assert len(texts) == 1
-    assert "joint 'shoulder' damping=0.1, joint 'elbow' damping=0.1" in texts[0]
+    assert "joint 'shoulder' stiffness=2 springref=0 rad, joint 'elbow' stiffness=2 springref=0 rad" in texts[0], texts
 
 
 def test_mjcf_with_only_ignored_elements_loads_without_a_word(tmp_path: Path) -> None:
@@ -173,24 +177,18 @@ def test_mjcf_with_only_ignored_elements_loads_without_a_word(tmp_path: Path) ->
 
 
 # ----------------------------------------------------------------------------- URDF
-URDF_CASES = {
-    "damping": ('<dynamics damping="0.7" friction="0"/>', "URDF <joint><dynamics damping>", "joint 'q1' damping=0.7"),
-    "friction": ('<dynamics friction="0.2"/>', "URDF <joint><dynamics friction>", "joint 'q1' friction=0.2"),
-}
-
-
-@pytest.mark.parametrize("case", URDF_CASES)
-def test_urdf_dynamics_warn_once_are_recorded_and_strict_refuses_them(tmp_path: Path, case: str) -> None:
-    extra, element, item = URDF_CASES[case]
-    parts = arm()
-    parts[3] = joint("q1", "revolute", "bus", "l1", extra=extra)
-    path = urdf(tmp_path, *parts)
+def test_joint_dynamics_of_the_files_are_read_without_a_warning(tmp_path: Path) -> None:
+    """Modelled since issue 21: MJCF armature, damping, frictionloss of hinges and slides, URDF <dynamics damping friction>."""
+    path = mjcf(tmp_path, joint_attrs='armature="0.02" damping="0.5" frictionloss="0.3"')
     model, texts = loaded(path)
-    assert len(texts) == 1 and texts[0].startswith(f"{path}: {element} is not modelled and was dropped"), texts
-    assert item in texts[0]
-    assert model.unmodelled[0]["element"] == element and model.unmodelled[0]["items"] == [item]
-    with pytest.raises(ff.ModelError, match=re.escape(element)):
-        ff.load(path, strict=True)
+    assert texts == []
+    shoulder = model.joint_names.index("shoulder")
+    assert (model.joint_armature[shoulder], model.joint_damping[shoulder], model.joint_friction[shoulder]) == (0.02, 0.5, 0.3)
+    assert model.joint_armature.sum() == 0.02 and not model.unmodelled
+    parts = arm()
+    parts[3] = joint("q1", "revolute", "bus", "l1", extra='<dynamics damping="0.7" friction="0.2"/>')
+    model, texts = loaded(urdf(tmp_path, *parts))
+    assert texts == [] and (model.joint_damping[0], model.joint_friction[0]) == (0.7, 0.2) and not model.joint_armature.any()
 
 
 TRANSMISSION = """<transmission name="{name}"><type>transmission_interface/SimpleTransmission</type>
@@ -242,19 +240,20 @@ def test_urdf_with_only_ignored_elements_loads_without_a_word(tmp_path: Path) ->
 
 # ----------------------------------------------------------------------------- inspect
 def test_inspect_lists_what_was_dropped_and_strict_refuses(tmp_path: Path) -> None:
-    path = mjcf(tmp_path, joint_attrs='damping="0.5"', after='<actuator><motor name="m1" joint="shoulder" gear="120"/></actuator>')
+    path = mjcf(tmp_path, joint_attrs='stiffness="3"', after='<actuator><motor name="m1" joint="shoulder" gear="120"/></actuator>')
     runner = CliRunner()
     result = runner.invoke(app, ["inspect", str(path)])
     assert result.exit_code == 0, result.output
-    assert "warning: " in result.output and "MJCF <joint damping> is not modelled and was dropped" in result.output
+    assert "warning: " in result.output and "MJCF <joint stiffness springref> is not modelled and was dropped" in result.output
     assert re.search(r"not modelled +2 kind\(s\) dropped \(listed below\)", result.output), result.output
     table = result.output.split("Not modelled: dropped when loading", 1)[1]
-    assert "MJCF <joint damping>" in table and "joint 'shoulder' damping=0.5" in table and "actuator 'm1' gear=120" in table
+    assert "MJCF <joint stiffness springref>" in table and "joint 'shoulder' stiffness=3 springref=0 rad" in table
+    assert "actuator 'm1' gear=120" in table
     as_json = runner.invoke(app, ["inspect", "--json", str(path)])
-    assert '"unmodelled"' in as_json.output and "joint 'shoulder' damping=0.5" in as_json.output
+    assert '"unmodelled"' in as_json.output and "joint 'shoulder' stiffness=3 springref=0 rad" in as_json.output
     refused = runner.invoke(app, ["inspect", "--strict", str(path)])
     assert refused.exit_code == 1
-    assert "error: " in refused.output and "MJCF <joint damping>: is not modelled by freefloat" in refused.output
+    assert "error: " in refused.output and "MJCF <joint stiffness springref>: is not modelled by freefloat" in refused.output
 
 
 def test_inspect_of_a_clean_file_says_none(tmp_path: Path) -> None:

@@ -139,8 +139,19 @@ def from_mjmodel(mj: Any, source: str = "", *, end_effectors: EndEffectors = Non
             continue
         jkind, j = kind[b]
         limits = tuple(float(v) for v in mj.jnt_range[j]) if bool(mj.jnt_limited[j]) else None
+        dof = int(mj.jnt_dofadr[j])
         builder.add_joint(
-            joints[j], parent=bodies[parent], child=bodies[b], origin=origin, rotation=turn, axis=mj.jnt_axis[j], type=jkind, limits=limits
+            joints[j],
+            parent=bodies[parent],
+            child=bodies[b],
+            origin=origin,
+            rotation=turn,
+            axis=mj.jnt_axis[j],
+            type=jkind,
+            limits=limits,
+            armature=float(mj.dof_armature[dof]),
+            damping=float(mj.dof_damping[dof]),
+            friction=float(mj.dof_frictionloss[dof]),  # MuJoCo's is dry friction; freefloat's is smooth (docs/model-files.md)
         )
 
     sites = {_name(mujoco, mj, obj.mjOBJ_SITE, s, "site"): s for s in range(mj.nsite)}

@@ -20,6 +20,7 @@ recorded in ``Model.unmodelled`` (``strict``: an error).
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import os
 import tomllib
 import warnings
@@ -31,8 +32,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..core.builder import ModelBuilder
-from ..core.errors import ModelCorrectionWarning, ModelError
-from ..core.model import Model, resolve_model
+from ..core.errors import ModelCorrectionWarning, ModelError, UnmodelledElementWarning
+from ..core.model import JOINT_PASSIVE, Model, resolve_model
 from ._readers import EndEffectors, end_effector_specs, naming_file, physical_inertia
 from .mjcf import load_mjcf
 from .unmodelled import report_unmodelled, urdf_unmodelled
@@ -46,7 +47,7 @@ _CORRECTION_KEYS = {"body", "field", "given", "why"}
 _EE_KEYS = {"name", "body", "point"}
 
 
-def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool = False) -> Model:
+def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool = False, joints: Any = None) -> Model:
     """Load a model from a ``.toml``, ``.urdf`` or MJCF (``.xml`` with a ``<mujoco>`` root) file, or a
     built-in model by name (``ff.load("papadopoulos1992")``).
 
@@ -54,6 +55,10 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
     (name, link, point) triples, point in the link frame; default: what the file names, else
     every leaf. ``strict``: refuse non-physical inertias instead of correcting them (URDF, MJCF).
     The loaded model must be physical as a whole: H+ positive definite at q = 0.
+    ``joints``: the joints' own dynamics, for files that cannot say them (URDF has no rotor inertia) or to
+    replace the file's: ``{joint name: {"armature": kg m², "damping": N m s/rad, "friction": N m}}``
+    (docs/model-files.md), or the path of a TOML file of such tables (``[panda_joint1]`` then
+    ``armature = 0.1``). A value given here replaces the file's; the others keep the file's.
     """
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path: expected a model file path or a built-in model name (str or pathlib.Path), got {type(path).__name__}")
@@ -64,7 +69,8 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
             raise ModelError("end_effectors", "is empty", "name at least one end effector, or pass None for the file's (else every leaf)")
     path = Path(path)
     if not path.suffix and not path.exists():
-        return resolve_model(str(path), "path")  # a built-in name (or an error listing them)
+        builtin = resolve_model(str(path), "path")  # a built-in name (or an error listing them)
+        return builtin if joints is None else with_joint_dynamics(builtin, joints)
     if not path.is_file():
         raise ModelError(str(path), "file not found", "give the path of a .toml, .urdf or MJCF .xml model file")
     suffix = path.suffix.lower()
@@ -86,8 +92,35 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
             "nothing in it is an arm",
             "check that the file is complete (a truncated file loses its joints); a bare spacecraft is built with ff.ModelBuilder",
         )
+    if joints is not None:
+        model = with_joint_dynamics(model, joints)
     check_whole_model(model)
     return model
+
+
+def with_joint_dynamics(model: Model, joints: Any) -> Model:
+    """``model`` with the joints' armature, damping and friction of ``joints`` (see :func:`load`), each name checked."""
+    where = "joints"
+    if isinstance(joints, (str, os.PathLike)):
+        where = str(joints)
+        joints = read_toml(joints, "joint dynamics file")
+    if not isinstance(joints, dict):
+        raise TypeError(f"joints: expected a table {{joint name: {{armature, damping, friction}}}} or a TOML file, got {joints!r}")
+    values = {key: np.array(getattr(model, f"joint_{key}"), dtype=float) for key in JOINT_PASSIVE}
+    for name, entry in joints.items():
+        if name not in model.joint_names:
+            close = difflib.get_close_matches(str(name), model.joint_names, n=3)
+            raise ModelError(
+                f"{where}: {name}",
+                f"is not a joint of {model.name!r}" + (f" (did you mean {', '.join(map(repr, close))}?)" if close else ""),
+                f"name one of its joints: {', '.join(model.joint_names)}",
+            )
+        _check_keys(entry, set(JOINT_PASSIVE), f"{where}: {name}")
+        for key, value in entry.items():
+            if isinstance(value, (bool, str)) or not isinstance(value, (int, float)):
+                raise ModelError(f"{where}: {name}.{key}", f"cannot read {value!r} as a number", f"give the {JOINT_PASSIVE[key]}")
+            values[key][model.joint_names.index(name)] = float(value)
+    return dataclasses.replace(model, **{f"joint_{key}": v for key, v in values.items()})
 
 
 def _xml_root(path: Path) -> str:
@@ -302,7 +335,7 @@ def to_toml_dict(model: Model) -> dict[str, Any]:
                 "parent": model.body_names[model.parent[k]],
                 "child": name,
                 "origin": _list(model.joint_origin[k]),
-                "rpy": _list(Rotation.from_matrix(model.joint_rotation[k]).as_euler("xyz")),
+                "rpy": _list(_rpy(model.joint_rotation[k])),
                 "axis": _list(model.joint_axis[k]),
             }
             if joint["type"] != "continuous" and (np.isfinite(model.joint_lower[j]) or np.isfinite(model.joint_upper[j])):
@@ -321,6 +354,14 @@ def to_toml_dict(model: Model) -> dict[str, Any]:
             {"name": name, "body": _frame_name(model, e), "point": [0.0, 0.0, 0.0]} for e, name in enumerate(model.end_effector_names)
         ]
     return out
+
+
+def _rpy(rotation: np.ndarray) -> np.ndarray:
+    """Fixed-axis roll, pitch, yaw of a joint placement. At a pitch of +-90 degrees (gimbal lock: a UR5's wrist) only the
+    sum or difference of roll and yaw is defined; scipy then sets yaw to zero, which still gives the same rotation."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message="Gimbal lock detected", category=UserWarning)
+        return Rotation.from_matrix(rotation).as_euler("xyz")
 
 
 def _file_joint_type(model: Model, j: int) -> str:
@@ -529,12 +570,32 @@ def from_urdf_robot(robot: Any, source: str = "", *, end_effectors: EndEffectors
                 axis=(1.0, 0.0, 0.0) if joint.axis is None else joint.axis,
                 type=joint.type,
                 limits=limits,
+                **_urdf_dynamics(joint, path),
             )
         except ModelError as exc:
             raise ModelError(f"{path}.{exc.field.split('.')[-1]}", exc.problem, exc.fix) from None
     for name, body, point in end_effector_specs(end_effectors, source or "urdf"):
         builder.add_end_effector(name, body=body, point=point)
     return builder.build(source=source, corrections=corrections)
+
+
+def _urdf_dynamics(joint: Any, path: str) -> dict[str, float]:
+    """A moving joint's ``<dynamics damping friction>`` (absent: 0) as ``add_joint`` keywords (yourdfpy gives the text)."""
+    dynamics = getattr(joint, "dynamics", None)
+    if dynamics is None or joint.type == "fixed":
+        return {}
+    out = {}
+    for key in ("damping", "friction"):
+        value = getattr(dynamics, key, None)
+        if value is None:
+            continue
+        try:
+            out[key] = float(value)
+        except (TypeError, ValueError):
+            raise ModelError(
+                f"{path}.dynamics.{key}", f"cannot read {value!r} as a number", f"give the joint's {key} as a number"
+            ) from None
+    return out
 
 
 def to_urdf_string(model: Model) -> str:
@@ -568,6 +629,9 @@ def to_urdf_string(model: Model) -> str:
                     limit=yourdfpy.Limit(effort=0.0, velocity=0.0, lower=float(model.joint_lower[j]), upper=float(model.joint_upper[j]))
                     if bounded
                     else None,
+                    dynamics=yourdfpy.Dynamics(damping=float(model.joint_damping[j]), friction=float(model.joint_friction[j]))
+                    if model.joint_damping[j] or model.joint_friction[j]
+                    else None,
                 )
             )
     for e in range(model.n_end_effectors):
@@ -579,6 +643,14 @@ def to_urdf_string(model: Model) -> str:
             yourdfpy.Joint(
                 name=f"{ee_name}_fixed", type="fixed", parent=model.body_names[model.end_effector_body[e]], child=ee_name, origin=place
             )
+        )
+    if np.any(model.joint_armature):
+        rotors = ", ".join(f"{model.joint_names[j]!r} {model.joint_armature[j]:g}" for j in np.flatnonzero(model.joint_armature))
+        warnings.warn(
+            f"{model.name}: URDF has no element for a joint's rotor inertia: the armature of joint {rotors} is not written "
+            "(save as TOML to keep it, or give it to ff.load(..., joints=...) when reading the URDF)",
+            UnmodelledElementWarning,
+            stacklevel=3,
         )
     urdf = yourdfpy.URDF(robot=yourdfpy.Robot(name=model.name, links=links, joints=joints), build_scene_graph=False, load_meshes=False)
     text = urdf.write_xml_string()  # yourdfpy returns bytes (lxml tostring), despite its docstring

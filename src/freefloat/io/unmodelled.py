@@ -56,8 +56,8 @@ ELEMENTS: tuple[Element, ...] = (
     Element("urdf.limit.range", "URDF", "<limit lower upper>", MODELLED, "joint limits"),
     Element("urdf.mimic", "URDF", "<mimic>", REFUSED, "a joint driven by another joint"),
     Element("urdf.joint.refused", "URDF", "<joint> floating, planar", REFUSED, "several degrees of freedom inside the tree"),
-    Element("urdf.dynamics.damping", "URDF", "<joint><dynamics damping>", NOT_MODELLED, "viscous joint friction, a torque -damping q̇"),
-    Element("urdf.dynamics.friction", "URDF", "<joint><dynamics friction>", NOT_MODELLED, "dry (Coulomb) joint friction"),
+    Element("urdf.dynamics.damping", "URDF", "<joint><dynamics damping>", MODELLED, "viscous joint damping (Model.joint_damping)"),
+    Element("urdf.dynamics.friction", "URDF", "<joint><dynamics friction>", MODELLED, "Coulomb joint friction (Model.joint_friction)"),
     Element(
         "urdf.transmission.reduction",
         "URDF",
@@ -77,9 +77,22 @@ ELEMENTS: tuple[Element, ...] = (
     Element("mjcf.joint.range", "MJCF", "<joint range> (limited)", MODELLED, "joint limits"),
     Element("mjcf.site", "MJCF", "<site>", MODELLED, "end effectors (others are ignored)"),
     Element("mjcf.joint.refused", "MJCF", "<joint> ball, free inside the tree; several joints per body", REFUSED, "not a tree"),
-    Element("mjcf.joint.armature", "MJCF", "<joint armature>", NOT_MODELLED, "rotor inertia added to the mass matrix"),
-    Element("mjcf.joint.damping", "MJCF", "<joint damping>", NOT_MODELLED, "viscous joint friction, a torque -damping q̇"),
-    Element("mjcf.joint.frictionloss", "MJCF", "<joint frictionloss>", NOT_MODELLED, "dry joint friction"),
+    Element("mjcf.joint.armature", "MJCF", "<joint armature> of a hinge or slide", MODELLED, "rotor inertia (Model.joint_armature)"),
+    Element("mjcf.joint.damping", "MJCF", "<joint damping> of a hinge or slide", MODELLED, "viscous joint damping (Model.joint_damping)"),
+    Element(
+        "mjcf.joint.frictionloss",
+        "MJCF",
+        "<joint frictionloss> of a hinge or slide",
+        MODELLED,
+        "Coulomb joint friction (Model.joint_friction; smooth in freefloat, dry in MuJoCo)",
+    ),
+    Element(
+        "mjcf.freejoint.passive",
+        "MJCF",
+        "<freejoint> armature, damping, frictionloss",
+        NOT_MODELLED,
+        "an inertia or a drag on the spacecraft's own motion (freefloat's spacecraft floats free)",
+    ),
     Element("mjcf.joint.stiffness", "MJCF", "<joint stiffness springref>", NOT_MODELLED, "a joint spring, -stiffness (q - springref)"),
     Element(
         "mjcf.joint.ref",
@@ -176,19 +189,6 @@ def _find(finders: dict[str, Finder], data: Any) -> dict[str, list[str]]:
 _MOVING = ("revolute", "continuous", "prismatic")
 
 
-def _urdf_dynamics(attribute: str) -> Finder:
-    def find(root: Any) -> list[str]:
-        out = []
-        for joint in root.findall("joint"):
-            for dynamics in joint.findall("dynamics") if joint.get("type") in _MOVING else ():
-                value = _number(dynamics.get(attribute))
-                if value:
-                    out.append(f"joint {joint.get('name')!r} {attribute}={value:g}")
-        return out
-
-    return find
-
-
 def _urdf_reduction(root: Any) -> list[str]:
     out = []
     for transmission in root.findall("transmission"):
@@ -208,8 +208,6 @@ def _number(text: str | None) -> float | None:
 
 
 _URDF_FINDERS: dict[str, Finder] = {
-    "urdf.dynamics.damping": _urdf_dynamics("damping"),
-    "urdf.dynamics.friction": _urdf_dynamics("friction"),
     "urdf.transmission.reduction": _urdf_reduction,
 }
 
@@ -220,20 +218,32 @@ def urdf_unmodelled(root: Any) -> dict[str, list[str]]:
 
 
 # --------------------------------------------------------------------- MJCF (the compiled mjModel: defaults filled in)
-def _mjcf_joint_values(field: str, label: str) -> Finder:
-    """A per-degree-of-freedom field (``dof_damping``): the joints where it is not 0 (the free joint's six at once)."""
+def _mjcf_joint_values(field: str, label: str) -> Callable[..., Any]:
+    """A per-degree-of-freedom field (``dof_damping``): the joints where it is not 0 (a free joint's six at once), as
+    (joint, item) pairs."""
 
-    def find(mj: Any) -> list[str]:
+    def find(mj: Any, with_index: bool = True) -> list[Any]:
         out = []
         for j in range(mj.njnt):
             first = int(mj.jnt_dofadr[j])
             values = np.asarray(getattr(mj, field)[first : first + _dofs(mj, j)], dtype=float)
             if np.any(values != 0.0):
                 shown = f"{values[0]:g}" if np.all(values == values[0]) else f"[{_numbers(values)}]"
-                out.append(f"joint {_name(mj, 'mjOBJ_JOINT', j)} {label}={shown}")
+                out.append((j, f"joint {_name(mj, 'mjOBJ_JOINT', j)} {label}={shown}"))
         return out
 
     return find
+
+
+def _mjcf_free_joint(mj: Any) -> list[str]:
+    """The free joints (the spacecraft's) with armature, damping or frictionloss."""
+    import mujoco
+
+    free = int(mujoco.mjtJoint.mjJNT_FREE)
+    out = []
+    for field, label in (("dof_armature", "armature"), ("dof_damping", "damping"), ("dof_frictionloss", "frictionloss")):
+        out += [item for j, item in _mjcf_joint_values(field, label)(mj, with_index=True) if int(mj.jnt_type[j]) == free]
+    return out
 
 
 def _dofs(mj: Any, j: int) -> int:
@@ -337,9 +347,7 @@ def _name(mj: Any, kind: str, index: int) -> str:
 
 
 _MJCF_FINDERS: dict[str, Finder] = {
-    "mjcf.joint.armature": _mjcf_joint_values("dof_armature", "armature"),
-    "mjcf.joint.damping": _mjcf_joint_values("dof_damping", "damping"),
-    "mjcf.joint.frictionloss": _mjcf_joint_values("dof_frictionloss", "frictionloss"),
+    "mjcf.freejoint.passive": _mjcf_free_joint,
     "mjcf.joint.stiffness": _mjcf_stiffness,
     "mjcf.joint.ref": _mjcf_ref,
     "mjcf.tendon": _mjcf_tendons,
