@@ -103,7 +103,7 @@ def with_joint_dynamics(model: Model, joints: Any) -> Model:
     where = "joints"
     if isinstance(joints, (str, os.PathLike)):
         where = str(joints)
-        joints = read_toml(joints, "joint dynamics file")
+        joints = read_toml(Path(joints), "joint dynamics file")
     if not isinstance(joints, dict):
         raise TypeError(f"joints: expected a table {{joint name: {{armature, damping, friction}}}} or a TOML file, got {joints!r}")
     values = {key: np.array(getattr(model, f"joint_{key}"), dtype=float) for key in JOINT_PASSIVE}
@@ -120,7 +120,7 @@ def with_joint_dynamics(model: Model, joints: Any) -> Model:
             if isinstance(value, (bool, str)) or not isinstance(value, (int, float)):
                 raise ModelError(f"{where}: {name}.{key}", f"cannot read {value!r} as a number", f"give the {JOINT_PASSIVE[key]}")
             values[key][model.joint_names.index(name)] = float(value)
-    return dataclasses.replace(model, **{f"joint_{key}": v for key, v in values.items()})
+    return dataclasses.replace(model, joint_armature=values["armature"], joint_damping=values["damping"], joint_friction=values["friction"])
 
 
 def _xml_root(path: Path) -> str:
