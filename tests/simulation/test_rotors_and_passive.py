@@ -24,7 +24,7 @@ from freefloat.core.errors import StiffGainsWarning
 from mechanics.test_specialise_dynamics import own_cache as own_cache  # the fixture
 from oracle.test_pinocchio_dynamics import PAPER_BOUND, paper_systems, run_case
 from oracle_checks import EXCEEDS
-from simulation.test_simulate import MUJOCO_BOUND, moving_state, random_tree, run_against_mujoco, two_arm
+from simulation.test_simulate import MUJOCO_BOUND, bounded_random_torques, moving_state, random_tree, run_against_mujoco, two_arm
 from trees import random_trees
 
 
@@ -225,3 +225,16 @@ def test_joint_parameters_from_the_builder_and_toml_files(tmp_path) -> None:
     (tmp_path / "bad.toml").write_text(bad)
     with pytest.raises(ff.ModelError, match=r"joints\[0\] \(shoulder\)\.damping: cannot read 'lots' as a number"):
         ff.load(tmp_path / "bad.toml")
+
+
+def test_1000_s_free_floating_with_rotors_damping_and_friction_conserves_momentum() -> None:
+    """Random joint torques for 1000 s on a 3D tree with rotors, damping and friction: the momentum is conserved to 1e-9
+    (the rotors and the passive torques are internal), and the energy balance holds with the dissipated energy."""
+    model = with_joints(random_tree(), np.random.default_rng(13), armature=0.2, damping=0.5, friction=0.05)
+    state = moving_state(model, np.random.default_rng(5))
+    traj = ff.simulate(model, state, 1000.0, bounded_random_torques(model, seed=1), rtol=1e-12, atol=1e-12, output_period=1.0)
+    assert traj.status == "finished" and np.abs(traj.qdot).max() > 0.1
+    h, p = traj.angular_momentum, traj.linear_momentum
+    assert np.abs(h - h[0]).max() / np.linalg.norm(h[0]) < 1e-9
+    assert np.abs(p - p[0]).max() / np.linalg.norm(p[0]) < 1e-9
+    assert traj.dissipated_energy[-1] > 1.0

@@ -9,6 +9,7 @@ torque-free motion of an axisymmetric rigid body.
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 from typing import Any
@@ -22,7 +23,7 @@ from typer.testing import CliRunner
 
 import freefloat as ff
 from freefloat.cli import app
-from freefloat.scenarios.scenario import load_scenario, scenario_from_dict
+from freefloat.scenarios.scenario import load_scenario, run_scenario, scenario_from_dict
 from oracle_checks import EXCEEDS, MARGIN, Agreement, assert_within, relatively_perturbed
 from trees import build_random_model, random_trees
 
@@ -563,6 +564,7 @@ def test_cli_simulate_failing_scenario_writes_the_partial_run_and_exits_1(tmp_pa
         ({"model": "papadopoulos1992", "duration": 1.0, "actuation": {"type": "chirp"}}, ["actuation.type", "chirp"]),
         ({"model": "papadopoulos1992", "duration": 1.0, "controller": {"type": "joint_pd", "kp": 1.0}}, ["controller", "kd"]),
         ({"model": "papadopoulos1992", "duration": 1.0, "limits": {"joint_torque": -1.0}}, ["limits.joint_torque"]),
+        ({"model": "papadopoulos1992", "duration": 1.0, "passive": "off"}, ["passive", "'off'", '"ignore"']),
     ],
     ids=[
         "no_model",
@@ -576,6 +578,7 @@ def test_cli_simulate_failing_scenario_writes_the_partial_run_and_exits_1(tmp_pa
         "type",
         "pd",
         "limits",
+        "passive",
     ],
 )
 def test_malformed_scenarios_name_the_field(data: dict, needles: list[str]) -> None:
@@ -584,6 +587,17 @@ def test_malformed_scenarios_name_the_field(data: dict, needles: list[str]) -> N
     text = str(info.value)
     for needle in needles:
         assert needle in text, text
+
+
+def test_a_scenario_chooses_whether_the_joints_damping_and_friction_act(tmp_path: Path) -> None:
+    model = dataclasses.replace(two_arm(), joint_damping=[5.0, 5.0, 5.0, 5.0])
+    path = ff.save(model, tmp_path / "damped.toml")
+    base = {"model": str(path), "duration": 2.0, "initial": {"qdot": [0.5, -0.5, 0.5, -0.5]}, "joint_limits": {"mode": "flag"}}
+    damped = run_scenario(scenario_from_dict(base))
+    free = run_scenario(scenario_from_dict({**base, "passive": "ignore"}))
+    assert damped.dissipated_energy[-1] > 0.1 * damped.kinetic_energy[0]
+    assert free.dissipated_energy[-1] == 0.0
+    assert abs(free.kinetic_energy[-1] - free.kinetic_energy[0]) < 1e-8 * free.kinetic_energy[0]
 
 
 def test_malformed_scenario_file_via_cli(tmp_path: Path) -> None:

@@ -9,6 +9,7 @@ controller. Schema (docs/simulation.md)::
     # end_effectors = ["tool0"]            # optional, model files only: the end effectors (default: the file's, else every leaf)
     # strict = true                        # optional, model files only: refuse non-physical inertias instead of correcting them
     duration = 10.0                        # s, > 0
+    # passive = "model"                    # the joints' damping and friction: "model" (as the model file gives them) or "ignore"
 
     [initial]                              # optional; omitted fields are zero / identity
     q = [0.1, 0.2, 0.3, 0.4]               # rad, model.joint_names order (or a table: joint name = value)
@@ -84,7 +85,7 @@ from ..io.model_files import load, read_toml
 from ..models import load_model
 from ..simulation._guard import RunEstimate, estimate_run
 from ..simulation.pd import JointPD
-from ..simulation.simulate import METHODS, simulate
+from ..simulation.simulate import METHODS, PASSIVE, simulate
 from ..simulation.trajectory import Trajectory
 
 __all__ = [
@@ -104,7 +105,7 @@ CONTROLLER_TYPES = ("joint_pd",)
 
 _TOP_KEYS = {
     "description", "model", "end_effectors", "strict", "duration", "initial", "integrator", "actuation", "controller", "limits",
-    "joint_limits", "outputs",
+    "joint_limits", "passive", "outputs",
 }  # fmt: skip
 _JOINT_LIMIT_KEYS = {"mode", "restitution"}
 _INITIAL_KEYS = {"q", "q_deg", "qdot", "qdot_deg", "omega", "omega_deg", "attitude", "euler321_deg", "r_cm", "v_cm"}
@@ -554,6 +555,14 @@ def scenario_from_dict(data: Any, *, source: str = "", base: Path | None = None,
         options["limits"] = _limits(top["limits"], model, source)
     if "joint_limits" in top:
         options.update(_joint_limits(top["joint_limits"], source))
+    if "passive" in top:
+        if not isinstance(top["passive"], str) or top["passive"] not in PASSIVE:
+            raise ModelError(
+                _where(source, "passive"),
+                f"unknown value {top['passive']!r}",
+                'write "model" (the joints\' damping and friction the model has, the default) or "ignore"',
+            )
+        options["passive"] = top["passive"]
     outputs = _table(top.get("outputs", {}), _OUTPUT_KEYS, source, "outputs")
     name = outputs.get("name", "trajectory")
     if not isinstance(name, str) or not name or Path(name).name != name or name.startswith("."):
