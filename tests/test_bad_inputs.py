@@ -138,7 +138,8 @@ BAD_FILES: dict[str, str | bytes] = {
     "not_mujoco.xml": "<html><body>not a robot</body></html>",
     "ball.xml": _edit(MJCF, ('type="hinge"', 'type="ball"')),
     "huge_mass.xml": _edit(MJCF, ('mass="1"', 'mass="1e12"')),
-    "damped.xml": _edit(MJCF, ('type="hinge"', 'type="hinge" damping="0.5"')),  # dropped with a warning; refused with --strict
+    "stiff.xml": _edit(MJCF, ('type="hinge"', 'type="hinge" stiffness="3"')),  # dropped with a warning; refused with --strict
+    "negative_damping.xml": _edit(MJCF, ('type="hinge"', 'type="hinge" damping="-0.5"')),
     "trajectory.csv": "t,q[a]\n0,0\n",
     "trajectory.npz": "not an npz file",
     "old.gif": b"GIF89a",  # an animation of the user's: --animate never replaces it
@@ -938,11 +939,48 @@ CASES = [
         r"huge_mass\.xml: bodies\[1\] \(a\)\.mass: 1e\+12 kg is above",
     ),
     api(
-        "load-strict-damping",
-        lambda f: ff.load(f / "damped.xml", strict=True),
+        "load-strict-stiffness",
+        lambda f: ff.load(f / "stiff.xml", strict=True),
         ModelError,
-        r"damped\.xml: MJCF <joint damping>: is not modelled by freefloat \(viscous joint friction.*\): joint 'j' damping=0\.5; remove it",
+        r"stiff\.xml: MJCF <joint stiffness springref>: is not modelled by freefloat \(.*\): joint 'j' stiffness=3 springref=0 rad; remove",
     ),
+    api(
+        "load-joints-unknown-name",
+        lambda f: ff.load("papadopoulos1992", joints={"arm1_q7": {"armature": 0.1}}),
+        ModelError,
+        r"^joints: arm1_q7: is not a joint of 'papadopoulos1992' \(did you mean 'arm1_q2', 'arm1_q1'",
+    ),
+    api(
+        "load-joints-unknown-key",
+        lambda f: ff.load("papadopoulos1992", joints={"arm1_q1": {"stiffness": 0.1}}),
+        ModelError,
+        r"^joints: arm1_q1\.stiffness: unknown key; allowed keys: armature, damping, friction",
+    ),
+    api(
+        "load-joints-text",
+        lambda f: ff.load("papadopoulos1992", joints={"arm1_q1": {"armature": "big"}}),
+        ModelError,
+        r"^joints: arm1_q1\.armature: cannot read 'big' as a number",
+    ),
+    api(
+        "load-joints-negative",
+        lambda f: ff.load("papadopoulos1992", joints={"arm1_q1": {"damping": -2.0}}),
+        ModelError,
+        r"^joints\[0\] \(arm1_q1\)\.damping: is -2\.0; give the viscous damping",
+    ),
+    api("load-joints-not-a-table", lambda f: ff.load("papadopoulos1992", joints=[1, 2]), TypeError, r"^joints: expected a table"),
+    api("load-joints-missing-file", lambda f: ff.load("papadopoulos1992", joints=f / "nothere.toml"), ModelError, r"nothere\.toml"),
+    api(
+        "load-mjcf-negative-damping",
+        lambda f: ff.load(f / "negative_damping.xml"),
+        ModelError,
+        r"negative_damping\.xml|damping",
+    ),
+    api("builder-negative-armature", _builder(joint={"armature": -1.0}), ModelError, r"joints\[0\] \(j1\)\.armature: is -1\.0"),
+    api("builder-text-friction", _builder(joint={"friction": "lots"}), ModelError, r"joints\[0\] \(j1\)\.friction: cannot read 'lots'"),
+    api("builder-nan-damping", _builder(joint={"damping": float("nan")}), ModelError, r"joints\[0\] \(j1\)\.damping: is nan"),
+    api("simulate-passive-unknown", lambda f: ff.simulate(M(), S, 0.1, passive="off"), ValueError, r"^passive: 'off' is not one of"),
+    api("rollout-passive-none", lambda f: ff.rollout(M(), ff.State(q=[Q, Q]), 0.1, dt=0.01, passive=None), ValueError, r"^passive: None"),
     api(
         "load-massless-body", lambda f: ff.load(f / "massless.urdf"), ModelError, r"massless\.urdf: bodies \(spacecraft\)\.mass: a massless"
     ),
@@ -1228,7 +1266,7 @@ CASES += [
         ("ets7", "ets7", r"MODEL 'ets7': is a built-in model whose published data needed 3 correction\(s\) .*which strict refuses"),
         ("triangle", "{files}/triangle.urdf", r"triangle\.urdf: link\[0\] \(spacecraft\)\.inertia: violates the triangle inequality"),
         ("no-limit", "{files}/no_limit.urdf", r"no_limit\.urdf: joint\[0\] \(shoulder_yaw\)\.limit: a revolute joint without <limit>"),
-        ("damping", "{files}/damped.xml", r"damped\.xml: MJCF <joint damping>: is not modelled by freefloat .*joint 'j' damping=0\.5"),
+        ("stiffness", "{files}/stiff.xml", r"stiff\.xml: MJCF <joint stiffness springref>: is not modelled by freefloat .*'j' stiffness=3"),
         ("gear", "{files}/geared.urdf", r"geared\.urdf: URDF <transmission> .*: is not .*'shoulder_yaw'\) mechanicalReduction=100"),
     )
 ]

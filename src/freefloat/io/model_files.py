@@ -158,6 +158,8 @@ def check_whole_model(model: Model) -> None:
 def read_toml(path: str | Path, what: str = "model file") -> dict[str, Any]:
     """The table of a TOML file; malformed TOML or text that is not UTF-8 is a ModelError naming the file."""
     path = Path(path)
+    if not path.is_file():
+        raise ModelError(str(path), "file not found", f"give the path of the {what} (a .toml file)")
     try:
         return tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as exc:
