@@ -74,6 +74,19 @@ def test_inspect_text_papadopoulos1992() -> None:
     assert "none" in next(line for line in out.splitlines() if line.split()[:2] == ["0", "arm1_q1"])
 
 
+def test_inspect_lists_the_joints_own_dynamics(tmp_path: Path) -> None:
+    model = ff.load("papadopoulos1992", joints={"arm1_q2": {"armature": 0.25, "damping": 1.5}, "arm2_q1": {"friction": 0.4}})
+    path = ff.save(model, tmp_path / "rotors.toml")
+    out = invoke("inspect", str(path)).stdout
+    table = out.split("\nJoint dynamics\n", 1)[1].split("\n\n", 1)[0].splitlines()
+    assert table[1].split() == ["1", "arm1_q2", "0.25", "1.5", "0"]
+    assert table[2].split() == ["2", "arm2_q1", "0", "0", "0.4"]
+    assert len(table) == 4  # header, two joints, the note: the others have none
+    info = inspect_json(str(path))
+    assert [(j["armature"], j["damping"], j["friction"]) for j in info["joints"]] == [(0, 0, 0), (0.25, 1.5, 0), (0, 0, 0.4), (0, 0, 0)]
+    assert "\nJoint dynamics\n" not in invoke("inspect", "papadopoulos1992").stdout
+
+
 def test_inspect_json_matches_library() -> None:
     info = inspect_json("papadopoulos1992")
     model = ff.models.papadopoulos1992(arms=2)

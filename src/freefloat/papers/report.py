@@ -52,6 +52,7 @@ def model_info(model: Model) -> dict[str, Any]:
       fixed-axis roll, pitch, yaw, degrees), axis (joint frame) and axis_parent (the axis in the
       parent frame at q = 0), limits ([lower, upper] in rad or m, null = none) and limits_deg
       (revolute joints; null otherwise);
+      and the joint's own dynamics: armature (kg m², kg), damping and friction (Model.joint_*);
     - ``end_effector_rule``: "named" (the file or the caller named them), "leaf sites" (MJCF
       sites on leaf bodies) or "leaves" (every leaf body, when nothing is named);
     - ``corrections``: every change the loader made to the file's data (where, defect, what was
@@ -88,6 +89,9 @@ def model_info(model: Model) -> dict[str, Any]:
                 "axis_parent": _vec(model.joint_rotation[k] @ model.joint_axis[k]),
                 "limits": None if raw == [None, None] else raw,
                 "limits_deg": None if sliding or (lower is None and upper is None) else [lower, upper],
+                "armature": _float(model.joint_armature[j]),
+                "damping": _float(model.joint_damping[j]),
+                "friction": _float(model.joint_friction[j]),
             }
         )
     end_effectors = []
@@ -308,6 +312,20 @@ def _tables(info: dict[str, Any]) -> list[_Table]:
         ),
     )
     tables = [joints, effectors, bodies, bary]
+    own = [j for j in info["joints"] if j.get("armature") or j.get("damping") or j.get("friction")]
+    if own:
+        tables.insert(
+            1,
+            _Table(
+                "Joint dynamics",
+                ("#", "name", "armature", "damping", "friction"),
+                tuple((j["index"], j["name"], j["armature"], j["damping"], j["friction"]) for j in own),
+                (
+                    "armature: rotor inertia on the joint's diagonal of H+ (kg m², kg when prismatic); damping (N m s/rad, N s/m) "
+                    "and Coulomb friction (N m, N): passive torques (docs/model-files.md). Joints not listed have none.",
+                ),
+            ),
+        )
     if info.get("corrections"):
         tables.append(
             _Table(
