@@ -123,6 +123,9 @@ def test_inspect_json_matches_library() -> None:
         "axis_parent": [0.0, 0.0, 1.0],
         "limits": None,
         "limits_deg": None,
+        "armature": 0.0,
+        "damping": 0.0,
+        "friction": 0.0,
     }
     assert info["end_effector_rule"] == "leaves" and info["corrections"] == []
     link2 = info["bodies"][2]
