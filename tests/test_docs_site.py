@@ -64,7 +64,7 @@ def test_the_build_is_strict() -> None:
 
 
 def test_guides_reference_and_results(site: Path) -> None:
-    for guide in ("theory", "dynamics", "simulation", "control", "workspaces", "model-files", "conventions", "paper-notes", "architecture"):
+    for guide in "theory dynamics simulation control workspaces impact model-files conventions paper-notes architecture".split():
         page = (site / guide / "index.html").read_text(encoding="utf-8")
         title = (ROOT / "docs" / f"{guide}.md").read_text(encoding="utf-8").splitlines()[0].removeprefix("# ")
         assert re.search(rf"<h1[^>]*>{re.escape(html.escape(title, quote=False))}", page), (guide, title)  # the guide's own page

@@ -12,6 +12,9 @@ far as possible from dynamic singularities, max |det J*(q)| subject to
 (:func:`optimal_capture_posture`), and the spacecraft attitude that puts the
 end effector on A (eq. 20). :func:`plan_capture` runs all of it.
 
+A moving target: :class:`Target` and :func:`impact`, the grasp as an impact that conserves momentum,
+with the joints free or locked (:class:`Impact`: the combined model and its post-impact state).
+
 Positions of a path are in the inertial frame, 2D (planar models) or 3D, m.
 Angles in rad (``theta_deg``-style values only in :mod:`freefloat.papers.paper1992`).
 """
@@ -35,7 +38,9 @@ from . import _workspace_search as search
 from ._capture_families import CaptureFamilies, _family_of, _is_two_link, _two_link_coefficients, capture_families
 from ._capture_path import PathMotion, free_floating_path_motion, path_checked_candidates, refine_candidates
 from ._capture_plots import draw_system, plot_plan
+from ._impact import Impact, impact
 from ._path_placement import PathDoesNotFitError, PathPlacement, _check_path, _margin, _perpendiculars, approach_distance, place_path
+from ._target import Target
 from ._workspace_reach import end_effector_radius, reachable_workspace, singularity_measure
 from ._workspace_results import PathIndependentWorkspace, _axes, _freeze
 from ._workspace_singular import path_independent_workspace
@@ -49,13 +54,16 @@ __all__ = [
     "CaptureFamilies",
     "CapturePlan",
     "CapturePosture",
+    "Impact",
     "PathDoesNotFitError",
     "PathMotion",
     "PathPlacement",
+    "Target",
     "approach_distance",
     "capture_families",
     "draw_system",
     "free_floating_path_motion",
+    "impact",
     "optimal_capture_posture",
     "place_path",
     "plan_capture",
