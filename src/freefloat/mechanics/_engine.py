@@ -208,8 +208,34 @@ def _actuation(u: np.ndarray | None, t: Tree, batch: tuple[int, ...]) -> np.ndar
     return _flat(u, batch, (t.n_joints + 6,))
 
 
+def _attitude_rows(t0: np.ndarray | None) -> np.ndarray:
+    """The attitude T0 (..., 3, 3) as rows (..., 9), row-major; None: the identity."""
+    return np.eye(3).reshape(9) if t0 is None else np.asarray(t0).reshape((*np.shape(t0)[:-2], 9))
+
+
 def _attitudes(t0: np.ndarray | None, batch: tuple[int, ...]) -> np.ndarray:
     return _flat(np.eye(3) if t0 is None else t0, batch, (3, 3))
+
+
+def _dynamics_batch(
+    q: np.ndarray, velocity: np.ndarray, u: np.ndarray | None, t0: np.ndarray | None, ext: tuple[np.ndarray, np.ndarray], *extra: np.ndarray
+) -> tuple[int, ...]:
+    """The broadcast batch shape of a dynamics call's inputs."""
+    return _batch(
+        (q, 1), (velocity, 1), (ext[1], 2), *((e, 1) for e in extra), *(() if u is None else ((u, 1),)), *(() if t0 is None else ((t0, 2),))
+    )
+
+
+def _lane_inputs(batch: tuple[int, ...], parts: list[tuple[np.ndarray | None, int]]) -> np.ndarray:
+    """A specialised map's inputs (C, sum of widths): each part (array (..., width) broadcast against ``batch``, or None:
+    zero) written once into its columns; no flat copy of each part first, nor a concatenation of them."""
+    width = sum(w for _, w in parts)
+    rows = new_output((*batch, width))
+    at = 0
+    for part, w in parts:
+        rows[..., at : at + w] = 0.0 if part is None else part
+        at += w
+    return rows.reshape((-1, width))
 
 
 def _dynamics_inputs(
@@ -223,9 +249,7 @@ def _dynamics_inputs(
 ) -> tuple[tuple[int, ...], list[np.ndarray]]:
     """The broadcast batch shape and the flat inputs [q, velocity, *extra (6 + N each), u, t0, ext_i, ext_f] of a dynamics driver."""
     n = t.n_joints
-    batch = _batch(
-        (q, 1), (velocity, 1), (ext[1], 2), *((e, 1) for e in extra), *(() if u is None else ((u, 1),)), *(() if t0 is None else ((t0, 2),))
-    )
+    batch = _dynamics_batch(q, velocity, u, t0, ext, *extra)
     flat = [_flat(q, batch, (n,)), _flat(velocity, batch, (6 + n,)), *(_flat(e, batch, (6 + n,)) for e in extra)]
     return batch, [*flat, _actuation(u, t, batch), _attitudes(t0, batch), *_wrench_data(ext, batch)]
 
@@ -247,17 +271,19 @@ def residual_rows(
     t = tree(model)
     n = t.n_joints
     acc_in = np.zeros(6 + n) if acceleration is None else acceleration
-    batch, (qf, vf, af, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext, acc_in)
-    out = new_output((qf.shape[0], 3 + n))
-    wrenches = _specialise.layout(ext_i)
-    size = qf.shape[0]
+    wrenches = _specialise.layout(ext[0])
+    batch = _dynamics_batch(q, velocity, u, t0, ext, acc_in)
+    out = new_output((int(np.prod(batch, dtype=np.int64)), 3 + n))
 
     def inputs() -> np.ndarray:  # the specialised kernel's rows: [q, zdot0, zddot0, u] and with wrenches [T0, ext_f]
-        return np.concatenate(
-            [qf, vf, af, uf, *((t0f.reshape(size, 9), ext_f.reshape(size, 9 * len(wrenches))) if wrenches else ())], axis=1
-        )
+        parts = [(q, n), (velocity, 6 + n), (acceleration, 6 + n), (u, n + 6)]
+        if wrenches:
+            parts += [(_attitude_rows(t0), 9), (ext[1].reshape((*ext[1].shape[:-2], 9 * len(wrenches))), 9 * len(wrenches))]
+        return _lane_inputs(batch, parts)
 
     if not _specialised_map(t, "inverse", inputs, out, wrenches):
+        _, (qf, vf, af, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext, acc_in)
+        size = qf.shape[0]
         _timed(
             t,
             "inverse",
@@ -290,18 +316,15 @@ def accelerations(
     """Forward dynamics: (zddot0 (..., 6 + N) = [rddot_cm inertial, d/dt omega0, qddot], ok (...) False where H+ failed)."""
     t = tree(model)
     n = t.n_joints
-    batch, (qf, vf, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext)
-    wrenches = _specialise.layout(ext_i)
-    size = qf.shape[0]
-    both = new_output((size, 7 + n))  # zddot0 and the guards' flag
-    if _specialised_map(
-        t,
-        "forward",
-        lambda: np.concatenate([qf, vf, uf, t0f.reshape(size, 9), ext_f.reshape(size, 9 * len(wrenches))], axis=1),
-        both,
-        wrenches,
-    ):
+    wrenches = _specialise.layout(ext[0])
+    batch = _dynamics_batch(q, velocity, u, t0, ext)
+    w = 9 * len(wrenches)
+    both = new_output((int(np.prod(batch, dtype=np.int64)), 7 + n))  # zddot0 and the guards' flag
+    parts = [(q, n), (velocity, 6 + n), (u, n + 6), (_attitude_rows(t0), 9), (ext[1].reshape((*ext[1].shape[:-2], w)), w)]
+    if _specialised_map(t, "forward", lambda: _lane_inputs(batch, parts), both, wrenches):
         return both[:, : 6 + n].reshape((*batch, 6 + n)), (both[:, 6 + n] != 0.0).reshape(batch)
+    batch, (qf, vf, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext)
+    size = qf.shape[0]
     out = new_output((size, 6 + n))
     ok = np.empty(size, dtype=np.bool_)
     _timed(
