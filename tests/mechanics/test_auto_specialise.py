@@ -51,7 +51,7 @@ def test_a_large_sweep_triggers_it_and_results_do_not_change(auto: None, capsys:
     t = tree(model)
     q = np.random.default_rng(0).uniform(-3, 3, (20000, model.n_joints))
     generic = ff.generalized_jacobian(model, q)
-    while _specialise._SPENT.get(t, {}).get("jstar", 0.0) < _specialise.AUTO_AFTER["jstar"]:
+    while _specialise._SPENT.get(t, {}).get(("jstar", ()), 0.0) < _specialise.AUTO_AFTER["jstar"]:
         ff.generalized_jacobian(model, q)
     assert len(_specialise._STARTED) == 1
     assert _specialise.wait_for_auto(300)
@@ -85,3 +85,26 @@ def test_it_can_be_turned_off(auto: None, monkeypatch: pytest.MonkeyPatch, how: 
     assert _specialise._STARTED == {}
     if how == "function":
         assert ff.mechanics.auto_specialise(True) is True
+
+
+def test_dynamics_with_wrenches_trigger_their_layout(
+    auto: None, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Generic forward dynamics under external wrenches count towards the kernels of their layout (bodies, frames)."""
+    monkeypatch.setitem(_specialise.AUTO_AFTER, "forward", 0.05)
+    model = two_arm_variant()
+    t = tree(model)
+    rng = np.random.default_rng(2)
+    q, v = rng.uniform(-3, 3, (5000, model.n_joints)), rng.normal(size=(5000, 6 + model.n_joints))
+    external = [ff.ExternalWrench(model.body_names[-1], force=rng.normal(size=(5000, 3)), frame="body")]
+    layout = ((model.n_bodies - 1, 2),)
+    generic = ff.forward_dynamics(model, q, v, external=external)
+    while _specialise._SPENT.get(t, {}).get(("forward", layout), 0.0) < _specialise.AUTO_AFTER["forward"]:
+        ff.forward_dynamics(model, q, v, external=external)
+    assert _specialise.wait_for_auto(300)
+    assert "specialising forward dynamics with 1 external wrench for this model structure" in capsys.readouterr().err
+    assert ff.mechanics.is_specialised(model, "forward", external=external)
+    assert not ff.mechanics.is_specialised(model, "forward")  # the layout without wrenches is another
+    fast = ff.forward_dynamics(model, q, v, external=external)
+    scale = np.max(np.abs(generic), axis=-1, keepdims=True)
+    assert np.max(np.abs(fast - generic) / scale) <= 1e-12

@@ -2,10 +2,10 @@
 
 Each call takes a model and arrays with any leading batch shape (broadcast against each other),
 flattens them, runs one batch driver of :mod:`._drivers` (serial for small batches, numba's
-threads for large ones: the same compiled source) and gives the batch shape back. J* batches and
-rollouts take the kernels specialised to the model's structure instead when
-:func:`~freefloat.mechanics.specialise` made them (:mod:`._specialise`; the same recursions,
-traced). Inputs are checked by the public functions that call these; here they are only made
+threads for large ones: the same compiled source) and gives the batch shape back. J*, H+, forward and
+inverse dynamics batches and rollouts (with or without external wrenches) take the kernels specialised to the
+model's structure (and the wrenches' layout) instead when :func:`~freefloat.mechanics.specialise` made them
+(:mod:`._specialise`; the same recursions, traced). Inputs are checked by the public functions that call these; here they are only made
 contiguous float64.
 """
 
@@ -156,24 +156,25 @@ def jacobian_measures(model: Any, q: np.ndarray, rows: Any, measure: str) -> np.
     return out.reshape(batch)
 
 
-def _specialised_map(t: Tree, kind: str, inputs: Any, out: np.ndarray) -> bool:
-    """Run the specialised kernel of the map ``kind`` when made for ``t``'s structure and the batch is large enough:
-    ``inputs`` the (C, inputs) array (or a function making it), ``out`` (C, outputs); False when it did not run."""
+def _specialised_map(t: Tree, kind: str, inputs: Any, out: np.ndarray, wrenches: _specialise.Layout = ()) -> bool:
+    """Run the specialised kernel of the map ``kind`` when made for ``t``'s structure (and the external wrenches'
+    layout ``wrenches``) and the batch is large enough: ``inputs`` the (C, inputs) array (or a function making it),
+    ``out`` (C, outputs); False when it did not run."""
     size = out.shape[0]
-    fast = _specialise.find(t, kind) if size >= _SPECIALISED_MIN else None
+    fast = _specialise.find(t, kind, wrenches) if size >= _SPECIALISED_MIN else None
     if fast is None:
         return False
     _specialise.mapped(fast, t, _own(inputs() if callable(inputs) else inputs), out.reshape((size, -1)))
     return True
 
 
-def _timed(t: Tree, kind: str, counted: int, driver: Any, *args: Any) -> None:
-    """``driver(*args)`` on the generic kernels; its time is counted towards specialising ``kind`` when ``counted`` (the
-    batch size, 0 when the specialised kernel could not serve the call) is at least the specialised kernels' minimum."""
+def _timed(t: Tree, kind: str, counted: int, driver: Any, *args: Any, wrenches: _specialise.Layout = ()) -> None:
+    """``driver(*args)`` on the generic kernels; its time is counted towards specialising ``kind`` (for the external
+    wrenches' layout ``wrenches``) when ``counted`` (the batch size) is at least the specialised kernels' minimum."""
     start = time.perf_counter()
     driver(*args)
     if counted >= _SPECIALISED_MIN and driver.compiled:  # work they would take (not a first compile)
-        _specialise.account(t, kind, time.perf_counter() - start)
+        _specialise.account(t, kind, time.perf_counter() - start, wrenches)
 
 
 def inertia_matrix(model: Any, q: np.ndarray) -> np.ndarray:
@@ -207,8 +208,34 @@ def _actuation(u: np.ndarray | None, t: Tree, batch: tuple[int, ...]) -> np.ndar
     return _flat(u, batch, (t.n_joints + 6,))
 
 
+def _attitude_rows(t0: np.ndarray | None) -> np.ndarray:
+    """The attitude T0 (..., 3, 3) as rows (..., 9), row-major; None: the identity."""
+    return np.eye(3).reshape(9) if t0 is None else np.asarray(t0).reshape((*np.shape(t0)[:-2], 9))
+
+
 def _attitudes(t0: np.ndarray | None, batch: tuple[int, ...]) -> np.ndarray:
     return _flat(np.eye(3) if t0 is None else t0, batch, (3, 3))
+
+
+def _dynamics_batch(
+    q: np.ndarray, velocity: np.ndarray, u: np.ndarray | None, t0: np.ndarray | None, ext: tuple[np.ndarray, np.ndarray], *extra: np.ndarray
+) -> tuple[int, ...]:
+    """The broadcast batch shape of a dynamics call's inputs."""
+    return _batch(
+        (q, 1), (velocity, 1), (ext[1], 2), *((e, 1) for e in extra), *(() if u is None else ((u, 1),)), *(() if t0 is None else ((t0, 2),))
+    )
+
+
+def _lane_inputs(batch: tuple[int, ...], parts: list[tuple[np.ndarray | None, int]]) -> np.ndarray:
+    """A specialised map's inputs (C, sum of widths): each part (array (..., width) broadcast against ``batch``, or None:
+    zero) written once into its columns; no flat copy of each part first, nor a concatenation of them."""
+    width = sum(w for _, w in parts)
+    rows = new_output((*batch, width))
+    at = 0
+    for part, w in parts:
+        rows[..., at : at + w] = 0.0 if part is None else part
+        at += w
+    return rows.reshape((-1, width))
 
 
 def _dynamics_inputs(
@@ -222,9 +249,7 @@ def _dynamics_inputs(
 ) -> tuple[tuple[int, ...], list[np.ndarray]]:
     """The broadcast batch shape and the flat inputs [q, velocity, *extra (6 + N each), u, t0, ext_i, ext_f] of a dynamics driver."""
     n = t.n_joints
-    batch = _batch(
-        (q, 1), (velocity, 1), (ext[1], 2), *((e, 1) for e in extra), *(() if u is None else ((u, 1),)), *(() if t0 is None else ((t0, 2),))
-    )
+    batch = _dynamics_batch(q, velocity, u, t0, ext, *extra)
     flat = [_flat(q, batch, (n,)), _flat(velocity, batch, (6 + n,)), *(_flat(e, batch, (6 + n,)) for e in extra)]
     return batch, [*flat, _actuation(u, t, batch), _attitudes(t0, batch), *_wrench_data(ext, batch)]
 
@@ -246,13 +271,23 @@ def residual_rows(
     t = tree(model)
     n = t.n_joints
     acc_in = np.zeros(6 + n) if acceleration is None else acceleration
-    batch, (qf, vf, af, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext, acc_in)
-    out = new_output((qf.shape[0], 3 + n))
-    if ext_i.shape[0] > 0 or not _specialised_map(t, "inverse", lambda: np.concatenate([qf, vf, af, uf], axis=1), out):
+    wrenches = _specialise.layout(ext[0])
+    batch = _dynamics_batch(q, velocity, u, t0, ext, acc_in)
+    out = new_output((int(np.prod(batch, dtype=np.int64)), 3 + n))
+
+    def inputs() -> np.ndarray:  # the specialised kernel's rows: [q, zdot0, zddot0, u] and with wrenches [T0, ext_f]
+        parts = [(q, n), (velocity, 6 + n), (acceleration, 6 + n), (u, n + 6)]
+        if wrenches:
+            parts += [(_attitude_rows(t0), 9), (ext[1].reshape((*ext[1].shape[:-2], 9 * len(wrenches))), 9 * len(wrenches))]
+        return _lane_inputs(batch, parts)
+
+    if not _specialised_map(t, "inverse", inputs, out, wrenches):
+        _, (qf, vf, af, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext, acc_in)
+        size = qf.shape[0]
         _timed(
             t,
             "inverse",
-            qf.shape[0] if ext_i.shape[0] == 0 else 0,
+            size,
             _drivers.inverse_batch,
             qf.shape[0],
             t,
@@ -265,6 +300,7 @@ def residual_rows(
             ext_f,
             acceleration is not None,
             out,
+            wrenches=wrenches,
         )
     return out.reshape((*batch, 3 + n))
 
@@ -280,17 +316,21 @@ def accelerations(
     """Forward dynamics: (zddot0 (..., 6 + N) = [rddot_cm inertial, d/dt omega0, qddot], ok (...) False where H+ failed)."""
     t = tree(model)
     n = t.n_joints
+    wrenches = _specialise.layout(ext[0])
+    batch = _dynamics_batch(q, velocity, u, t0, ext)
+    w = 9 * len(wrenches)
+    both = new_output((int(np.prod(batch, dtype=np.int64)), 7 + n))  # zddot0 and the guards' flag
+    parts = [(q, n), (velocity, 6 + n), (u, n + 6), (_attitude_rows(t0), 9), (ext[1].reshape((*ext[1].shape[:-2], w)), w)]
+    if _specialised_map(t, "forward", lambda: _lane_inputs(batch, parts), both, wrenches):
+        return both[:, : 6 + n].reshape((*batch, 6 + n)), (both[:, 6 + n] != 0.0).reshape(batch)
     batch, (qf, vf, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext)
-    if ext_i.shape[0] == 0:
-        both = new_output((qf.shape[0], 7 + n))  # zddot0 and the guards' flag
-        if _specialised_map(t, "forward", lambda: np.concatenate([qf, vf, uf, t0f.reshape(-1, 9)], axis=1), both):
-            return both[:, : 6 + n].reshape((*batch, 6 + n)), (both[:, 6 + n] != 0.0).reshape(batch)
-    out = new_output((qf.shape[0], 6 + n))
-    ok = np.empty(qf.shape[0], dtype=np.bool_)
+    size = qf.shape[0]
+    out = new_output((size, 6 + n))
+    ok = np.empty(size, dtype=np.bool_)
     _timed(
         t,
         "forward",
-        qf.shape[0] if ext_i.shape[0] == 0 else 0,
+        size,
         _drivers.forward_batch,
         qf.shape[0],
         t,
@@ -302,6 +342,7 @@ def accelerations(
         ext_f,
         out,
         ok,
+        wrenches=wrenches,
     )
     return out.reshape((*batch, 6 + n)), ok.reshape(batch)
 
@@ -350,24 +391,27 @@ def rollout(
     done = np.empty(k, dtype=np.int64)
     kp, kd, qref, vref = (_own(np.broadcast_to(g, (k, n))) for g in gains)
     ext_i, ext_f = _wrench_data(ext, (k,))
+    wrenches = _specialise.layout(ext_i)
     timing = (float(dt), int(steps), int(hold), int(stride))
     if specialised_rollouts(model, k, ext):
-        fast = _specialise.find(t, "rollout")
+        fast = _specialise.find(t, "rollout", wrenches)
         assert fast is not None
-        _specialise.rollout(fast, t, _own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), xs, us, sat, done)
+        args = (_own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), xs, us, sat, done)
+        _specialise.rollout(fast, t, *args, ext_f.reshape(k, 9 * len(wrenches)))  # each trajectory's wrenches (K, 9W)
         return xs, us, sat, done
-    timing = (float(dt), int(steps), int(hold), int(stride))
     start = time.perf_counter()
     _drivers.rollout_batch(k, t, _own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), ext_i, ext_f, xs, us, sat, done)
-    if k >= _SPECIALISED_ROLLOUTS_MIN and ext_i.shape[0] == 0 and _drivers.rollout_batch.compiled:  # work they would take
-        _specialise.account(t, "rollout", time.perf_counter() - start)
+    if k >= _SPECIALISED_ROLLOUTS_MIN and _drivers.rollout_batch.compiled:  # work they would take
+        _specialise.account(t, "rollout", time.perf_counter() - start, wrenches)
     return xs, us, sat, done
 
 
 def specialised_rollouts(model: Any, batch: int, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES) -> bool:
     """True when :func:`rollout` of ``batch`` trajectories under the wrenches ``ext`` runs the specialised kernels
-    (made for the model's structure, at least 8 trajectories, no external wrenches)."""
-    return np.shape(ext[0])[0] == 0 and batch >= _SPECIALISED_ROLLOUTS_MIN and _specialise.find(tree(model), "rollout") is not None
+    (made for the model's structure and the wrenches' layout, at least 8 trajectories)."""
+    if batch < _SPECIALISED_ROLLOUTS_MIN:
+        return False
+    return _specialise.find(tree(model), "rollout", _specialise.layout(ext[0])) is not None
 
 
 def rk4_batch(

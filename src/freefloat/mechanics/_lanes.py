@@ -25,7 +25,7 @@ import numpy as np
 
 from ._numba_cache import bind
 
-__all__ = ["LANES", "bound_loops", "joint_pd", "map_blocks", "rollout_loop", "rollout_rows"]
+__all__ = ["LANES", "block_rows", "bound_loops", "joint_pd", "map_blocks", "rollout_loop", "rollout_rows"]
 
 #: Configurations per lane block (a multiple of the SIMD width). Measured on the 7-DOF arm: 16 is 10-20% slower,
 #: 32, 64 and 128 within the machine's noise of each other.
@@ -90,6 +90,18 @@ def map_blocks(lane: Any, Q: np.ndarray, P: np.ndarray, OUT: np.ndarray, W: np.n
         for lane_ in range(count):
             for r in range(n_out):
                 OUT[b0 + lane_, r] = W[off + r * LANES + lane_]
+
+
+@numba.njit(inline="always", nogil=True, error_model="numpy")
+def block_rows(A: np.ndarray, W: np.ndarray, at: int, block: int) -> None:  # pragma: no cover
+    """The rows of A (K, R) of the block ``block`` into the rows at..at + R of W, LANES values a row (a short last block
+    repeats its last row): per-trajectory inputs that stay constant over a rollout (its external wrenches)."""
+    b0 = block * LANES
+    count = min(LANES, A.shape[0] - b0)
+    for lane_ in range(LANES):
+        src = b0 + (lane_ if lane_ < count else count - 1)
+        for j in range(A.shape[1]):
+            W[(at + j) * LANES + lane_] = A[src, j]
 
 
 def _rk4_rows(P: Any, W: np.ndarray, width: int, size: int, nu: int, dt: float) -> None:  # pragma: no cover

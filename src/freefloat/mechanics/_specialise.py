@@ -6,7 +6,8 @@ same source**: :mod:`._trace` runs :func:`~._configuration.jstar_one` and
 :func:`~._configuration.state_derivative_one` on symbols, with the structure as numbers (the tree,
 joint types, placements and axes: folded) and the data as symbols (masses, CMs, inertias, the
 total mass, end-effector points: read at run time, so :meth:`~freefloat.Model.with_payload`
-variants share the kernels). :func:`emit` writes the graph as straight-line code over one block
+variants share the kernels; the layout of external wrenches, their bodies and frames, is structure too and
+their values are inputs). :func:`emit` writes the graph as straight-line code over one block
 of :data:`~._lanes.LANES` configurations (rows of a flat buffer), which LLVM vectorises; sin and
 cos become :data:`SINCOS` (a vectorisable sin/cos: within 1 ulp of the C library's over
 |q| <= 7 rad and 2 ulp over |q| <= 1e5 rad, checked by ``tests/mechanics/test_specialise.py``;
@@ -18,9 +19,9 @@ itself in a background thread once a process has spent :data:`AUTO_AFTER` second
 (rollouts) to compile once per machine, measured on the paper
 systems; the generated source and numba's machine code are then kept in the user's cache folder
 (inside the generic kernels' folder for this numba version and engine source, keyed by the
-structure) and found by every later process, which then uses them for J* batches and rollouts of
-every model of that structure. Everything else, and every model not specialised, runs on the
-generic kernels. Rollouts with external wrenches stay generic. Two processes specialising the same
+structure) and found by every later process, which then uses them for J*, H+ and dynamics batches and rollouts of
+every model of that structure (with external wrenches: of their layout, each layout apart). Everything else, and every
+model not specialised, runs on the generic kernels. Two processes specialising the same
 structure at once both compile; the file each writes is the same and replaced atomically.
 """
 
@@ -56,10 +57,12 @@ __all__ = [
     "AUTO_ENV",
     "KINDS",
     "SINCOS",
+    "WRENCH_KINDS",
     "account",
     "auto_enabled",
     "emit",
     "find",
+    "layout",
     "load",
     "set_auto",
     "specialise",
@@ -71,10 +74,30 @@ __all__ = [
 logger = logging.getLogger("freefloat")
 
 #: What can be specialised: J* of a batch of configurations, RK4 rollouts (their state derivative), H+, forward
-#: dynamics (without external wrenches) and inverse dynamics (C+ - Q without external wrenches).
+#: dynamics and inverse dynamics (C+ - Q); the last three with or without external wrenches (:data:`WRENCH_KINDS`).
 KINDS = ("jstar", "rollout", "hplus", "forward", "inverse")
 #: The kinds that map a batch of inputs to a batch of outputs (lane by lane: :func:`~._lanes.map_blocks`).
 MAPS = ("jstar", "hplus", "forward", "inverse")
+#: The kinds that take external wrenches: each layout of wrenches (:func:`layout`) is specialised apart.
+WRENCH_KINDS = ("rollout", "forward", "inverse")
+
+#: The layout of external wrenches: one (body, frame code) pair per wrench (the engine's ext_i rows; part of the
+#: structure: folded into the code). Their values (point, force, couple) are inputs.
+Layout = tuple[tuple[int, int], ...]
+
+
+def layout(ext_i: np.ndarray) -> Layout:
+    """The layout of the external wrenches ext_i (W, 2) = [body, frame code] (:data:`Layout`; () for none)."""
+    return tuple((int(b), int(f)) for b, f in np.asarray(ext_i, dtype=np.int64).reshape(-1, 2))
+
+
+def wrench_inputs(kind: str, wrenches: Layout) -> int:
+    """Inputs per configuration of the map ``kind`` beyond :data:`MAP_INPUTS` for the wrenches ``wrenches``: their values
+    (9 each: point, force, couple), and for inverse dynamics the attitude T0 (9; forward dynamics reads it always)."""
+    if not wrenches:
+        return 0
+    return 9 * len(wrenches) + (9 if kind == "inverse" else 0)
+
 
 #: sin and cos of one angle without calls (vectorisable): the reduction by the nearest multiple k
 #: of pi/2 in four parts (Cody-Waite; the first two products exact for |k| < 2^20), then fdlibm's minimax
@@ -135,12 +158,18 @@ def _ints(a: np.ndarray) -> np.ndarray:
     return np.array([int(v) for v in a.ravel()], dtype=object).reshape(a.shape)
 
 
-def trace(t: Tree, kind: str) -> tuple[Graph, list[Any], int]:
+def trace(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[Graph, list[Any], int]:
     """The graph of one configuration of ``kind`` for the structure of ``t``: (graph, outputs, inputs per lane).
 
     Inputs "W" rows: "jstar" q (N); "rollout" the state x (13 + 2N) then u (N + 6). Outputs:
     "jstar" J* (6E x N, row-major); "rollout" dx/dt (13 + 2N). Guards: the Cholesky pivots.
+    ``wrenches`` (kinds :data:`WRENCH_KINDS`): the external wrenches' layout (:func:`layout`: bodies and frames,
+    numbers while tracing); their values ext_f (W x 9) are inputs: of a map, the rows after its other inputs
+    (:func:`wrench_inputs`); of a rollout, the rows after the rollout loop's buffer (:func:`~._lanes.rollout_rows`),
+    filled once per block of trajectories (a trajectory's wrenches are constant).
     """
+    if wrenches and kind not in WRENCH_KINDS:
+        raise ValueError(f"freefloat: the kind {kind!r} takes no external wrenches (those that do: {WRENCH_KINDS})")
     mod = traced()
     g = Graph()
     m = _symbolic_model(t, g)
@@ -148,6 +177,11 @@ def trace(t: Tree, kind: str) -> tuple[Graph, list[Any], int]:
     n = t.n_joints
     work = np.full(work_size(nb, t.ee_body.shape[0]), 0.0, dtype=object)
     s = mod.recursions.scratch(work, nb, t.ee_body.shape[0])
+    ext_i = np.array(wrenches, dtype=object).reshape(len(wrenches), 2)
+
+    def ext_f(first: int) -> np.ndarray:  # the wrenches' values, W rows from ``first`` on
+        return np.array([g.input("W", first + i) for i in range(9 * len(wrenches))], dtype=object).reshape(len(wrenches), 9)
+
     if kind == "jstar":
         q = np.array([g.input("W", j) for j in range(n)], dtype=object)
         out = np.full((6 * t.ee_body.shape[0], n), 0.0, dtype=object)
@@ -158,32 +192,34 @@ def trace(t: Tree, kind: str) -> tuple[Graph, list[Any], int]:
         x = np.array([g.input("W", i) for i in range(size)], dtype=object)
         u = np.array([g.input("W", size + j) for j in range(n + 6)], dtype=object)
         dx = np.full((1, size), 0.0, dtype=object)
-        none_i, none_f = np.zeros((0, 2), dtype=object), np.zeros((0, 9), dtype=object)
-        ok = getattr(mod.configuration, ENTRY_POINTS["rollout"])(x, u, m, none_i, none_f, s, dx, 0)
+        ext = ext_f(_lanes.rollout_rows(size, n + 6))
+        ok = getattr(mod.configuration, ENTRY_POINTS["rollout"])(x, u, m, ext_i, ext, s, dx, 0)
         if ok is not True:  # a pivot that folded to a number <= 0: the structure itself is singular
             raise AssertionError("freefloat: the traced state derivative failed on numbers alone")
         return g, list(dx.ravel()), size + n + 6
-    none_i, none_f = np.zeros((0, 2), dtype=object), np.zeros((0, 9), dtype=object)
     if kind == "hplus":
         q = np.array([g.input("W", j) for j in range(n)], dtype=object)
         out = np.full((6 + n, 6 + n), 0.0, dtype=object)
         getattr(mod.configuration, ENTRY_POINTS["hplus"])(q, m, s, out)
         return g, list(out.ravel()), n
-    if kind == "forward":  # inputs q (N), zdot0 (6 + N), u (N + 6), T0 (9); outputs zddot0 (6 + N), then the guards' row
-        w = [g.input("W", j) for j in range(n + (6 + n) + (n + 6) + 9)]
+    if kind == "forward":  # inputs q (N), zdot0 (6 + N), u (N + 6), T0 (9), ext_f (9W); outputs zddot0 (6 + N), then the guards' row
+        w = [g.input("W", j) for j in range(MAP_INPUTS["forward"](n))]
         q, vel = np.array(w[:n], dtype=object), np.array(w[n : 6 + 2 * n], dtype=object)
         u, t0 = np.array(w[6 + 2 * n : 12 + 3 * n], dtype=object), np.array(w[12 + 3 * n :], dtype=object).reshape(3, 3)
         out = np.full(6 + n, 0.0, dtype=object)
-        getattr(mod.configuration, ENTRY_POINTS["forward"])(q, vel, u, t0, m, none_i, none_f, s, out)
-        return g, list(out), len(w)
-    if kind == "inverse":  # inputs q (N), zdot0 (6 + N), zddot0 (6 + N), u (N + 6); outputs the rows [omega0, q] (3 + N)
-        w = [g.input("W", j) for j in range(n + 2 * (6 + n) + (n + 6))]
+        getattr(mod.configuration, ENTRY_POINTS["forward"])(q, vel, u, t0, m, ext_i, ext_f(len(w)), s, out)
+        return g, list(out), len(w) + wrench_inputs(kind, wrenches)
+    if kind == "inverse":
+        # inputs q (N), zdot0 (6 + N), zddot0 (6 + N), u (N + 6) [, T0 (9), ext_f (9W)]; outputs the rows [omega0, q] (3 + N)
+        w = [g.input("W", j) for j in range(MAP_INPUTS["inverse"](n))]
         q, vel = np.array(w[:n], dtype=object), np.array(w[n : 6 + 2 * n], dtype=object)
         acc, u = np.array(w[6 + 2 * n : 12 + 3 * n], dtype=object), np.array(w[12 + 3 * n :], dtype=object)
         out = np.full(3 + n, 0.0, dtype=object)
-        t0 = np.eye(3, dtype=object)  # read only for inertial-frame external wrenches: none here
-        getattr(mod.configuration, ENTRY_POINTS["inverse"])(q, vel, acc, True, u, t0, m, none_i, none_f, s, out)
-        return g, list(out), len(w)
+        t0 = np.eye(3, dtype=object)  # read only for inertial-frame external wrenches: an input when there are wrenches
+        if wrenches:
+            t0 = np.array([g.input("W", len(w) + j) for j in range(9)], dtype=object).reshape(3, 3)
+        getattr(mod.configuration, ENTRY_POINTS["inverse"])(q, vel, acc, True, u, t0, m, ext_i, ext_f(len(w) + 9), s, out)
+        return g, list(out), len(w) + wrench_inputs(kind, wrenches)
     raise ValueError(f"freefloat: no specialised kernel of kind {kind!r}; the kinds are {KINDS}")
 
 
@@ -263,35 +299,40 @@ _, rollout_blocks = _lanes.bound_loops(lane, "specialised")  # the one rollout l
 
 
 @kernel()
-def serial(P, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, W):  # pragma: no cover - compiled
-    blocks = (X0.shape[0] + LANES - 1) // LANES
-    rollout_blocks(P, LANES, 0, blocks, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, W)
+def serial(P, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, EXT, W):  # pragma: no cover - compiled
+    for block in range((X0.shape[0] + LANES - 1) // LANES):
+        _lanes.block_rows(EXT, W, EXT_AT, block)  # the block's external wrenches (EXT (K, 9W); W = 0: none)
+        rollout_blocks(P, LANES, block, block + 1, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, W)
 
 
 @kernel(parallel=True)
-def parallel(P, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, WS):  # pragma: no cover - compiled
+def parallel(P, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, EXT, WS):  # pragma: no cover - compiled
     for block in prange((X0.shape[0] + LANES - 1) // LANES):
         W = WS[get_thread_id()]
+        _lanes.block_rows(EXT, W, EXT_AT, block)
         rollout_blocks(P, LANES, block, block + 1, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, W)
 """,
 }
 
 
-def source(t: Tree, kind: str) -> tuple[str, list[int], int]:
-    """The generated module of ``kind`` for the structure of ``t``: (source, data slots, rows of W)."""
-    g, outputs, n_in = trace(t, kind)
+def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], int]:
+    """The generated module of ``kind`` (with the external wrenches ``wrenches``) for the structure of ``t``: (source,
+    data slots, rows of W)."""
+    g, outputs, n_in = trace(t, kind, wrenches)
     lane, slots = emit(g, outputs, n_in)
     if kind in MAPS:
         rows = n_in + len(outputs) + (1 if g.guards else 0)
+        ext_at = 0
     else:
         size = 13 + 2 * t.n_joints
-        rows = _lanes.rollout_rows(size, t.n_joints + 6)  # the W layout of _lanes.rollout_blocks
+        ext_at = _lanes.rollout_rows(size, t.n_joints + 6)  # the W layout of _lanes.rollout_blocks, then the wrenches
+        rows = ext_at + 9 * len(wrenches)
     head = (
         f'"""freefloat: {kind} specialised for one model structure (generated by freefloat.mechanics._specialise; do not edit)."""\n\n'
         "import math\n\nfrom numba import get_thread_id, prange\n\n"
         "from freefloat.mechanics import _lanes\nfrom freefloat.mechanics._lanes import LANES\n"
         "from freefloat.mechanics._numba_cache import kernel\n\n"
-        f"SLOTS = {slots!r}\nROWS = {rows}\n\n\n@kernel()\n"
+        f"SLOTS = {slots!r}\nROWS = {rows}\nWRENCHES = {wrenches!r}\nEXT_AT = {ext_at}\n\n\n@kernel()\n"
     )
     guarded = f"GUARDED = {bool(g.guards)}\n\n\n"
     return (
@@ -310,14 +351,18 @@ def _engine_key() -> str:
     return digest.hexdigest()[:12]
 
 
-def structure_key(t: Tree, kind: str) -> str:
-    """What the specialised kernels depend on: the tree, joint types, placements and axes, the end-effector bodies."""
+def structure_key(t: Tree, kind: str, wrenches: Layout = ()) -> str:
+    """What the specialised kernels depend on: the tree, joint types, placements and axes, the end-effector bodies, and
+    the layout of the external wrenches (their bodies and frames; none: the key has no wrench part)."""
     digest = hashlib.sha256(f"{kind}:{LANES}:{_engine_key()}".encode())
     structure = [t.fields[f.name] for f in BODY_FIELDS if f.role == "structure"]
     structure += [t.fields[f.name] != 0.0 for f in BODY_FIELDS if f.fold_zeros]  # where the folded fields are zero
     for arr in (t.ints, *structure):
         digest.update(str(arr.shape).encode())
         digest.update(np.ascontiguousarray(arr).tobytes())
+    if wrenches:
+        digest.update(f"wrenches:{wrenches!r}".encode())
+        return f"{kind}_{t.n_joints}j_{len(wrenches)}w_{digest.hexdigest()[:20]}"
     return f"{kind}_{t.n_joints}j_{digest.hexdigest()[:20]}"
 
 
@@ -375,10 +420,11 @@ def _write(path: Path, text: str) -> Path:
         return other
 
 
-def load(t: Tree, kind: str, *, build: bool) -> types.ModuleType | None:
-    """The generated module of ``kind`` for ``t``'s structure: in memory, else from the cache folder, else
-    (``build``) generated, written there (atomically: a temporary file renamed) and imported; None if absent."""
-    key = structure_key(t, kind)
+def load(t: Tree, kind: str, *, build: bool, wrenches: Layout = ()) -> types.ModuleType | None:
+    """The generated module of ``kind`` (with the external wrenches ``wrenches``) for ``t``'s structure: in memory, else
+    from the cache folder, else (``build``) generated, written there (atomically: a temporary file renamed) and
+    imported; None if absent."""
+    key = structure_key(t, kind, wrenches)
     found = _LOADED.get(key)
     if found is not None:
         return found
@@ -401,26 +447,28 @@ def load(t: Tree, kind: str, *, build: bool) -> types.ModuleType | None:
         if module is None:
             if not build:
                 return None
-            text, _, _ = source(t, kind)
+            text, _, _ = source(t, kind, wrenches)
             module = _import(_write(path, text), key)
         _LOADED[key] = module
         return module
 
 
-#: Per model tree and kind: the specialised module, or None (looked up once per tree; cleared by :func:`specialise`).
-_FOUND: weakref.WeakKeyDictionary[Tree, dict[str, types.ModuleType | None]] = weakref.WeakKeyDictionary()
+#: Per model tree, kind and wrench layout: the specialised module, or None (looked up once per tree; cleared by
+#: :func:`specialise`).
+_FOUND: weakref.WeakKeyDictionary[Tree, dict[tuple[str, Layout], types.ModuleType | None]] = weakref.WeakKeyDictionary()
 #: False inside :func:`generic` (benchmarks and tests compare the two paths).
 _ENABLED = [True]
 
 
-def find(t: Tree, kind: str) -> types.ModuleType | None:
-    """The specialised module of ``kind`` for ``t``'s structure if :func:`specialise` made it (in any process); else None."""
+def find(t: Tree, kind: str, wrenches: Layout = ()) -> types.ModuleType | None:
+    """The specialised module of ``kind`` (with the external wrenches ``wrenches``) for ``t``'s structure if
+    :func:`specialise` made it (in any process); else None."""
     if not _ENABLED[0]:
         return None
     memo = _FOUND.setdefault(t, {})
-    if kind not in memo:
-        memo[kind] = load(t, kind, build=False)
-    return memo[kind]
+    if (kind, wrenches) not in memo:
+        memo[kind, wrenches] = load(t, kind, build=False, wrenches=wrenches)
+    return memo[kind, wrenches]
 
 
 # ----------------------------------------------------------------- automatic specialisation
@@ -434,8 +482,8 @@ COMPILE_TIME = {"jstar": "2-5 s", "rollout": "9-18 s", "hplus": "a few seconds",
 #: The environment variable that turns automatic specialisation off ("0", "false", "no" or "off").
 AUTO_ENV = "FREEFLOAT_AUTO_SPECIALISE"
 _AUTO = [True]
-#: Per model tree: seconds of generic work by kind (reset when the structure is specialised).
-_SPENT: weakref.WeakKeyDictionary[Tree, dict[str, float]] = weakref.WeakKeyDictionary()
+#: Per model tree: seconds of generic work by kind and wrench layout.
+_SPENT: weakref.WeakKeyDictionary[Tree, dict[tuple[str, Layout], float]] = weakref.WeakKeyDictionary()
 #: Structure keys compiling now or compiled by this process automatically (each is built once).
 _STARTED: dict[str, threading.Thread] = {}
 
@@ -450,28 +498,31 @@ def set_auto(on: bool) -> None:
     _AUTO[0] = bool(on)
 
 
-def account(t: Tree, kind: str, seconds: float) -> None:
-    """Count ``seconds`` of generic work of ``kind`` on ``t``'s structure; past :data:`AUTO_AFTER`, specialise it in a
-    background thread (once per structure and process; the kernels then serve every later call and process)."""
+def account(t: Tree, kind: str, seconds: float, wrenches: Layout = ()) -> None:
+    """Count ``seconds`` of generic work of ``kind`` (with the external wrenches ``wrenches``) on ``t``'s structure; past
+    :data:`AUTO_AFTER`, specialise it in a background thread (once per structure, layout and process; the kernels then
+    serve every later call and process)."""
     if not _ENABLED[0] or not auto_enabled():
         return
     spent = _SPENT.setdefault(t, {})
-    spent[kind] = spent.get(kind, 0.0) + seconds
-    if spent[kind] < AUTO_AFTER[kind]:
+    total = spent[kind, wrenches] = spent.get((kind, wrenches), 0.0) + seconds
+    if total < AUTO_AFTER[kind]:
         return
-    key = structure_key(t, kind)
+    key = structure_key(t, kind, wrenches)
     with _LOCK:
         if key in _STARTED:
             return
-        worker = threading.Thread(target=_auto_build, args=(t, kind, spent[kind]), name=f"freefloat-specialise-{kind}", daemon=True)
+        worker = threading.Thread(target=_auto_build, args=(t, kind, total, wrenches), name=f"freefloat-specialise-{kind}", daemon=True)
         _STARTED[key] = worker
     worker.start()
 
 
-def _auto_build(t: Tree, kind: str, spent: float) -> None:
+def _auto_build(t: Tree, kind: str, spent: float, wrenches: Layout = ()) -> None:
     from ..core.feedback import notice
 
     what = {"jstar": "J*", "rollout": "the rollouts", "hplus": "H+", "forward": "forward dynamics", "inverse": "inverse dynamics"}[kind]
+    if wrenches:
+        what += f" with {len(wrenches)} external wrench{'es' if len(wrenches) > 1 else ''}"
     notice(
         f"specialising {what} for this model structure in the background after {spent:.3g} s of work on the generic kernels "
         f"({COMPILE_TIME[kind]} to compile, once per machine, kept in {_folder()}; the calls go on meanwhile); "
@@ -479,7 +530,7 @@ def _auto_build(t: Tree, kind: str, spent: float) -> None:
     )
     start = time.perf_counter()
     try:
-        specialise(t, (kind,))
+        specialise(t, (kind,), wrenches=wrenches)
     except Exception as exc:  # a failed background compile must never disturb the user's work: the generic kernels stay
         warnings.warn(
             f"freefloat: automatic specialisation of {what} failed ({type(exc).__name__}: {exc}); the generic kernels stay",
@@ -511,14 +562,14 @@ def generic() -> Iterator[None]:
         _ENABLED[0] = before
 
 
-def _warm(module: types.ModuleType, t: Tree, kind: str) -> None:
+def _warm(module: types.ModuleType, t: Tree, kind: str, wrenches: Layout = ()) -> None:
     """Compile (or load from numba's cache) both drivers of a module on a tiny batch."""
     data = data_vector(t)[module.SLOTS]
     n = t.n_joints
     if kind in MAPS:
-        q = np.zeros((1, MAP_INPUTS[kind](n)))
+        q = np.zeros((1, MAP_INPUTS[kind](n) + wrench_inputs(kind, wrenches)))
         if kind == "forward":
-            q[0, 12 + 3 * n :: 4] = 1.0  # T0 = 1
+            q[0, 12 + 3 * n : 21 + 3 * n : 4] = 1.0  # T0 = 1
         out = np.empty((1, module.ROWS - q.shape[1]))
         module.serial(q, data, out, np.empty(module.ROWS * LANES))
         module.parallel(q, data, out, np.empty((_threads(), module.ROWS * LANES)))
@@ -529,8 +580,9 @@ def _warm(module: types.ModuleType, t: Tree, kind: str) -> None:
         zero = np.zeros((1, n))
         args = (data, x0, 1e-3, 1, 1, 1, zero, zero, zero, zero, np.zeros((1, 1, n)), np.full(n + 6, np.inf))
         outs = (np.empty((2, 1, size)), np.empty((2, 1, n + 6)), np.empty((2, 1), dtype=np.bool_), np.empty(1, dtype=np.int64))
-        module.serial(*args, *outs, np.empty(module.ROWS * LANES))
-        module.parallel(*args, *outs, np.empty((_threads(), module.ROWS * LANES)))
+        ext = np.zeros((1, 9 * len(wrenches)))
+        module.serial(*args, *outs, ext, np.empty(module.ROWS * LANES))
+        module.parallel(*args, *outs, ext, np.empty((_threads(), module.ROWS * LANES)))
 
 
 def _threads() -> int:
@@ -539,18 +591,24 @@ def _threads() -> int:
     return int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]  # every thread id is below it
 
 
-def specialise(t: Tree, kinds: tuple[str, ...] = KINDS, progress: Callable[[str], None] | None = None) -> dict[str, str]:
-    """Generate and compile the specialised kernels of ``kinds`` for ``t``'s structure (kept on disk); the keys made."""
+def specialise(
+    t: Tree, kinds: tuple[str, ...] = KINDS, progress: Callable[[str], None] | None = None, *, wrenches: Layout = ()
+) -> dict[str, str]:
+    """Generate and compile the specialised kernels of ``kinds`` for ``t``'s structure (kept on disk); the keys made.
+
+    ``wrenches``: the layout of external wrenches (:func:`layout`) the kinds of :data:`WRENCH_KINDS` are made for (the
+    other kinds take none: made without)."""
     made = {}
     for kind in kinds:
         if kind not in KINDS:
             raise ValueError(f"freefloat: no specialised kernel of kind {kind!r}; the kinds are {KINDS}")
         if progress is not None:
             progress(kind)
-        module = load(t, kind, build=True)
+        layout_ = wrenches if kind in WRENCH_KINDS else ()
+        module = load(t, kind, build=True, wrenches=layout_)
         assert module is not None
-        _warm(module, t, kind)
-        made[kind] = structure_key(t, kind)
+        _warm(module, t, kind, layout_)
+        made[kind] = structure_key(t, kind, layout_)
     _FOUND.clear()
     return made
 
@@ -583,7 +641,8 @@ def mapped(module: types.ModuleType, t: Tree, q: np.ndarray, out: np.ndarray) ->
 
 def rollout(module: types.ModuleType, t: Tree, *args: Any) -> None:
     """:func:`~._lanes.rollout_blocks` (the generic rollout's loop) with the specialised lane kernel: the same
-    arguments as the generic rollout, less the model and the wrenches."""
+    arguments as the generic rollout, less the model, with the wrenches' values (K, 9W) after the outputs (W = 0:
+    none; their layout is the module's)."""
     data = data_vector(t)[module.SLOTS]
     if args[0].shape[0] > LANES and parallel_worth(4 * LANES):  # threads pay from two blocks of trajectories
         module.parallel(data, *args, np.empty((_threads(), module.ROWS * LANES)))

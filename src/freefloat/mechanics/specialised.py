@@ -11,8 +11,9 @@ the same recursions, with the structure folded into the code and several configu
 instruction (eight on AVX-512, four on AVX2). It takes 2-5 s (J*) and 9-18 s (rollouts) once per
 machine on the paper systems (kept in the user's cache folder); from then on, in every process,
 :func:`~freefloat.generalized_jacobian` on batches of 64 configurations or more and
-:func:`~freefloat.rollout` of 8 trajectories or more without external wrenches use it for every model of that
-structure: masses, inertias and end-effector points are read at run time, so every
+:func:`~freefloat.rollout` of 8 trajectories or more use it for every model of that
+structure (with external wrenches: for the wrenches' layout, their bodies and frames, given as ``external``; their
+forces, couples and points are read at run time): masses, inertias and end-effector points are read at run time, so every
 :meth:`~freefloat.Model.with_payload` variant shares it. Results agree with the generic kernels
 to rounding (sin and cos within 1 ulp of the C library's over |q| <= 7 rad, 2 ulp over
 |q| <= 1e5 rad). Measured on a 2-core AVX-512 machine: J* 4-6x and rollouts 4-8x the generic
@@ -28,11 +29,13 @@ from typing import Any
 from ..core.errors import UnknownNameError
 from . import _specialise
 from ._tree import tree
+from .forces import _engine_wrenches, _wrenches
 
 __all__ = ["AUTO_AFTER", "KINDS", "auto_specialise", "is_specialised", "specialise"]
 
 #: What can be specialised: "jstar" (J* batches), "rollout" (RK4 rollouts with the joint PD), "hplus" (H+ batches),
-#: "forward" and "inverse" (forward and inverse dynamics batches without external wrenches).
+#: "forward" and "inverse" (forward and inverse dynamics batches). The rollouts and dynamics are made for one layout of
+#: external wrenches (``external``; none by default).
 KINDS = _specialise.KINDS
 
 #: Seconds of work on the generic kernels (J*, rollouts) of one structure, in one process, after which it is
@@ -40,30 +43,43 @@ KINDS = _specialise.KINDS
 AUTO_AFTER = _specialise.AUTO_AFTER
 
 
-def specialise(model: Any, kinds: Sequence[str] = _specialise.KINDS, *, progress: Callable[[str], None] | None = None) -> dict[str, float]:
+def specialise(
+    model: Any, kinds: Sequence[str] = _specialise.KINDS, *, external: Any = (), progress: Callable[[str], None] | None = None
+) -> dict[str, float]:
     """Compile the specialised kernels of ``kinds`` (:data:`KINDS`; default all) for the structure of ``model``.
 
     Once per machine and structure: a later call (in any process) only loads them (well under a
-    second). ``progress(kind)`` is called before each kind. Returns the seconds each kind took.
+    second). ``external``: :class:`~freefloat.ExternalWrench` items whose layout (bodies and frames, in that
+    order; their forces, couples and points do not matter) the rollouts and forward and inverse dynamics are
+    made for, as the calls with those wrenches pass them (``simulate(..., external=...)``); each layout is
+    specialised apart. ``progress(kind)`` is called before each kind. Returns the seconds each kind took.
     Raises :class:`~freefloat.UnknownNameError` for an unknown kind.
     """
     for kind in kinds:
         if kind not in _specialise.KINDS:
             raise UnknownNameError("kind of specialised kernel", kind, _specialise.KINDS)
     t = tree(model)
+    wrenches = _layout(model, external)
     took = {}
     for kind in kinds:
         start = time.perf_counter()
-        _specialise.specialise(t, (kind,), progress)
+        _specialise.specialise(t, (kind,), progress, wrenches=wrenches)
         took[kind] = time.perf_counter() - start
     return took
 
 
-def is_specialised(model: Any, kind: str = "jstar") -> bool:
-    """True when the kernels of ``kind`` for the structure of ``model`` were compiled on this machine (:func:`specialise`)."""
+def is_specialised(model: Any, kind: str = "jstar", *, external: Any = ()) -> bool:
+    """True when the kernels of ``kind`` for the structure of ``model`` (and the layout of the wrenches ``external``, for
+    the kinds that take them) were compiled on this machine (:func:`specialise`)."""
     if kind not in _specialise.KINDS:
         raise UnknownNameError("kind of specialised kernel", kind, _specialise.KINDS)
-    return _specialise.find(tree(model), kind) is not None
+    wrenches = _layout(model, external) if kind in _specialise.WRENCH_KINDS else ()
+    return _specialise.find(tree(model), kind, wrenches) is not None
+
+
+def _layout(model: Any, external: Any) -> _specialise.Layout:
+    """The layout (bodies, frame codes) of the :class:`~freefloat.ExternalWrench` items ``external``, checked."""
+    return _specialise.layout(_engine_wrenches(model, _wrenches(external))[0])
 
 
 def auto_specialise(on: bool | None = None) -> bool:
