@@ -276,3 +276,18 @@ def test_an_event_before_the_first_output_of_a_piece_with_joint_stops() -> None:
 
     traj = ff.simulate(model, state, 1.0, events=[soon], output_period=0.01)
     assert traj.status == "event" and traj.t[-1] == pytest.approx(0.004, abs=1e-9) and len(traj) == 2
+
+
+def test_a_failure_after_the_grasp_keeps_both_phases() -> None:
+    model, state = system("1992")
+    target, grasp = closing_target(model, state)
+
+    def broken(t: float, s: ff.State) -> np.ndarray:
+        raise RuntimeError("no torque today")
+
+    said = "after the grasp at t = 0.4 s (times from the grasp): the controller raised RuntimeError at t = 0 s"
+    with pytest.raises(ff.SimulationError, match=re.escape(said)) as info:
+        ff.simulate(model, state, 1.0, capture=ff.Capture(target, at=0.4, grasp_point=grasp, controller_after=broken))
+    run = info.value.run  # type: ignore[attr-defined]
+    assert run.status == "failed" and run.t_capture == 0.4 and run.impact is not None and run.before.t[-1] == 0.4
+    assert info.value.trajectory is run.after and run.after.status == "failed"

@@ -78,8 +78,21 @@ class Capture:
         joints            "free" or "locked": the joints during the grasp (``ff.capture.impact``)
         controller_after  a controller for the combined model after the grasp (None: the same controller)
 
+    At the event the controller and ``controller_after`` are told through their method ``on_capture(impact)``,
+    where they have one. ``simulate`` then returns a :class:`CaptureRun` (the module docstring says how the run goes).
     Bad values raise ``ValueError`` / ``TypeError`` naming the field (``Capture.within: ...``); the end effector
     and ``at`` against the duration are checked by ``simulate``, which knows the model and the duration.
+
+    Examples
+    --------
+    >>> import freefloat as ff
+    >>> model = ff.models.papadopoulos1992(arms=1)
+    >>> state = ff.State(q=[0.5, 1.0])
+    >>> tip = ff.end_effector_positions(model, state.q)[0]
+    >>> target = ff.capture.Target(mass=100.0, inertia=10.0, position=tip + [0.3, 0.0, 0.0], velocity=[-0.1, 0.0, 0.0])
+    >>> run = ff.simulate(model, state, 5.0, capture=ff.Capture(target, within=0.05))
+    >>> run.status, round(run.t_capture, 6), run.after.model.total_mass - model.total_mass
+    ('finished', 2.5, 100.0)
     """
 
     target: Target
@@ -139,7 +152,8 @@ class CaptureRun:
                     the event, or to the end without a capture)
         capture     the :class:`Capture` asked for
         status      "finished" (captured, run to the end), "no capture" (the event never came), or the status of
-                    the phase that stopped ("event": a terminal event of yours, "interrupted": Ctrl-C)
+                    the phase that stopped ("event": a terminal event of yours, "interrupted": Ctrl-C; "failed": the
+                    ``run`` of the ``SimulationError`` raised by a failure after the grasp)
         message     what happened (the closest approach and its time when there was no capture)
         closest_approach  (distance m, time s): the end effector's closest approach to the grasp point up to the
                     grasp (at the outputs of ``before``; without a grasp, also at every point of the trajectory the
@@ -318,14 +332,15 @@ def simulate_capture(
         later = {**options, "events": tuple(_later(ev, t_e) for ev in events)}
         try:
             after = _shifted(simulate(grasp.model, grasp.state, remaining, _later(after_controller, t_e), **later), t_e)
-        except SimulationError as exc:
-            if exc.trajectory is not None:
-                exc.trajectory = _shifted(exc.trajectory, t_e)
-            exc.run = CaptureRun(after=exc.trajectory, status="failed", message=str(exc), **run)  # type: ignore[attr-defined, arg-type]
-            raise
+        except SimulationError as exc:  # the message's times count from the grasp (the second run's own clock): said so
+            message = f"after the grasp at t = {t_e:.6g} s (times from the grasp): {exc}"
+            failed = None if exc.trajectory is None else _shifted(exc.trajectory, t_e)
+            error = SimulationError(message, failed)
+            error.run = CaptureRun(after=failed, status="failed", message=message, **run)  # type: ignore[attr-defined, arg-type]
+            raise error from exc
     message = f"captured at t = {t_e:.6g} s ({capture.joints} joints, energy lost {grasp.energy_lost:.6g} J)"
     if after.message:
-        message += f"; after the grasp: {after.message}"
+        message += f"; after the grasp (times from the grasp): {after.message}"
     return CaptureRun(after=after, status=after.status, message=message, **run)  # type: ignore[arg-type]
 
 
