@@ -152,10 +152,10 @@ def test_the_target_coasts_torque_free() -> None:
     times = np.linspace(0.0, 60.0, 61)
     later = ff.simulation.coast(target, 60.0).at(times)
     # its momentum (linear, and angular about its CM, inertial frame) constant; its CM moving uniformly
-    assert np.abs(later.momentum - target.momentum).max() <= 1e-13 * np.abs(target.momentum).max()
+    assert np.abs(later.momentum - target.momentum).max() <= 1e-13 * np.abs(target.momentum).max()  # measured 2.8e-16
     assert np.allclose(later.position, target.position + times[:, None] * target.velocity, rtol=0.0, atol=1e-14)
     # Euler's equations: the energy ½ Lᵀ R I⁻¹ Rᵀ L kept to the integrator's tolerance, the body really tumbling
-    assert np.abs(later.kinetic_energy - target.kinetic_energy).max() <= 1e-10 * float(target.kinetic_energy)
+    assert np.abs(later.kinetic_energy - target.kinetic_energy).max() <= 1e-10 * float(target.kinetic_energy)  # measured 1.1e-12
     assert np.ptp(later.angular_velocity, axis=0).max() > 0.1
 
 
@@ -169,7 +169,7 @@ def test_an_axisymmetric_target_follows_the_closed_form() -> None:
     motion = ff.simulation.coast(target, 100.0)
     for t in np.linspace(0.0, 100.0, 21):
         exact = Rotation.from_rotvec(moment / i_t * t) * r0 * Rotation.from_rotvec([0.0, 0.0, -(i_a - i_t) / i_t * omega3 * t])
-        assert (exact.inv() * Rotation.from_quat(motion.attitude(t))).magnitude() <= 1e-9  # measured 6e-12 at 100 s
+        assert (exact.inv() * Rotation.from_quat(motion.attitude(t))).magnitude() <= 1e-9  # measured 6.2e-12 at 100 s
 
 
 def test_the_run_records_the_target_until_the_grasp() -> None:
@@ -291,3 +291,16 @@ def test_a_failure_after_the_grasp_keeps_both_phases() -> None:
     run = info.value.run  # type: ignore[attr-defined]
     assert run.status == "failed" and run.t_capture == 0.4 and run.impact is not None and run.before.t[-1] == 0.4
     assert info.value.trajectory is run.after and run.after.status == "failed"
+
+
+@pytest.mark.parametrize("at", [0.0, 1.0])
+def test_a_capture_at_the_start_or_the_end_of_the_run(at: float) -> None:
+    model, state = system("1992")
+    target, grasp = closing_target(model, state)
+    run = ff.simulate(model, state, 1.0, capture=ff.Capture(target, at=at, grasp_point=grasp))
+    assert run.captured and run.status == "finished" and run.t_capture == at and run.after is not None
+    assert run.before.t[-1] == run.after.t[0] == at and run.after.t[-1] == 1.0
+    assert len(run.before if at == 0.0 else run.after) == 1  # the phase of zero length: one sample
+    i = len(run.before)
+    jump = np.linalg.norm(run.angular_momentum[i] - run.angular_momentum[i - 1])
+    assert jump <= JUMP_BOUND * np.linalg.norm(run.angular_momentum[i - 1])
