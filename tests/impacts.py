@@ -1,4 +1,4 @@
-"""Random robot states and moving targets for the impact tests (tests/analysis/test_impact.py, tests/oracle/test_pinocchio_impact.py)."""
+"""Random robot states and moving targets for the impact tests (tests/mechanics/test_impact.py, tests/oracle/test_pinocchio_impact.py)."""
 
 from __future__ import annotations
 

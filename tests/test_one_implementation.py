@@ -30,6 +30,8 @@ READS_INERTIA = {
     "analysis/singularity.py::SingularityCriterion.measure_bound": (
         "a bound of the singularity measures from the principal moments (no H+, C+ or J*): refuses thresholds nothing reaches"
     ),
+    "simulation/coast.py::Coast.__init__": "a target's own torque-free motion before a grasp (Euler's equations of one body)",
+    "simulation/coast.py::Coast.at": "the same: the coasting target's angular velocity R I⁻¹ Rᵀ L (no H+, C+ or J*)",
 }
 #: Functions allowed to use the pair inertias (each one quantity).
 USES_PAIRS = {

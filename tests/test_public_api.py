@@ -24,7 +24,7 @@ EVERYDAY = {
     "jacobian_determinant", "manipulability",
     "system_inertia_matrix", "inertia_blocks", "angular_momentum", "linear_momentum", "kinetic_energy",
     "nonlinear_forces", "forward_dynamics", "inverse_dynamics", "generalized_forces", "ExternalWrench",
-    "simulate", "rollout", "Trajectory", "ActuatorLimits", "JointPD",
+    "simulate", "rollout", "Trajectory", "ActuatorLimits", "JointPD", "Capture",
 }  # fmt: skip
 
 #: The namespace modules, attributes of ``freefloat``.

@@ -75,6 +75,7 @@ from .mechanics.kinematics import (
     system_cm,
 )
 from .mechanics.momentum import angular_momentum, inertia_blocks, kinetic_energy, linear_momentum, system_inertia_matrix
+from .simulation.capture_event import Capture
 from .simulation.pd import JointPD
 from .simulation.simulate import rollout, simulate
 from .simulation.trajectory import Trajectory
@@ -86,6 +87,7 @@ __all__ = [
     "Actuation",
     "ActuatorLimits",
     "BarycentricVectors",
+    "Capture",
     "ExternalWrench",
     "FreefloatError",
     "JointPD",

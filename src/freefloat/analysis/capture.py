@@ -13,7 +13,9 @@ far as possible from dynamic singularities, max |det J*(q)| subject to
 end effector on A (eq. 20). :func:`plan_capture` runs all of it.
 
 A moving target: :class:`Target` and :func:`impact`, the grasp as an impact that conserves momentum,
-with the joints free or locked (:class:`Impact`: the combined model and its post-impact state).
+with the joints free or locked (:class:`Impact`: the combined model and its post-impact state), re-exported
+here from their homes :mod:`freefloat.core.target` and :mod:`freefloat.mechanics.impact` (below
+:mod:`freefloat.simulation`, whose capture during a run uses them).
 
 Positions of a path are in the inertial frame, 2D (planar models) or 3D, m.
 Angles in rad (``theta_deg``-style values only in :mod:`freefloat.papers.paper1992`).
@@ -32,15 +34,15 @@ from scipy.spatial.transform import Rotation
 from ..core._figures import new_axes
 from ..core.feedback import status
 from ..core.model import Model
+from ..core.target import Target
+from ..mechanics.impact import Impact, impact
 from ..mechanics.jacobians import end_effector_jacobian, jacobian_measure
 from ..mechanics.kinematics import end_effector_positions
 from . import _workspace_search as search
 from ._capture_families import CaptureFamilies, _family_of, _is_two_link, _two_link_coefficients, capture_families
 from ._capture_path import PathMotion, free_floating_path_motion, path_checked_candidates, refine_candidates
 from ._capture_plots import draw_system, plot_plan
-from ._impact import Impact, impact
 from ._path_placement import PathDoesNotFitError, PathPlacement, _check_path, _margin, _perpendiculars, approach_distance, place_path
-from ._target import Target
 from ._workspace_reach import end_effector_radius, reachable_workspace, singularity_measure
 from ._workspace_results import PathIndependentWorkspace, _axes, _freeze
 from ._workspace_singular import path_independent_workspace

@@ -132,7 +132,7 @@ def run_controller(name: str, duration: float = DURATION) -> Trajectory:
     model, task, state, target = section5_setup()
     cls = {"tj": TransposedJacobianController, "ct": OperationalSpaceController}[name]
     controller = cls(model, task, target, KP, KD)
-    return simulate(model, state, duration, controller, output_period=OUTPUT_PERIOD, **INTEGRATOR)  # type: ignore[arg-type]
+    return simulate(model, state, duration, controller, output_period=OUTPUT_PERIOD, **INTEGRATOR)  # type: ignore[call-overload]
 
 
 def run_fixed(duration: float = DURATION) -> HeldSpacecraftRun:

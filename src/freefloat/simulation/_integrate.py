@@ -473,9 +473,10 @@ def _solve(
         ts += [float(t) for t in np.asarray(sol.t)]
         ys += [np.asarray(sol.y)[:, k].copy() for k in range(len(sol.t))]
         hits = [k for k, te in enumerate(sol.t_events or []) if len(te)] if sol.status == 1 else []
-        if hits and hits[0] < len(events):  # a user's event: stop there
+        if hits and hits[0] < len(events):  # a user's event: stop there (perhaps before any output instant of the piece)
             return SimpleNamespace(
-                status=1, message=sol.message, t=np.array(ts), y=np.stack(ys, axis=1), t_events=sol.t_events[: len(events)],
+                status=1, message=sol.message, t=np.array(ts), y=np.stack(ys, axis=1) if ys else np.zeros((len(y0), 0)),
+                t_events=sol.t_events[: len(events)],
                 y_events=sol.y_events[: len(events)],
             )  # fmt: skip
         if not hits:

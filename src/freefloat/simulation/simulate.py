@@ -23,7 +23,7 @@ import math
 import os
 import warnings
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, overload
 
 import numpy as np
 
@@ -47,6 +47,7 @@ from ._guard import (
 )
 from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory, zero_thrust
 from ._stops import JointStops, limit_violations
+from .capture_event import Capture, CaptureRun, simulate_capture
 from .pd import JointPD
 from .trajectory import Trajectory
 
@@ -132,6 +133,7 @@ def _call_controller(controller: Controller, model: Model, t: float, x: np.ndarr
         raise SimulationError(f"bad controller output at t = {t:.6g} s: {exc}") from exc
 
 
+@overload
 def simulate(
     model: Model,
     initial_state: State,
@@ -154,7 +156,61 @@ def simulate(
     restitution: float = 0.0,
     max_wall_time: float | str | None = None,
     passive: str = "model",
-) -> Trajectory:
+    capture: None = None,
+) -> Trajectory: ...
+
+
+@overload
+def simulate(
+    model: Model,
+    initial_state: State,
+    duration: float,
+    controller: Controller | None = None,
+    *,
+    method: str = "DOP853",
+    rtol: float = 1e-10,
+    atol: float = 1e-10,
+    fixed_step: float | None = None,
+    sample_period: float | None = None,
+    output_period: float | None = None,
+    limits: ActuatorLimits | None = None,
+    events: Sequence[Callable[[float, State], float]] = (),
+    external: Any = (),
+    progress: bool | Callable[[float, float], Any] | None = None,
+    warn_after: float | None = 60.0,
+    divergence_guard: bool = True,
+    joint_limits: str = "stop",
+    restitution: float = 0.0,
+    max_wall_time: float | str | None = None,
+    passive: str = "model",
+    capture: Capture,
+) -> CaptureRun: ...
+
+
+def simulate(
+    model: Model,
+    initial_state: State,
+    duration: float,
+    controller: Controller | None = None,
+    *,
+    method: str = "DOP853",
+    rtol: float = 1e-10,
+    atol: float = 1e-10,
+    fixed_step: float | None = None,
+    sample_period: float | None = None,
+    output_period: float | None = None,
+    limits: ActuatorLimits | None = None,
+    events: Sequence[Callable[[float, State], float]] = (),
+    external: Any = (),
+    progress: bool | Callable[[float, float], Any] | None = None,
+    warn_after: float | None = 60.0,
+    divergence_guard: bool = True,
+    joint_limits: str = "stop",
+    restitution: float = 0.0,
+    max_wall_time: float | str | None = None,
+    passive: str = "model",
+    capture: Capture | None = None,
+) -> Trajectory | CaptureRun:
     """Simulate ``model`` from ``initial_state`` for ``duration`` seconds.
 
     ``controller(t, state)`` returns joint torques (N,) or an :class:`Actuation`
@@ -208,7 +264,20 @@ def simulate(
       has lasted 2 s, False none, or a callable ``progress(t, duration)``;
     - Ctrl-C (KeyboardInterrupt) returns the trajectory computed so far with
       ``status == "interrupted"``.
+
+    ``capture``: a :class:`~freefloat.simulation.capture_event.Capture` (``ff.Capture``): the grasp of a moving
+    target at a time or when the end effector comes within a distance of it; the run then returns a
+    :class:`~freefloat.simulation.capture_event.CaptureRun` (both phases, the impact, the target's motion, the
+    momentum of robot plus target throughout) instead of a Trajectory (:mod:`freefloat.simulation.capture_event`).
     """
+    if capture is not None:
+        options = dict(
+            method=method, rtol=rtol, atol=atol, fixed_step=fixed_step, sample_period=sample_period, output_period=output_period,
+            limits=limits, events=events, external=external, progress=progress, warn_after=warn_after,
+            divergence_guard=divergence_guard, joint_limits=joint_limits, restitution=restitution, max_wall_time=max_wall_time,
+            passive=passive,
+        )  # fmt: skip
+        return simulate_capture(simulate, model, initial_state, _positive("duration", duration), controller, capture, options)
     if not isinstance(initial_state, State):
         raise TypeError(f"initial_state: expected a freefloat.State, got {type(initial_state).__name__}")
     model = _passive_model(model, passive)

@@ -1,6 +1,6 @@
 """The grasp of a moving target as an impact: :func:`impact` (``ff.capture.impact``) and its :class:`Impact`.
 
-At the instant of the grasp the target (:class:`~freefloat.analysis._target.Target`) becomes rigidly fixed to
+At the instant of the grasp the target (:class:`~freefloat.core.target.Target`) becomes rigidly fixed to
 the grasping body k at its relative pose of that instant. The grasp is impulsive: positions and attitudes do
 not change, velocities jump, and no external impulse acts, so the linear and angular momentum of robot plus
 target are conserved.
@@ -47,10 +47,10 @@ from ..core.conventions import attitude_matrix, skew
 from ..core.errors import ShapeError
 from ..core.model import Model, resolve_model
 from ..core.state import State
-from ..mechanics.jacobians import point_jacobian
-from ..mechanics.kinematics import body_rotations, point_positions
-from ..mechanics.momentum import system_inertia_matrix
-from ._target import Target
+from ..core.target import Target
+from .jacobians import point_jacobian
+from .kinematics import body_rotations, point_positions
+from .momentum import system_inertia_matrix
 
 __all__ = ["JOINT_MODES", "Impact", "impact"]
 

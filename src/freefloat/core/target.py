@@ -13,10 +13,10 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..core.conventions import as_quaternion
-from ..core.errors import ModelError, ShapeError
-from ..core.model import MAX_INERTIA, MAX_MASS, check_inertia, check_mass, inertia_matrix
-from ..core.numbers import MAX_POSITION, MAX_RATE, MAX_SPEED, check_largest, real_array
+from .conventions import as_quaternion
+from .errors import ModelError, ShapeError
+from .model import MAX_INERTIA, MAX_MASS, check_inertia, check_mass, inertia_matrix
+from .numbers import MAX_POSITION, MAX_RATE, MAX_SPEED, check_largest, real_array
 
 __all__ = ["Target"]
 
