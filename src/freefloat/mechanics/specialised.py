@@ -32,7 +32,9 @@ from ._tree import tree
 __all__ = ["AUTO_AFTER", "KINDS", "auto_specialise", "is_specialised", "specialise"]
 
 #: What can be specialised: "jstar" (J* batches), "rollout" (RK4 rollouts with the joint PD), "hplus" (H+ batches),
-#: "forward" and "inverse" (forward and inverse dynamics batches without external wrenches).
+#: "forward" and "inverse" (forward and inverse dynamics batches without external wrenches), "measure" (det J*, the
+#: smallest singular value, manipulability and condition number of chosen rows of J*: :func:`~.jacobians.jacobian_measure`,
+#: the singularity maps and searches).
 KINDS = _specialise.KINDS
 
 #: Seconds of work on the generic kernels (J*, rollouts) of one structure, in one process, after which it is
