@@ -128,8 +128,11 @@ class PinocchioLoop:
             return float(np.linalg.det(jac))
         return float(np.sqrt(np.linalg.det(jac @ jac.T)))
 
+    def sigma_min(self, q: np.ndarray) -> float:
+        return float(np.linalg.svd(self.jstar(q)[self.rows], compute_uv=False)[-1])
+
     def loop(self, which: str, qs: np.ndarray) -> list[Any]:
-        fn = self.jstar if which == "jstar" else self.det
+        fn = {"jstar": self.jstar, "det": self.det, "sigma_min": self.sigma_min}[which]
         return [fn(q) for q in qs]
 
 
@@ -158,21 +161,27 @@ def verify(system: System, loop: PinocchioLoop, q: np.ndarray, batch: int) -> di
     model = system.model
     jstar = ff.generalized_jacobian(model, q[:batch])
     dets = system.freefloat_det(q[:batch])
+    smallest = ff.mechanics.jacobian_measure(model, q[:batch], None, "sigma_min")
     picks = np.unique(np.concatenate([[0, batch - 1], np.random.default_rng(1).integers(0, batch, size=30)]))
-    err_j = err_d = 0.0
-    scale_d = 0.0
+    err_j = err_d = err_s = 0.0
+    scale_d = scale_s = 0.0
     for i in picks:
         ref = loop.jstar(q[i])
         err_j = max(err_j, float(np.max(np.abs(jstar[i] - ref)) / np.max(np.abs(ref))))
         ref_d = loop.det(q[i])
         err_d = max(err_d, abs(float(dets[i]) - ref_d))
         scale_d = max(scale_d, abs(ref_d))
+        ref_s = loop.sigma_min(q[i])
+        err_s = max(err_s, abs(float(smallest[i]) - ref_s))
+        scale_s = max(scale_s, ref_s)
     err_d /= max(scale_d, 1e-300)
-    if not (err_j <= VERIFY_RTOL and err_d <= VERIFY_RTOL):
+    err_s /= max(scale_s, 1e-300)
+    if not (err_j <= VERIFY_RTOL and err_d <= VERIFY_RTOL and err_s <= VERIFY_RTOL):
         raise AssertionError(
-            f"{system.key}: freefloat and Pinocchio disagree (J* {err_j:.1e}, {system.det_name} {err_d:.1e} > {VERIFY_RTOL})"
+            f"{system.key}: freefloat and Pinocchio disagree (J* {err_j:.1e}, {system.det_name} {err_d:.1e}, sigma_min {err_s:.1e} "
+            f"> {VERIFY_RTOL})"
         )
-    return {"max_rel_err_jstar": err_j, "max_rel_err_det": err_d, "configurations_checked": len(picks)}
+    return {"max_rel_err_jstar": err_j, "max_rel_err_det": err_d, "max_rel_err_sigma_min": err_s, "configurations_checked": len(picks)}
 
 
 def machine_info() -> dict[str, Any]:
@@ -249,23 +258,25 @@ def bench_system(system: System, configs: int, pinocchio_configs: int, repeats: 
     with generic():
         ff.generalized_jacobian(model, q)
         system.freefloat_det(q)
+        ff.mechanics.jacobian_measure(model, q, None, "sigma_min")
     result["freefloat_first_call_s"] = time.perf_counter() - t0
     # the specialised kernels of this structure (compiled once per machine; loaded from the cache afterwards)
     t0 = time.perf_counter()
-    ff.mechanics.specialise(model, ["jstar"])
+    ff.mechanics.specialise(model, ["jstar", "measure"])
     result["specialise_s"] = time.perf_counter() - t0
-    log(f"[{system.key}] specialised J* ready in {result['specialise_s']:.2f} s; verifying both engines against Pinocchio")
+    log(f"[{system.key}] specialised J* and measures ready in {result['specialise_s']:.2f} s; verifying both engines against Pinocchio")
     result["verification"] = verify(system, loop, q, configs)
     with generic():
         result["verification_generic"] = verify(system, loop, q, configs)
 
-    calls = {"jstar": lambda: ff.generalized_jacobian(model, q), "det": lambda: system.freefloat_det(q)}
+    calls = {
+        "jstar": lambda: ff.generalized_jacobian(model, q),
+        "det": lambda: system.freefloat_det(q),
+        "sigma_min": lambda: ff.mechanics.jacobian_measure(model, q, None, "sigma_min"),
+    }
     sub = q[:pinocchio_configs]
     log(f"[{system.key}] Pinocchio loop, {len(sub):,} configurations, best of {repeats}")
-    theirs = {
-        "jstar": rate(best_of(lambda: loop.loop("jstar", sub), repeats), len(sub)),
-        "det": rate(best_of(lambda: loop.loop("det", sub), repeats), len(sub)),
-    }
+    theirs = {key: rate(best_of(lambda key=key: loop.loop(key, sub), repeats), len(sub)) for key in calls}
     result["pinocchio_loop"] = theirs
     for engine in ("specialised", "generic"):
         for threads in thread_counts():
@@ -276,12 +287,23 @@ def bench_system(system: System, configs: int, pinocchio_configs: int, repeats: 
                     ours = {key: rate(best_of(fn, repeats), len(q)) for key, fn in calls.items()}
             finally:
                 set_threads(old)
+            jstar_bytes = 8 * 6 * model.n_end_effectors * model.n_joints  # written per configuration
             result[f"{'' if engine == 'specialised' else 'generic_'}threads_{threads}"] = {
                 "freefloat": ours,
                 "ratio": {k: ours[k]["configs_per_s"] / theirs[k]["configs_per_s"] for k in ours},
                 "ratio_cpu": {k: ours[k]["cpu_configs_per_s"] / theirs[k]["cpu_configs_per_s"] for k in ours},
+                "measure_vs_jstar": {k: ours[k]["configs_per_s"] / ours["jstar"]["configs_per_s"] for k in ("det", "sigma_min")},
+                "jstar_write_GB_per_s": ours["jstar"]["configs_per_s"] * jstar_bytes / 1e9,
             }
     return result
+
+
+def fill_bandwidth(repeats: int, megabytes: int = 512) -> dict[str, Any]:
+    """Memory-write bandwidth of this machine, one thread: numpy's ``fill`` of a large float64 array (best of ``repeats``)."""
+    block = np.empty(megabytes * 2**20 // 8)
+    block.fill(0.0)  # pages touched before timing
+    timing = best_of(lambda: block.fill(1.0), repeats)
+    return {"bytes": block.nbytes, "best_wall_s": timing["best_wall_s"], "GB_per_s": block.nbytes / timing["best_wall_s"] / 1e9}
 
 
 def run_core(configs: int, pinocchio_configs: int, repeats: int, log: Callable[[str], None] = print) -> dict[str, Any]:
@@ -301,11 +323,22 @@ def run_core(configs: int, pinocchio_configs: int, repeats: int, log: Callable[[
             "compiled per model), timed in the same run; freefloat_first_call_s is this model's first generic call in the process.",
             "freefloat's batched J* is returned with the batch axis innermost in memory (a transposed view) when the "
             "engine produces it so; values and shape are the documented ones.",
+            "det: det J* (square singularity rows) or the manipulability; sigma_min: the smallest singular value of the "
+            "singularity rows (ff.mechanics.jacobian_measure; Pinocchio loop: numpy's SVD of its J*). measure_vs_jstar: "
+            "the measure's configs/s over J*'s in the same engine and thread count (the measures never write J*).",
+            "memory_write: numpy fill of a 512 MiB array on one thread (GB/s); jstar_write_GB_per_s: the bytes of J* "
+            "written per second (8 x 6E x N per configuration) and jstar_write_share_of_fill its share of that bandwidth.",
         ],
         "systems": {},
     }
+    report["memory_write"] = fill_bandwidth(repeats)
+    log(f"memory write (numpy fill, one thread): {report['memory_write']['GB_per_s']:.1f} GB/s")
     for system in systems():
-        report["systems"][system.key] = bench_system(system, configs, pinocchio_configs, repeats, log)
+        result = bench_system(system, configs, pinocchio_configs, repeats, log)
+        for key, sub in result.items():
+            if "threads_" in key:
+                sub["jstar_write_share_of_fill"] = sub["jstar_write_GB_per_s"] / report["memory_write"]["GB_per_s"]
+        report["systems"][system.key] = result
     if hasattr(os, "getloadavg"):
         report["machine"]["load_average_at_end"] = list(os.getloadavg())
     return report
@@ -321,9 +354,9 @@ def table(report: dict[str, Any]) -> str:
     lines.append(head)
     lines.append("-" * len(head))
     for key, res in report["systems"].items():
-        for name in ("jstar", "det"):
-            label = "J*" if name == "jstar" else res["det"]
-            err = res["verification"]["max_rel_err_jstar" if name == "jstar" else "max_rel_err_det"]
+        for name in ("jstar", "det", "sigma_min"):
+            label = {"jstar": "J*", "det": res["det"], "sigma_min": "sigma_min"}[name]
+            err = res["verification"][f"max_rel_err_{name}"]
             for sub_key, sub in res.items():
                 if "threads_" not in sub_key:
                     continue
@@ -341,6 +374,22 @@ def table(report: dict[str, Any]) -> str:
         f"best of {settings['repeats']}; max rel err = largest difference from Pinocchio (J* / det), must be <= {VERIFY_RTOL:g}"
     )
     lines.append(f"target: >= {report['targets']['min_ratio']:.0f}x on both systems (goal {report['targets']['goal_ratio']:.0f}x)")
+    lines.append("")
+    lines.append(
+        f"{'system':18s} {'kernels':8s} {'thr':>3s} {'det / J*':>9s} {'sigma_min / J*':>15s} {'J* written GB/s':>16s} {'of fill':>8s}"
+    )
+    for key, res in report["systems"].items():
+        for sub_key, sub in res.items():
+            if "threads_" in sub_key:
+                share = sub.get("jstar_write_share_of_fill", float("nan"))
+                lines.append(
+                    f"{key:18s} {'generic' if sub_key.startswith('generic') else 'special':8s} {sub_key.rsplit('_', 1)[1]:>3s} "
+                    f"{100 * sub['measure_vs_jstar']['det']:8.0f}% {100 * sub['measure_vs_jstar']['sigma_min']:14.0f}% "
+                    f"{sub['jstar_write_GB_per_s']:16.2f} {100 * share:7.0f}%"
+                )
+    memory = report.get("memory_write")
+    if memory:
+        lines.append(f"memory write bandwidth (numpy fill, one thread): {memory['GB_per_s']:.1f} GB/s")
     lines.append(machine_line(report["machine"]))
     return "\n".join(lines)
 

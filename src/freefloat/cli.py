@@ -315,7 +315,8 @@ def specialise_command(
         typer.Option(
             "--kind",
             metavar="KIND",
-            help="jstar (J* batches), rollout (RK4 rollouts), hplus (H+), forward or inverse (dynamics); repeatable (default: all).",
+            help="jstar (J* batches), rollout (RK4 rollouts), hplus (H+), forward or inverse (dynamics), "
+            "measure (det J*, sigma_min, manipulability, condition); repeatable (default: all).",
         ),
     ] = None,
     end_effector: EndEffectorOption = None,

@@ -108,3 +108,18 @@ def test_dynamics_with_wrenches_trigger_their_layout(
     fast = ff.forward_dynamics(model, q, v, external=external)
     scale = np.max(np.abs(generic), axis=-1, keepdims=True)
     assert np.max(np.abs(fast - generic) / scale) <= 1e-12
+
+
+def test_a_large_map_of_measures_triggers_the_measure_kernel(auto: None, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The measures count towards their own kind ("measure"), as J* does towards "jstar"; the results do not change."""
+    monkeypatch.setitem(_specialise.AUTO_AFTER, "measure", 0.05)
+    model = two_arm_variant()
+    t = tree(model)
+    q = np.random.default_rng(1).uniform(-3, 3, (20000, model.n_joints))
+    generic = ff.jacobian_determinant(model, q)
+    while _specialise._SPENT.get(t, {}).get(("measure", ()), 0.0) < _specialise.AUTO_AFTER["measure"]:
+        ff.jacobian_determinant(model, q)
+    assert _specialise.wait_for_auto(300)
+    assert _specialise.find(t, "measure") is not None and _specialise.find(t, "jstar") is None
+    fast = ff.jacobian_determinant(model, q)
+    np.testing.assert_allclose(fast, generic, rtol=1e-11, atol=1e-14 * np.abs(generic).max())

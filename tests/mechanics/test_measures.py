@@ -8,19 +8,27 @@ random trees, at batch sizes across every threshold of the drivers, near-singula
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
+import numba
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import freefloat as ff
-from freefloat.mechanics import _drivers
+from freefloat.mechanics import _drivers, _lanes, _specialise
+from freefloat.mechanics._tree import tree
 from robots import REAL_ROBOTS, load_real, spacecraft_urdf
 from trees import random_trees
 
 #: Agreement with numpy relative to each value (numpy's smallest singular value refined, see numpy_measure).
 RTOL = 1e-10
-SIZES = (1, 3, _drivers.BLOCK + 1, _drivers.Batched.PARALLEL_MIN - 1, _drivers.Batched.PARALLEL_MIN, 2 * _drivers.Batched.PARALLEL_MIN + 7)
+LANES = _lanes.LANES
+#: Around every threshold of the generic measure's driver: a lane block (LANES configurations: one measured at once, the
+#: last one shorter) and the threads (from measure_batch.PARALLEL_MIN lane blocks).
+PARALLEL = _drivers.measure_batch.PARALLEL_MIN * LANES
+SIZES = (1, 3, LANES - 1, LANES, LANES + 1, PARALLEL - LANES, PARALLEL - LANES + 1, 4 * LANES + 3)
 
 
 def numpy_measure(jac: np.ndarray, measure: str) -> np.ndarray:
@@ -49,26 +57,30 @@ FLOOR = 64 * np.finfo(float).eps
 
 
 def check(model: ff.Model, q: np.ndarray, rows: np.ndarray, measures: tuple[str, ...]) -> None:
-    """Each measure against numpy's: |ours - ref| <= RTOL |ref| + the conditioning floor (FLOOR sigma_max for sigma_min;
-    for det and the product, FLOOR times sigma_max times the product of the other singular values: what a
-    perturbation of J* by eps sigma_max changes them by). The condition number only where J* is well conditioned."""
-    jac = ff.generalized_jacobian(model, q)[..., rows, :]
-    sv = np.linalg.svd(jac, compute_uv=False)
-    others = sv[..., 0] * np.prod(sv[..., :-1], axis=-1)
+    """Each measure by ff.mechanics.jacobian_measure against numpy's (:func:`agree`)."""
     for measure in measures:
         ours = ff.mechanics.jacobian_measure(model, q, rows, measure)
-        ref = numpy_measure(jac, measure)
         assert ours.shape == q.shape[:-1]
-        if measure in ("det", "manipulability"):
-            allowed = RTOL * np.abs(ref) + FLOOR * others
-        elif measure == "sigma_min":
-            allowed = RTOL * ref + FLOOR * sv[..., 0]
-        else:
-            keep = sv[..., -1] > 1e-6 * sv[..., 0]
-            ours, ref = ours[keep], ref[keep]
-            allowed = RTOL * ref
-        excess = np.abs(ours - ref) / allowed
-        assert np.all(excess <= 1.0), (measure, float(np.max(excess)))
+        agree(ours, ff.generalized_jacobian(model, q)[..., rows, :], measure)
+
+
+def agree(ours: np.ndarray, jac: np.ndarray, measure: str) -> None:
+    """|ours - ref| <= RTOL |ref| + the conditioning floor, ref numpy's measure of ``jac`` (FLOOR sigma_max for
+    sigma_min; for det and the product, FLOOR times sigma_max times the product of the other singular values: what a
+    perturbation of J* by eps sigma_max changes them by). The condition number only where J* is well conditioned."""
+    sv = np.linalg.svd(jac, compute_uv=False)
+    others = sv[..., 0] * np.prod(sv[..., :-1], axis=-1)
+    ref = numpy_measure(jac, measure)
+    if measure in ("det", "manipulability"):
+        allowed = RTOL * np.abs(ref) + FLOOR * others
+    elif measure == "sigma_min":
+        allowed = RTOL * ref + FLOOR * sv[..., 0]
+    else:
+        keep = sv[..., -1] > 1e-6 * sv[..., 0]
+        ours, ref = ours[keep], ref[keep]
+        allowed = RTOL * ref
+    excess = np.abs(ours - ref) / allowed
+    assert np.all(excess <= 1.0), (measure, float(np.max(excess)))
 
 
 def panda() -> ff.Model:
@@ -171,7 +183,162 @@ def test_bad_rows_and_measures_are_refused() -> None:
     model = ff.models.spacecraft_7dof()
     with pytest.raises(ValueError, match="measure: expected one of"):
         ff.mechanics.jacobian_measure(model, np.zeros(7), None, "volume")
-    with pytest.raises(ValueError, match="rows: expected indices"):
+    with pytest.raises(ValueError, match="rows: expected distinct indices"):
         ff.mechanics.jacobian_measure(model, np.zeros(7), [0, 6], "sigma_min")
+    with pytest.raises(ValueError, match="rows: expected distinct indices"):
+        ff.mechanics.jacobian_measure(model, np.zeros(7), [0, 1, 1], "sigma_min")  # a repeated row: refused, not singular
     with pytest.raises(ff.ShapeError, match="not square"):
         ff.mechanics.jacobian_measure(model, np.zeros(7), None, "det")
+
+
+# ----------------------------------------------------------------- the specialised kernels (kind "measure")
+@pytest.fixture(scope="module")
+def specialised(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[ff.Model, ff.Model]]:
+    """The measures specialised for the 1992 two-arm system and the 7-DOF arm, in a cache folder of this module's own
+    (``FREEFLOAT_CACHE_DIR``, a temporary folder: never the user's cache), specialised kernels on."""
+    with pytest.MonkeyPatch.context() as env:
+        env.setenv("FREEFLOAT_CACHE_DIR", str(tmp_path_factory.mktemp("freefloat-cache")))
+        before = _specialise.FOLDER[0]
+        _specialise.FOLDER[0] = None
+        _specialise._LOADED.clear()
+        _specialise._ENABLED[0] = True
+        _specialise._FOUND.clear()
+        try:
+            models = (ff.models.papadopoulos1992(), ff.models.spacecraft_7dof())
+            for model in models:
+                assert not ff.mechanics.is_specialised(model, "measure")
+                ff.mechanics.specialise(model, ["measure"])
+                assert ff.mechanics.is_specialised(model, "measure")
+            yield models
+        finally:
+            _specialise.FOLDER[0] = before
+            _specialise._ENABLED[0] = False
+            _specialise._LOADED.clear()
+            _specialise._FOUND.clear()
+
+
+#: (model index in the fixture, rows, measures): square rows (det), K < N, K > N (all 12 rows of the planar system).
+CASES = (
+    (0, np.array([0, 1, 6, 7]), ("det", "sigma_min", "manipulability", "condition")),
+    (0, np.arange(12), ("sigma_min", "manipulability")),
+    (1, np.arange(6), ("sigma_min", "manipulability", "condition")),
+    (1, np.array([0, 1, 2]), ("sigma_min", "manipulability", "condition")),
+    (1, np.array([5, 3, 4, 0]), ("sigma_min", "condition")),
+)
+
+
+def run_specialised(model: ff.Model, q: np.ndarray, rows: np.ndarray, measure: str, threads: bool) -> np.ndarray:
+    """The specialised kernel's serial or parallel driver called directly (any batch size, even below the engine's
+    minimum for it)."""
+    from freefloat.mechanics._configuration import MEASURE_CODES
+
+    t = tree(model)
+    module = _specialise.find(t, "measure")
+    assert module is not None
+    data = _specialise.data_vector(t)[module.SLOTS]
+    out = np.full(q.shape[0], np.nan)
+    args = (np.ascontiguousarray(q), data, rows.astype(np.int64), MEASURE_CODES[measure], out)
+    if threads:
+        module.parallel(*args, np.empty((numba.config.NUMBA_NUM_THREADS, module.ROWS * LANES)))
+    else:
+        module.serial(*args, np.empty(module.ROWS * LANES))
+    return out
+
+
+@pytest.mark.parametrize("size", (1, LANES - 1, LANES, LANES + 1, 2 * LANES - 1, 4 * LANES + 3))
+@pytest.mark.parametrize("threads", [False, True], ids=["serial", "parallel"])
+def test_specialised_measures_equal_numpy_at_every_block_size(specialised: tuple[ff.Model, ...], size: int, threads: bool) -> None:
+    rng = np.random.default_rng(size)
+    for which, rows, measures in CASES:
+        model = specialised[which]
+        q = rng.uniform(-3, 3, (size, model.n_joints))
+        jac = ff.generalized_jacobian(model, q)[:, rows, :]
+        for measure in measures:
+            agree(run_specialised(model, q, rows, measure, threads), jac, measure)
+
+
+@pytest.mark.parametrize("size", (LANES, LANES + 1, 4 * LANES + 3, 1000))
+def test_the_engine_uses_the_specialised_kernel(specialised: tuple[ff.Model, ...], size: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The public measure runs on the specialised kernel from the engine's minimum batch (serial, then threaded), agrees
+    with numpy and with the generic kernel; a payload variant shares the kernel and its mass is read, not folded."""
+    calls: list[int] = []
+    real = _specialise.measured
+
+    def spy(*args: object) -> None:
+        calls.append(1)
+        real(*args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(_specialise, "measured", spy)
+    rng = np.random.default_rng(7 + size)
+    for which, rows, measures in CASES:
+        model = specialised[which]
+        q = rng.uniform(-3, 3, (size, model.n_joints))
+        for measure in measures:
+            before = len(calls)
+            fast = ff.mechanics.jacobian_measure(model, q, rows, measure)
+            assert len(calls) == before + 1  # the specialised path ran
+            agree(fast, ff.generalized_jacobian(model, q)[:, rows, :], measure)
+            with _specialise.generic():
+                slow = ff.mechanics.jacobian_measure(model, q, rows, measure)
+            assert len(calls) == before + 1
+            np.testing.assert_allclose(fast, slow, rtol=1e-11)
+    heavy = specialised[0].with_payload(mass=150.0, inertia=np.diag([5.0, 6.0, 7.0]))
+    q = rng.uniform(-3, 3, (size, 4))
+    fast = ff.jacobian_determinant(heavy, q)
+    agree(fast, ff.generalized_jacobian(heavy, q)[:, [0, 1, 6, 7], :], "det")
+    assert np.abs(fast - ff.jacobian_determinant(specialised[0], q)).max() > 1e-3
+
+
+def near_singular() -> list[tuple[ff.Model, np.ndarray, np.ndarray, tuple[str, ...]]]:
+    """Configurations 1e-3 .. 1e-9 rad from a singularity (located by numpy alone): det J* of the 1992 two-arm system
+    (arm 2 held) on either side of a root, and the 7-DOF arm near a minimum of sigma_min found by scipy on numpy's SVD."""
+    from scipy.optimize import brentq, minimize
+
+    offsets = 10.0 ** -np.arange(3, 10)
+    planar = ff.models.papadopoulos1992()
+    rows = np.array([0, 1, 6, 7])
+    base, step = np.array([0.3, -1.0, 0.7, 1.1]), np.array([0.0, 1.0, 0.0, 0.0])
+
+    def det(t: float) -> float:
+        return float(np.linalg.det(ff.generalized_jacobian(planar, base + t * step)[rows]))
+
+    root = brentq(det, 0.0, 2.0, xtol=1e-15)
+    q_planar = base + (root + np.concatenate([offsets, -offsets]))[:, None] * step
+    arm = ff.models.spacecraft_7dof()
+
+    def smallest(x: np.ndarray) -> float:
+        return float(np.linalg.svd(ff.generalized_jacobian(arm, x)[:6], compute_uv=False)[-1])
+
+    found = minimize(smallest, np.full(7, 0.4), method="Nelder-Mead", options={"xatol": 1e-12, "fatol": 1e-14, "maxiter": 4000})
+    assert found.fun < 1e-4
+    direction = np.random.default_rng(1).normal(size=7)
+    q_arm = found.x + (offsets / np.linalg.norm(direction))[:, None] * direction
+    return [
+        (planar, q_planar, rows, ("det", "sigma_min", "manipulability")),
+        (arm, q_arm, np.arange(6), ("sigma_min", "manipulability", "condition")),
+    ]
+
+
+def test_specialised_measures_near_singular_configurations(specialised: tuple[ff.Model, ...]) -> None:
+    """The near-singular configurations in every lane of a block (tiled past the engine's minimum, with random ones
+    between) through the public path: the measures go to zero with the distance and agree with numpy."""
+    rng = np.random.default_rng(11)
+    for model, near, rows, measures in near_singular():
+        q = np.concatenate([np.tile(near, (LANES // near.shape[0] + 1, 1)), rng.uniform(-3, 3, (3 * LANES + 5, model.n_joints))])
+        jac = ff.generalized_jacobian(model, q)[:, rows, :]
+        for measure in measures:
+            ours = ff.mechanics.jacobian_measure(model, q, rows, measure)
+            agree(ours, jac, measure)
+            if measure in ("det", "sigma_min"):
+                small = np.abs(ours[: near.shape[0] // 2 if model.n_joints == 4 else near.shape[0]])
+                assert np.all(np.diff(np.log10(small)) < -0.9), small  # proportional to the distance
+
+
+def test_cli_specialises_the_measures(specialised: tuple[ff.Model, ...]) -> None:
+    from typer.testing import CliRunner
+
+    from freefloat.cli import app
+
+    result = CliRunner().invoke(app, ["specialise", "spacecraft_7dof", "--kind", "measure"])
+    assert result.exit_code == 0, result.output
+    assert result.stdout.startswith("measure: ready in ")

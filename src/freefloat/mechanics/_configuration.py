@@ -65,105 +65,144 @@ def jstar_one(q: np.ndarray, m: Any, s: Any, out: np.ndarray) -> None:  # pragma
             out[6 * e + 5, l - 1] = w2
 
 
-#: The measures of :func:`jacobian_measure_one`, by code.
+#: The measures of :func:`jacobian_measure_lanes`, by code.
 MEASURE_CODES = {"det": 0, "sigma_min": 1, "manipulability": 2, "condition": 3}
 
 
 @kernel(inline="always")
-def jacobian_measure_one(jac: np.ndarray, rows: np.ndarray, kind: int, buf: np.ndarray) -> float:  # pragma: no cover - compiled
-    """A measure of the rows ``rows`` of ``jac`` (K of its R rows, N columns), without forming anything larger.
+def jacobian_measure_lanes(
+    W: np.ndarray, at: int, width: int, n: int, rows: np.ndarray, kind: int, tmp: np.ndarray, out: np.ndarray, o0: int, count: int
+) -> None:  # pragma: no cover - compiled
+    """A measure of the rows ``rows`` (K distinct rows, N = ``n`` columns) of the J* of ``width`` configurations at
+    once: out[o0 + l] for the configurations l < ``count``. Element (r, c) of configuration l's J* is
+    ``W[at + (r n + c) width + l]`` (the generic kernels: one J*, width 1; the specialised ones: the rows of a lane
+    block, width :data:`~._lanes.LANES`); the chosen rows are overwritten. ``tmp``: at least 5 ``width`` floats.
 
     ``kind`` (:data:`MEASURE_CODES`): 0 det (K = N; LU with partial pivoting, signed); 1 the smallest singular value;
     2 the product of the singular values (sqrt(det(A A^T)) for K <= N: Yoshikawa's manipulability); 3 the condition
     number sigma_max / sigma_min (inf when sigma_min is 0). The singular values come from one-sided Jacobi
-    (Hestenes: plane rotations of the columns of A^T, or of A when K > N, until they are orthogonal; their norms):
+    (Hestenes: plane rotations of the rows of A, or of its columns when K > N, until they are orthogonal; their norms):
     backward stable, each within a few ulps of sigma_max (and of itself when the columns are merely badly scaled),
-    as accurate as numpy's SVD near a singularity. ``buf``: at least K N floats of work space.
+    as accurate as numpy's SVD near a singularity. Every step is a loop over the configurations without branches (a
+    pivot row or a rotation skipped is a select), so that the compiler makes it SIMD across a lane block; a block
+    sweeps until none of its configurations rotates.
     """
     k_rows = rows.shape[0]
-    n = jac.shape[1]
     if kind == 0:
-        a = buf[: n * n].reshape((n, n))
-        for i in range(n):
-            for j in range(n):
-                a[i, j] = jac[rows[i], j]
-        det = 1.0
+        det, piv, big, f = tmp[:width], tmp[width : 2 * width], tmp[2 * width : 3 * width], tmp[3 * width : 4 * width]
+        for l in range(width):
+            det[l] = 1.0
         for col in range(n):
-            piv = col
-            big = abs(a[col, col])
+            top = at + (rows[col] * n + col) * width
+            for l in range(width):
+                big[l] = abs(W[top + l])
+                piv[l] = col
+            for r in range(col + 1, n):  # the pivot: the first largest |a[r, col]|
+                o = at + (rows[r] * n + col) * width
+                for l in range(width):
+                    v = abs(W[o + l])
+                    better = v > big[l]
+                    big[l] = v if better else big[l]
+                    piv[l] = r if better else piv[l]
+            for r in range(col + 1, n):  # the pivot row swapped with row col where it is row r
+                for j in range(col, n):
+                    oc = at + (rows[col] * n + j) * width
+                    o = at + (rows[r] * n + j) * width
+                    for l in range(width):
+                        here = piv[l] == r
+                        a, b = W[oc + l], W[o + l]
+                        W[oc + l] = b if here else a
+                        W[o + l] = a if here else b
+            for l in range(width):
+                d = W[top + l]
+                det[l] = (-det[l] if piv[l] != col else det[l]) * d
+                big[l] = 1.0 / (d if d != 0.0 else 1.0)  # a zero column below the diagonal: det is 0, nothing to eliminate
             for r in range(col + 1, n):
-                if abs(a[r, col]) > big:
-                    big = abs(a[r, col])
-                    piv = r
-            if big == 0.0:
-                return 0.0
-            if piv != col:
-                det = -det
-                for j in range(n):
-                    tmp = a[col, j]
-                    a[col, j] = a[piv, j]
-                    a[piv, j] = tmp
-            d = a[col, col]
-            det *= d
-            for r in range(col + 1, n):
-                f = a[r, col] / d
+                o = at + (rows[r] * n + col) * width
+                for l in range(width):
+                    f[l] = W[o + l] * big[l]
                 for j in range(col + 1, n):
-                    a[r, j] -= f * a[col, j]
-        return det
-    # B (r x c, c = min(K, N) columns): A^T when K <= N, else A
-    if k_rows <= n:
-        nr, nc = n, k_rows
-        b = buf[: nr * nc].reshape((nr, nc))
-        for i in range(k_rows):
-            for j in range(n):
-                b[j, i] = jac[rows[i], j]
-    else:
-        nr, nc = k_rows, n
-        b = buf[: nr * nc].reshape((nr, nc))
-        for i in range(k_rows):
-            for j in range(n):
-                b[i, j] = jac[rows[i], j]
+                    oc = at + (rows[col] * n + j) * width
+                    o = at + (rows[r] * n + j) * width
+                    for l in range(width):
+                        W[o + l] -= f[l] * W[oc + l]
+        for l in range(count):
+            out[o0 + l] = det[l]
+        return
+    # the vectors to orthogonalise: the K rows of A (K <= N), else its N columns; element i of vector p at
+    # W[at + off(p, i) width + l]
+    by_rows = k_rows <= n
+    nc, nr = (k_rows, n) if by_rows else (n, k_rows)
+    alpha, beta, gamma = tmp[:width], tmp[width : 2 * width], tmp[2 * width : 3 * width]
+    cs, sn = tmp[3 * width : 4 * width], tmp[4 * width : 5 * width]
     for _sweep in range(60):
         rotated = False
         for p in range(nc - 1):
             for q in range(p + 1, nc):
-                alpha = 0.0
-                beta = 0.0
-                gamma = 0.0
-                for i in range(nr):
-                    alpha += b[i, p] * b[i, p]
-                    beta += b[i, q] * b[i, q]
-                    gamma += b[i, p] * b[i, q]
-                if gamma == 0.0 or abs(gamma) <= 2e-16 * math.sqrt(alpha * beta):  # orthogonal to working precision
+                for l in range(width):  # the sums in registers (the loop over i unrolls when n is a constant)
+                    a = 0.0
+                    b = 0.0
+                    g = 0.0
+                    for i in range(nr):
+                        bp = W[at + ((rows[p] * n + i) if by_rows else (rows[i] * n + p)) * width + l]
+                        bq = W[at + ((rows[q] * n + i) if by_rows else (rows[i] * n + q)) * width + l]
+                        a += bp * bp
+                        b += bq * bq
+                        g += bp * bq
+                    alpha[l] = a
+                    beta[l] = b
+                    gamma[l] = g
+                turns = 0  # an integer count: a float sum would not vectorise (no reassociation)
+                for l in range(width):
+                    # the rotation that makes them orthogonal: tan = t = 2 g sgn(d) / (|d| + sqrt(d^2 + 4 g^2)), d = beta - alpha
+                    # (Rutishauser's t = sgn(zeta) / (|zeta| + sqrt(1 + zeta^2)), zeta = d / 2g, times 2|g| / 2|g|), so
+                    # c = 1 / sqrt(1 + t^2) = den / sqrt(den^2 + 4 g^2) and s = c t: two roots and one division
+                    g = gamma[l]
+                    turn = g * g > 4e-32 * (alpha[l] * beta[l])  # else orthogonal to working precision: |g| <= 2e-16 sqrt(ab)
+                    d = beta[l] - alpha[l]
+                    g2 = (g + g) * (1.0 if d >= 0.0 else -1.0)
+                    den = abs(d) + math.sqrt(d * d + g2 * g2)
+                    inv = 1.0 / math.sqrt(den * den + g2 * g2)
+                    cs[l] = den * inv if turn else 1.0
+                    sn[l] = g2 * inv if turn else 0.0
+                    turns += 1 if turn else 0
+                if turns == 0:
                     continue
                 rotated = True
-                zeta = (beta - alpha) / (2.0 * gamma)
-                t = (1.0 if zeta >= 0.0 else -1.0) / (abs(zeta) + math.sqrt(1.0 + zeta * zeta))
-                c = 1.0 / math.sqrt(1.0 + t * t)
-                sn = c * t
-                for i in range(nr):
-                    bp = b[i, p]
-                    bq = b[i, q]
-                    b[i, p] = c * bp - sn * bq
-                    b[i, q] = sn * bp + c * bq
+                for l in range(width):
+                    c, s = cs[l], sn[l]
+                    for i in range(nr):
+                        op = at + ((rows[p] * n + i) if by_rows else (rows[i] * n + p)) * width + l
+                        oq = at + ((rows[q] * n + i) if by_rows else (rows[i] * n + q)) * width + l
+                        bp, bq = W[op], W[oq]
+                        W[op] = c * bp - s * bq
+                        W[oq] = s * bp + c * bq
         if not rotated:
             break
-    smallest = math.inf
-    largest = 0.0
-    product = 1.0
-    for j in range(nc):
-        norm = 0.0
-        for i in range(nr):
-            norm += b[i, j] * b[i, j]
-        sv = math.sqrt(norm)
-        smallest = min(smallest, sv)
-        largest = max(largest, sv)
-        product *= sv
-    if kind == 1:
-        return smallest
-    if kind == 2:
-        return product
-    return largest / smallest if smallest > 0.0 else math.inf
+    smallest, largest, product, norm = alpha, beta, gamma, cs
+    for l in range(width):
+        smallest[l] = math.inf
+        largest[l] = 0.0
+        product[l] = 1.0
+    for p in range(nc):
+        for l in range(width):
+            a = 0.0
+            for i in range(nr):
+                bp = W[at + ((rows[p] * n + i) if by_rows else (rows[i] * n + p)) * width + l]
+                a += bp * bp
+            norm[l] = a
+        for l in range(width):
+            sv = math.sqrt(norm[l])
+            smallest[l] = min(smallest[l], sv)
+            largest[l] = max(largest[l], sv)
+            product[l] *= sv
+    for l in range(count):
+        if kind == 1:
+            out[o0 + l] = smallest[l]
+        elif kind == 2:
+            out[o0 + l] = product[l]
+        else:
+            out[o0 + l] = largest[l] / smallest[l] if smallest[l] > 0.0 else math.inf
 
 
 @kernel(inline="always")

@@ -28,7 +28,7 @@ from ._configuration import (
     hplus_one,
     hplus_rate_one,
     inverse_one,
-    jacobian_measure_one,
+    jacobian_measure_lanes,
     jstar_one,
     point_bias_one,
     point_jacobian_one,
@@ -37,7 +37,7 @@ from ._configuration import (
     rk4_step_rows,
     state_derivative_one,
 )
-from ._lanes import rollout_loop
+from ._lanes import LANES, rollout_loop
 from ._numba_cache import bind, kernel, unowned_floats, unowned_ints
 from ._recursions import kinematics, scratch
 from ._tree import Tree, arrays, buffer_lengths, work_size
@@ -242,11 +242,22 @@ def _jstar_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
 
 
 @kernel(inline="always")
-def _measure_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
-    """a = (Q, rows (K,), kind, OUT (C,)): a measure of the rows ``rows`` of J* (J* stays in the scratch)."""
+def _measure_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
+    """a = (Q, rows (K,), kind, OUT (C,)): a measure of the rows ``rows`` of J* for the configurations of lane block b
+    (:data:`~._lanes.LANES` of them, fewer in the last block): their J* one by one into the rows of a block buffer, then
+    the measure of the whole block at once (SIMD across it, as in the specialised kernels); no J* batch written."""
     Q, rows, kind, OUT = a
-    jstar_one(Q[i], m, s, s.jac)
-    OUT[i] = jacobian_measure_one(s.jac, rows, kind, s.sel)
+    c0 = b * LANES
+    width = min(LANES, Q.shape[0] - c0)
+    n = Q.shape[1]
+    size = s.jac.shape[0] * n
+    W = np.empty((size + 5) * width)
+    for l in range(width):
+        jstar_one(Q[c0 + l], m, s, s.jac)
+        for r in range(s.jac.shape[0]):
+            for c in range(n):
+                W[(r * n + c) * width + l] = s.jac[r, c]
+    jacobian_measure_lanes(W, 0, width, n, rows, kind, W[size * width :], OUT, c0, width)
 
 
 @kernel(inline="always")
@@ -319,7 +330,7 @@ points_batch = driver("points", _points_row)
 point_jacobian_batch = driver("point_jacobian", _point_jacobian_row)
 point_bias_batch = driver("point_bias", _point_bias_row)
 jstar_batch = driver("jstar", _jstar_row)
-measure_batch = driver("measure", _measure_row)
+measure_batch = driver("measure", _measure_row, block=1, parallel_min=4)  # rows: lane blocks of configurations
 hplus_batch = driver("hplus", _hplus_row)
 hplus_rate_batch = driver("hplus_rate", _hplus_rate_row)
 inverse_batch = driver("inverse", _inverse_row)

@@ -20,6 +20,7 @@ import numpy as np
 
 from . import _configuration, _drivers, _specialise
 from ._arrays import new_output
+from ._lanes import LANES
 from ._tree import Tree, tree, work_size
 
 __all__ = [
@@ -146,13 +147,20 @@ def generalized_jacobian(model: Any, q: np.ndarray) -> np.ndarray:
 
 def jacobian_measures(model: Any, q: np.ndarray, rows: Any, measure: str) -> np.ndarray:
     """A measure (``"det"``, ``"sigma_min"``, ``"manipulability"``, ``"condition"``) of the rows ``rows`` of J* at
-    each configuration, (...): computed per configuration in the kernel, no J* batch written."""
+    each configuration, (...): computed per configuration in the kernel, no J* batch written (the specialised kernel
+    of the model's structure, kind "measure", when made; the rows must be distinct: they are reduced in place)."""
     t = tree(model)
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
     r = _own(np.atleast_1d(np.asarray(rows, dtype=np.int64)), np.int64)
+    code = _configuration.MEASURE_CODES[measure]
     out = new_output((flat.shape[0],))
-    _drivers.measure_batch(flat.shape[0], t, flat, r, _configuration.MEASURE_CODES[measure], out)
+    fast = _specialise.find(t, "measure") if flat.shape[0] >= _SPECIALISED_MIN else None
+    if fast is not None:
+        _specialise.measured(fast, t, flat, r, code, out)
+    else:
+        blocks = -(-flat.shape[0] // LANES)  # the generic measure's rows are lane blocks too
+        _timed(t, "measure", flat.shape[0], _drivers.measure_batch, blocks, t, flat, r, code, out)
     return out.reshape(batch)
 
 

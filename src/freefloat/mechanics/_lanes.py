@@ -25,7 +25,7 @@ import numpy as np
 
 from ._numba_cache import bind
 
-__all__ = ["LANES", "block_rows", "bound_loops", "joint_pd", "map_blocks", "rollout_loop", "rollout_rows"]
+__all__ = ["LANES", "block_rows", "bound_loops", "joint_pd", "map_blocks", "measure_loop", "rollout_loop", "rollout_rows"]
 
 #: Configurations per lane block (a multiple of the SIMD width). Measured on the 7-DOF arm: 16 is 10-20% slower,
 #: 32, 64 and 128 within the machine's noise of each other.
@@ -102,6 +102,37 @@ def block_rows(A: np.ndarray, W: np.ndarray, at: int, block: int) -> None:  # pr
         src = b0 + (lane_ if lane_ < count else count - 1)
         for j in range(A.shape[1]):
             W[(at + j) * LANES + lane_] = A[src, j]
+
+
+def _measure_blocks(
+    Q: np.ndarray, P: Any, rows: np.ndarray, kind: int, OUT: np.ndarray, W: np.ndarray, first: int, last: int
+) -> None:  # pragma: no cover
+    """OUT[b] = a measure of the rows ``rows`` of J*(Q[b]) for the blocks first..last: the lane kernel ``LANE`` writes the
+    J* of a block into W (inputs, then the 6E N rows of J*, then 5 rows of work space), and ``MEASURE`` (the engine's
+    :func:`~._configuration.jacobian_measure_lanes`) reduces them, :data:`LANES` configurations at a time. ``LANE``,
+    ``MEASURE`` and ``N`` (the joints) are bound by :func:`measure_loop`: constants, so that the measure is inlined
+    and its loops over a row of J* unroll."""
+    size = Q.shape[0]
+    off = N * LANES  # type: ignore[name-defined]  # noqa: F821 (bound by measure_loop)
+    tmp = W[W.shape[0] - 5 * LANES :]
+    for block in range(first, last):
+        b0 = block * LANES
+        count = min(LANES, size - b0)
+        for lane_ in range(LANES):
+            src = b0 + (lane_ if lane_ < count else count - 1)  # a short last block repeats its last row
+            for j in range(N):  # type: ignore[name-defined]  # noqa: F821
+                W[j * LANES + lane_] = Q[src, j]
+        LANE(W, P)  # type: ignore[name-defined]  # noqa: F821
+        MEASURE(W, off, LANES, N, rows, kind, tmp, OUT, b0, count)  # type: ignore[name-defined]  # noqa: F821
+
+
+@functools.cache
+def measure_loop(lane: Any, measure: Any, n: int, name: str) -> Any:
+    """The measure loop above for the lane kernel ``lane`` (J* of a block), the measure ``measure`` and ``n`` joints,
+    bound as globals (inlined where called): ``measure_blocks(Q, P, rows, kind, OUT, W, first, last)``."""
+    return numba.njit(inline="always", nogil=True, error_model="numpy")(
+        bind(_measure_blocks, f"measure_blocks_{name}", LANE=lane, MEASURE=measure, N=n)
+    )
 
 
 def _rk4_rows(P: Any, W: np.ndarray, width: int, size: int, nu: int, dt: float) -> None:  # pragma: no cover

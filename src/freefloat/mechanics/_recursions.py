@@ -96,7 +96,7 @@ Scratch = namedtuple(
         "joints",  # (N): joint values read from a state
         "rows",  # (4 S + N + 9): the rows of one trajectory in the rollout loop (_lanes.rollout_blocks, width 1)
         "jac",  # (6E, N): a J* whose measure is wanted
-        "sel",  # (6E N): its chosen rows, and the work space of the measure
+        "sel",  # (6E N): the work space of the measure (its chosen rows are rotated or reduced in jac itself)
     ],
 )
 

@@ -20,8 +20,10 @@ itself in a background thread once a process has spent :data:`AUTO_AFTER` second
 systems; the generated source and numba's machine code are then kept in the user's cache folder
 (inside the generic kernels' folder for this numba version and engine source, keyed by the
 structure) and found by every later process, which then uses them for J*, H+ and dynamics batches and rollouts of
-every model of that structure (with external wrenches: of their layout, each layout apart). Everything else, and every
-model not specialised, runs on the generic kernels. Two processes specialising the same
+every model of that structure (with external wrenches: of their layout, each layout apart). The kind "measure" is J*'s
+lane kernel followed, on each block, by the engine's :func:`~._configuration.jacobian_measure_lanes` (det, singular
+values: written once, SIMD across the block), for the singularity measures of chosen rows (:func:`measured`).
+Everything else, and every model not specialised, runs on the generic kernels. Two processes specialising the same
 structure at once both compile; the file each writes is the same and replaced atomically.
 """
 
@@ -64,6 +66,7 @@ __all__ = [
     "find",
     "layout",
     "load",
+    "measured",
     "set_auto",
     "specialise",
     "structure_key",
@@ -74,8 +77,9 @@ __all__ = [
 logger = logging.getLogger("freefloat")
 
 #: What can be specialised: J* of a batch of configurations, RK4 rollouts (their state derivative), H+, forward
-#: dynamics and inverse dynamics (C+ - Q); the last three with or without external wrenches (:data:`WRENCH_KINDS`).
-KINDS = ("jstar", "rollout", "hplus", "forward", "inverse")
+#: dynamics and inverse dynamics (C+ - Q); the last three with or without external wrenches (:data:`WRENCH_KINDS`); and
+#: the measures of J* (det, smallest singular value, manipulability, condition number of chosen rows: :func:`measured`).
+KINDS = ("jstar", "rollout", "hplus", "forward", "inverse", "measure")
 #: The kinds that map a batch of inputs to a batch of outputs (lane by lane: :func:`~._lanes.map_blocks`).
 MAPS = ("jstar", "hplus", "forward", "inverse")
 #: The kinds that take external wrenches: each layout of wrenches (:func:`layout`) is specialised apart.
@@ -294,6 +298,23 @@ def parallel(Q, P, OUT, WS):  # pragma: no cover - compiled
     for block in prange((Q.shape[0] + LANES - 1) // LANES):
         _lanes.map_blocks(lane, Q, P, OUT, WS[get_thread_id()], block, block + 1)
 """,
+    "measure": """
+from freefloat.mechanics._configuration import jacobian_measure_lanes  # the engine's measures, written once
+
+# the measure inlined after this lane kernel, with the joints a constant (its loops over a row of J* unroll)
+measure_blocks = _lanes.measure_loop(lane, jacobian_measure_lanes, {n}, "specialised")
+
+
+@kernel()
+def serial(Q, P, rows, kind, OUT, W):  # pragma: no cover - compiled
+    measure_blocks(Q, P, rows, kind, OUT, W, 0, (Q.shape[0] + LANES - 1) // LANES)
+
+
+@kernel(parallel=True)
+def parallel(Q, P, rows, kind, OUT, WS):  # pragma: no cover - compiled
+    for block in prange((Q.shape[0] + LANES - 1) // LANES):
+        measure_blocks(Q, P, rows, kind, OUT, WS[get_thread_id()], block, block + 1)
+""",
     "rollout": """
 _, rollout_blocks = _lanes.bound_loops(lane, "specialised")  # the one rollout loop, with this lane kernel inlined
 
@@ -317,12 +338,14 @@ def parallel(P, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US
 
 def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], int]:
     """The generated module of ``kind`` (with the external wrenches ``wrenches``) for the structure of ``t``: (source,
-    data slots, rows of W)."""
-    g, outputs, n_in = trace(t, kind, wrenches)
+    data slots, rows of W). The measures: J*'s lane kernel, then the engine's measure."""
+    g, outputs, n_in = trace(t, "jstar" if kind == "measure" else kind, wrenches)
     lane, slots = emit(g, outputs, n_in)
+    ext_at = 0
     if kind in MAPS:
         rows = n_in + len(outputs) + (1 if g.guards else 0)
-        ext_at = 0
+    elif kind == "measure":
+        rows = n_in + len(outputs) + 5  # the work space of the measure: 5 rows (_lanes.measure_loop)
     else:
         size = 13 + 2 * t.n_joints
         ext_at = _lanes.rollout_rows(size, t.n_joints + 6)  # the W layout of _lanes.rollout_blocks, then the wrenches
@@ -335,8 +358,9 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
         f"SLOTS = {slots!r}\nROWS = {rows}\nWRENCHES = {wrenches!r}\nEXT_AT = {ext_at}\n\n\n@kernel()\n"
     )
     guarded = f"GUARDED = {bool(g.guards)}\n\n\n"
+    drivers = _DRIVERS["map" if kind in MAPS else kind].replace("{n}", str(t.n_joints))
     return (
-        head.replace("\n\n\n@kernel()\n", "\n" + guarded + "@kernel()\n") + lane + "\n" + _DRIVERS["map" if kind in MAPS else kind],
+        head.replace("\n\n\n@kernel()\n", "\n" + guarded + "@kernel()\n") + lane + "\n" + drivers,
         slots,
         rows,
     )
@@ -476,9 +500,16 @@ def find(t: Tree, kind: str, wrenches: Layout = ()) -> types.ModuleType | None:
 #: in the background: about the compile time of each kind (J* 2-5 s, rollouts 9-18 s on the paper systems). Waiting
 #: until the work done equals the compile cost spends at most twice the best choice made knowing the future work
 #: (the ski-rental rule), and a one-off call never pays for a compile.
-AUTO_AFTER = {"jstar": 3.0, "rollout": 12.0, "hplus": 3.0, "forward": 8.0, "inverse": 5.0}
+AUTO_AFTER = {"jstar": 3.0, "rollout": 12.0, "hplus": 3.0, "forward": 8.0, "inverse": 5.0, "measure": 3.0}
 #: What each kind usually takes to compile (measured on the paper systems and the 7-DOF arm; docs/performance.md).
-COMPILE_TIME = {"jstar": "2-5 s", "rollout": "9-18 s", "hplus": "a few seconds", "forward": "5-15 s", "inverse": "3-10 s"}
+COMPILE_TIME = {
+    "jstar": "2-5 s",
+    "rollout": "9-18 s",
+    "hplus": "a few seconds",
+    "forward": "5-15 s",
+    "inverse": "3-10 s",
+    "measure": "3-6 s",
+}
 #: The environment variable that turns automatic specialisation off ("0", "false", "no" or "off").
 AUTO_ENV = "FREEFLOAT_AUTO_SPECIALISE"
 _AUTO = [True]
@@ -520,7 +551,14 @@ def account(t: Tree, kind: str, seconds: float, wrenches: Layout = ()) -> None:
 def _auto_build(t: Tree, kind: str, spent: float, wrenches: Layout = ()) -> None:
     from ..core.feedback import notice
 
-    what = {"jstar": "J*", "rollout": "the rollouts", "hplus": "H+", "forward": "forward dynamics", "inverse": "inverse dynamics"}[kind]
+    what = {
+        "jstar": "J*",
+        "rollout": "the rollouts",
+        "hplus": "H+",
+        "forward": "forward dynamics",
+        "inverse": "inverse dynamics",
+        "measure": "the measures of J*",
+    }[kind]
     if wrenches:
         what += f" with {len(wrenches)} external wrench{'es' if len(wrenches) > 1 else ''}"
     notice(
@@ -573,6 +611,10 @@ def _warm(module: types.ModuleType, t: Tree, kind: str, wrenches: Layout = ()) -
         out = np.empty((1, module.ROWS - q.shape[1]))
         module.serial(q, data, out, np.empty(module.ROWS * LANES))
         module.parallel(q, data, out, np.empty((_threads(), module.ROWS * LANES)))
+    elif kind == "measure":
+        q, rows, out = np.zeros((1, n)), np.zeros(1, dtype=np.int64), np.empty(1)
+        module.serial(q, data, rows, 1, out, np.empty(module.ROWS * LANES))
+        module.parallel(q, data, rows, 1, out, np.empty((_threads(), module.ROWS * LANES)))
     else:
         size = 13 + 2 * n
         x0 = np.zeros((1, size))
@@ -637,6 +679,16 @@ def mapped(module: types.ModuleType, t: Tree, q: np.ndarray, out: np.ndarray) ->
         module.parallel(q, data, out, np.empty((_threads(), module.ROWS * LANES)))
     else:
         module.serial(q, data, out, np.empty(module.ROWS * LANES))
+
+
+def measured(module: types.ModuleType, t: Tree, q: np.ndarray, rows: np.ndarray, code: int, out: np.ndarray) -> None:
+    """out (C,) = the measure ``code`` (:data:`~._configuration.MEASURE_CODES`) of the distinct rows ``rows`` (K,) of J*
+    at the rows of q (C, N), by the specialised "measure" kernel: J* of a lane block, then the engine's measure."""
+    data = data_vector(t)[module.SLOTS]
+    if parallel_worth(q.shape[0]):
+        module.parallel(q, data, rows, code, out, np.empty((_threads(), module.ROWS * LANES)))
+    else:
+        module.serial(q, data, rows, code, out, np.empty(module.ROWS * LANES))
 
 
 def rollout(module: types.ModuleType, t: Tree, *args: Any) -> None:

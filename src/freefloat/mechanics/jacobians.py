@@ -309,13 +309,15 @@ JACOBIAN_MEASURES = ("det", "sigma_min", "manipulability", "condition")
 def jacobian_measure(model: Model, q: Any, rows: Any = None, measure: str = "sigma_min") -> np.ndarray:
     """A measure of the rows ``rows`` of ⁰J* (1992 eq. 14) at each configuration, (...).
 
-    ``rows``: indices into the 6E rows of J* ([v; ω] per end effector); None: the rows of
+    ``rows``: distinct indices into the 6E rows of J* ([v; ω] per end effector); None: the rows of
     :func:`jacobian_determinant` (the plane's for a planar model, else all). ``measure``: ``"det"`` (square rows
     only, signed), ``"sigma_min"`` (the smallest singular value), ``"manipulability"`` (the product of the singular
     values, sqrt(det(J Jᵀ))), ``"condition"`` (σ_max / σ_min, inf at a singularity). Computed per configuration
     inside the engine's kernel (LU with partial pivoting; one-sided Jacobi for the singular values, as accurate as
-    numpy's det and SVD): no batch of J* is written, so a map of millions of configurations needs memory for the
-    measures only.
+    numpy's det and SVD), 64 configurations at a time (SIMD across them): no batch of J* is written, so a map of millions
+    of configurations needs memory for the measures only. Batches of 64 or more run on the kernels specialised to the
+    model's structure when made (kind ``"measure"`` of :func:`~freefloat.mechanics.specialise`; automatic after a few
+    seconds of this work).
     """
     if measure not in JACOBIAN_MEASURES:
         raise ValueError(f"measure: expected one of {', '.join(JACOBIAN_MEASURES)}, got {measure!r}")
@@ -327,8 +329,9 @@ def jacobian_measure(model: Model, q: Any, rows: Any = None, measure: str = "sig
         or not np.issubdtype(idx.dtype, np.integer)
         or idx.min() < 0
         or idx.max() >= 6 * model.n_end_effectors
+        or np.unique(idx).size != idx.size
     ):
-        raise ValueError(f"rows: expected indices of rows of J* (0 .. {6 * model.n_end_effectors - 1}), got {rows!r}")
+        raise ValueError(f"rows: expected distinct indices of rows of J* (0 .. {6 * model.n_end_effectors - 1}), got {rows!r}")
     if measure == "det" and idx.size != model.n_joints:
         raise ShapeError(f"measure='det': the chosen rows form a {idx.size} x {model.n_joints} matrix, not square; use 'sigma_min'")
     return _engine.jacobian_measures(model, q, idx, measure)

@@ -34,8 +34,9 @@ from .forces import _engine_wrenches, _wrenches
 __all__ = ["AUTO_AFTER", "KINDS", "auto_specialise", "is_specialised", "specialise"]
 
 #: What can be specialised: "jstar" (J* batches), "rollout" (RK4 rollouts with the joint PD), "hplus" (H+ batches),
-#: "forward" and "inverse" (forward and inverse dynamics batches). The rollouts and dynamics are made for one layout of
-#: external wrenches (``external``; none by default).
+#: "forward" and "inverse" (forward and inverse dynamics batches), "measure" (det J*, the smallest singular value,
+#: manipulability and condition number of chosen rows of J*: :func:`~.jacobians.jacobian_measure`, the singularity maps
+#: and searches). The rollouts and dynamics are made for one layout of external wrenches (``external``; none by default).
 KINDS = _specialise.KINDS
 
 #: Seconds of work on the generic kernels (J*, rollouts) of one structure, in one process, after which it is
