@@ -102,6 +102,7 @@ class ModelBuilder:
         self._bodies: list[BodySpec] = []
         self._joints: list[JointSpec] = []
         self._end_effectors: list[EndEffectorSpec] = []
+        self._mimics: list[tuple[str, str, float, float]] = []
 
     def add_body(
         self,
@@ -222,6 +223,36 @@ class ModelBuilder:
         )
         return self
 
+    def add_mimic(self, joint: str, *, leader: str, multiplier: float = 1.0, offset: float = 0.0) -> ModelBuilder:
+        """Make ``joint`` a mimic joint of ``leader`` (URDF ``<mimic>``): q_joint = multiplier q_leader + offset.
+
+        A mimic joint is a dependent coordinate: it has no column of q (nor of qdot, tau, J*, H+); its body
+        moves with the leader's value, and everything it does to the dynamics (its body's inertia, its own
+        rotor inertia, damping and friction) acts through the leader. A mimic of a mimic follows the root
+        leader (the laws composed). Its limits bound the leader through the law (``Model.joint_lower`` /
+        ``joint_upper`` of the leader are the intersection). Both joints must be revolute or prismatic.
+        """
+        path = f"mimic ({joint})"
+        if not isinstance(joint, str) or not joint:
+            raise ModelError("mimic.joint", f"expected a joint name, got {joint!r}", "name the joint that follows another")
+        if any(m[0] == joint for m in self._mimics):
+            raise ModelError(f"{path}", f"joint {joint!r} is given two mimic laws", "give each mimic joint one leader")
+        if not isinstance(leader, str) or not leader:
+            raise ModelError(f"{path}.leader", f"expected a joint name, got {leader!r}", "name the joint it follows")
+        law = []
+        for key, value in (("multiplier", multiplier), ("offset", offset)):
+            if isinstance(value, (bool, np.bool_, str, bytes)):
+                raise ModelError(f"{path}.{key}", f"cannot read {value!r} as a number", "give a finite number")
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                raise ModelError(f"{path}.{key}", f"cannot read {value!r} as a number", "give a finite number") from None
+            if not np.isfinite(number):
+                raise ModelError(f"{path}.{key}", f"is {number}", "give a finite number")
+            law.append(number)
+        self._mimics.append((joint, leader, law[0], law[1]))
+        return self
+
     def add_end_effector(self, name: str, *, body: str, point: Any = (0.0, 0.0, 0.0)) -> ModelBuilder:
         """Name an end effector: ``point`` (m) in the frame of ``body`` (a body or a frame fixed to one).
 
@@ -245,7 +276,7 @@ class ModelBuilder:
 
         ``corrections``: what a file reader changed in the given data (``Model.corrections``).
         """
-        model = _build(self.name, self._bodies, self._joints, source, self._end_effectors)
+        model = _build(self.name, self._bodies, self._joints, source, self._end_effectors, self._mimics)
         if corrections:
             import dataclasses
 
@@ -275,7 +306,60 @@ def _close(name: str, known: Sequence[str]) -> str:
     return f" (did you mean {', '.join(repr(c) for c in close)}?)" if close else ""
 
 
-def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], source: str, named: Sequence[EndEffectorSpec] = ()) -> Model:
+def _resolve_mimics(joints: Sequence[JointSpec], mimics: Sequence[tuple[str, str, float, float]]) -> dict[str, tuple[str, float, float]]:
+    """Each mimic joint's root leader and composed law {joint: (leader, multiplier, offset)}; errors name the joint."""
+    by_name = {j.name: j for j in joints}
+    direct: dict[str, tuple[str, float, float]] = {}
+    for joint, leader, multiplier, offset in mimics:
+        path = f"mimic ({joint})"
+        if joint not in by_name:
+            raise ModelError(path, f"there is no joint named {joint!r}{_close(joint, list(by_name))}", "name a joint of the model")
+        if by_name[joint].type == "fixed":
+            raise ModelError(
+                path,
+                f"joint {joint!r} is fixed: it has no coordinate to follow another",
+                "make it revolute or prismatic, or drop its mimic",
+            )
+        if leader not in by_name:
+            raise ModelError(
+                f"{path}.leader",
+                f"joint {joint!r} mimics {leader!r}, which is not a joint of the model{_close(leader, list(by_name))}",
+                "name a joint of the model",
+            )
+        if by_name[leader].type == "fixed":
+            raise ModelError(
+                f"{path}.leader",
+                f"joint {joint!r} mimics the fixed joint {leader!r}, which has no coordinate",
+                f"make {joint!r} fixed at its offset, or name a revolute or prismatic leader",
+            )
+        direct[joint] = (leader, multiplier, offset)
+    resolved: dict[str, tuple[str, float, float]] = {}
+    for joint in direct:
+        chain = [joint]
+        leader, multiplier, offset = direct[joint]
+        while leader in direct:
+            if leader in chain:
+                loop = " -> ".join([*chain, leader])
+                raise ModelError(
+                    f"mimic ({joint})",
+                    f"joint {joint!r} mimics itself through a chain of mimic joints ({loop})",
+                    "let the chain end at a joint that is not a mimic joint",
+                )
+            chain.append(leader)
+            leader, r, c = direct[leader][0], direct[leader][1], direct[leader][2]
+            multiplier, offset = multiplier * r, multiplier * c + offset
+        resolved[joint] = (leader, multiplier, offset)
+    return resolved
+
+
+def _build(
+    name: str,
+    bodies: Sequence[BodySpec],
+    joints: Sequence[JointSpec],
+    source: str,
+    named: Sequence[EndEffectorSpec] = (),
+    mimics: Sequence[tuple[str, str, float, float]] = (),
+) -> Model:
     if not bodies:
         raise ModelError("bodies", "the model has no bodies", "add at least the spacecraft body")
     by_name = {b.name: b for b in bodies}
@@ -342,6 +426,7 @@ def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], s
             f"bodies {unreached} are not reachable from the spacecraft {root!r} (their joints form a cycle)",
             "connect every body to the tree with exactly one parent joint",
         )
+    laws = _resolve_mimics(joints, mimics)
     movable_joints: list[JointSpec] = []
     for body in order[1:]:
         movable_joints.append(parent_joint[body])
@@ -413,6 +498,27 @@ def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], s
     if len(set(ee_names)) != len(ee_names):
         raise ModelError("end_effector_name", f"duplicate end-effector names {ee_names}", "give every end effector a unique name")
 
+    independent = [k for k, j in enumerate(movable_joints) if j.name not in laws]
+    lower, upper = _leader_limits(movable_joints, laws, lower, upper)
+    free = [movable_joints[k] for k in independent]
+    mimic_records = tuple(
+        {
+            "joint": j.name,
+            "body": j.child,
+            "leader": laws[j.name][0],
+            "multiplier": laws[j.name][1],
+            "offset": laws[j.name][2],
+            "type": "prismatic" if j.type == "prismatic" else "revolute",
+            "lower": j.lower,
+            "upper": j.upper,
+            "armature": j.armature,
+            "damping": j.damping,
+            "friction": j.friction,
+        }
+        for j in movable_joints
+        if j.name in laws
+    )
+    movable_joints = free
     return Model(
         name=name,
         body_names=tuple(order),
@@ -421,8 +527,8 @@ def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], s
         joint_origin=joint_origin,
         joint_rotation=joint_rotation,
         joint_axis=joint_axis,
-        joint_lower=lower,
-        joint_upper=upper,
+        joint_lower=lower[independent],
+        joint_upper=upper[independent],
         mass=mass,
         com=com,
         inertia=inertia,
@@ -435,4 +541,30 @@ def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], s
         joint_damping=[j.damping for j in movable_joints],
         joint_friction=[j.friction for j in movable_joints],
         end_effector_rule="named" if named else "leaves",
+        mimic=mimic_records,
     )
+
+
+def _leader_limits(
+    movable: Sequence[JointSpec], laws: dict[str, tuple[str, float, float]], lower: np.ndarray, upper: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The body joints' limits (B - 1) with each mimic joint's limits carried to its leader through the law (intersected)."""
+    lower, upper = lower.copy(), upper.copy()
+    row = {j.name: k for k, j in enumerate(movable)}
+    for j in movable:
+        if j.name not in laws or not (np.isfinite(j.lower) or np.isfinite(j.upper)):
+            continue
+        leader, multiplier, offset = laws[j.name]
+        if multiplier == 0.0:
+            continue
+        ends = sorted(((j.lower - offset) / multiplier, (j.upper - offset) / multiplier))
+        k = row[leader]
+        lower[k], upper[k] = max(lower[k], ends[0]), min(upper[k], ends[1])
+        if not lower[k] < upper[k]:
+            raise ModelError(
+                f"mimic ({j.name})",
+                f"its limits [{j.lower:g}, {j.upper:g}] leave no range of its leader {leader!r} through the law "
+                f"q = {multiplier:g} q_{leader} + {offset:g}",
+                "widen the limits of the mimic joint or of its leader",
+            )
+    return lower, upper

@@ -127,6 +127,7 @@ def _symbolic_model(t: Tree, g: Graph) -> Any:
         ee_body=_ints(t.ee_body),
         total_mass=g.input("data", total_at),
         ee_point=points,
+        n_joints=t.n_joints,
         **fields,
     )
 
@@ -147,7 +148,7 @@ def trace(t: Tree, kind: str) -> tuple[Graph, list[Any], int]:
     nb = t.n_bodies
     n = t.n_joints
     work = np.full(work_size(nb, t.ee_body.shape[0]), 0.0, dtype=object)
-    s = mod.recursions.scratch(work, nb, t.ee_body.shape[0])
+    s = mod.recursions.scratch(work, nb, t.ee_body.shape[0], n)
     if kind == "jstar":
         q = np.array([g.input("W", j) for j in range(n)], dtype=object)
         out = np.full((6 * t.ee_body.shape[0], n), 0.0, dtype=object)

@@ -18,7 +18,7 @@ from ..core.conventions import attitude_matrix
 from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, finite_vector, joint_array
-from ._inputs import check_method
+from ._inputs import body_joints, check_method
 
 __all__ = [
     "body_cm_positions",
@@ -116,6 +116,7 @@ def body_cm_positions(model: Model, q: Any, *, method: str = "recursive") -> np.
 
 def _barycentric_sum(model: Model, q: np.ndarray, table: np.ndarray, bodies: np.ndarray) -> np.ndarray:
     """rho_P = sum_i T_i v_iP(q) (1992 eq. 4, with the sliding of prismatic joints) for a table (P, B, 3): (C, P, 3)."""
+    model, q = body_joints(model, q)  # mimic joints: their values through the law
     rot = _rotations(model, q)
     out = np.einsum("cbij,pbj->cpi", rot, table)
     if model.has_prismatic:
