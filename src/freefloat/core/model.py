@@ -522,7 +522,8 @@ class Model:
 
     def __repr__(self) -> str:
         return (
-            f"Model({self.name!r}: {_count(self.n_bodies, 'body', 'bodies')}, {_count(self.n_joints, 'joint')}, "
+            f"Model({self.name!r}: {_count(self.n_bodies, 'body', 'bodies')}, {_count(self.n_joints, 'joint')}"
+            f"{f' (+{len(self.mimic)} mimic)' if self.mimic else ''}, "
             f"{_count(self.n_end_effectors, 'end effector')}, mass {self.total_mass:.6g} kg)"
         )
 

@@ -354,6 +354,7 @@ def centroidal_blocks(
 ) -> None:  # pragma: no cover - compiled
     """The [omega0, q] block of H+ into a ((3 + N) x (3 + N)): D, D_q (and D_qq with ``joint_block``)."""
     nb = m.parent.shape[0]
+    ancestor = m.ancestor
     big = m.total_mass
     f0, f1, f2 = cf[0, 0], cf[0, 1], cf[0, 2]
     sq = f0 * f0 + f1 * f1 + f2 * f2
@@ -373,39 +374,31 @@ def centroidal_blocks(
     for c in range(n):
         for r in range(3):
             a[3 + c, r] = a[r, 3 + c]
-    if not joint_block:
-        return
-    if n == nb - 1:  # no mimic joint: joint k is column k - 1, stored directly (no gathering: the common case's speed)
+    if joint_block:
+        # D_qq[i, k] of the joints of bodies i <= k: u_i . h_k + (p_i x u_i) . g_k (i is k or inboard of it) - g_i . g_k / M
+        plain = n == nb - 1  # no mimic joint: joint k is column k - 1, stored directly (the common case keeps its speed)
+        if not plain:
+            for c in range(n):
+                for d in range(n):
+                    a[3 + c, 3 + d] = 0.0
         for k in range(1, nb):
+            ck = 2 + k if plain else 3 + int(m.coordinate[k])
+            rk = m.multiplier[k]
             for i in range(1, k + 1):
-                v = joint_pair(m, axis, mom, g, h, i, k)
-                a[2 + i, 2 + k] = v
-                a[2 + k, 2 + i] = v
-            a[2 + k, 2 + k] += m.armature[k]  # the rotor's inertia, felt by its joint alone
-        return
-    for c in range(n):
-        for d in range(n):
-            a[3 + c, 3 + d] = 0.0
-    for k in range(1, nb):
-        ck = 3 + int(m.coordinate[k])
-        rk = m.multiplier[k]
-        for i in range(1, k + 1):
-            col_i = 3 + int(m.coordinate[i])
-            v = m.multiplier[i] * rk * joint_pair(m, axis, mom, g, h, i, k)
-            a[col_i, ck] += v
-            if i != k:  # H+ = M^T H_body M: entry (k, i) as well (twice on the diagonal when both follow one joint)
-                a[ck, col_i] += v
-        a[ck, ck] += rk * rk * m.armature[k]  # the rotor's inertia, felt by its joint alone (times r^2 through the law)
-
-
-@kernel(inline="always")
-def joint_pair(m: Any, axis: np.ndarray, mom: np.ndarray, g: np.ndarray, h: np.ndarray, i: int, k: int) -> Any:  # pragma: no cover
-    """D_qq[i, k] of the joints of bodies i <= k: u_i . h_k + (p_i x u_i) . g_k (when i is k or inboard of it) - g_i . g_k / M."""
-    v = -(g[i, 0] * g[k, 0] + g[i, 1] * g[k, 1] + g[i, 2] * g[k, 2]) / m.total_mass
-    if m.ancestor[i, k]:
-        v += axis[i, 0] * h[k, 0] + axis[i, 1] * h[k, 1] + axis[i, 2] * h[k, 2]
-        v += mom[i, 0] * g[k, 0] + mom[i, 1] * g[k, 1] + mom[i, 2] * g[k, 2]
-    return v
+                v = -(g[i, 0] * g[k, 0] + g[i, 1] * g[k, 1] + g[i, 2] * g[k, 2]) / big
+                if ancestor[i, k]:
+                    v += axis[i, 0] * h[k, 0] + axis[i, 1] * h[k, 1] + axis[i, 2] * h[k, 2]
+                    v += mom[i, 0] * g[k, 0] + mom[i, 1] * g[k, 1] + mom[i, 2] * g[k, 2]
+                if plain:
+                    a[2 + i, ck] = v
+                    a[ck, 2 + i] = v
+                else:  # H+ = M^T H_body M: (i, k) and (k, i), each times both multipliers (twice on a shared diagonal)
+                    col_i = 3 + int(m.coordinate[i])
+                    v *= m.multiplier[i] * rk
+                    a[col_i, ck] += v
+                    if i != k:
+                        a[ck, col_i] += v
+            a[ck, ck] += rk * rk * m.armature[k]  # the rotor's inertia, felt by its joint alone (times r^2 through the law)
 
 
 @kernel(inline="always")
