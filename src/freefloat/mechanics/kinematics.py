@@ -86,7 +86,8 @@ def forward_kinematics(model: Model, q: Any) -> tuple[np.ndarray, np.ndarray]:
 
 
 def joint_axes(model: Model, rotations: np.ndarray) -> np.ndarray:
-    """Joint axes in the spacecraft frame, ⁰T_k u_k, (..., N, 3), from ``body_rotations`` (turning or sliding axes)."""
+    """Joint axes in the spacecraft frame, ⁰T_k u_k, (..., B - 1, 3): one row per body's joint (N rows without mimic
+    joints; ``model.body_joint_names`` order with them), from ``body_rotations`` (turning or sliding axes)."""
     return np.einsum("...kij,kj->...ki", rotations[..., 1:, :, :], model.joint_axis[1:])
 
 
