@@ -17,6 +17,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .errors import ModelError
+from .mimic import leader_limits, resolve_mimics
 from .model import JOINT_PASSIVE, Model, _vector, check_inertia, check_mass, inertia_matrix
 
 __all__ = ["BodySpec", "EndEffectorSpec", "JointSpec", "ModelBuilder"]
@@ -306,52 +307,6 @@ def _close(name: str, known: Sequence[str]) -> str:
     return f" (did you mean {', '.join(repr(c) for c in close)}?)" if close else ""
 
 
-def _resolve_mimics(joints: Sequence[JointSpec], mimics: Sequence[tuple[str, str, float, float]]) -> dict[str, tuple[str, float, float]]:
-    """Each mimic joint's root leader and composed law {joint: (leader, multiplier, offset)}; errors name the joint."""
-    by_name = {j.name: j for j in joints}
-    direct: dict[str, tuple[str, float, float]] = {}
-    for joint, leader, multiplier, offset in mimics:
-        path = f"mimic ({joint})"
-        if joint not in by_name:
-            raise ModelError(path, f"there is no joint named {joint!r}{_close(joint, list(by_name))}", "name a joint of the model")
-        if by_name[joint].type == "fixed":
-            raise ModelError(
-                path,
-                f"joint {joint!r} is fixed: it has no coordinate to follow another",
-                "make it revolute or prismatic, or drop its mimic",
-            )
-        if leader not in by_name:
-            raise ModelError(
-                f"{path}.leader",
-                f"joint {joint!r} mimics {leader!r}, which is not a joint of the model{_close(leader, list(by_name))}",
-                "name a joint of the model",
-            )
-        if by_name[leader].type == "fixed":
-            raise ModelError(
-                f"{path}.leader",
-                f"joint {joint!r} mimics the fixed joint {leader!r}, which has no coordinate",
-                f"make {joint!r} fixed at its offset, or name a revolute or prismatic leader",
-            )
-        direct[joint] = (leader, multiplier, offset)
-    resolved: dict[str, tuple[str, float, float]] = {}
-    for joint in direct:
-        chain = [joint]
-        leader, multiplier, offset = direct[joint]
-        while leader in direct:
-            if leader in chain:
-                loop = " -> ".join([*chain, leader])
-                raise ModelError(
-                    f"mimic ({joint})",
-                    f"joint {joint!r} mimics itself through a chain of mimic joints ({loop})",
-                    "let the chain end at a joint that is not a mimic joint",
-                )
-            chain.append(leader)
-            leader, r, c = direct[leader][0], direct[leader][1], direct[leader][2]
-            multiplier, offset = multiplier * r, multiplier * c + offset
-        resolved[joint] = (leader, multiplier, offset)
-    return resolved
-
-
 def _build(
     name: str,
     bodies: Sequence[BodySpec],
@@ -426,7 +381,7 @@ def _build(
             f"bodies {unreached} are not reachable from the spacecraft {root!r} (their joints form a cycle)",
             "connect every body to the tree with exactly one parent joint",
         )
-    laws = _resolve_mimics(joints, mimics)
+    laws = resolve_mimics(joints, mimics, _close)
     movable_joints: list[JointSpec] = []
     for body in order[1:]:
         movable_joints.append(parent_joint[body])
@@ -499,7 +454,7 @@ def _build(
         raise ModelError("end_effector_name", f"duplicate end-effector names {ee_names}", "give every end effector a unique name")
 
     independent = [k for k, j in enumerate(movable_joints) if j.name not in laws]
-    lower, upper = _leader_limits(movable_joints, laws, lower, upper)
+    lower, upper = leader_limits(movable_joints, laws, lower, upper)
     free = [movable_joints[k] for k in independent]
     mimic_records = tuple(
         {
@@ -543,28 +498,3 @@ def _build(
         end_effector_rule="named" if named else "leaves",
         mimic=mimic_records,
     )
-
-
-def _leader_limits(
-    movable: Sequence[JointSpec], laws: dict[str, tuple[str, float, float]], lower: np.ndarray, upper: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """The body joints' limits (B - 1) with each mimic joint's limits carried to its leader through the law (intersected)."""
-    lower, upper = lower.copy(), upper.copy()
-    row = {j.name: k for k, j in enumerate(movable)}
-    for j in movable:
-        if j.name not in laws or not (np.isfinite(j.lower) or np.isfinite(j.upper)):
-            continue
-        leader, multiplier, offset = laws[j.name]
-        if multiplier == 0.0:
-            continue
-        ends = sorted(((j.lower - offset) / multiplier, (j.upper - offset) / multiplier))
-        k = row[leader]
-        lower[k], upper[k] = max(lower[k], ends[0]), min(upper[k], ends[1])
-        if not lower[k] < upper[k]:
-            raise ModelError(
-                f"mimic ({j.name})",
-                f"its limits [{j.lower:g}, {j.upper:g}] leave no range of its leader {leader!r} through the law "
-                f"q = {multiplier:g} q_{leader} + {offset:g}",
-                "widen the limits of the mimic joint or of its leader",
-            )
-    return lower, upper

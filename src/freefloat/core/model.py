@@ -21,6 +21,7 @@ import numpy as np
 
 from . import barycentric
 from .errors import ModelError, UnknownNameError
+from .mimic import body_joints
 from .numbers import real_array
 
 __all__ = [
@@ -297,7 +298,7 @@ class Model:
         for name, what in JOINT_PASSIVE.items():
             object.__setattr__(self, f"joint_{name}", _frozen(_joint_parameter(self, name, getattr(self, f"joint_{name}"), what)))
         object.__setattr__(self, "mimic", tuple(dict(r) for r in self.mimic))
-        object.__setattr__(self, "_body_joints", _body_joints(self))
+        object.__setattr__(self, "_body_joints", body_joints(self, JOINT_TYPES, tuple(JOINT_PASSIVE)))
         if self.mimic:  # the same bodies with every joint independent: the mass tables are the expanded model's
             expanded = self.expanded()
             for name in ("subtree", "total_mass", "bary", "rotation_basis"):
@@ -526,95 +527,6 @@ class Model:
             f"{f' (+{len(self.mimic)} mimic)' if self.mimic else ''}, "
             f"{_count(self.n_end_effectors, 'end effector')}, mass {self.total_mass:.6g} kg)"
         )
-
-
-def _body_joints(model: Model) -> dict[str, Any]:
-    """The joints of bodies 1..B-1 and the map from q to their values (see :class:`Model`), each mimic record checked."""
-    n_b, n = len(model.body_names), len(model.joint_names)
-    if not model.mimic:
-        return {
-            "names": model.joint_names,
-            "type": model.joint_type,
-            "prismatic": model._prismatic,  # type: ignore[attr-defined]
-            "coordinate": _frozen(np.arange(n), int),
-            "multiplier": _frozen(np.ones(n)),
-            "offset": _frozen(np.zeros(n)),
-            "matrix": _frozen(np.eye(n)),
-        }
-    if n_b - 1 != n + len(model.mimic):
-        raise ModelError(
-            "mimic",
-            f"{n} joints and {len(model.mimic)} mimic joints for {n_b - 1} moving bodies",
-            "give one joint per body below the spacecraft",
-        )
-    by_body: dict[int, dict[str, Any]] = {}
-    for i, record in enumerate(model.mimic):
-        path = f"mimic[{i}] ({record.get('joint')})"
-        body = record.get("body")
-        if body not in model.body_names or body == model.body_names[0]:
-            raise ModelError(f"{path}.body", f"{body!r} is not a moving body of the model", "name the body the mimic joint moves")
-        k = model.body_names.index(body)
-        if k in by_body:
-            raise ModelError(f"{path}.body", f"body {body!r} has two mimic joints", "give each body one joint")
-        if record.get("leader") not in model.joint_names:
-            raise ModelError(
-                f"{path}.leader", f"{record.get('leader')!r} is not an independent joint of the model", "name a joint of joint_names"
-            )
-        if record.get("type", "revolute") not in JOINT_TYPES:
-            raise ModelError(f"{path}.type", f"unknown joint type {record.get('type')!r}", f"use one of {', '.join(JOINT_TYPES)}")
-        for key in ("multiplier", "offset"):
-            value = record.get(key, 1.0 if key == "multiplier" else 0.0)
-            if isinstance(value, (bool, str)) or not np.isfinite(float(value)):
-                raise ModelError(f"{path}.{key}", f"is {value!r}", "give a finite number")
-        by_body[k] = record
-    names: list[str] = []
-    types: list[str] = []
-    lower: list[float] = []
-    upper: list[float] = []
-    coordinate: list[int] = []
-    multiplier: list[float] = []
-    offset: list[float] = []
-    passive: dict[str, list[float]] = {key: [] for key in JOINT_PASSIVE}
-    j = 0
-    for k in range(1, n_b):
-        law = by_body.get(k)
-        if law is None:
-            names.append(model.joint_names[j])
-            types.append(model.joint_type[j])
-            lower.append(model.joint_lower[j])
-            upper.append(model.joint_upper[j])
-            coordinate.append(j)
-            multiplier.append(1.0)
-            offset.append(0.0)
-            for key in JOINT_PASSIVE:
-                passive[key].append(float(getattr(model, f"joint_{key}")[j]))
-            j += 1
-        else:
-            names.append(str(law["joint"]))
-            types.append(str(law.get("type", "revolute")))
-            lower.append(float(law.get("lower", -np.inf)))
-            upper.append(float(law.get("upper", np.inf)))
-            coordinate.append(model.joint_names.index(law["leader"]))
-            multiplier.append(float(law.get("multiplier", 1.0)))
-            offset.append(float(law.get("offset", 0.0)))
-            for key in JOINT_PASSIVE:
-                passive[key].append(float(law.get(key, 0.0)))
-    if len(set(names)) != len(names):
-        raise ModelError("mimic", f"a mimic joint shares its name with another joint ({names})", "give every joint a unique name")
-    matrix = np.zeros((n_b - 1, n))
-    matrix[np.arange(n_b - 1), coordinate] = multiplier
-    return {
-        "names": tuple(names),
-        "type": tuple(types),
-        "prismatic": _frozen([t == "prismatic" for t in types], bool),
-        "coordinate": _frozen(coordinate, int),
-        "multiplier": _frozen(multiplier),
-        "offset": _frozen(offset),
-        "matrix": _frozen(matrix),
-        "lower": np.array(lower),
-        "upper": np.array(upper),
-        **{key: np.array(values) for key, values in passive.items()},
-    }
 
 
 def _lookup(kind: str, key: str | int, names: Sequence[str]) -> int:
