@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import os
 import platform
+import re
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -57,7 +58,9 @@ class System:
 
 
 def panda_model() -> ff.Model:
-    """The Panda of example-robot-data under a spacecraft (tests/robots.py), tool frame panda_hand_tcp."""
+    """The Panda of example-robot-data under a spacecraft (tests/robots.py), tool frame panda_hand_tcp, with its
+    second finger made independent (its ``<mimic>`` removed here): N = 9, as in the timings published before mimic
+    joints were read, and a model ``to_pinocchio`` builds."""
     import sys
     import tempfile
     from pathlib import Path
@@ -67,7 +70,9 @@ def panda_model() -> ff.Model:
 
     relative, tools = REAL_ROBOTS["panda"]
     with tempfile.TemporaryDirectory() as folder:
-        return ff.load(spacecraft_urdf(relative, Path(folder)), end_effectors=tools)
+        path = spacecraft_urdf(relative, Path(folder))
+        path.write_text(re.sub(r"<mimic[^>]*/>", "", path.read_text(encoding="utf-8")), encoding="utf-8")
+        return ff.load(path, end_effectors=tools)
 
 
 def systems() -> list[System]:

@@ -1,10 +1,10 @@
 """Real robot descriptions from the ``example-robot-data`` package, wrapped as space robots.
 
-Each URDF is used as shipped, with two edits made here in the XML (and nowhere in freefloat):
-a 500 kg spacecraft link is added as the new root, holding the robot's root link by a fixed
-joint 0.5 m above its frame origin, and ``<mimic>`` elements are removed (freefloat refuses
-mimic joints with a clear error, tests/io/test_model_corrections.py; Pinocchio's URDF parser,
-by default, also treats them as independent joints). A missing package fails the tests.
+Each URDF is used as shipped, with one edit made here in the XML (and nowhere in freefloat): a
+500 kg spacecraft link is added as the new root, holding the robot's root link by a fixed joint
+0.5 m above its frame origin. ``<mimic>`` elements stay (the Panda's second finger, Baxter's
+grippers): freefloat reads them as dependent coordinates, as Pinocchio does with ``mimic=True``.
+A missing package fails the tests.
 ``load_real`` loads one and checks what freefloat drops from it, with a warning: ``UNMODELLED``.
 """
 
@@ -55,7 +55,7 @@ def load_real(name: str, path: Path, **kwargs: Any) -> ff.Model:
     return model
 
 
-def spacecraft_urdf(relative: str, directory: Path, *, keep_mimic: bool = False) -> Path:
+def spacecraft_urdf(relative: str, directory: Path) -> Path:
     """Write the robot at ``ROBOTS / relative`` under a spacecraft root link into ``directory``; return the path."""
     source = ROBOTS / relative
     assert source.is_file(), f"example-robot-data has no {relative}"
@@ -63,10 +63,6 @@ def spacecraft_urdf(relative: str, directory: Path, *, keep_mimic: bool = False)
     children = {j.find("child").get("link") for j in root.findall("joint")}  # type: ignore[union-attr]
     roots = [link.get("name") for link in root.findall("link") if link.get("name") not in children]
     assert len(roots) == 1, f"{relative}: root links {roots}"
-    if not keep_mimic:
-        for joint in root.findall("joint"):
-            for mimic in joint.findall("mimic"):
-                joint.remove(mimic)
     bus = ElementTree.SubElement(root, "link", name="spacecraft")
     inertial = ElementTree.SubElement(bus, "inertial")
     ElementTree.SubElement(inertial, "origin", xyz="0.1 -0.05 -0.4", rpy="0 0 0")

@@ -31,6 +31,8 @@ def build_random_model(
     prismatic: float = 0.0,
     sliding: tuple[int, int] | None = None,
     tools: bool = False,
+    mimic: float = 0.0,
+    gripper_like: bool = False,
 ) -> ff.Model:
     """A spacecraft with len(joints_per_arm) arms.
 
@@ -42,6 +44,10 @@ def build_random_model(
     ``tools``: every leaf body holds an end effector at a random point of its frame (as a real arm holds
     its tool away from its last joint); otherwise the end effectors are the leaves' frame origins, on
     their last joint, which that joint then cannot move relative to its parent.
+    ``mimic``: the probability that a joint (not the first) is a mimic joint of an earlier joint of its type (a mimic
+    joint too, then a chain), anywhere in the tree, multiplier in ±[0.3, 2], offset in [-0.3, 0.3]; one always is when an
+    earlier joint has its type. ``gripper_like``: mimic joints move leaf bodies only, and follow the joint of an
+    ancestor or of a sibling (as the fingers of real grippers).
     """
     b = ff.ModelBuilder(name)
     m0 = rng.uniform(50.0, 500.0)
@@ -49,6 +55,10 @@ def build_random_model(
 
     parents: list[str] = []
     links: list[str] = []
+    kinds: list[tuple[str, str]] = []  # (joint, type) of the movable joints, in the order added
+    joint_parent: dict[str, str] = {}  # joint -> its parent body
+    joint_child: dict[str, str] = {}  # joint -> its child body
+    body_parent: dict[str, str] = {}  # body -> its parent body
 
     def link(parent: str, body: str, joint: str, forced: bool = False) -> None:
         m = rng.uniform(1.0, 50.0)
@@ -56,6 +66,10 @@ def build_random_model(
         slides = (prismatic > 0.0 and rng.uniform() < prismatic) or forced
         parents.append(parent)
         links.append(body)
+        kinds.append((joint, "prismatic" if slides else "revolute"))
+        joint_parent[joint] = parent
+        joint_child[joint] = body
+        body_parent[body] = parent
         b.add_joint(
             joint,
             parent=parent,
@@ -75,6 +89,7 @@ def build_random_model(
                 mid = f"a{arm}_fixed{k}"
                 m = rng.uniform(0.5, 5.0)
                 b.add_body(mid, mass=m, inertia=random_inertia(rng, m), com=rng.normal(scale=0.2, size=3))
+                body_parent[mid] = parent
                 b.add_joint(
                     f"a{arm}_fix{k}",
                     parent=parent,
@@ -92,6 +107,25 @@ def build_random_model(
                     link(bp, f"a{arm}_b{j}", f"a{arm}_bq{j}")
                     bp = f"a{arm}_b{j}"
             parent = body
+    if mimic > 0.0:
+        candidates = []  # (joint, its possible leaders)
+        for i, (joint, kind) in enumerate(kinds):
+            leaders = [name for name, other in kinds[:i] if other == kind]
+            if gripper_like:  # a leaf body's joint, following an ancestor's joint or a sibling's
+                if joint_child[joint] in body_parent.values():
+                    continue
+                path, body = set(), joint_parent[joint]
+                while body in body_parent:
+                    path.add(body)
+                    body = body_parent[body]
+                leaders = [name for name in leaders if joint_child[name] in path or joint_parent[name] == joint_parent[joint]]
+            if leaders:
+                candidates.append((joint, leaders))
+        forced = int(rng.integers(len(candidates))) if candidates else -1
+        for c, (joint, leaders) in enumerate(candidates):
+            if rng.uniform() < mimic or c == forced:
+                sign = rng.choice([-1.0, 1.0])
+                b.add_mimic(joint, leader=str(rng.choice(leaders)), multiplier=sign * rng.uniform(0.3, 2.0), offset=rng.uniform(-0.3, 0.3))
     if tools:
         for leaf in (body for body in links if body not in parents):
             b.add_end_effector(f"{leaf}_tool", body=leaf, point=rng.normal(scale=0.3, size=3))
@@ -120,3 +154,21 @@ def random_trees(
     model = build_random_model(np.random.default_rng(seed), joints, branch, fixed, prismatic=prismatic, sliding=sliding, tools=tools)
     assert model.has_prismatic or prismatic == 0.0
     return model
+
+
+@st.composite
+def random_mimic_trees(
+    draw: st.DrawFn, max_arms: int = 3, max_joints: int = 5, prismatic: float = 0.0, tools: bool = True, gripper_like: bool = False
+) -> ff.Model:
+    """Hypothesis strategy: the trees of :func:`random_trees` (at least two joints) with mimic joints (``mimic=0.3``
+    in :func:`build_random_model`): at least one (when a joint can have a leader), chains and leaders in other arms
+    included; ``gripper_like``: see there."""
+    n_arms = draw(st.integers(1, max_arms))
+    joints = [draw(st.integers(2 if n_arms == 1 else 1, max_joints)) for _ in range(n_arms)]
+    branch = [draw(st.one_of(st.none(), st.integers(0, n - 1))) for n in joints]
+    fixed = [draw(st.one_of(st.none(), st.integers(0, n - 1))) for n in joints]
+    seed = draw(st.integers(0, 2**32 - 1))
+    rng = np.random.default_rng(seed)
+    return build_random_model(
+        rng, joints, branch, fixed, name="mimic", prismatic=prismatic, tools=tools, mimic=0.3, gripper_like=gripper_like
+    )

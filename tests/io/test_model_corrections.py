@@ -111,10 +111,40 @@ def test_model_with_singular_h_plus_is_refused(tmp_path: Path) -> None:
 
 
 # ----------------------------------------------------------------------------- refused joints
-def test_mimic_joint_is_refused_naming_it(tmp_path: Path) -> None:
-    path = spacecraft_urdf(REAL_ROBOTS["panda"][0], tmp_path, keep_mimic=True)
-    with pytest.raises(ff.ModelError, match=r"panda_finger_joint2\)\.mimic: mimics joint 'panda_finger_joint1'"):
-        ff.load(path)
+def test_mimic_joints_are_read_and_strict_does_not_refuse_them(tmp_path: Path) -> None:
+    """The Panda as distributed: its second finger mimics the first (a dependent coordinate, not a defect)."""
+    path = spacecraft_urdf(REAL_ROBOTS["panda"][0], tmp_path)
+    for strict in (False, True):
+        model = ff.load(path, strict=strict)
+        assert "panda_finger_joint2" not in model.joint_names and "panda_finger_joint2" in model.body_joint_names
+        assert [r["leader"] for r in model.mimic] == ["panda_finger_joint1"]
+
+
+@pytest.mark.parametrize(
+    ("extra", "match"),
+    [
+        ('<mimic joint="q1" multiplier="2" offset="0.1"/>', None),
+        ('<mimic joint="s2"/>', r"robot.urdf: mimic \(s2\): joint 's2' mimics itself through a chain of mimic joints \(s2 -> s2\)"),
+        (
+            '<mimic joint="nope"/>',
+            r"robot.urdf: mimic \(s2\)\.leader: joint 's2' mimics 'nope', which is not a joint of the model; name a joint",
+        ),
+        (
+            '<mimic joint="fix"/>',
+            r"robot.urdf: mimic \(s2\)\.leader: joint 's2' mimics the fixed joint 'fix', which has no coordinate; make 's2' fixed",
+        ),
+        ('<mimic joint="q1" multiplier="nan"/>', r"joint\[1\] \(s2\)\.mimic: is nan; give a finite number"),
+    ],
+)
+def test_bad_mimic_joints_are_refused_naming_the_joint(tmp_path: Path, extra: str, match: str | None) -> None:
+    parts = arm(link("l3", 1.0, xyz="0.1 0 0"), joint("fix", "fixed", "bus", "l3", xyz="0 1 0"))
+    parts[4] = joint("s2", "prismatic", "l1", "l2", xyz="0.6 0 0", axis="1 0 0", extra=extra)
+    if match is None:  # a revolute leader, a prismatic follower: q_s2 = 2 q1 + 0.1 (m from rad)
+        model = ff.load(urdf(tmp_path, *parts))
+        assert model.joint_names == ("q1",) and model.mimic[0]["multiplier"] == 2.0 and model.mimic[0]["offset"] == 0.1
+        return
+    with pytest.raises(ff.ModelError, match=match):
+        ff.load(urdf(tmp_path, *parts))
 
 
 @pytest.mark.parametrize("kind", ["floating", "planar"])

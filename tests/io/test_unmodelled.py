@@ -102,11 +102,6 @@ MJCF_CASES = {
         "MJCF <tendon>",
         "tendon 'couple'",
     ),
-    "equality joint": (
-        {"after": '<equality><joint name="mimic" joint1="elbow" joint2="shoulder"/></equality>'},
-        "MJCF <equality><joint>",
-        "equality 'mimic' (joint)",
-    ),
     "equality connect": (
         {"after": '<equality><connect name="loop" body1="fore" body2="bus" anchor="0.6 0 0"/></equality>'},
         "MJCF <equality> connect, weld, tendon, flex",
@@ -189,6 +184,10 @@ def test_joint_dynamics_of_the_files_are_read_without_a_warning(tmp_path: Path) 
     parts[3] = joint("q1", "revolute", "bus", "l1", extra='<dynamics damping="0.7" friction="0.2"/>')
     model, texts = loaded(urdf(tmp_path, *parts))
     assert texts == [] and (model.joint_damping[0], model.joint_friction[0]) == (0.7, 0.2) and not model.joint_armature.any()
+    # a joint coupling of first order is a mimic joint (issue 21, item 1), read without a word
+    coupled, texts = loaded(mjcf(tmp_path, after='<equality><joint name="mimic" joint1="elbow" joint2="shoulder"/></equality>'))
+    assert texts == [] and [(r["joint"], r["leader"]) for r in coupled.mimic] == [("elbow", "shoulder")]
+    assert coupled.joint_names == ("shoulder",) and not coupled.unmodelled
 
 
 TRANSMISSION = """<transmission name="{name}"><type>transmission_interface/SimpleTransmission</type>

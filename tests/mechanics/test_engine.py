@@ -371,9 +371,10 @@ def test_the_model_layout_is_one_named_list() -> None:
     from freefloat.mechanics import _trace, _tree
 
     names = [f.name for f in _tree.BODY_FIELDS]
-    assert list(_tree.Arrays._fields) == ["parent", "ancestor", "ee_body", *names, "total_mass", "ee_point"]
+    assert list(_tree.Arrays._fields) == ["parent", "ancestor", "ee_body", *names, "total_mass", "ee_point", "n_joints"]
     assert _tree.BODY_WIDTH == sum(f.width for f in _tree.BODY_FIELDS)
-    model = build_random_model(np.random.default_rng(3), [3, 2], [0, None], [1, None], prismatic=0.5)
+    model = build_random_model(np.random.default_rng(3), [3, 2], [0, None], [1, None], prismatic=0.5, mimic=0.4)
+    assert model.has_mimic
     t = _tree.tree(model)
     m = _trace.traced().configuration.arrays(t.ints, t.floats)
     for f in _tree.BODY_FIELDS:
@@ -384,6 +385,7 @@ def test_the_model_layout_is_one_named_list() -> None:
     np.testing.assert_array_equal(m.parent, model.parent)
     np.testing.assert_array_equal(m.ee_point, np.reshape(model.end_effector_point, (-1, 3)))
     assert m.total_mass == model.total_mass
+    assert m.n_joints == model.n_joints < model.n_bodies - 1
     assert _trace.traced().configuration.buffer_lengths(t.ints) == (t.ints.size, t.floats.size)
 
 

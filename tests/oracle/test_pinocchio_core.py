@@ -87,13 +87,24 @@ class PinocchioSystem:
         )  # a 6-DOF root joint, quaternion-parametrised
         ids = [pin_model.getJointId(name) for name in model.joint_names]
         assert all(0 < i < pin_model.njoints for i in ids), "a freefloat joint is missing in Pinocchio"
-        self.body_joint = [1, *ids]  # the Pinocchio joint that moves freefloat body k
+        # the Pinocchio joint that moves freefloat body k (a mimic joint too: Pinocchio's JointModelMimic, mimic=True)
+        self.body_joint = [1, *(pin_model.getJointId(name) for name in model.body_joint_names)]
         self.idx_q = [pin_model.joints[i].idx_q for i in ids]
         self.nq = [pin_model.joints[i].nq for i in ids]
         self.idx_v = np.array([pin_model.joints[i].idx_v for i in ids], dtype=int)
         assert sorted(self.idx_v.tolist()) == list(range(6, 6 + n))
         self.frames = [pin_model.getFrameId(name) for name in frame_names]
         assert all(f < pin_model.nframes for f in self.frames), f"end-effector frames {frame_names} not all in Pinocchio"
+
+    def mass_matrix(self, qp: np.ndarray) -> np.ndarray:
+        """Pinocchio's CRBA, both triangles. With mimic joints in the WORLD convention: in its default (LOCAL) one,
+        Pinocchio 4.1 returns wrong entries for a model with a JointModelMimic once its data has been used (measured
+        errors of order 1 on random trees; the WORLD convention agrees with freefloat to 1e-13)."""
+        if self.model.has_mimic:
+            m = pin.crba(self.pm, self.data, qp, pin.Convention.WORLD)
+        else:
+            m = pin.crba(self.pm, self.data, qp)
+        return np.triu(m) + np.triu(m, 1).T  # Pinocchio fills the upper triangle
 
     def configuration(self, q: np.ndarray, quat: np.ndarray, base: np.ndarray) -> np.ndarray:
         out = pin.neutral(self.pm)
@@ -133,9 +144,9 @@ class PinocchioSystem:
         out["ee_velocities"] = np.concatenate([pin.getFrameVelocity(pm, data, f, pin.LOCAL_WORLD_ALIGNED).vector for f in self.frames])
         hg = pin.computeCentroidalMomentum(pm, data, qp, v)
         out["linear_momentum"], out["angular_momentum"] = hg.linear.copy(), hg.angular.copy()
-        out["kinetic_energy"] = pin.computeKineticEnergy(pm, data, qp, v)
-        m = pin.crba(pm, data, qp)
-        m = np.triu(m) + np.triu(m, 1).T  # Pinocchio fills the upper triangle
+        m = self.mass_matrix(qp)
+        # computeKineticEnergy refuses Pinocchio's mimic joints (4.1): then 1/2 v^T M v from its CRBA
+        out["kinetic_energy"] = 0.5 * v @ m @ v if self.model.has_mimic else pin.computeKineticEnergy(pm, data, qp, v)
         out["H+"] = t_inv.T @ m @ t_inv
         # J*: zero centroidal momentum, A_b v_base + A_q qdot = 0
         ag = pin.computeCentroidalMap(pm, data, qp)

@@ -1,8 +1,9 @@
 """Real robot files (example-robot-data) under a spacecraft, against Pinocchio's own URDF parser.
 
 A UR5, a Kinova arm, a Panda with its two prismatic fingers and a Baxter with both arms (and
-its zero-inertia gripper links) are read by freefloat and, from the same file, by
-``pinocchio.buildModelFromUrdf`` with a free-flyer root. Everything in ``compare`` agrees within
+its zero-inertia gripper links) are read, as distributed, by freefloat and, from the same file, by
+``pinocchio.buildModelFromUrdf`` with a free-flyer root and ``mimic=True``: the Panda's second finger
+and Baxter's right gripper fingers are mimic joints (dependent coordinates) in both. Everything in ``compare`` agrees within
 ``BOUND`` (relative; the issue asks 1e-8): mass, system CM, end-effector positions about the CM,
 momenta, kinetic energy, H+ and its blocks, J*, J+ and a random point Jacobian, for the engine and
 for the barycentric forms; five random states per robot. So do H+, C+ and forward dynamics
@@ -44,7 +45,7 @@ def test_real_robot_matches_pinocchio(name: str, tmp_path: Path) -> None:
     model = load_real(name, path, end_effectors=tools)
     assert model.end_effector_rule == "named" and model.end_effector_names == tuple(tools or ())
     assert model.body_names[0] == "spacecraft"
-    pm = pin.buildModelFromUrdf(str(path), pinocchio_root_joint())
+    pm = pin.buildModelFromUrdf(str(path), pinocchio_root_joint(), mimic=True)
     pm.gravity = pin.Motion.Zero()
     system = PinocchioSystem(model, pm, model.end_effector_names)
     rng = np.random.default_rng(sum(map(ord, name)))
@@ -59,10 +60,20 @@ def test_real_robot_matches_pinocchio(name: str, tmp_path: Path) -> None:
     for j, joint in enumerate(model.joint_names):
         assert model.joint_damping[j] == damped.get(joint, 0.0), joint
     assert (name in ("panda", "baxter")) == bool(model.joint_damping.any())
-    if name == "panda":
-        assert model.joint_type.count("prismatic") == 2, "the Panda's fingers slide"
+    if name == "panda":  # as distributed: the second finger mimics the first (one coordinate for the two)
+        assert model.body_joint_type.count("prismatic") == 2, "the Panda's fingers slide"
+        assert [(r["joint"], r["leader"], r["multiplier"], r["offset"]) for r in model.mimic] == [
+            ("panda_finger_joint2", "panda_finger_joint1", 1.0, 0.0)
+        ]
+        assert model.n_joints == 8 and pm.nv == 14
     if name == "baxter":
         assert model.n_joints >= 14 and len(tools or ()) == 2, "both arms"
+        assert {r["joint"]: r["leader"] for r in model.mimic} == {
+            "l_gripper_r_finger_joint": "l_gripper_l_finger_joint",
+            "r_gripper_r_finger_joint": "r_gripper_l_finger_joint",
+        }
+    if name in ("ur5", "kinova"):
+        assert not model.has_mimic
 
 
 def test_unnamed_end_effectors_keep_every_leaf(tmp_path: Path) -> None:

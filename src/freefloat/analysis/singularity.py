@@ -158,9 +158,10 @@ class SingularityCriterion:
         rows = self.row_indices(model, end_effector)
         if rows.size == 0 or model.n_joints == 0:
             return float("inf")
+        own = model.expanded()  # the joint of every body (mimic joints too: H_qq = M^T H_body M, see below)
         slide = np.zeros(model.n_bodies)
-        reach = np.maximum(np.abs(model.joint_lower), np.abs(model.joint_upper))
-        slide[1:] = np.where(model.prismatic, np.minimum(reach, MAX_JOINT_VALUE), 0.0)
+        reach = np.maximum(np.abs(own.joint_lower), np.abs(own.joint_upper))
+        slide[1:] = np.where(own.prismatic, np.minimum(reach, MAX_JOINT_VALUE), 0.0)
         link = np.linalg.norm(model.joint_origin, axis=1) + slide
         depth = np.zeros(model.n_bodies)  # length of the tree path from the spacecraft's frame to each body's frame
         for k in range(1, model.n_bodies):
@@ -170,10 +171,13 @@ class SingularityCriterion:
         trace = 0.0  # bound of trace H_qq
         for k in range(1, model.n_bodies):
             out = np.nonzero(model.subtree[k])[0]
-            if model.prismatic[k - 1]:
+            if own.prismatic[k - 1]:
                 trace += float(np.sum(model.mass[out]))
             else:
                 trace += float(np.sum(model.mass[out] * (depth[out] - depth[k] + com[out]) ** 2 + eig[out, -1]))
+        # with mimic joints trace(M^T H_body M) <= the largest eigenvalue of M^T M (diagonal: per column of q, the sum of
+        # its joints' squared multipliers) times trace(H_body)
+        trace *= float(np.max(np.sum(model.mimic_matrix**2, axis=0), initial=1.0))
         frobenius2 = 0.0
         for e in np.unique(rows // 6):
             k = int(model.end_effector_body[e])

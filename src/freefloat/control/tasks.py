@@ -477,7 +477,7 @@ class TaskSpace:
             while int(model.parent[chain[-1]]) != 0:
                 chain.append(int(model.parent[chain[-1]]))
             chain.reverse()  # first body after the spacecraft ... the point's body
-            if any(model.prismatic[k - 1] for k in chain):
+            if any(model.body_joint_prismatic[k - 1] for k in chain):
                 continue  # segment lengths change with a sliding joint: this quick check covers turning chains only
             mount = model.joint_origin[chain[0]] - model.com[0]  # spacecraft frame, from the spacecraft CM
             segments = [float(np.linalg.norm(model.joint_origin[k])) for k in chain[1:]] + [float(np.linalg.norm(it.point))]

@@ -17,6 +17,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from .errors import ModelError
+from .mimic import leader_limits, resolve_mimics
 from .model import JOINT_PASSIVE, Model, _vector, check_inertia, check_mass, inertia_matrix
 
 __all__ = ["BodySpec", "EndEffectorSpec", "JointSpec", "ModelBuilder"]
@@ -102,6 +103,7 @@ class ModelBuilder:
         self._bodies: list[BodySpec] = []
         self._joints: list[JointSpec] = []
         self._end_effectors: list[EndEffectorSpec] = []
+        self._mimics: list[tuple[str, str, float, float]] = []
 
     def add_body(
         self,
@@ -222,6 +224,36 @@ class ModelBuilder:
         )
         return self
 
+    def add_mimic(self, joint: str, *, leader: str, multiplier: float = 1.0, offset: float = 0.0) -> ModelBuilder:
+        """Make ``joint`` a mimic joint of ``leader`` (URDF ``<mimic>``): q_joint = multiplier q_leader + offset.
+
+        A mimic joint is a dependent coordinate: it has no column of q (nor of qdot, tau, J*, H+); its body
+        moves with the leader's value, and everything it does to the dynamics (its body's inertia, its own
+        rotor inertia, damping and friction) acts through the leader. A mimic of a mimic follows the root
+        leader (the laws composed). Its limits bound the leader through the law (``Model.joint_lower`` /
+        ``joint_upper`` of the leader are the intersection). Both joints must be revolute or prismatic.
+        """
+        path = f"mimic ({joint})"
+        if not isinstance(joint, str) or not joint:
+            raise ModelError("mimic.joint", f"expected a joint name, got {joint!r}", "name the joint that follows another")
+        if any(m[0] == joint for m in self._mimics):
+            raise ModelError(f"{path}", f"joint {joint!r} is given two mimic laws", "give each mimic joint one leader")
+        if not isinstance(leader, str) or not leader:
+            raise ModelError(f"{path}.leader", f"expected a joint name, got {leader!r}", "name the joint it follows")
+        law = []
+        for key, value in (("multiplier", multiplier), ("offset", offset)):
+            if isinstance(value, (bool, np.bool_, str, bytes)):
+                raise ModelError(f"{path}.{key}", f"cannot read {value!r} as a number", "give a finite number")
+            try:
+                number = float(value)
+            except (TypeError, ValueError):
+                raise ModelError(f"{path}.{key}", f"cannot read {value!r} as a number", "give a finite number") from None
+            if not np.isfinite(number):
+                raise ModelError(f"{path}.{key}", f"is {number}", "give a finite number")
+            law.append(number)
+        self._mimics.append((joint, leader, law[0], law[1]))
+        return self
+
     def add_end_effector(self, name: str, *, body: str, point: Any = (0.0, 0.0, 0.0)) -> ModelBuilder:
         """Name an end effector: ``point`` (m) in the frame of ``body`` (a body or a frame fixed to one).
 
@@ -245,7 +277,7 @@ class ModelBuilder:
 
         ``corrections``: what a file reader changed in the given data (``Model.corrections``).
         """
-        model = _build(self.name, self._bodies, self._joints, source, self._end_effectors)
+        model = _build(self.name, self._bodies, self._joints, source, self._end_effectors, self._mimics)
         if corrections:
             import dataclasses
 
@@ -275,7 +307,14 @@ def _close(name: str, known: Sequence[str]) -> str:
     return f" (did you mean {', '.join(repr(c) for c in close)}?)" if close else ""
 
 
-def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], source: str, named: Sequence[EndEffectorSpec] = ()) -> Model:
+def _build(
+    name: str,
+    bodies: Sequence[BodySpec],
+    joints: Sequence[JointSpec],
+    source: str,
+    named: Sequence[EndEffectorSpec] = (),
+    mimics: Sequence[tuple[str, str, float, float]] = (),
+) -> Model:
     if not bodies:
         raise ModelError("bodies", "the model has no bodies", "add at least the spacecraft body")
     by_name = {b.name: b for b in bodies}
@@ -342,6 +381,7 @@ def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], s
             f"bodies {unreached} are not reachable from the spacecraft {root!r} (their joints form a cycle)",
             "connect every body to the tree with exactly one parent joint",
         )
+    laws = resolve_mimics(joints, mimics, _close)
     movable_joints: list[JointSpec] = []
     for body in order[1:]:
         movable_joints.append(parent_joint[body])
@@ -413,6 +453,27 @@ def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], s
     if len(set(ee_names)) != len(ee_names):
         raise ModelError("end_effector_name", f"duplicate end-effector names {ee_names}", "give every end effector a unique name")
 
+    independent = [k for k, j in enumerate(movable_joints) if j.name not in laws]
+    lower, upper = leader_limits(movable_joints, laws, lower, upper)
+    free = [movable_joints[k] for k in independent]
+    mimic_records = tuple(
+        {
+            "joint": j.name,
+            "body": j.child,
+            "leader": laws[j.name][0],
+            "multiplier": laws[j.name][1],
+            "offset": laws[j.name][2],
+            "type": "prismatic" if j.type == "prismatic" else "revolute",
+            "lower": j.lower,
+            "upper": j.upper,
+            "armature": j.armature,
+            "damping": j.damping,
+            "friction": j.friction,
+        }
+        for j in movable_joints
+        if j.name in laws
+    )
+    movable_joints = free
     return Model(
         name=name,
         body_names=tuple(order),
@@ -421,8 +482,8 @@ def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], s
         joint_origin=joint_origin,
         joint_rotation=joint_rotation,
         joint_axis=joint_axis,
-        joint_lower=lower,
-        joint_upper=upper,
+        joint_lower=lower[independent],
+        joint_upper=upper[independent],
         mass=mass,
         com=com,
         inertia=inertia,
@@ -435,4 +496,5 @@ def _build(name: str, bodies: Sequence[BodySpec], joints: Sequence[JointSpec], s
         joint_damping=[j.damping for j in movable_joints],
         joint_friction=[j.friction for j in movable_joints],
         end_effector_rule="named" if named else "leaves",
+        mimic=mimic_records,
     )

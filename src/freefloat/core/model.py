@@ -21,6 +21,7 @@ import numpy as np
 
 from . import barycentric
 from .errors import ModelError, UnknownNameError
+from .mimic import body_joints
 from .numbers import real_array
 
 __all__ = [
@@ -201,8 +202,8 @@ def _frozen(arr: Any, dtype: Any = float) -> np.ndarray:
 class Model:
     """A space robot: a tree of rigid bodies rooted at the spacecraft (body 0).
 
-    Body k > 0 is moved by joint k - 1 (``joint_names[k - 1]``); bodies are in
-    depth-first order, so each arm's joints are contiguous, as in the 1992
+    Body k > 0 is moved by joint k - 1 (``joint_names[k - 1]``; with mimic joints ``body_joint_names[k - 1]``,
+    below); bodies are in depth-first order, so each arm's joints are contiguous, as in the 1992
     paper's q = [q⁽¹⁾, ..., q⁽ⁿ⁾]. All arrays are read-only.
 
     Attributes (body frames unless stated)
@@ -225,6 +226,17 @@ class Model:
                           dropped (``freefloat.io.unmodelled``): where, element, effect, items
         mass, com, inertia  per body; inertia about the CM
         end_effector_body, end_effector_point  (E,), (E, 3)
+        mimic             the mimic joints (dependent coordinates), one record each: {"joint", "body" (the body it
+                          moves), "leader" (the independent joint it follows, chains resolved to their root),
+                          "multiplier", "offset", "type", and its own "lower", "upper", "armature", "damping",
+                          "friction"}: q_mimic = multiplier q_leader + offset. A mimic joint has no column of q;
+                          its body moves with the leader. Empty for most models (then N = B - 1).
+
+    Body joints: with mimic joints, the B - 1 joints that move bodies 1..B-1 are the N independent joints and
+    the mimic ones; ``body_joint_names``, ``body_joint_type``, ``body_joint_prismatic`` and the map
+    ``body_joint_coordinate`` / ``body_joint_multiplier`` / ``body_joint_offset`` (each (B - 1,): the joint of
+    body k is ``[k - 1]``) say which column of q drives each body and how (:meth:`body_joint_values`,
+    :attr:`mimic_matrix`). Without mimic joints they are the joints themselves.
     """
 
     name: str
@@ -251,6 +263,7 @@ class Model:
     joint_damping: Any = None
     joint_friction: Any = None
     unmodelled: tuple[dict[str, Any], ...] = ()
+    mimic: tuple[dict[str, Any], ...] = ()
     # derived at build time
     total_mass: float = field(init=False)
     subtree: np.ndarray = field(init=False, repr=False)
@@ -287,6 +300,13 @@ class Model:
         object.__setattr__(self, "_prismatic", _frozen([t == "prismatic" for t in self.joint_type], bool))
         for name, what in JOINT_PASSIVE.items():
             object.__setattr__(self, f"joint_{name}", _frozen(_joint_parameter(self, name, getattr(self, f"joint_{name}"), what)))
+        object.__setattr__(self, "mimic", tuple(dict(r) for r in self.mimic))
+        object.__setattr__(self, "_body_joints", body_joints(self, JOINT_TYPES, tuple(JOINT_PASSIVE)))
+        if self.mimic:  # the same bodies with every joint independent: the mass tables are the expanded model's
+            expanded = self.expanded()
+            for name in ("subtree", "total_mass", "bary", "rotation_basis"):
+                object.__setattr__(self, name, getattr(expanded, name))
+            return
         n = len(self.body_names)
         subtree = np.zeros((n, n), dtype=bool)
         for k in range(n):
@@ -315,8 +335,78 @@ class Model:
 
     @property
     def n_joints(self) -> int:
-        """Number of joint angles N (= B - 1)."""
+        """Number of joint coordinates N: the independent joints (= B - 1 without mimic joints)."""
         return len(self.joint_names)
+
+    @property
+    def has_mimic(self) -> bool:
+        """True when the model has mimic joints (dependent coordinates: N < B - 1)."""
+        return bool(self.mimic)
+
+    @property
+    def body_joint_names(self) -> tuple[str, ...]:
+        """(B - 1,) the joint of each body 1..B-1: the independent joints and the mimic joints, in body order."""
+        return self._body_joints["names"]  # type: ignore[attr-defined]  # made once in __post_init__
+
+    @property
+    def body_joint_type(self) -> tuple[str, ...]:
+        """(B - 1,) the type of the joint of each body ("revolute" or "prismatic")."""
+        return self._body_joints["type"]  # type: ignore[attr-defined]
+
+    @property
+    def body_joint_prismatic(self) -> np.ndarray:
+        """(B - 1,) bool: True where the joint of body k (row k - 1) slides."""
+        return self._body_joints["prismatic"]  # type: ignore[attr-defined]
+
+    @property
+    def body_joint_coordinate(self) -> np.ndarray:
+        """(B - 1,) int: the column of q that drives the joint of body k (row k - 1): its own, or its leader's."""
+        return self._body_joints["coordinate"]  # type: ignore[attr-defined]
+
+    @property
+    def body_joint_multiplier(self) -> np.ndarray:
+        """(B - 1,): the joint value of body k is multiplier q[coordinate] + offset (1 for an independent joint)."""
+        return self._body_joints["multiplier"]  # type: ignore[attr-defined]
+
+    @property
+    def body_joint_offset(self) -> np.ndarray:
+        """(B - 1,): the offset of the mimic law (0 for an independent joint), rad or m."""
+        return self._body_joints["offset"]  # type: ignore[attr-defined]
+
+    @property
+    def mimic_matrix(self) -> np.ndarray:
+        """(B - 1, N): the rates of the body joints from the independent ones, qdot_body = mimic_matrix qdot (read-only)."""
+        return self._body_joints["matrix"]  # type: ignore[attr-defined]
+
+    def body_joint_values(self, q: Any) -> np.ndarray:
+        """The values (..., B - 1) of the joints of bodies 1..B-1 at q (..., N): multiplier q[coordinate] + offset."""
+        arr = np.asarray(q, dtype=float)
+        if not self.mimic:
+            return arr
+        return arr[..., self.body_joint_coordinate] * self.body_joint_multiplier + self.body_joint_offset
+
+    def expanded(self) -> Model:
+        """This model with every joint independent: the mimic joints become columns of q (the same model without
+        mimic joints). The closed forms (``method="barycentric"``) compute on it and contract with
+        :attr:`mimic_matrix`; made once per model."""
+        if not self.mimic:
+            return self
+        found = self.__dict__.get("_expanded")
+        if found is None:
+            bj = self._body_joints  # type: ignore[attr-defined]
+            found = dataclasses.replace(
+                self,
+                joint_names=bj["names"],
+                joint_type=bj["type"],
+                joint_lower=bj["lower"],
+                joint_upper=bj["upper"],
+                joint_armature=bj["armature"],
+                joint_damping=bj["damping"],
+                joint_friction=bj["friction"],
+                mimic=(),
+            )
+            object.__setattr__(self, "_expanded", found)
+        return found
 
     @property
     def n_end_effectors(self) -> int:
@@ -336,7 +426,7 @@ class Model:
     @property
     def is_planar(self) -> bool:
         """True when the model moves in the spacecraft x-y plane (see :mod:`freefloat.conventions`)."""
-        return barycentric.is_planar(self)
+        return barycentric.is_planar(self.expanded())  # every body's joint, mimic joints included
 
     # ----------------------------------------------------------------- lookup
     def body_index(self, name: str | int) -> int:
@@ -345,6 +435,11 @@ class Model:
 
     def joint_index(self, name: str | int) -> int:
         """Index of a joint in ``joint_names`` (the column of q), by name or index; unknown names raise with close matches."""
+        for record in self.mimic:
+            if name == record["joint"]:
+                err = UnknownNameError("joint", name, self.joint_names)
+                err.message = f"{name!r} is a mimic joint (it follows {record['leader']!r}): it has no column of q; use the leader"
+                raise err
         return _lookup("joint", name, self.joint_names)
 
     def end_effector_index(self, name: str | int) -> int:
@@ -413,7 +508,9 @@ class Model:
     @property
     def has_passive(self) -> bool:
         """True when a joint has viscous damping or Coulomb friction (passive joint torques)."""
-        return bool(np.any(self.joint_damping) or np.any(self.joint_friction))
+        return bool(np.any(self.joint_damping) or np.any(self.joint_friction)) or any(
+            r.get("damping", 0.0) or r.get("friction", 0.0) for r in self.mimic
+        )
 
     def without_passive(self) -> Model:
         """This model without its joints' damping and friction (the same model when it has none; rotor inertia stays:
@@ -422,13 +519,15 @@ class Model:
             return self
         found = self.__dict__.get("_without_passive")
         if found is None:
-            found = dataclasses.replace(self, joint_damping=None, joint_friction=None)
+            quiet = tuple({**r, "damping": 0.0, "friction": 0.0} for r in self.mimic)
+            found = dataclasses.replace(self, joint_damping=None, joint_friction=None, mimic=quiet)
             object.__setattr__(self, "_without_passive", found)
         return found
 
     def __repr__(self) -> str:
         return (
-            f"Model({self.name!r}: {_count(self.n_bodies, 'body', 'bodies')}, {_count(self.n_joints, 'joint')}, "
+            f"Model({self.name!r}: {_count(self.n_bodies, 'body', 'bodies')}, {_count(self.n_joints, 'joint')}"
+            f"{f' (+{len(self.mimic)} mimic)' if self.mimic else ''}, "
             f"{_count(self.n_end_effectors, 'end effector')}, mass {self.total_mass:.6g} kg)"
         )
 

@@ -13,6 +13,9 @@ compiled ``MjModel`` is then read into a :class:`~freefloat.Model`:
 * mass, CM and the principal inertia (``body_ipos``, ``body_iquat``, ``body_inertia``) become the
   body's; non-physical inertias get the same treatment as in URDF files (warning or ``strict``);
 * ``range`` of limited joints become joint limits (rad, m);
+* a joint equality ``<equality><joint joint1="a" joint2="b" polycoef="c0 c1 0 0 0"/>`` of first order
+  makes ``a`` a mimic joint of ``b``: q_a = c1 q_b + c0 (both measured from their reference positions,
+  as MuJoCo does); higher orders, a ``joint1`` without ``joint2`` and inactive ones are refused;
 * end effectors: the sites or bodies named in ``end_effectors=``; else every site on a leaf body
   (``end_effector_rule = "leaf sites"``); else, when no leaf has a site, every leaf body;
 * what acts on the dynamics but is not modelled (joint damping, armature, tendons, gear ratios, ...:
@@ -154,6 +157,8 @@ def from_mjmodel(mj: Any, source: str = "", *, end_effectors: EndEffectors = Non
             friction=float(mj.dof_frictionloss[dof]),  # MuJoCo's is dry friction; freefloat's is smooth (docs/model-files.md)
         )
 
+    _joint_equalities(mujoco, mj, joints, where, builder)
+
     sites = {_name(mujoco, mj, obj.mjOBJ_SITE, s, "site"): s for s in range(mj.nsite)}
     named = end_effector_specs(end_effectors, where)
     rule = None
@@ -179,3 +184,31 @@ def from_mjmodel(mj: Any, source: str = "", *, end_effectors: EndEffectors = Non
 
         model = dataclasses.replace(model, end_effector_rule=rule or model.end_effector_rule, unmodelled=unmodelled)
     return model
+
+
+def _joint_equalities(mujoco: Any, mj: Any, joints: list[str], where: str, builder: ModelBuilder) -> None:
+    """Each joint equality (``mjEQ_JOINT``) of first order as a mimic joint: joint1 = c0 + c1 joint2; others refused naming the joint."""
+    for i in range(mj.neq):
+        if int(mj.eq_type[i]) != int(mujoco.mjtEq.mjEQ_JOINT):
+            continue
+        follower, leader = int(mj.eq_obj1id[i]), int(mj.eq_obj2id[i])
+        name = joints[follower]
+        path = f"{where}: equality joint {name!r}"
+        coef = [float(v) for v in mj.eq_data[i, :5]]
+        if leader < 0:
+            raise ModelError(
+                path,
+                f"holds joint {name!r} at {coef[0]:g} (a joint equality without joint2)",
+                f"make {name!r} a fixed joint (a weld), or name joint2",
+            )
+        if any(c != 0.0 for c in coef[2:]):
+            raise ModelError(
+                f"{path}.polycoef",
+                f"{name!r} follows {joints[leader]!r} by a polynomial of order > 1 ({' '.join(f'{c:g}' for c in coef)})",
+                "freefloat models mimic joints of first order: polycoef = 'offset multiplier 0 0 0'",
+            )
+        if not bool(mj.eq_active0[i]):
+            raise ModelError(
+                path, f"the equality of {name!r} and {joints[leader]!r} is inactive", "remove it, or make it active (active='true')"
+            )
+        builder.add_mimic(name, leader=joints[leader], multiplier=coef[1], offset=coef[0])

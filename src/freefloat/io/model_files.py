@@ -41,7 +41,8 @@ from .unmodelled import report_unmodelled, urdf_unmodelled
 __all__ = ["load", "load_toml", "load_urdf", "save", "to_toml_dict", "to_urdf_string"]
 
 _BODY_KEYS = {"name", "mass", "inertia", "com", "end_effector", "end_effector_name", "frame"}
-_JOINT_KEYS = {"name", "type", "parent", "child", "origin", "rpy", "axis", "limits", "armature", "damping", "friction"}
+_JOINT_KEYS = {"name", "type", "parent", "child", "origin", "rpy", "axis", "limits", "armature", "damping", "friction", "mimic"}
+_MIMIC_KEYS = {"joint", "multiplier", "offset"}
 _TOP_KEYS = {"name", "description", "bodies", "joints", "end_effectors", "corrections"}
 _CORRECTION_KEYS = {"body", "field", "given", "why"}
 _EE_KEYS = {"name", "body", "point"}
@@ -231,6 +232,21 @@ def from_dict(data: dict[str, Any], source: str = "", *, end_effectors: EndEffec
             damping=joint.get("damping", 0.0),
             friction=joint.get("friction", 0.0),
         )
+        if "mimic" in joint:  # mimic = {joint = "leader", multiplier = 1.0, offset = 0.0}: q = multiplier q_leader + offset
+            law = joint["mimic"]
+            if not isinstance(law, dict):
+                raise ModelError(
+                    f"{path}.mimic",
+                    f"expected a table {{joint = ..., multiplier = ..., offset = ...}}, got {law!r}",
+                    "name the leader joint",
+                )
+            _check_keys(law, _MIMIC_KEYS, f"{path}.mimic")
+            builder.add_mimic(
+                joint["name"],
+                leader=_require(law, "joint", f"{path}.mimic", "name the joint it follows"),
+                multiplier=law.get("multiplier", 1.0),
+                offset=law.get("offset", 0.0),
+            )
     named = end_effector_specs(end_effectors, source)
     if not named:
         for path, entry in _table_array(data, "end_effectors", _EE_KEYS):
@@ -306,6 +322,8 @@ def to_toml_dict(model: Model) -> dict[str, Any]:
     bodies: list[dict[str, Any]] = []
     joints: list[dict[str, Any]] = []
     frames: list[tuple[dict[str, Any], dict[str, Any]]] = []
+    laws = _mimic_laws(model)
+    own = model.expanded()  # the joint of each body (mimic joints included), its own type, limits and parameters
     for k, name in enumerate(model.body_names):
         body: dict[str, Any] = {"name": name, "mass": float(model.mass[k]), "inertia": _list(model.inertia[k]), "com": _list(model.com[k])}
         ees = tips.get(k, [])
@@ -332,20 +350,23 @@ def to_toml_dict(model: Model) -> dict[str, Any]:
         if k > 0:
             j = k - 1
             joint: dict[str, Any] = {
-                "name": model.joint_names[j],
-                "type": _file_joint_type(model, j),
+                "name": own.joint_names[j],
+                "type": _file_joint_type(own, j),
                 "parent": model.body_names[model.parent[k]],
                 "child": name,
                 "origin": _list(model.joint_origin[k]),
                 "rpy": _list(_rpy(model.joint_rotation[k])),
                 "axis": _list(model.joint_axis[k]),
             }
-            if joint["type"] != "continuous" and (np.isfinite(model.joint_lower[j]) or np.isfinite(model.joint_upper[j])):
-                joint["limits"] = [float(model.joint_lower[j]), float(model.joint_upper[j])]
+            if joint["type"] != "continuous" and (np.isfinite(own.joint_lower[j]) or np.isfinite(own.joint_upper[j])):
+                joint["limits"] = [float(own.joint_lower[j]), float(own.joint_upper[j])]
             for key in ("armature", "damping", "friction"):
-                value = float(getattr(model, f"joint_{key}")[j])
+                value = float(getattr(own, f"joint_{key}")[j])
                 if value != 0.0:
                     joint[key] = value
+            if joint["name"] in laws:
+                leader, multiplier, offset = laws[joint["name"]]
+                joint["mimic"] = {"joint": leader, "multiplier": multiplier, "offset": offset}
             joints.append(joint)
     for body, joint in frames:
         bodies.append(body)
@@ -364,6 +385,11 @@ def _rpy(rotation: np.ndarray) -> np.ndarray:
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="Gimbal lock detected", category=UserWarning)
         return Rotation.from_matrix(rotation).as_euler("xyz")
+
+
+def _mimic_laws(model: Model) -> dict[str, tuple[str, float, float]]:
+    """{mimic joint: (its root leader, multiplier, offset)} of a model (empty without mimic joints)."""
+    return {r["joint"]: (str(r["leader"]), float(r["multiplier"]), float(r["offset"])) for r in model.mimic}
 
 
 def _file_joint_type(model: Model, j: int) -> str:
@@ -545,12 +571,17 @@ def from_urdf_robot(robot: Any, source: str = "", *, end_effectors: EndEffectors
                 f"unsupported joint type {joint.type!r}",
                 "freefloat models revolute, continuous, prismatic and fixed joints",
             )
-        if getattr(joint, "mimic", None) is not None:
-            raise ModelError(
-                f"{path}.mimic",
-                f"mimics joint {joint.mimic.joint!r}: a mimic joint is driven by another joint, and freefloat's joints are independent",
-                "remove the <mimic> element (the joint becomes an independent joint) or make the joint fixed",
-            )
+        mimic = getattr(joint, "mimic", None)
+        if mimic is not None:  # a dependent coordinate: q = multiplier q_leader + offset (checked by the builder)
+            try:
+                builder.add_mimic(
+                    joint.name,
+                    leader=mimic.joint,
+                    multiplier=1.0 if mimic.multiplier is None else mimic.multiplier,
+                    offset=0.0 if mimic.offset is None else mimic.offset,
+                )
+            except ModelError as exc:
+                raise ModelError(f"{path}.mimic", exc.problem, exc.fix) from None
         origin = _urdf_origin(joint.origin, f"{path}.origin")
         limits = None
         if (
@@ -578,7 +609,12 @@ def from_urdf_robot(robot: Any, source: str = "", *, end_effectors: EndEffectors
             raise ModelError(f"{path}.{exc.field.split('.')[-1]}", exc.problem, exc.fix) from None
     for name, body, point in end_effector_specs(end_effectors, source or "urdf"):
         builder.add_end_effector(name, body=body, point=point)
-    return builder.build(source=source, corrections=corrections)
+    try:
+        return builder.build(source=source, corrections=corrections)
+    except ModelError as exc:
+        if not exc.field.startswith("mimic"):
+            raise
+        raise ModelError(f"{source or 'urdf'}: {exc.field}", exc.problem, exc.fix) from None
 
 
 def _urdf_dynamics(joint: Any, path: str) -> dict[str, float]:
@@ -606,6 +642,8 @@ def to_urdf_string(model: Model) -> str:
 
     links = []
     joints = []
+    laws = _mimic_laws(model)
+    own = model.expanded()  # the joint of each body, mimic joints included
     for k, name in enumerate(model.body_names):
         origin = np.eye(4)
         origin[:3, 3] = model.com[k]
@@ -618,22 +656,24 @@ def to_urdf_string(model: Model) -> str:
             j = k - 1
             place = np.eye(4)
             place[:3, :3], place[:3, 3] = model.joint_rotation[k], model.joint_origin[k]
-            bounded = bool(np.isfinite(model.joint_lower[j]) and np.isfinite(model.joint_upper[j]))
-            kind = "prismatic" if model.joint_type[j] == "prismatic" else ("revolute" if bounded else "continuous")
+            bounded = bool(np.isfinite(own.joint_lower[j]) and np.isfinite(own.joint_upper[j]))
+            kind = "prismatic" if own.joint_type[j] == "prismatic" else ("revolute" if bounded else "continuous")
+            law = laws.get(own.joint_names[j])
             joints.append(
                 yourdfpy.Joint(
-                    name=model.joint_names[j],
+                    name=own.joint_names[j],
                     type=kind,
                     parent=model.body_names[model.parent[k]],
                     child=name,
                     origin=place,
                     axis=np.array(model.joint_axis[k]),
-                    limit=yourdfpy.Limit(effort=0.0, velocity=0.0, lower=float(model.joint_lower[j]), upper=float(model.joint_upper[j]))
+                    limit=yourdfpy.Limit(effort=0.0, velocity=0.0, lower=float(own.joint_lower[j]), upper=float(own.joint_upper[j]))
                     if bounded
                     else None,
-                    dynamics=yourdfpy.Dynamics(damping=float(model.joint_damping[j]), friction=float(model.joint_friction[j]))
-                    if model.joint_damping[j] or model.joint_friction[j]
+                    dynamics=yourdfpy.Dynamics(damping=float(own.joint_damping[j]), friction=float(own.joint_friction[j]))
+                    if own.joint_damping[j] or own.joint_friction[j]
                     else None,
+                    mimic=None if law is None else yourdfpy.Mimic(joint=law[0], multiplier=law[1], offset=law[2]),
                 )
             )
     for e in range(model.n_end_effectors):
@@ -646,8 +686,8 @@ def to_urdf_string(model: Model) -> str:
                 name=f"{ee_name}_fixed", type="fixed", parent=model.body_names[model.end_effector_body[e]], child=ee_name, origin=place
             )
         )
-    if np.any(model.joint_armature):
-        rotors = ", ".join(f"{model.joint_names[j]!r} {model.joint_armature[j]:g}" for j in np.flatnonzero(model.joint_armature))
+    if np.any(own.joint_armature):
+        rotors = ", ".join(f"{own.joint_names[j]!r} {own.joint_armature[j]:g}" for j in np.flatnonzero(own.joint_armature))
         warnings.warn(
             f"{model.name}: URDF has no element for a joint's rotor inertia: the armature of joint {rotors} is not written "
             "(save as TOML to keep it, or give it to ff.load(..., joints=...) when reading the URDF)",
@@ -656,7 +696,20 @@ def to_urdf_string(model: Model) -> str:
         )
     urdf = yourdfpy.URDF(robot=yourdfpy.Robot(name=model.name, links=links, joints=joints), build_scene_graph=False, load_meshes=False)
     text = urdf.write_xml_string()  # yourdfpy returns bytes (lxml tostring), despite its docstring
-    return text.decode("utf-8") if isinstance(text, bytes) else text
+    text = text.decode("utf-8") if isinstance(text, bytes) else text
+    return _with_mimic_elements(text, laws) if laws else text
+
+
+def _with_mimic_elements(text: str, laws: dict[str, tuple[str, float, float]]) -> str:
+    """URDF text with a ``<mimic joint= multiplier= offset=>`` in each mimic joint (yourdfpy reads them, but does not write them)."""
+    import xml.etree.ElementTree as ElementTree
+
+    root = ElementTree.fromstring(text)
+    for joint in root.findall("joint"):
+        law = laws.get(str(joint.get("name")))
+        if law is not None:
+            ElementTree.SubElement(joint, "mimic", joint=law[0], multiplier=repr(law[1]), offset=repr(law[2]))
+    return ElementTree.tostring(root, encoding="unicode")
 
 
 # --------------------------------------------------------------------- save

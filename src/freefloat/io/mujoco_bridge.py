@@ -45,7 +45,9 @@ def _passive_attributes(model: Model, j: int) -> str:
 
 
 def to_mjcf(model: Model, *, timestep: float = 1e-3, integrator: str = "RK4") -> str:
-    """MJCF text of ``model`` (free-floating, no gravity, one motor per joint)."""
+    """MJCF text of ``model`` (free-floating, no gravity, one motor per joint; a mimic joint is a joint of its own held
+    to its leader by a joint equality, ``polycoef = "offset multiplier 0 0 0"``, which MuJoCo enforces softly)."""
+    own = model.expanded()  # the joint of every body, mimic joints included
     children: dict[int, list[int]] = {k: [] for k in range(model.n_bodies)}
     for k in range(1, model.n_bodies):
         children[int(model.parent[k])].append(k)
@@ -61,16 +63,21 @@ def to_mjcf(model: Model, *, timestep: float = 1e-3, integrator: str = "RK4") ->
             head = f'{indent}<body name="{name}" pos="0 0 0">\n{indent}  <freejoint name="root"/>\n'
         else:
             quat = Rotation.from_matrix(model.joint_rotation[k]).as_quat()  # x y z w
-            kind = _MJCF_JOINT[model.joint_type[k - 1]]
+            kind = _MJCF_JOINT[own.joint_type[k - 1]]
             head = (
                 f'{indent}<body name="{name}" pos="{_fmt(model.joint_origin[k])}" quat="{_fmt(np.roll(quat, 1))}">\n'
-                f'{indent}  <joint name="{model.joint_names[k - 1]}" type="{kind}" axis="{_fmt(model.joint_axis[k])}" limited="false"'
-                f"{_passive_attributes(model, k - 1)}/>\n"
+                f'{indent}  <joint name="{own.joint_names[k - 1]}" type="{kind}" axis="{_fmt(model.joint_axis[k])}" limited="false"'
+                f"{_passive_attributes(own, k - 1)}/>\n"
             )
         inner = "".join(body(c, indent + "  ") for c in children[k])
         return f"{head}{indent}  {inertial(k)}\n{inner}{indent}</body>\n"
 
     motors = "".join(f'    <motor name="{j}" joint="{j}" gear="1"/>\n' for j in model.joint_names)
+    laws = "".join(
+        f'    <joint joint1="{r["joint"]}" joint2="{r["leader"]}" polycoef="{float(r["offset"])!r} {float(r["multiplier"])!r} 0 0 0"/>\n'
+        for r in model.mimic
+    )
+    equality = f"  <equality>\n{laws}  </equality>\n" if laws else ""
     return (
         f'<mujoco model="{model.name}">\n'
         '  <compiler angle="radian" inertiafromgeom="false" autolimits="false"/>\n'
@@ -81,6 +88,7 @@ def to_mjcf(model: Model, *, timestep: float = 1e-3, integrator: str = "RK4") ->
         f"{body(0, '    ')}"
         "  </worldbody>\n"
         f"  <actuator>\n{motors}  </actuator>\n"
+        f"{equality}"
         "</mujoco>\n"
     )
 
@@ -99,17 +107,18 @@ def mujoco_state(model: Model, state: State) -> tuple[np.ndarray, np.ndarray]:
     base = s.r_cm - t0 @ system_cm(model, s.q)
     # the spacecraft frame origin is a point of body 0: its velocity is J+ zdot0 (1991 eq. 7)
     base_velocity = point_jacobian(model, s.q, 0, np.zeros(3), attitude=t0)[0:3] @ s.velocity
-    qpos = np.concatenate([base, np.roll(s.attitude, 1), s.q])
-    qvel = np.concatenate([base_velocity, s.omega, s.qdot])
+    qpos = np.concatenate([base, np.roll(s.attitude, 1), model.body_joint_values(s.q)])  # every body's joint (mimic ones too)
+    qvel = np.concatenate([base_velocity, s.omega, model.mimic_matrix @ s.qdot])
     return qpos, qvel
 
 
 def from_mujoco_state(model: Model, qpos: np.ndarray, qvel: np.ndarray) -> State:
     """A freefloat state from MuJoCo's (qpos, qvel) (unbatched)."""
-    n = model.n_joints
+    own = model.expanded()
+    columns = np.array([own.joint_names.index(name) for name in model.joint_names], dtype=int)  # the independent joints
     quat = np.roll(np.asarray(qpos[3:7], dtype=float), -1)
     quat = quat / np.linalg.norm(quat)
-    q, qdot, omega = qpos[7 : 7 + n], qvel[6 : 6 + n], qvel[3:6]
+    q, qdot, omega = np.asarray(qpos)[7 + columns], np.asarray(qvel)[6 + columns], qvel[3:6]
     t0 = Rotation.from_quat(quat).as_matrix()
     # base velocity = rdot_cm + [J+ of the frame origin without its rdot_cm columns] [omega0, qdot]
     jac = point_jacobian(model, q, 0, np.zeros(3), attitude=t0)[0:3, 3:]

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..core.conventions import as_quaternion, attitude_matrix
+from ..core.errors import ModelError
 from ..core.model import Model
 
 __all__ = [
@@ -48,6 +49,12 @@ def to_pinocchio(model: Model) -> Any:
     """
     import pinocchio as pin
 
+    if model.has_mimic:
+        raise ModelError(
+            f"{model.name}.mimic",
+            f"to_pinocchio builds independent joints only; {', '.join(r['joint'] for r in model.mimic)} are mimic joints",
+            "save the model as URDF (ff.save) and read it with pinocchio.buildModelFromUrdf(path, root_joint, mimic=True)",
+        )
     pm = pin.Model()
     pm.name = model.name
     pm.gravity = pin.Motion.Zero()  # in orbit: no gravity field (Pinocchio's default is -9.81 z)

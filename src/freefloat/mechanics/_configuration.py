@@ -43,26 +43,29 @@ def jstar_one(q: np.ndarray, m: Any, s: Any, out: np.ndarray) -> None:  # pragma
         k = ee_body[e]
         point_from_origin(s.rot, pos, k, ee_point, e, re)
         r0, r1, r2 = re[0] - c0, re[1] - c1, re[2] - c2  # rho_E
-        for l in range(1, nb):
-            x0, x1, x2 = x[0, l - 1], x[1, l - 1], x[2, l - 1]
-            v0 = -g[l, 0] / total_mass + (r1 * x2 - r2 * x1)
-            v1 = -g[l, 1] / total_mass + (r2 * x0 - r0 * x2)
-            v2 = -g[l, 2] / total_mass + (r0 * x1 - r1 * x0)
-            w0, w1, w2 = -x0, -x1, -x2
+        for c in range(m.n_joints):  # the spacecraft's turn, per column of q: rho_E x X_c, -X_c
+            x0, x1, x2 = x[0, c], x[1, c], x[2, c]
+            out[6 * e, c] = r1 * x2 - r2 * x1
+            out[6 * e + 1, c] = r2 * x0 - r0 * x2
+            out[6 * e + 2, c] = r0 * x1 - r1 * x0
+            out[6 * e + 3, c] = -x0
+            out[6 * e + 4, c] = -x1
+            out[6 * e + 5, c] = -x2
+        for l in range(1, nb):  # each joint's own terms, in its column of q (a mimic joint's times its multiplier)
+            c = int(m.coordinate[l])
+            rl = m.multiplier[l]
+            v0, v1, v2 = -g[l, 0] / total_mass, -g[l, 1] / total_mass, -g[l, 2] / total_mass
             if ancestor[l, k]:
                 u0, u1, u2 = axis[l, 0], axis[l, 1], axis[l, 2]  # S_l = [u; m] moves r_E at m + u x r_E
                 v0 += mom[l, 0] + u1 * re[2] - u2 * re[1]
                 v1 += mom[l, 1] + u2 * re[0] - u0 * re[2]
                 v2 += mom[l, 2] + u0 * re[1] - u1 * re[0]
-                w0 += u0
-                w1 += u1
-                w2 += u2
-            out[6 * e, l - 1] = v0
-            out[6 * e + 1, l - 1] = v1
-            out[6 * e + 2, l - 1] = v2
-            out[6 * e + 3, l - 1] = w0
-            out[6 * e + 4, l - 1] = w1
-            out[6 * e + 5, l - 1] = w2
+                out[6 * e + 3, c] += rl * u0
+                out[6 * e + 4, c] += rl * u1
+                out[6 * e + 5, c] += rl * u2
+            out[6 * e, c] += rl * v0
+            out[6 * e + 1, c] += rl * v1
+            out[6 * e + 2, c] += rl * v2
 
 
 #: The measures of :func:`jacobian_measure_lanes`, by code.
@@ -226,7 +229,7 @@ def point_jacobian_one(
         point_from_origin(s.rot, pos, k, ppoint, e, rp)
         r0, r1, r2 = rp[0] - c0, rp[1] - c1, rp[2] - c2
         for i in range(6):
-            for j in range(6 + nb - 1):
+            for j in range(6 + m.n_joints):
                 out[e, i, j] = 0.0
         for i in range(3):
             out[e, i, i] = 1.0
@@ -234,15 +237,21 @@ def point_jacobian_one(
         out[e, 0, 4], out[e, 0, 5] = r2, -r1  # -[rho]x
         out[e, 1, 3], out[e, 1, 5] = -r2, r0
         out[e, 2, 3], out[e, 2, 4] = r1, -r0
-        for l in range(1, nb):
+        for l in range(1, nb):  # column 6 + coordinate: a mimic joint's terms times its multiplier, in its leader's column
+            col = 6 + int(m.coordinate[l])
+            rl = m.multiplier[l]
             v0, v1, v2 = -g[l, 0] / total_mass, -g[l, 1] / total_mass, -g[l, 2] / total_mass
             if ancestor[l, k]:
                 u0, u1, u2 = axis[l, 0], axis[l, 1], axis[l, 2]  # S_l = [u; m] moves r_P at m + u x r_P
                 v0 += mom[l, 0] + u1 * rp[2] - u2 * rp[1]
                 v1 += mom[l, 1] + u2 * rp[0] - u0 * rp[2]
                 v2 += mom[l, 2] + u0 * rp[1] - u1 * rp[0]
-                out[e, 3, 5 + l], out[e, 4, 5 + l], out[e, 5, 5 + l] = u0, u1, u2
-            out[e, 0, 5 + l], out[e, 1, 5 + l], out[e, 2, 5 + l] = v0, v1, v2
+                out[e, 3, col] += rl * u0
+                out[e, 4, col] += rl * u1
+                out[e, 5, col] += rl * u2
+            out[e, 0, col] += rl * v0
+            out[e, 1, col] += rl * v1
+            out[e, 2, col] += rl * v2
 
 
 @kernel(inline="always")
@@ -283,7 +292,7 @@ def point_bias_one(
     force the backward pass leaves at the spacecraft, without external forces (``ext_i``, ``ext_f``: none, (0, 2) and
     (0, 9)). Every formula holds for prismatic joints (their motion axes are [0; u]).
     """
-    n = m.parent.shape[0] - 1
+    n = m.n_joints
     prepare(q, m, s, True)
     none = s.acc  # no joint torques, thrusters or acceleration: zeros (6 + N)
     for i in range(n + 6):
@@ -311,18 +320,18 @@ def point_bias_one(
 @kernel(inline="always")
 def hplus_one(q: np.ndarray, m: Any, s: Any, out: np.ndarray) -> None:  # pragma: no cover - compiled
     """H+ (6 + N, 6 + N) at q, 1991 eq. 15, order [r_cm, omega0, q]."""
-    nb = m.parent.shape[0]
     total_mass = m.total_mass
     prepare(q, m, s, True)
     unit_momenta(m, s.axis, s.mom, s.cf, s.ci, s.g, s.h, True)
     centroidal_blocks(m, s.axis, s.mom, s.cf, s.ci, s.g, s.h, s.a, True)
-    for i in range(5 + nb):
-        for j in range(5 + nb):
+    n = m.n_joints
+    for i in range(6 + n):
+        for j in range(6 + n):
             out[i, j] = 0.0
     for i in range(3):
         out[i, i] = total_mass
-    for i in range(2 + nb):
-        for j in range(2 + nb):
+    for i in range(3 + n):
+        for j in range(3 + n):
             out[3 + i, 3 + j] = s.a[i, j]
 
 
@@ -350,7 +359,7 @@ def hplus_rate_one(q: np.ndarray, qdot: np.ndarray, m: Any, s: Any, out: np.ndar
         v[0, i] = 0.0
     for k in range(1, nb):
         p = parent[k]
-        qd = qdot[k - 1]
+        qd = m.multiplier[k] * qdot[int(m.coordinate[k])]
         for i in range(3):
             w[k, i] = w[p, i] + axis[k, i] * qd
             v[k, i] = v[p, i] + mom[k, i] * qd
@@ -417,7 +426,7 @@ def hplus_rate_one(q: np.ndarray, qdot: np.ndarray, m: Any, s: Any, out: np.ndar
         gdot[l, 0] = sm * b0 - (e1 * u2 - e2 * u1) - (f1 * a2 - f2 * a1)
         gdot[l, 1] = sm * b1 - (e2 * u0 - e0 * u2) - (f2 * a0 - f0 * a2)
         gdot[l, 2] = sm * b2 - (e0 * u1 - e1 * u0) - (f0 * a1 - f1 * a0)
-    size = 5 + nb
+    size = 6 + m.n_joints
     for i in range(size):
         for j in range(size):
             out[i, j] = 0.0
@@ -431,13 +440,15 @@ def hplus_rate_one(q: np.ndarray, qdot: np.ndarray, m: Any, s: Any, out: np.ndar
             fj = f0 if j == 0 else (f1 if j == 1 else f2)
             ej = e0 if j == 0 else (e1 if j == 1 else e2)
             out[3 + i, 3 + j] = idot[0, i, j] + (ei * fj + fi * ej - (2.0 * fe if i == j else 0.0)) / big
-    for l in range(1, nb):
-        col = 5 + l
+    for l in range(1, nb):  # column 6 + coordinate (a mimic joint's terms times its multiplier, in its leader's column)
+        col = 6 + int(m.coordinate[l])
+        rl = m.multiplier[l]
         gl0, gl1, gl2 = g[l, 0], g[l, 1], g[l, 2]
         q0, q1, q2 = gdot[l, 0], gdot[l, 1], gdot[l, 2]
-        out[3, col] = hdot[l, 0] - ((e1 * gl2 - e2 * gl1) + (f1 * q2 - f2 * q1)) / big
-        out[4, col] = hdot[l, 1] - ((e2 * gl0 - e0 * gl2) + (f2 * q0 - f0 * q2)) / big
-        out[5, col] = hdot[l, 2] - ((e0 * gl1 - e1 * gl0) + (f0 * q1 - f1 * q0)) / big
+        out[3, col] += rl * (hdot[l, 0] - ((e1 * gl2 - e2 * gl1) + (f1 * q2 - f2 * q1)) / big)
+        out[4, col] += rl * (hdot[l, 1] - ((e2 * gl0 - e0 * gl2) + (f2 * q0 - f0 * q2)) / big)
+        out[5, col] += rl * (hdot[l, 2] - ((e0 * gl1 - e1 * gl0) + (f0 * q1 - f1 * q0)) / big)
+    for col in range(6, size):
         for r in range(3):
             out[col, 3 + r] = out[3 + r, col]
     for k in range(1, nb):
@@ -458,8 +469,12 @@ def hplus_rate_one(q: np.ndarray, qdot: np.ndarray, m: Any, s: Any, out: np.ndar
                 val += axis[i, 0] * hdot[k, 0] + axis[i, 1] * hdot[k, 1] + axis[i, 2] * hdot[k, 2]
                 val += mdot[i, 0] * g[k, 0] + mdot[i, 1] * g[k, 1] + mdot[i, 2] * g[k, 2]
                 val += mom[i, 0] * gdot[k, 0] + mom[i, 1] * gdot[k, 1] + mom[i, 2] * gdot[k, 2]
-            out[5 + i, 5 + k] = val
-            out[5 + k, 5 + i] = val
+            col_i = 6 + int(m.coordinate[i])
+            col_k = 6 + int(m.coordinate[k])
+            val *= m.multiplier[i] * m.multiplier[k]
+            out[col_i, col_k] += val
+            if i != k:  # M^T Hdot_body M (see centroidal_blocks)
+                out[col_k, col_i] += val
 
 
 @kernel(inline="always")
@@ -514,7 +529,7 @@ def accelerations_one(
 
     velocity = zdot0 (6 + N); u = [tau, f_S, n_S]; t0 the attitude (inertial <- spacecraft).
     """
-    n = m.parent.shape[0] - 1
+    n = m.n_joints
     rows = 3 + n
     total_mass = m.total_mass
     prepare(q, m, s, True)
@@ -543,7 +558,7 @@ def state_derivative_one(
 
     dquat/dt = 1/2 quat ⊗ [omega0, 0] (omega0 in the spacecraft frame). False if H+ is not positive definite.
     """
-    n = m.parent.shape[0] - 1
+    n = m.n_joints
     t0, vel, acc, q = s.t0, s.vel, s.acc, s.joints
     quaternion_matrix(x, 6, t0)
     for i in range(3):

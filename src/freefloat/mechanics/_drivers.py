@@ -70,7 +70,7 @@ _thread = numba.get_thread_id
 def _serial_template(start: int, stop: int, ints: np.ndarray, floats: np.ndarray, work: np.ndarray, *a: Any) -> None:  # pragma: no cover
     """ROW over the rows start..stop of a batch of the model in (ints, floats); ``work`` one scratch buffer."""
     m = arrays(ints, floats)
-    s = scratch(work, m.parent.shape[0], m.ee_body.shape[0])
+    s = scratch(work, m.parent.shape[0], m.ee_body.shape[0], m.n_joints)
     for i in range(start, stop):
         ROW(i, m, s, a)  # type: ignore[name-defined]  # noqa: F821 (bound by driver())
 
@@ -140,10 +140,10 @@ def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     ext_i = ints[o + 3 : o + 3 + 2 * nw].reshape((nw, 2))
     ext_f = floats[f : f + 9 * nw].reshape((nw, 9))
     f += 9 * nw
-    watch = floats[f : f + 2 * nb - 1]
-    f += 2 * nb - 1
+    watch = floats[f : f + 1 + 2 * m.n_joints]
+    f += 1 + 2 * m.n_joints
     work = floats[f:]
-    return m, ext_i, ext_f, watch, header, scratch(work, nb, m.ee_body.shape[0])
+    return m, ext_i, ext_f, watch, header, scratch(work, nb, m.ee_body.shape[0], m.n_joints)
 
 
 @kernel(inline="always")

@@ -70,7 +70,8 @@ def check_method(method: str, reference: str) -> str:
 
 
 def revolute_only(model: Model, what: str) -> None:
-    """Refuse a model with prismatic joints in a closed form written for revolute joints only."""
+    """Refuse a model with prismatic joints (mimic ones included) in a closed form written for revolute joints only."""
+    model = model.expanded()
     if model.has_prismatic:
         sliding = [n for n, t in zip(model.joint_names, model.joint_type, strict=True) if t == "prismatic"]
         raise ModelError(
@@ -78,3 +79,36 @@ def revolute_only(model: Model, what: str) -> None:
             f"{what} is the barycentric closed form of revolute joints; joints {sliding} are prismatic",
             "use method='recursive' (the engine covers prismatic joints), or a model with revolute joints only",
         )
+
+
+# ----------------------------------------------------------------- mimic joints in the closed forms
+# The closed forms (method="barycentric") compute on the model's expanded twin (every joint of a body independent,
+# Model.expanded) at the body joints' values, then gather each body joint's column into the column of q that drives
+# it: with M = Model.mimic_matrix ((B - 1) x N) and T = diag(1_6, M), J = J_body M, H+ = T^T H_body T, C+ = T^T C_body.
+
+
+def body_joints(model: Model, q: np.ndarray) -> tuple[Model, np.ndarray]:
+    """(the expanded model, the body joints' values (..., B - 1)) of a model at q; the model and q themselves without mimics."""
+    return (model.expanded(), model.body_joint_values(q)) if model.has_mimic else (model, q)
+
+
+def body_velocity(model: Model, velocity: np.ndarray) -> np.ndarray:
+    """zdot0 (..., 6 + N) as the expanded model's (..., 6 + B - 1): the joint rates through the mimic laws."""
+    if not model.has_mimic:
+        return velocity
+    return np.concatenate([velocity[..., :6], velocity[..., 6:] @ model.mimic_matrix.T], axis=-1)
+
+
+def gather_columns(model: Model, arr: np.ndarray, first: int = 0) -> np.ndarray:
+    """``arr`` (..., first + B - 1) with its body-joint columns (from ``first``) gathered into the columns of q (times M)."""
+    if not model.has_mimic:
+        return arr
+    return np.concatenate([arr[..., :first], arr[..., first:] @ model.mimic_matrix], axis=-1)
+
+
+def gather_square(model: Model, arr: np.ndarray, first: int) -> np.ndarray:
+    """T^T arr T for a square ``arr`` (..., first + B - 1, first + B - 1) whose rows and columns from ``first`` are body joints."""
+    if not model.has_mimic:
+        return arr
+    cols = gather_columns(model, arr, first)
+    return np.swapaxes(gather_columns(model, np.swapaxes(cols, -1, -2), first), -1, -2)

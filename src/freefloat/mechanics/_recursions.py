@@ -36,6 +36,10 @@ from the spacecraft frame origin O, so composite (subtree) quantities add withou
   removes the base force (the omega0 and q rows do not change under it; docs/dynamics.md §4);
 * forward dynamics: [[D, D_q], [D_q^T, D_qq]] [d/dt omega0; qddot] = -(C+ - Q) by Cholesky, and
   M rddot_cm = the total external force (inertial).
+* mimic joints: joint k's value is r_k q[c_k] + o_k and its rate r_k qdot[c_k] (``m.multiplier``,
+  ``m.coordinate``, ``m.offset``: r = 1, o = 0 and c_k = k - 1 for an independent joint); every term of
+  joint k lands in column (row) c_k times r_k, so H+ = T^T H_body T, J* = J*_body M and the joint rows
+  are M^T (rows of the body joints), with M the (B - 1) x N map (``Model.mimic_matrix``).
 
 This module holds the recursions of one configuration; :mod:`._configuration` combines them into
 J*, J+, H+, forward dynamics and RK4; :mod:`._drivers` loops them over batches; :mod:`._engine`
@@ -102,15 +106,15 @@ Scratch = namedtuple(
 
 
 @kernel(inline="always")
-def scratch(work: np.ndarray, nb: int, ne: int) -> Any:  # pragma: no cover - compiled
-    """The :data:`Scratch` views of ``work`` (length :func:`~._tree.work_size`) for ``nb`` bodies and ``ne`` end effectors.
+def scratch(work: np.ndarray, nb: int, ne: int, n: int) -> Any:  # pragma: no cover - compiled
+    """The :data:`Scratch` views of ``work`` (length :func:`~._tree.work_size`) for ``nb`` bodies, ``ne`` end effectors
+    and ``n`` joint coordinates (``m.n_joints``: B - 1 less the mimic joints).
 
     The views do not count references to ``work`` (cheaper: no atomic operations), so ``work`` must
     outlive them: it is always an argument of the calling kernel (or a slice of one), held by the
     Python caller for the whole call; never a buffer made inside a kernel, which numba may free
     after its last use (``tests/mechanics/test_engine.py`` checks every call).
     """
-    n = nb - 1
     m = 3 + n
     size = 13 + 2 * n
     work = unowned_floats(work)  # views without reference counting: the caller holds work
@@ -218,13 +222,14 @@ def kinematics(
     for k in range(1, nb):
         p = parent[k]
         slide = m.prismatic[k] != 0.0
+        qk = m.multiplier[k] * q[int(m.coordinate[k])] + m.offset[k]  # its own q, or a mimic joint's law
         if slide:  # prismatic: no turn (P1 = P2 = 0); the body frame origin moves q along the axis
             s = 0.0
             c = 0.0
-            d = q[k - 1]
+            d = qk
         else:
-            s = math.sin(q[k - 1])
-            c = 1.0 - math.cos(q[k - 1])
+            s = math.sin(qk)
+            c = 1.0 - math.cos(qk)
             d = 0.0
         l00 = m.place[k, 0, 0] + s * m.place_k[k, 0, 0] + c * m.place_k2[k, 0, 0]
         l01 = m.place[k, 0, 1] + s * m.place_k[k, 0, 1] + c * m.place_k2[k, 0, 1]
@@ -353,26 +358,47 @@ def centroidal_blocks(
     big = m.total_mass
     f0, f1, f2 = cf[0, 0], cf[0, 1], cf[0, 2]
     sq = f0 * f0 + f1 * f1 + f2 * f2
+    n = m.n_joints
     for i in range(3):
         for j in range(3):
             a[i, j] = ci[0, i, j] + (cf[0, i] * cf[0, j] - (sq if i == j else 0.0)) / big
-    for k in range(1, nb):
-        col = 2 + k
-        a[0, col] = h[k, 0] - (f1 * g[k, 2] - f2 * g[k, 1]) / big
-        a[1, col] = h[k, 1] - (f2 * g[k, 0] - f0 * g[k, 2]) / big
-        a[2, col] = h[k, 2] - (f0 * g[k, 1] - f1 * g[k, 0]) / big
+    for c in range(n):  # the columns of q gather their joints' terms (a mimic joint's, times its multiplier)
         for r in range(3):
-            a[col, r] = a[r, col]
+            a[r, 3 + c] = 0.0
+    for k in range(1, nb):
+        col = 3 + int(m.coordinate[k])
+        rk = m.multiplier[k]
+        a[0, col] += rk * (h[k, 0] - (f1 * g[k, 2] - f2 * g[k, 1]) / big)
+        a[1, col] += rk * (h[k, 1] - (f2 * g[k, 0] - f0 * g[k, 2]) / big)
+        a[2, col] += rk * (h[k, 2] - (f0 * g[k, 1] - f1 * g[k, 0]) / big)
+    for c in range(n):
+        for r in range(3):
+            a[3 + c, r] = a[r, 3 + c]
     if joint_block:
+        # D_qq[i, k] of the joints of bodies i <= k: u_i . h_k + (p_i x u_i) . g_k (i is k or inboard of it) - g_i . g_k / M
+        plain = n == nb - 1  # no mimic joint: joint k is column k - 1, stored directly (the common case keeps its speed)
+        if not plain:
+            for c in range(n):
+                for d in range(n):
+                    a[3 + c, 3 + d] = 0.0
         for k in range(1, nb):
+            ck = 2 + k if plain else 3 + int(m.coordinate[k])
+            rk = m.multiplier[k]
             for i in range(1, k + 1):
                 v = -(g[i, 0] * g[k, 0] + g[i, 1] * g[k, 1] + g[i, 2] * g[k, 2]) / big
                 if ancestor[i, k]:
                     v += axis[i, 0] * h[k, 0] + axis[i, 1] * h[k, 1] + axis[i, 2] * h[k, 2]
                     v += mom[i, 0] * g[k, 0] + mom[i, 1] * g[k, 1] + mom[i, 2] * g[k, 2]
-                a[2 + i, 2 + k] = v
-                a[2 + k, 2 + i] = v
-            a[2 + k, 2 + k] += m.armature[k]  # the rotor's inertia, felt by its joint alone
+                if plain:
+                    a[2 + i, ck] = v
+                    a[ck, 2 + i] = v
+                else:  # H+ = M^T H_body M: (i, k) and (k, i), each times both multipliers (twice on a shared diagonal)
+                    col_i = 3 + int(m.coordinate[i])
+                    v *= m.multiplier[i] * rk
+                    a[col_i, ck] += v
+                    if i != k:
+                        a[ck, col_i] += v
+            a[ck, ck] += rk * rk * m.armature[k]  # the rotor's inertia, felt by its joint alone (times r^2 through the law)
 
 
 @kernel(inline="always")
@@ -447,7 +473,7 @@ def newton_euler(
     """
     parent, total_mass = m.parent, m.total_mass
     nb = parent.shape[0]
-    n = nb - 1
+    n = m.n_joints
     rot, pos, axis, mom, own_f, own_i, cf = s.rot, s.pos, s.axis, s.mom, s.own_f, s.own_i, s.cf
     w, v, al, be, nf, ff = s.w, s.v, s.al, s.be, s.nf, s.ff
     for i in range(3):
@@ -457,8 +483,9 @@ def newton_euler(
         be[0, i] = 0.0
     for k in range(1, nb):
         p = parent[k]
-        qd = vel[5 + k]
-        qdd = acc[5 + k] if accelerate else 0.0
+        rk = m.multiplier[k]
+        qd = rk * vel[6 + int(m.coordinate[k])]  # its own rate, or a mimic joint's: multiplier times its leader's
+        qdd = rk * acc[6 + int(m.coordinate[k])] if accelerate else 0.0
         su0, su1, su2 = axis[k, 0] * qd, axis[k, 1] * qd, axis[k, 2] * qd
         sw0, sw1, sw2 = mom[k, 0] * qd, mom[k, 1] * qd, mom[k, 2] * qd
         w[k, 0] = w[p, 0] + su0
@@ -539,6 +566,8 @@ def newton_euler(
     out[0] = nf[0, 0] + (cf[0, 1] * d2 - cf[0, 2] * d1)
     out[1] = nf[0, 1] + (cf[0, 2] * d0 - cf[0, 0] * d2)
     out[2] = nf[0, 2] + (cf[0, 0] * d1 - cf[0, 1] * d0)
+    for c in range(n):
+        out[3 + c] = 0.0
     for k in range(1, nb):
         s = m.subtree_mass[k]
         t0_ = nf[k, 0] + (cf[k, 1] * d2 - cf[k, 2] * d1)
@@ -547,13 +576,17 @@ def newton_euler(
         row = axis[k, 0] * t0_ + axis[k, 1] * t1_ + axis[k, 2] * t2_
         row += mom[k, 0] * (ff[k, 0] + s * d0) + mom[k, 1] * (ff[k, 1] + s * d1) + mom[k, 2] * (ff[k, 2] + s * d2)
         # the joint's own dynamics: its rotor (armature), viscous damping and smooth Coulomb friction (passive torques)
-        qd = vel[5 + k]
+        rk = m.multiplier[k]
+        c = int(m.coordinate[k])
+        qd = rk * vel[6 + c]
         row += m.damping[k] * qd
         if m.friction[k] > 0.0:  # (a zero friction is folded away by the specialiser: see _tree.Field.fold_zeros)
             row += m.friction[k] * math.tanh(qd / FRICTION_SPEED)
         if accelerate:
-            row += m.armature[k] * acc[5 + k]
-        out[2 + k] = row - u[k - 1]
+            row += m.armature[k] * rk * acc[6 + c]
+        out[3 + c] += rk * row  # a mimic joint's row acts on its leader through the law (virtual work)
+    for c in range(n):
+        out[3 + c] -= u[c]
 
 
 # ----------------------------------------------------------------- one configuration

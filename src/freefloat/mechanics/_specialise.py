@@ -154,6 +154,7 @@ def _symbolic_model(t: Tree, g: Graph) -> Any:
         ee_body=_ints(t.ee_body),
         total_mass=g.input("data", total_at),
         ee_point=points,
+        n_joints=t.n_joints,
         **fields,
     )
 
@@ -180,7 +181,7 @@ def trace(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[Graph, list[Any], 
     nb = t.n_bodies
     n = t.n_joints
     work = np.full(work_size(nb, t.ee_body.shape[0]), 0.0, dtype=object)
-    s = mod.recursions.scratch(work, nb, t.ee_body.shape[0])
+    s = mod.recursions.scratch(work, nb, t.ee_body.shape[0], n)
     ext_i = np.array(wrenches, dtype=object).reshape(len(wrenches), 2)
 
     def ext_f(first: int) -> np.ndarray:  # the wrenches' values, W rows from ``first`` on

@@ -7,10 +7,11 @@ list short (numba unboxes every array argument at each call from Python) and the
 kernels readable. Mass properties are data here, never code: a new model or a payload variant
 (:meth:`~freefloat.Model.with_payload`) is a new :class:`Tree` and compiles nothing.
 
-**Adding a per-body or per-joint parameter** (row k of a body field is body k; the joint of body k
-is joint k - 1, row 0 the spacecraft): add a :class:`Field` to :data:`BODY_FIELDS` (its shape, its
-role, and how it is read from the model), the same name to :data:`Arrays` and its view to
-:func:`arrays` (all three in this file; ``tests/mechanics/test_engine.py`` checks that they
+**Adding a per-body or per-joint parameter** (row k of a body field is body k and its joint, row 0
+the spacecraft; the joint of body k is driven by column ``coordinate[k]`` of q, with value
+``multiplier[k] q[coordinate[k]] + offset[k]``: k - 1, 1 and 0 unless it is a mimic joint): add a
+:class:`Field` to :data:`BODY_FIELDS` (its shape, its role, and how it is read from the model), the
+same name to :data:`Arrays` and its view to :func:`arrays` (all three in this file; ``tests/mechanics/test_engine.py`` checks that they
 agree), then use ``m.<name>`` in the recursions (:mod:`._recursions`). The specialiser
 (:mod:`._specialise`) reads the layout from :data:`BODY_FIELDS`: a ``"data"`` field is read at run
 time by the specialised kernels (so payload variants share them), a ``"structure"`` field is folded
@@ -39,7 +40,7 @@ def _skew(u: np.ndarray) -> np.ndarray:
 
 def _turn_axis(model: Any, k: int) -> np.ndarray:
     """The axis joint k - 1 turns about (zero for a prismatic joint and for the spacecraft row)."""
-    sliding = k > 0 and bool(model.prismatic[k - 1])
+    sliding = k > 0 and bool(model.body_joint_prismatic[k - 1])
     return np.zeros(3) if sliding else np.asarray(model.joint_axis[k], dtype=float)
 
 
@@ -91,8 +92,22 @@ BODY_FIELDS: tuple[Field, ...] = (
         "prismatic",
         (),
         "structure",
-        lambda m, k: 1.0 if k > 0 and bool(m.prismatic[k - 1]) else 0.0,
+        lambda m, k: 1.0 if k > 0 and bool(m.body_joint_prismatic[k - 1]) else 0.0,
         "1.0 when the joint slides along its axis, 0.0 when it turns",
+    ),
+    Field(
+        "coordinate",
+        (),
+        "structure",
+        lambda m, k: float(m.body_joint_coordinate[k - 1]) if k > 0 else -1.0,
+        "the column of q that drives joint k (its own; a mimic joint's leader's), as a float (-1 for the spacecraft)",
+    ),
+    Field(
+        "multiplier",
+        (),
+        "structure",
+        lambda m, k: float(m.body_joint_multiplier[k - 1]) if k > 0 else 0.0,
+        "joint k's value is multiplier q[coordinate] + offset: 1 for an independent joint, a mimic joint's law",
     ),
     Field("mass", (), "data", lambda m, k: m.mass[k], "mass m_k (kg)"),
     Field("com", (3,), "data", lambda m, k: m.com[k], "CM in the body frame (m)"),
@@ -101,12 +116,29 @@ BODY_FIELDS: tuple[Field, ...] = (
         "armature",
         (),
         "data",
-        lambda m, k: m.joint_armature[k - 1] if k > 0 else 0.0,
+        lambda m, k: m.expanded().joint_armature[k - 1] if k > 0 else 0.0,
         "rotor inertia reflected to the joint (kg m^2, kg when prismatic): added to its diagonal entry of H+",
         fold_zeros=True,
     ),
-    Field("damping", (), "data", lambda m, k: m.joint_damping[k - 1] if k > 0 else 0.0, "viscous joint damping (N m s/rad, N s/m)", True),
-    Field("friction", (), "data", lambda m, k: m.joint_friction[k - 1] if k > 0 else 0.0, "Coulomb joint friction (N m, N)", True),
+    Field(
+        "damping",
+        (),
+        "data",
+        lambda m, k: m.expanded().joint_damping[k - 1] if k > 0 else 0.0,
+        "viscous joint damping (N m s/rad, N s/m)",
+        True,
+    ),
+    Field(
+        "friction", (), "data", lambda m, k: m.expanded().joint_friction[k - 1] if k > 0 else 0.0, "Coulomb joint friction (N m, N)", True
+    ),
+    Field(
+        "offset",
+        (),
+        "data",
+        lambda m, k: float(m.body_joint_offset[k - 1]) if k > 0 else 0.0,
+        "the offset of a mimic joint's law (rad, m; 0 for an independent joint)",
+        fold_zeros=True,
+    ),
     Field(
         "subtree_mass",
         (),
@@ -133,15 +165,19 @@ Arrays = namedtuple(
         "place_k2",
         "axis",
         "prismatic",
+        "coordinate",
+        "multiplier",
         "mass",
         "com",
         "inertia",
         "armature",
         "damping",
         "friction",
+        "offset",
         "subtree_mass",  # the body fields, in BODY_FIELDS order
         "total_mass",  # float: the system mass (kg)
         "ee_point",  # (E, 3): each end effector in its body frame (m)
+        "n_joints",  # int: N, the columns of q (B - 1 less the mimic joints)
     ],
 )
 
@@ -150,7 +186,7 @@ Arrays = namedtuple(
 def arrays(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - compiled
     """The :data:`Arrays` of a model from its two buffers (:class:`Tree`; a buffer may continue past the model).
 
-    ints = [B, E, parent (B), ancestor (B x B), ee_body (E)]; floats = [the body fields of :data:`BODY_FIELDS`,
+    ints = [B, E, N, parent (B), ancestor (B x B), ee_body (E)]; floats = [the body fields of :data:`BODY_FIELDS`,
     each (B, *shape), total mass, ee_point (E x 3)]. The views count no references (cheaper): the buffers
     must be arguments of the calling kernel, held by its caller.
     """
@@ -158,7 +194,7 @@ def arrays(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     floats = unowned_floats(floats)
     nb = ints[0]
     ne = ints[1]
-    o = 2
+    o = 3
     parent = ints[o : o + nb]
     o += nb
     ancestor = ints[o : o + nb * nb].reshape((nb, nb))
@@ -177,6 +213,10 @@ def arrays(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     f += 3 * nb
     prismatic = floats[f : f + nb]
     f += nb
+    coordinate = floats[f : f + nb]
+    f += nb
+    multiplier = floats[f : f + nb]
+    f += nb
     mass = floats[f : f + nb]
     f += nb
     com = floats[f : f + 3 * nb].reshape((nb, 3))
@@ -188,6 +228,8 @@ def arrays(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     damping = floats[f : f + nb]
     f += nb
     friction = floats[f : f + nb]
+    f += nb
+    offset = floats[f : f + nb]
     f += nb
     subtree_mass = floats[f : f + nb]
     f += nb
@@ -203,15 +245,19 @@ def arrays(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
         place_k2,
         axis,
         prismatic,
+        coordinate,
+        multiplier,
         mass,
         com,
         inertia,
         armature,
         damping,
         friction,
+        offset,
         subtree_mass,
         total_mass,
         ee_point,
+        ints[2],
     )
 
 
@@ -220,7 +266,7 @@ def buffer_lengths(ints: np.ndarray) -> tuple[int, int]:  # pragma: no cover - c
     """(length of the model's ints, of its floats) from the head of its ints: what follows them is the caller's."""
     nb = ints[0]
     ne = ints[1]
-    return 2 + nb + nb * nb + ne, nb * BODY_WIDTH + 1 + 3 * ne
+    return 3 + nb + nb * nb + ne, nb * BODY_WIDTH + 1 + 3 * ne
 
 
 @dataclass(frozen=True, eq=False)
@@ -268,7 +314,9 @@ def tree(model: Any) -> Tree:
     ee_body = np.asarray(model.end_effector_body, dtype=np.int64)
     ee_point = np.asarray(model.end_effector_point, dtype=float).reshape(-1, 3)
     ancestor = np.asarray(model.subtree, dtype=np.int64)
-    ints = np.concatenate([[n_b, ee_body.shape[0]], np.asarray(model.parent, dtype=np.int64), ancestor.ravel(), ee_body]).astype(np.int64)
+    ints = np.concatenate(
+        [[n_b, ee_body.shape[0], model.n_joints], np.asarray(model.parent, dtype=np.int64), ancestor.ravel(), ee_body]
+    ).astype(np.int64)
     blocks = [np.array([np.asarray(f.read(model, k), dtype=float).reshape(f.shape) for k in range(n_b)]).ravel() for f in BODY_FIELDS]
     floats = np.concatenate([*blocks, [float(model.total_mass)], ee_point.ravel()])
     ints.setflags(write=False)
@@ -278,12 +326,12 @@ def tree(model: Any) -> Tree:
     for f in BODY_FIELDS:
         fields[f.name] = floats[offset : offset + f.width * n_b].reshape((n_b, *f.shape))
         offset += f.width * n_b
-    o = 2 + n_b
+    o = 3 + n_b
     out = Tree(
         ints=ints,
         floats=floats,
         fields=fields,
-        parent=ints[2:o],
+        parent=ints[3:o],
         ancestor=ints[o : o + n_b * n_b].reshape((n_b, n_b)),
         ee_body=ints[o + n_b * n_b :],
         ee_point=floats[offset + 1 :].reshape((-1, 3)),
@@ -297,7 +345,7 @@ def tree(model: Any) -> Tree:
 
 def work_size(n_bodies: int, n_ee: int) -> int:
     """Length of the scratch buffer of one configuration (the views of ``_recursions.Scratch``) for ``n_bodies`` bodies
-    and ``n_ee`` end effectors."""
+    and ``n_ee`` end effectors (for B - 1 joint coordinates: enough for the N <= B - 1 of a model with mimic joints)."""
     n = n_bodies - 1
     m = 3 + n
     size = 13 + 2 * n

@@ -59,7 +59,19 @@ from ..core.errors import ShapeError, SingularConfigurationError
 from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, pieces
-from ._inputs import _attitude, _joints, _rotate, _vector, _velocity, check_method, revolute_only
+from ._inputs import (
+    _attitude,
+    _joints,
+    _rotate,
+    _vector,
+    _velocity,
+    body_joints,
+    body_velocity,
+    check_method,
+    gather_columns,
+    gather_square,
+    revolute_only,
+)
 from ._recursions import FRICTION_SPEED
 from .forces import _actuation_0, _actuation_vector, _engine_wrenches, _generalized_forces_0, _wrenches
 from .jacobians import actuation_jacobian
@@ -153,6 +165,9 @@ def _diagonal_inertias(model: Model, rot: np.ndarray) -> np.ndarray:
 # ----------------------------------------------------------------- C+ (barycentric closed form)
 def _c_plus_barycentric(model: Model, q: np.ndarray, velocity: np.ndarray) -> np.ndarray:
     """Kernel: C+ (C, 6 + N) for flat q (C, N), velocity (C, 6 + N)."""
+    if model.has_mimic:  # C+ = T^T C+_body at the body joints' values and rates
+        body_model, qb = body_joints(model, q)
+        return gather_columns(model, _c_plus_barycentric(body_model, qb, body_velocity(model, velocity)), 6)
     mo = _motion(model, q, velocity[:, 3:6], velocity[:, 6:])
     a, b = _pair_vectors(model, mo.rot)
     d_ii = _diagonal_inertias(model, mo.rot)
@@ -201,6 +216,9 @@ def _cross_matrix(v: np.ndarray) -> np.ndarray:
 
 def _hplus_rate(model: Model, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
     """Kernel: dH+/dt (C, 6 + N, 6 + N) along qdot."""
+    if model.has_mimic:
+        body_model, qb = body_joints(model, q)
+        return gather_square(model, _hplus_rate(body_model, qb, qdot @ model.mimic_matrix.T), 6)
     batch, n, nb = q.shape[0], model.n_joints, model.n_bodies
     mo = _motion(model, q, np.zeros((batch, 3)), qdot)
     a, b = _pair_vectors(model, mo.rot)
@@ -277,6 +295,9 @@ def _linear_bias(model: Model, mo: _Motion, q: np.ndarray, velocity: np.ndarray,
 
 def _point_bias(model: Model, q: np.ndarray, velocity: np.ndarray, body: int, table: np.ndarray) -> np.ndarray:
     """Kernel: Jdot+ zdot0 of a point (C, 6), spacecraft-frame components."""
+    if model.has_mimic:  # positions and rates of the body joints: no columns to gather
+        body_model, qb = body_joints(model, q)
+        return _point_bias(body_model, qb, body_velocity(model, velocity), body, table)
     mo = _motion(model, q, velocity[:, 3:6], velocity[:, 6:])
     lin = _linear_bias(model, mo, q, velocity, table[None], np.array([body]))[:, 0]
     return np.concatenate([lin, mo.alpha[:, body]], axis=1)
@@ -428,6 +449,10 @@ def passive_torque(model: Model, qdot: Any) -> np.ndarray:
     and v_s = :data:`FRICTION_SPEED` (0.01 rad/s or m/s). The reference form in numpy; the engine adds the same torques
     in its Newton-Euler rows (:func:`~._recursions.newton_euler`). They are internal: they change no momentum."""
     qd = _joints(model, qdot, "qdot")
+    if model.has_mimic:  # each mimic joint's own torque, at its rate, acts on its leader through the law
+        body = model.expanded()
+        qb = qd @ model.mimic_matrix.T
+        return gather_columns(model, -(body.joint_damping * qb + body.joint_friction * np.tanh(qb / FRICTION_SPEED)))
     return -(model.joint_damping * qd + model.joint_friction * np.tanh(qd / FRICTION_SPEED))
 
 

@@ -30,7 +30,7 @@ from ..core.errors import ShapeError
 from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, finite_vector, joint_array, pieces
-from ._inputs import check_method
+from ._inputs import body_joints, check_method, gather_columns
 from .kinematics import _rotations, _slides, body_rotations
 from .momentum import _hplus_barycentric, zero_momentum_rate
 
@@ -125,8 +125,9 @@ def point_jacobian(
     bodies = np.array([k])
 
     def kernel(qq: np.ndarray) -> np.ndarray:
-        rho, j12, j22 = _point_terms(model, _rotations(model, qq), table, bodies, qq)
-        return _assemble(rho[:, 0], j12[:, 0], j22[:, 0], None)
+        body_model, qb = body_joints(model, qq)  # mimic joints: computed as joints, gathered into their leaders' columns
+        rho, j12, j22 = _point_terms(body_model, _rotations(body_model, qb), table, bodies, qb)
+        return gather_columns(model, _assemble(rho[:, 0], j12[:, 0], j22[:, 0], None), 6)
 
     out = chunked(kernel, q, core_ndims=(1,))
     return out if attitude is None else _rotate_rows(out, attitude)
@@ -212,6 +213,8 @@ def task_jacobian(
 # ------------------------------------------------------------------ J*, det J*, manipulability
 def _gj_barycentric(model: Model, qq: np.ndarray) -> np.ndarray:
     """Kernel: J* (C, 6E, N) from the barycentric J+ terms and inertia blocks (1992 eqs. 12-14), the reference."""
+    if model.has_mimic:  # J* = J*_body M: computed with the mimic joints as joints, gathered into their leaders' columns
+        return gather_columns(model, _gj_barycentric(*body_joints(model, qq)))
     rot = _rotations(model, qq)
     h = _hplus_barycentric(model, qq)
     x = -zero_momentum_rate(h)  # omega0 = -x qdot   (1992 eq. 12 with zero momentum)

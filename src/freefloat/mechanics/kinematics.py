@@ -18,7 +18,7 @@ from ..core.conventions import attitude_matrix
 from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, finite_vector, joint_array
-from ._inputs import check_method
+from ._inputs import body_joints, check_method
 
 __all__ = [
     "body_cm_positions",
@@ -86,7 +86,8 @@ def forward_kinematics(model: Model, q: Any) -> tuple[np.ndarray, np.ndarray]:
 
 
 def joint_axes(model: Model, rotations: np.ndarray) -> np.ndarray:
-    """Joint axes in the spacecraft frame, ⁰T_k u_k, (..., N, 3), from ``body_rotations`` (turning or sliding axes)."""
+    """Joint axes in the spacecraft frame, ⁰T_k u_k, (..., B - 1, 3): one row per body's joint (N rows without mimic
+    joints; ``model.body_joint_names`` order with them), from ``body_rotations`` (turning or sliding axes)."""
     return np.einsum("...kij,kj->...ki", rotations[..., 1:, :, :], model.joint_axis[1:])
 
 
@@ -116,6 +117,7 @@ def body_cm_positions(model: Model, q: Any, *, method: str = "recursive") -> np.
 
 def _barycentric_sum(model: Model, q: np.ndarray, table: np.ndarray, bodies: np.ndarray) -> np.ndarray:
     """rho_P = sum_i T_i v_iP(q) (1992 eq. 4, with the sliding of prismatic joints) for a table (P, B, 3): (C, P, 3)."""
+    model, q = body_joints(model, q)  # mimic joints: their values through the law
     rot = _rotations(model, q)
     out = np.einsum("cbij,pbj->cpi", rot, table)
     if model.has_prismatic:

@@ -35,7 +35,7 @@ from ..core.conventions import attitude_matrix
 from ..core.model import Model
 from . import _engine
 from ._arrays import chunked, joint_array, pieces, vector_array
-from ._inputs import check_method
+from ._inputs import body_joints, check_method, gather_square
 from .kinematics import _rotations, _slides, joint_axes
 
 __all__ = [
@@ -120,7 +120,10 @@ def _hplus_barycentric(model: Model, q: np.ndarray) -> np.ndarray:
     rate of joint l moves the CM of body k, relative to the system CM, by (chi_l(k) - mu*_l) u_l.
     That adds to the kinetic energy the cross terms omega_i . (Y_il x u_l) qdot_l with
     Y_il = sum_k m_k (chi_l(k) - mu*_l) T_i v_ik, and (sum_k m_k c_jk c_lk) u_j . u_l qdot_j qdot_l.
+    Mimic joints: H+ = T^T H+_body T with T = diag(1, Model.mimic_matrix) (:func:`~._inputs.gather_square`).
     """
+    if model.has_mimic:
+        return gather_square(model, _hplus_barycentric(*body_joints(model, q)), 6)
     rot = _rotations(model, q)
     sliding = model.prismatic
     pair = _pair_inertias(model, rot, q)  # (C, B, B, 3, 3)

@@ -53,6 +53,8 @@ def model_info(model: Model) -> dict[str, Any]:
       parent frame at q = 0), limits ([lower, upper] in rad or m, null = none) and limits_deg
       (revolute joints; null otherwise);
       and the joint's own dynamics: armature (kg m², kg), damping and friction (Model.joint_*);
+    - ``mimic``: each mimic joint (a dependent coordinate, no column of q): name, leader (the independent
+      joint it follows), multiplier and offset (q = multiplier q_leader + offset), type and child body;
     - ``end_effector_rule``: "named" (the file or the caller named them), "leaf sites" (MJCF
       sites on leaf bodies) or "leaves" (every leaf body, when nothing is named);
     - ``corrections``: every change the loader made to the file's data (where, defect, what was
@@ -70,8 +72,9 @@ def model_info(model: Model) -> dict[str, Any]:
     """
     bary = model.bary
     joints = []
+    body_of = {name: k + 1 for k, name in enumerate(model.body_joint_names)}  # the body each joint moves
     for j, name in enumerate(model.joint_names):
-        k = j + 1
+        k = body_of[name]
         lower, upper = _limit(model.joint_lower[j]), _limit(model.joint_upper[j])
         sliding = model.joint_type[j] == "prismatic"
         raw: list[float | None] = [v if np.isfinite(v) else None for v in (_float(model.joint_lower[j]), _float(model.joint_upper[j]))]
@@ -156,6 +159,17 @@ def model_info(model: Model) -> dict[str, Any]:
         "corrections": [_jsonable(c) for c in model.corrections],
         "unmodelled": [_jsonable(u) for u in model.unmodelled],
         "joints": joints,
+        "mimic": [
+            {
+                "name": str(r["joint"]),
+                "leader": str(r["leader"]),
+                "multiplier": _float(r["multiplier"]),
+                "offset": _float(r["offset"]),
+                "type": str(r["type"]),
+                "child": str(r["body"]),
+            }
+            for r in model.mimic
+        ],
         "end_effectors": end_effectors,
         "bodies": bodies,
         "barycentric": barycentric,
@@ -324,6 +338,19 @@ def _tables(info: dict[str, Any]) -> list[_Table]:
                     "armature: rotor inertia on the joint's diagonal of H+ (kg m², kg when prismatic); damping (N m s/rad, N s/m) "
                     "and Coulomb friction (N m, N): passive torques (docs/model-files.md). Joints not listed have none.",
                 ),
+            ),
+        )
+    if info.get("mimic"):
+        tables.insert(
+            1,
+            _Table(
+                "Mimic joints",
+                ("name", "type", "child", "leader", "law"),
+                tuple(
+                    (m["name"], m["type"], m["child"], m["leader"], f"q = {_num(m['multiplier'])} q_{m['leader']} + {_num(m['offset'])}")
+                    for m in info["mimic"]
+                ),
+                ("A mimic joint has no column of q, qdot, tau, J* or H+: it moves with its leader, by the law.",),
             ),
         )
     if info.get("corrections"):

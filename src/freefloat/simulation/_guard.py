@@ -261,10 +261,14 @@ def check_passive_step(model: Model, q0: np.ndarray, step: float | None) -> list
     if step is None or model.n_joints == 0 or not model.has_passive:
         return []
     m = np.diagonal(free_floating_joint_inertia(model, q0))
-    rate = (model.joint_damping + model.joint_friction / FRICTION_SPEED) / m
+    # a column of q feels its joint's damping and friction and its mimic joints' (multiplier r): r^2 d, and near rest r^2 F / v_s
+    own, law = model.expanded(), model.mimic_matrix
+    damping = own.joint_damping @ law**2
+    friction = own.joint_friction @ law**2
+    rate = (damping + friction / FRICTION_SPEED) / m
     lines = [
-        f"joint {model.joint_names[i]!r} (effective inertia {m[i]:.3g}, damping {model.joint_damping[i]:.3g}, friction "
-        f"{model.joint_friction[i]:.3g}: its rate decays at {rate[i]:.3g} 1/s) needs steps below {RK4_REAL_LIMIT / rate[i]:.3g} s"
+        f"joint {model.joint_names[i]!r} (effective inertia {m[i]:.3g}, damping {damping[i]:.3g}, friction "
+        f"{friction[i]:.3g}: its rate decays at {rate[i]:.3g} 1/s) needs steps below {RK4_REAL_LIMIT / rate[i]:.3g} s"
         for i in np.argsort(-rate)
         if rate[i] * step >= RK4_REAL_LIMIT
     ]
