@@ -28,8 +28,12 @@ lint: $(VENV)/.test
 	$(VENV)/bin/lint-imports --no-cache
 
 # The suite includes the wheel test (tests/test_release.py) and the strict documentation build (tests/test_docs_site.py).
+# The test files run on TEST_WORKERS processes (pytest-xdist; a file's tests stay on one worker, so that a module's
+# compiled kernels are made once): the suite takes 20 min on one core of a 2-core machine.
+TEST_WORKERS ?= 2
+
 test: lint
-	$(PY) -m pytest
+	$(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile
 
 bench: $(VENV)/.test
 	$(PY) benchmarks/run.py --out $(OUT)/bench

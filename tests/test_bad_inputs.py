@@ -1459,6 +1459,21 @@ def outcome(case: Case, files: Path) -> tuple[str, str]:
     return "silent", "no error"
 
 
+@pytest.fixture(scope="module", autouse=True)
+def _kernels_compiled() -> None:
+    """The engine's kernels that the cases reach, compiled (or loaded) before the first case: a case's alarm times the
+    case, not a first compile (``make test`` runs the files on parallel workers, so this file may be the first to need
+    them; a cold compile of the RK4 stepper took 61 s on a loaded machine)."""
+    model = M()
+    ff.simulate(model, S, 0.02, fixed_step=0.01)  # the compiled RK4 stepper
+    ff.simulate(model, S, 0.02)  # the state derivative (adaptive)
+    for batch in (1, 3):  # the rollout loop, serial and on threads
+        ff.rollout(model, ff.State(q=np.tile(Q, (batch, 1))), 0.002, dt=1e-3)
+    q = np.tile(Q, (300, 1))
+    ff.generalized_jacobian(model, q), ff.generalized_jacobian(model, q[:1])  # J*, threads and serial
+    ff.workspace.singularity_measure(model, q), ff.jacobian_determinant(model, q[:1])  # the measures
+
+
 @pytest.mark.parametrize("case", CASES, ids=[c.id for c in CASES])
 def test_bad_input(case: Case, tmp_path: Path) -> None:
     with scratch_dir(tmp_path, case.files) as scratch:

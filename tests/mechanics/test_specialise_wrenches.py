@@ -45,8 +45,6 @@ def own_cache(tmp_path_factory: pytest.TempPathFactory) -> Iterator[None]:
 def _model(which: str) -> ff.Model:
     if which == "papadopoulos1992":
         return ff.models.papadopoulos1992()
-    if which == "spacecraft_7dof":
-        return ff.models.spacecraft_7dof()
     return build_random_model(np.random.default_rng(5), [2, 2], [0, None], [1, None], prismatic=0.5)
 
 
@@ -55,10 +53,9 @@ def _layout(model: ff.Model) -> np.ndarray:
     return np.array([[model.n_bodies - 1, 2], [0, 0], [1, 1]], dtype=np.int64)
 
 
-#: The rollouts' tolerance, relative: 40 RK4 steps of forward dynamics, whose forward error is cond(H+) times rounding;
-#: the 7-DOF arm's (a 1500 kg spacecraft, a light wrist) specialised rollouts without wrenches differ from the generic
-#: ones by 2e-12 as well.
-ROLLOUT_RTOL = {"papadopoulos1992": 1e-12, "spacecraft_7dof": 5e-12, "random-tree": 1e-12}
+#: The rollouts' tolerance, relative: 40 RK4 steps of forward dynamics, whose forward error is cond(H+) times rounding
+#: (an ill-conditioned H+, such as the 7-DOF arm's, a 1500 kg spacecraft with a light wrist, needs 5e-12).
+ROLLOUT_RTOL = {"papadopoulos1992": 1e-12, "random-tree": 1e-12}
 
 
 def _close(ours: np.ndarray, ref: np.ndarray, rtol: float = 1e-12) -> None:
@@ -104,7 +101,9 @@ def _rollout(model: ff.Model, k: int, ext_i: np.ndarray, seed: int) -> tuple[np.
     return _engine.rollout(model, x0, 1e-3, 40, 5, 7, gains, rng.normal(size=(3, k, n)), np.full(n + 6, 4.0), ext)
 
 
-@pytest.mark.parametrize("which", ["papadopoulos1992", "spacecraft_7dof", "random-tree"])
+# Two structures: the paper system (whose kernels the last test reuses) and a branched tree with sliding joints. The 7-DOF
+# arm, a chain (83 s of compiles on a loaded machine), adds no code path these lack and is left out for the suite's time.
+@pytest.mark.parametrize("which", ["papadopoulos1992", "random-tree"])
 def test_specialised_dynamics_and_rollouts_with_wrenches_equal_the_generic_kernels(own_cache: None, which: str) -> None:
     model = _model(which)
     ext_i = _layout(model)
