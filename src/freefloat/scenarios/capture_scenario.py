@@ -1,10 +1,11 @@
-"""Capture scenarios (1992 §V) from TOML files: what ``freefloat capture SCENARIO.toml`` reads, runs and writes.
+"""Capture scenarios (1992 §V) from TOML files: what ``freefloat capture SCENARIO.toml`` reads and runs (what it
+reports and writes: :mod:`.capture_outputs`).
 
-A scenario names the robot, the payload and the payload's desired path; the
-run is :func:`freefloat.analysis.capture.plan_capture` (post-capture PIW, path
-placement, approach distance of eq. 19, capture posture and spacecraft
-orientation of eqs. 20-21), plus the best posture on each family of eq. 21
-for a planar two-link arm. Schema (docs/workspaces.md)::
+A scenario names the robot, the payload (and, for a moving target, its motion at the grasp) and the payload's
+desired path; the run is :func:`freefloat.analysis.capture.plan_capture` (post-capture PIW, path placement,
+approach distance of eq. 19, capture posture and spacecraft orientation of eqs. 20-21; for a moving target the
+impact at the grasp and the candidate postures ranked), plus the best posture on each family of eq. 21 for a
+planar two-link arm. Schema (docs/workspaces.md, docs/impact.md)::
 
     model = "papadopoulos1992-one-arm"   # built-in name, or a model file (path relative to the scenario)
     # end_effectors = ["left", "right"]  # optional, model files only: the model's end effectors (default: the file's, else every leaf)
@@ -30,9 +31,10 @@ for a planar two-link arm. Schema (docs/workspaces.md)::
     threshold = 0.02                     # singular where |measure| <= threshold (default 0)
     strategy = "auto"                    # "auto" (PIW, else a path-checked plan), "piw" (the paper's) or "path"
 
-    [grasp]                              # optional, a moving target only (payload velocity / angular_velocity given)
-    joints = "free"                      # "free" or "locked" during the grasp (ff.capture.impact)
-    rank_by = "measure"                  # "measure" (1992 §V), "spacecraft_rate", "impulse", "angular_impulse", "joint_impulse"
+    # [grasp]                            # optional, a moving target only (payload velocity / angular_velocity given)
+    # joints = "free"                    # "free" or "locked" during the grasp (ff.capture.impact)
+    # rank_by = "spacecraft_rate"        # "measure" (1992 §V; default), "spacecraft_rate", "impulse", "angular_impulse",
+                                         # "joint_impulse" (locked joints): the posture with the smallest value
 
     [joint_limits]                       # optional, rad: joint name = [lower, upper]
     # arm1_q1 = [-2.5, 2.5]
