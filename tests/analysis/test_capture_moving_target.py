@@ -4,6 +4,7 @@ candidate capture postures along the eq. 21 families ranked by what the grasp do
 from __future__ import annotations
 
 import dataclasses
+from typing import Any
 
 import numpy as np
 import pytest
@@ -13,6 +14,7 @@ from scipy.spatial.transform import Rotation
 
 import freefloat as ff
 from freefloat.analysis.capture import CapturePlan, capture_families, plan_capture
+from freefloat.analysis.singularity import SingularityCriterion
 from freefloat.core.errors import ShapeError
 
 ONE = ff.models.papadopoulos1992(arms=1)
@@ -53,22 +55,26 @@ def _same_dataclass(a: object, b: object) -> None:
             assert x == y, f.name
 
 
-def _grasp_by_hand(plan: CapturePlan, q: np.ndarray, attitude: np.ndarray, cm_plus: np.ndarray) -> tuple[ff.State, ff.capture.Target]:
+def _grasp_by_hand(
+    plan: CapturePlan, q: np.ndarray, attitude: np.ndarray, cm_plus: np.ndarray, **options: Any
+) -> tuple[ff.State, ff.capture.Target]:
     """The robot at rest and the payload at a capture (CM+, q, attitude), from the end-effector point (the payload is
-    grasped at its CM) and eq. 19: no code of the planner's."""
+    grasped at its CM) and eq. 19: no code of the planner's. ``options``: mass and inertia (default the §V payload's),
+    target_velocity and target_angular_velocity (default :data:`MOTION`)."""
+    mass, inertia = options.get("mass", 400.0), options.get("inertia", 25.0)
     rot = Rotation.from_quat(attitude)
     tip = cm_plus + rot.apply(ff.end_effector_positions(plan.captured, q)[0])
-    robot = (870.0 * cm_plus - 400.0 * tip) / 470.0
-    hand = rot.as_matrix() @ ff.body_rotations(plan.captured, q)[-1]
+    robot = plan.before.total_mass
+    hand = rot.as_matrix() @ ff.body_rotations(plan.captured, q)[plan.captured.end_effector_body[0]]
     target = ff.capture.Target(
-        mass=400.0,
-        inertia=25.0,
+        mass=mass,
+        inertia=inertia,
         position=tip,
         attitude=Rotation.from_matrix(hand),
-        velocity=MOTION["target_velocity"],
-        angular_velocity=MOTION["target_angular_velocity"],
+        velocity=options.get("target_velocity", MOTION["target_velocity"]),
+        angular_velocity=options.get("target_angular_velocity", MOTION["target_angular_velocity"]),
     )
-    return ff.State(q=q, attitude=attitude, r_cm=robot), target
+    return ff.State(q=q, attitude=attitude, r_cm=((robot + mass) * cm_plus - mass * tip) / robot), target
 
 
 # ------------------------------------------------------------------------------------------- the papers' plan unchanged
@@ -224,6 +230,30 @@ def test_a_path_checked_plan_ranks_its_checked_placements() -> None:
     hit, by_hand = plan.impact, _grasp_by_hand(plan, plan.posture.q, plan.posture.attitude, r.cm_plus[r.chosen])
     assert hit is not None
     np.testing.assert_allclose(hit.impulse, ff.capture.impact(limited, *by_hand).impulse, rtol=0.0, atol=1e-12)
+
+
+def test_a_spatial_arm_ranks_sampled_postures_and_grasps_a_tumbling_target() -> None:
+    """The 7-DOF arm (translational J*, σ_min > 0.02 m/rad): its PIW plan's candidates are the optimum and 32 postures
+    sampled on |r_E| = R+; ranked by the spacecraft rate after grasping a tumbling target, the grasp is the one built
+    by hand from the 3D end-effector point and the grasping body's attitude."""
+    model = ff.models.spacecraft_7dof()
+    motion = {"target_velocity": [0.01, 0.02, -0.01], "target_angular_velocity": [0.05, -0.02, 0.1]}
+    criterion = SingularityCriterion(rows="position", measure="sigma_min", threshold=0.02)
+    path = [[0.0, 0.0, 0.0], [0.0, 0.2, 0.0]]
+    plan = plan_capture(model, 0, path, mass=100.0, inertia=5.0, samples=1 << 14, criterion=criterion, rank_by="spacecraft_rate", **motion)
+    r = plan.ranking
+    assert r is not None and plan.method == "piw" and len(r) == 33 and np.all(r.family == -1)
+    assert 0 < np.sum(r.valid) < len(r) and r.valid[r.chosen] and r.chosen != r.planner
+    assert r.spacecraft_rate[r.chosen] == np.min(r.spacecraft_rate[r.valid]) < r.spacecraft_rate[r.planner]
+    np.testing.assert_allclose(np.linalg.norm(ff.end_effector_positions(plan.captured, r.q)[:, 0], axis=-1), r.R_plus, atol=1e-9)
+    assert plan.target is not None and plan.impact is not None and plan.motion is not None and plan.motion.usable
+    np.testing.assert_allclose(plan.target.position, plan.placement.start, atol=1e-12)
+    by_hand = _grasp_by_hand(plan, plan.posture.q, plan.posture.attitude, plan.placement.cm_plus, mass=100.0, inertia=5.0, **motion)
+    direct = ff.capture.impact(model, *by_hand)
+    for name in ("impulse", "target_twist"):
+        np.testing.assert_allclose(getattr(plan.impact, name), getattr(direct, name), rtol=0.0, atol=1e-12, err_msg=name)
+    np.testing.assert_allclose(plan.impact.state.velocity, direct.state.velocity, rtol=0.0, atol=1e-12)
+    np.testing.assert_allclose(plan.impact.state.r_cm, plan.placement.cm_plus, atol=1e-12)
 
 
 # ------------------------------------------------------------------------------------------------- the trade-off figure
