@@ -44,10 +44,10 @@ if TYPE_CHECKING:
 
 __all__ = ["RANKINGS", "CaptureRanking", "Grasp", "Payload", "grasp_setup", "rank_candidates"]
 
-#: What a plan's capture posture is chosen by: the largest singularity measure (1992 §V, the default), or the
-#: smallest post-impact spacecraft rate |ω0⁺| (rad/s), linear grasp impulse (N s), angular grasp impulse about the
-#: target's CM (N m s) or joint impulse |τ̂| (N m s; locked joints only).
 RANKINGS = ("measure", "spacecraft_rate", "impulse", "angular_impulse", "joint_impulse")
+"""What a plan's capture posture is chosen by (``plan_capture(..., rank_by=)``): the largest singularity measure (1992
+§V, the default), or the smallest post-impact spacecraft rate |ω0⁺| (rad/s), linear grasp impulse (N s), angular
+grasp impulse about the target's CM (N m s) or joint impulse |τ̂| (N m s; locked joints only)."""
 
 #: The twist keywords: (what, unit, bound, why the bound).
 _TWIST = {
