@@ -504,8 +504,9 @@ def capture_command(
         loaded = load_capture_scenario(scenario, end_effectors=end_effector or None)
         if strategy is not None and strategy not in STRATEGIES:
             raise ValueError(f"--strategy {strategy!r}: unknown; choose one of {', '.join(STRATEGIES)}")
+        moving = loaded.velocity is not None or loaded.angular_velocity is not None
         if rank_by is not None:
-            broken = grasp_problem(loaded.velocity is not None or loaded.angular_velocity is not None, loaded.joints, rank_by)
+            broken = grasp_problem(moving, loaded.joints, rank_by)
             if broken is not None:
                 raise ValueError(f"--rank-by {rank_by!r}: {broken[1]}; {broken[2]}")
         loaded = dataclasses.replace(
@@ -515,7 +516,8 @@ def capture_command(
             rank_by=loaded.rank_by if rank_by is None else rank_by,
         )
         written: list[Path] = []
-        with _optional_out(out, overwrite, "capture", ["capture.json", "capture_plan.png"]) as target:
+        names = ["capture.json", "capture_plan.png", *(["capture_tradeoff.png"] if moving else [])]
+        with _optional_out(out, overwrite, "capture", names) as target:
             result = run_capture_scenario(loaded)
             if target is not None:
                 written = write_capture_outputs(result, target.stage)
