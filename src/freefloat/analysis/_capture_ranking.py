@@ -146,16 +146,16 @@ def grasp_setup(
     axes; one capture gives one State and one Target."""
     q = np.asarray(q, dtype=float)
     k = int(captured.end_effector_body[end_effector])
-    mass = payload.mass
     t0 = attitude_matrix(attitude)
+    cm = _pad3(np.asarray(cm_plus, dtype=float))
     p_rel = point_positions(captured, q, k, captured.end_effector_point[end_effector] + payload.offset)
-    position = _pad3(np.asarray(cm_plus, dtype=float)) + np.einsum("...ij,...j->...i", t0, p_rel)
+    position = cm + np.einsum("...ij,...j->...i", t0, p_rel)
     rot = t0 @ body_rotations(captured, q)[..., k, :, :]
     quat = Rotation.from_matrix(rot.reshape(-1, 3, 3)).as_quat().reshape((*rot.shape[:-2], 4))
-    r_cm = (captured.total_mass * _pad3(np.asarray(cm_plus, dtype=float)) - mass * position) / before.total_mass
+    r_cm = ((before.total_mass + payload.mass) * cm - payload.mass * position) / before.total_mass  # eq. 19
     state = State(q=q, attitude=attitude, r_cm=r_cm)
     target = Target(
-        mass=mass,
+        mass=payload.mass,
         inertia=payload.inertia,
         position=position,
         attitude=quat,
@@ -171,15 +171,15 @@ class CaptureRanking:
 
     ``q`` (K, N) rad, ``attitude`` (K, 4) [x, y, z, w], ``cm_plus`` (K, 3) m inertial, ``R_plus`` (K,) m: each
     candidate capture; ``family`` (K,): its eq. 21 family (0: +acos, 1: -acos; -1: none, or not a planar two-link
-    arm). ``measure`` (K,): the singularity measure at capture, absolute (``measure_name`` says which); ``min_measure`` (K,): its
-    smallest value along the path (the planner's free-floating motion); ``valid`` (K,): the candidate passes the
-    planner's checks (the motion follows the path, singularity-free, within the joint limits). The grasp at each
-    (robot at rest, :func:`grasp_setup`; ``joints``): ``spacecraft_rate`` (K,) |ω0⁺| rad/s, ``impulse`` (K,) the
-    linear grasp impulse |p̂| N s, ``angular_impulse`` (K,) about the target's CM N m s, ``joint_impulse`` (K,) |τ̂|
-    N m s (zeros for free joints), ``energy_lost`` (K,) J. ``planner``: the index of the 1992 §V choice (most
-    dexterous: max measure, or, for a path-checked plan, max smallest measure along the path); ``chosen``: the index
-    chosen by ``rank_by`` (the planner's for "measure"; else the smallest value among the valid candidates, ties
-    to the planner's, then to the larger measure).
+    arm). ``measure`` (K,): the singularity measure at capture, absolute (``measure_name`` says which);
+    ``min_measure`` (K,): its smallest value along the path (the planner's free-floating motion); ``valid`` (K,):
+    the candidate passes the planner's checks (the motion follows the path, singularity-free, within the joint
+    limits). The grasp at each (robot at rest, :func:`grasp_setup`; ``joints``): ``spacecraft_rate`` (K,) |ω0⁺|
+    rad/s, ``impulse`` (K,) the linear grasp impulse |p̂| N s, ``angular_impulse`` (K,) about the target's CM
+    N m s, ``joint_impulse`` (K,) |τ̂| N m s (zeros for free joints), ``energy_lost`` (K,) J. ``planner``: the
+    index of the 1992 §V choice (most dexterous: max measure, or, for a path-checked plan, max smallest measure
+    along the path); ``chosen``: the index chosen by ``rank_by`` (the planner's for "measure"; else the smallest
+    value among the valid candidates, ties to the planner's, then to the larger measure).
     """
 
     rank_by: str
