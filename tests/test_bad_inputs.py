@@ -901,7 +901,7 @@ CASES = [
         "capture-target-velocity-shape",
         lambda f: ff.capture.plan_capture(M(arms=1), 0, [[0, 0], [0, 0.25]], mass=400.0, inertia=25.0, target_velocity=[0.0, 0.1]),
         ShapeError,
-        r"target_velocity: expected 3 numbers \(the velocity of the target's CM, inertial frame, m/s\), got shape \(2,\)",
+        r"target_velocity: expected shape \(\.\.\., 3\) \(velocity of the target's CM, inertial frame\), got \(2,\)",
     ),
     api(
         "capture-target-angular-velocity-nan",

@@ -27,9 +27,8 @@ from scipy.spatial.transform import Rotation
 from ..core.conventions import attitude_matrix
 from ..core.errors import ShapeError
 from ..core.model import Model
-from ..core.numbers import MAX_RATE, MAX_SPEED, check_largest, real_array
 from ..core.state import State
-from ..core.target import Target
+from ..core.target import Target, motion_field
 from ..mechanics.impact import JOINT_MODES, impact
 from ..mechanics.kinematics import body_rotations, end_effector_positions, point_positions
 from ._capture_path import CheckedCandidate, _attitudes, _pad3, free_floating_path_motion
@@ -49,23 +48,14 @@ RANKINGS = ("measure", "spacecraft_rate", "impulse", "angular_impulse", "joint_i
 §V, the default), or the smallest post-impact spacecraft rate |ω0⁺| (rad/s), linear grasp impulse (N s), angular
 grasp impulse about the target's CM (N m s) or joint impulse |τ̂| (N m s; locked joints only)."""
 
-#: The twist keywords: (what, unit, bound, why the bound).
-_TWIST = {
-    "velocity": ("velocity of the target's CM, inertial frame", "m/s", MAX_SPEED, "a third of the speed of light"),
-    "angular_velocity": ("angular velocity of the target, inertial frame", "rad/s", MAX_RATE, "faster than any body in orbit spins"),
-}
-
 
 def check_twist(value: Any, name: str, which: str) -> np.ndarray:
-    """A target velocity (``which="velocity"``) or angular velocity (``"angular_velocity"``) as 3 finite floats;
-    errors name ``name`` (a ``ShapeError`` for the wrong shape, a ``ValueError`` for NaN, infinite or huge values)."""
-    what, unit, bound, why = _TWIST[which]
-    arr = real_array(value, name)
+    """A target velocity (``which="velocity"``) or angular velocity (``"angular_velocity"``) as 3 finite floats, checked
+    as the :class:`Target`'s field (:func:`~freefloat.core.target.motion_field`) with errors naming ``name``; one
+    target only (a ``ShapeError`` otherwise)."""
+    arr = motion_field(value, which, name)
     if arr.shape != (3,):
-        raise ShapeError(f"{name}: expected 3 numbers (the {what}, {unit}), got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: has NaN or infinite entries; give the {what} in {unit}, finite")
-    check_largest(arr, name, bound, unit, why, f"check the units ({unit})")
+        raise ShapeError(f"{name}: expected 3 numbers (one target), got shape {arr.shape}")
     return arr
 
 
