@@ -272,28 +272,19 @@ def write_capture_outputs(result: CaptureResult, out: Path, *, dpi: int = 200) -
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    written = []
     path = out / "capture.json"
     path.write_text(json.dumps(result.as_dict(), indent=2, allow_nan=False) + "\n")
-    written.append(path)
-    fig = Figure(figsize=(7.4, 8.4), layout="constrained")
-    ax = fig.add_subplot(projection=None if result.plan.captured.is_planar else "3d")
-    plot_capture_plan(result.plan, ax)
-    path = out / "capture_plan.png"
-    fig.savefig(path, dpi=dpi, bbox_inches="tight", pad_inches=0.15)
-    written.append(path)
+    written = [path]
+    plan = result.plan
+    figures: list[tuple[str, tuple[float, float], Any]] = [("capture_plan.png", (7.4, 8.4), plot_capture_plan)]
     if result.family_postures:
-        fig = Figure(figsize=(7.0, 4.6), layout="constrained")
-        ax = fig.add_subplot()
-        plot_capture_families(result.plan, ax)
-        path = out / "capture_families.png"
-        fig.savefig(path, dpi=dpi, bbox_inches="tight", pad_inches=0.15)
-        written.append(path)
-    if result.plan.ranking is not None:
-        fig = Figure(figsize=(7.0, 5.2), layout="constrained")
-        ax = fig.add_subplot()
-        plot_capture_tradeoff(result.plan, ax)
-        path = out / "capture_tradeoff.png"
+        figures.append(("capture_families.png", (7.0, 4.6), plot_capture_families))
+    if plan.ranking is not None:
+        figures.append(("capture_tradeoff.png", (7.0, 5.2), plot_capture_tradeoff))
+    for name, size, draw in figures:
+        fig = Figure(figsize=size, layout="constrained")
+        draw(plan, fig.add_subplot(projection="3d" if name == "capture_plan.png" and not plan.captured.is_planar else None))
+        path = out / name
         fig.savefig(path, dpi=dpi, bbox_inches="tight", pad_inches=0.15)
         written.append(path)
     return written
