@@ -28,16 +28,8 @@ from scipy.spatial.transform import Rotation
 
 import freefloat as ff
 from bench_core import machine_line
+from bench_workspace import best_of
 from freefloat.analysis.capture import plan_capture
-
-
-def best_of(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:
-    best, value = np.inf, None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        value = fn()
-        best = min(best, time.perf_counter() - t0)
-    return best, value
 
 
 def random_case(model: ff.Model, count: int, seed: int) -> tuple[ff.State, ff.State, ff.capture.Target]:
