@@ -45,6 +45,7 @@ ARM_URDF = ROOT / "examples" / "models" / "six_dof_arm.urdf"
 TOML = ROOT / "examples" / "models" / "papadopoulos1992_two_arm.toml"
 SCENARIO = ROOT / "examples" / "scenarios" / "papadopoulos1992_joint_pd.toml"
 CAPTURE = ROOT / "examples" / "scenarios" / "papadopoulos1992_capture.toml"
+MOVING = ROOT / "examples" / "scenarios" / "papadopoulos1992_capture_moving.toml"
 
 ARM = ARM_URDF.read_text()
 MJCF = (  # a bus and one link on a hinge, in MuJoCo's format
@@ -558,6 +559,7 @@ _PATH = CAP[CAP.index("[path]") : CAP.index("# [joint_limits_deg]")]
 _PTS = "points = [[0.0, 0.0], [0.0, 0.25]]"
 _RULE = 'rule = "perpendicular"'
 _END = "# [joint_limits_deg]"  # the last table: [singularity] and [joint_limits] go before it
+_INERTIA = "inertia = 25.0                        # kg m² about the payload CM (Izz of the planar model)"
 
 CAPTURE_EDITS: list[tuple[str, str, tuple[tuple[str, str], ...]]] = [
     ("model-key-not-a-string", r"model: missing or not a string \(5\)", (('model = "papadopoulos1992-one-arm"', "model = 5"),)),
@@ -670,6 +672,49 @@ CAPTURE_EDITS: list[tuple[str, str, tuple[tuple[str, str], ...]]] = [
     ("limits-text", r"joint_limits_deg\.arm1_q1: expected a number, got 'a'", ((_END, '[joint_limits_deg]\narm1_q1 = ["a", "b"]\n#'),)),
     ("limits-nan", r"joint_limits\.arm1_q1: must be finite, got nan", ((_END, "[joint_limits]\narm1_q1 = [nan, 1.0]\n#"),)),
     ("limits-not-a-table", r"joint_limits: expected a table, got 5", (_after(_EE, "joint_limits = 5"),)),
+    # a moving target: [payload] velocity, angular_velocity and the [grasp] table
+    ("velocity-wrong-shape", r"payload\.velocity: expected \[x, y, z\], got \[0\.0, 0\.1\]", (_after(_INERTIA, "velocity = [0.0, 0.1]"),)),
+    ("velocity-not-a-list", r"payload\.velocity: expected \[x, y, z\], got 0\.1", (_after(_INERTIA, "velocity = 0.1"),)),
+    ("velocity-text", r"payload\.velocity: expected a number, got 'fast'", (_after(_INERTIA, 'velocity = ["fast", 0.0, 0.0]'),)),
+    ("velocity-huge", r"payload\.velocity: 1e\+300 is beyond 1e\+08 \(m/s\)", (_after(_INERTIA, "velocity = [1e300, 0.0, 0.0]"),)),
+    (
+        "angular-velocity-nan",
+        r"payload\.angular_velocity: must be finite, got nan",
+        (_after(_INERTIA, "angular_velocity = [0.0, nan, 0.0]"),),
+    ),
+    (
+        "angular-velocity-inf",
+        r"payload\.angular_velocity: must be finite, got inf",
+        (_after(_INERTIA, "angular_velocity = [0.0, 0.0, inf]"),),
+    ),
+    ("grasp-not-a-table", r"grasp: expected a table, got 5", (_after(_EE, "grasp = 5"),)),
+    ("grasp-unknown-key", r"grasp\.colour: unknown key; use one of joints, rank_by", ((_END, '[grasp]\ncolour = "red"\n#'),)),
+    (
+        "rank-by-unknown",
+        r"grasp\.rank_by: unknown criterion 'cheapest'; use one of measure, spacecraft_rate, impulse",
+        ((_END, '[grasp]\nrank_by = "cheapest"\n#'),),
+    ),
+    ("rank-by-number", r"grasp\.rank_by: unknown criterion 5", ((_END, "[grasp]\nrank_by = 5\n#"),)),
+    (
+        "rank-by-at-rest",
+        r"grasp\.rank_by: 'impulse' ranks the grasp of a moving target, and no motion of the target is given; give the target's",
+        ((_END, '[grasp]\nrank_by = "impulse"\n#'),),
+    ),
+    (
+        "joints-at-rest",
+        r"grasp\.joints: what the joints do at the grasp matters only for a moving target",
+        ((_END, '[grasp]\njoints = "locked"\n#'),),
+    ),
+    (
+        "joints-unknown",
+        r"grasp\.joints: unknown joint mode 'welded'",
+        (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, '[grasp]\njoints = "welded"\n#')),
+    ),
+    (
+        "joint-impulse-free",
+        r"grasp\.rank_by: 'joint_impulse' is zero for free joints .*give joints = 'locked'",
+        (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, '[grasp]\nrank_by = "joint_impulse"\n#')),
+    ),
 ]
 for _id, _, _changes in SIMULATION_EDITS:
     _add(f"sim/{_id}.toml", _edit(SIM, *_changes))
@@ -840,6 +885,40 @@ CASES = [
         r"R_plus: expected a positive distance",
     ),
     api("capture-empty-path", lambda f: ff.capture.plan_capture(M(arms=1), 0, [], mass=400.0, inertia=25.0), ValueError, r"path"),
+    api(
+        "capture-rank-by-unknown",
+        lambda f: ff.capture.plan_capture(M(arms=1), 0, [[0, 0], [0, 0.25]], mass=400.0, inertia=25.0, rank_by="cheapest"),
+        ValueError,
+        r"rank_by: unknown criterion 'cheapest'; use one of measure, spacecraft_rate",
+    ),
+    api(
+        "capture-rank-by-at-rest",
+        lambda f: ff.capture.plan_capture(M(arms=1), 0, [[0, 0], [0, 0.25]], mass=400.0, inertia=25.0, rank_by="impulse"),
+        ValueError,
+        r"rank_by: 'impulse' ranks the grasp of a moving target, and no motion of the target is given",
+    ),
+    api(
+        "capture-target-velocity-shape",
+        lambda f: ff.capture.plan_capture(M(arms=1), 0, [[0, 0], [0, 0.25]], mass=400.0, inertia=25.0, target_velocity=[0.0, 0.1]),
+        ShapeError,
+        r"target_velocity: expected shape \(\.\.\., 3\) \(velocity of the target's CM, inertial frame\), got \(2,\)",
+    ),
+    api(
+        "capture-target-angular-velocity-nan",
+        lambda f: ff.capture.plan_capture(
+            M(arms=1), 0, [[0, 0], [0, 0.25]], mass=400.0, inertia=25.0, target_angular_velocity=[0.0, float("nan"), 0.0]
+        ),
+        ValueError,
+        r"target_angular_velocity: has NaN or infinite entries",
+    ),
+    api(
+        "capture-joint-impulse-free",
+        lambda f: ff.capture.plan_capture(
+            M(arms=1), 0, [[0, 0], [0, 0.25]], mass=400.0, inertia=25.0, target_velocity=[0.0, 0.1, 0.0], rank_by="joint_impulse"
+        ),
+        ValueError,
+        r"rank_by: 'joint_impulse' is zero for free joints",
+    ),
     api(
         "capture-far-path",
         lambda f: ff.capture.plan_capture(M(arms=1), 0, [[0, 0], [0, 3.0]], mass=400.0, inertia=25.0),
@@ -1258,6 +1337,20 @@ CASES += [
 ]
 CASES += [
     cli(f"cli-{command}-{id}", f"{prefix} {args}", match) for command, prefix in _OUT_COMMANDS.items() for id, args, match in BAD_OUTS
+]
+CASES += [  # capture --rank-by: how a moving target's capture posture is chosen
+    cli("cli-capture-rank-by-unknown", f"capture {CAPTURE} --rank-by cheapest", r"--rank-by 'cheapest': unknown criterion 'cheapest'"),
+    cli("cli-capture-rank-by-empty", f"capture {CAPTURE} --rank-by=", r"--rank-by '': unknown criterion ''"),
+    cli(
+        "cli-capture-rank-by-at-rest",
+        f"capture {CAPTURE} --rank-by spacecraft_rate",
+        r"--rank-by 'spacecraft_rate': 'spacecraft_rate' ranks the grasp of a moving target, and no motion of the target is given",
+    ),
+    cli(
+        "cli-capture-rank-by-joint-impulse-free",
+        f"capture {MOVING} --rank-by joint_impulse",
+        r"--rank-by 'joint_impulse': 'joint_impulse' is zero for free joints",
+    ),
 ]
 CASES += [
     cli(f"cli-{command}-strict-{id}", f"{command} {model} --strict", match)

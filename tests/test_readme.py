@@ -149,11 +149,31 @@ def _workspaces(scope: dict[str, Any], tmp_path: Path) -> None:
     paper_or_documented("92.S5.theta_deg", float(np.degrees(plan.posture.theta)))
 
 
+def _impact_planner(scope: dict[str, Any], tmp_path: Path) -> None:
+    """docs/impact.md's capture planner with a moving target: the numbers in its comments, and the impact it says."""
+    text = (ROOT / "docs" / "impact.md").read_text(encoding="utf-8")
+
+    def comment_numbers(call: str) -> list[float]:
+        line = next(line for line in text.splitlines() if line.startswith(call))
+        return [float(x) for x in re.findall(NUMBER, line.partition("#")[2].replace("ω0⁺", ""))]
+
+    plan, ranking, model = scope["plan"], scope["ranking"], scope["model"]
+    q1, q2, measure, best = comment_numbers("plan.posture.q ")
+    assert np.degrees(plan.posture.q) == pytest.approx([q1, q2], abs=5e-3)
+    assert plan.posture.measure == pytest.approx(measure, abs=5e-5) and ranking.measure[ranking.planner] == pytest.approx(best, abs=5e-5)
+    rate = comment_numbers("plan.impact ")[-1]  # after the call it names
+    assert np.linalg.norm(plan.impact.state.omega) == pytest.approx(rate, rel=5e-3)
+    direct = ff.capture.impact(model, plan.grasp_state, plan.target, 0, "free")
+    np.testing.assert_array_equal(plan.impact.impulse, direct.impulse)
+    assert ranking.spacecraft_rate[ranking.planner] == pytest.approx(comment_numbers("ranking.spacecraft_rate ")[0], rel=5e-3)
+
+
 #: Per docs page, per ```python block in order: what its results must be (None: it runs, its shape comments hold).
 DOCS_WITH_CODE: dict[str, list[Callable[[dict[str, Any], Path], None] | None]] = {
     "simulation.md": [_simulation_first, _simulation_rollout],
     "index.md": [_index],
     "workspaces.md": [_workspaces],
+    "impact.md": [None, None, _impact_planner],
 }
 
 

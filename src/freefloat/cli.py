@@ -478,12 +478,23 @@ def capture_command(
             help="auto (PIW, else a path-checked plan), piw (the paper's) or path; overrides the scenario.",
         ),
     ] = None,
+    rank_by: Annotated[
+        str | None,
+        typer.Option(
+            "--rank-by",
+            metavar="CRITERION",
+            help="How the capture posture of a moving target is chosen: measure (1992 §V), spacecraft_rate, impulse, "
+            "angular_impulse or joint_impulse (locked joints); overrides the scenario's [grasp] rank_by.",
+        ),
+    ] = None,
     end_effector: EndEffectorOption = None,
 ) -> None:
     """Plan a payload capture (1992 §V): approach distance, CM+, R+, capture posture and spacecraft orientation.
 
-    --rows/--measure/--threshold/--strategy override the scenario's [singularity] table."""
+    --rows/--measure/--threshold/--strategy override the scenario's [singularity] table. A moving target (the
+    scenario's [payload] velocity, angular_velocity): the impact at the grasp and the candidate postures ranked."""
 
+    from .analysis._capture_ranking import grasp_problem
     from .analysis.capture import STRATEGIES
     from .scenarios.capture_scenario import load_capture_scenario, run_capture_scenario, write_capture_outputs
 
@@ -493,13 +504,20 @@ def capture_command(
         loaded = load_capture_scenario(scenario, end_effectors=end_effector or None)
         if strategy is not None and strategy not in STRATEGIES:
             raise ValueError(f"--strategy {strategy!r}: unknown; choose one of {', '.join(STRATEGIES)}")
+        moving = loaded.velocity is not None or loaded.angular_velocity is not None
+        if rank_by is not None:
+            broken = grasp_problem(moving, loaded.joints, rank_by)
+            if broken is not None:
+                raise ValueError(f"--rank-by {rank_by!r}: {broken[1]}; {broken[2]}")
         loaded = dataclasses.replace(
             loaded,
             criterion=criterion_options(rows, measure, threshold, loaded.criterion),
             strategy=loaded.strategy if strategy is None else strategy,
+            rank_by=loaded.rank_by if rank_by is None else rank_by,
         )
         written: list[Path] = []
-        with _optional_out(out, overwrite, "capture", ["capture.json", "capture_plan.png"]) as target:
+        names = ["capture.json", "capture_plan.png", *(["capture_tradeoff.png"] if moving else [])]
+        with _optional_out(out, overwrite, "capture", names) as target:
             result = run_capture_scenario(loaded)
             if target is not None:
                 written = write_capture_outputs(result, target.stage)

@@ -274,11 +274,10 @@ def path_checked_candidates(
 
 def refine_candidates(
     model: Model, end_effector: int, path: np.ndarray, candidates: list[CheckedCandidate], *, criterion: SingularityCriterion
-) -> CheckedCandidate | None:
-    """Integrate the best screened candidates again at the default (fine) step; the best usable one (singularity-free,
-    within the joint limits), or None."""
+) -> list[CheckedCandidate]:
+    """The screened candidates integrated again at the default (fine) step, in the same order."""
     if not candidates:
-        return None
+        return []
     motions = free_floating_path_motion(
         model,
         end_effector,
@@ -288,6 +287,13 @@ def refine_candidates(
         path,
         criterion=criterion,
     )
-    fine = [CheckedCandidate(c.cm_plus, c.R_plus, c.q, c.attitude, m) for c, m in zip(candidates, motions, strict=True)]
-    best = max(fine, key=CheckedCandidate.score)
-    return best if best.motion.usable else None
+    return [CheckedCandidate(c.cm_plus, c.R_plus, c.q, c.attitude, m) for c, m in zip(candidates, motions, strict=True)]
+
+
+def best_candidate(candidates: list[CheckedCandidate]) -> int | None:
+    """The index of the best usable candidate (singularity-free, within the joint limits; :meth:`CheckedCandidate.score`),
+    or None."""
+    if not candidates:
+        return None
+    best = max(range(len(candidates)), key=lambda i: candidates[i].score())
+    return best if candidates[best].motion.usable else None

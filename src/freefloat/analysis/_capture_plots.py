@@ -1,4 +1,5 @@
-"""Drawing helpers of :mod:`freefloat.analysis.capture` (private): the system as a stick figure, in 2D or 3D axes.
+"""Drawing helpers of :mod:`freefloat.analysis.capture` (private): the system as a stick figure, in 2D or 3D axes, and
+the trade-off of a moving target's capture postures (:func:`plot_ranking`).
 
 Positions in the inertial frame, m; the geometry comes from
 :func:`freefloat.mechanics.kinematics.stick_figure` (links) and
@@ -19,7 +20,7 @@ if TYPE_CHECKING:
     from matplotlib.artist import Artist
     from matplotlib.axes import Axes
 
-__all__ = ["draw_system", "is_3d", "system_points"]
+__all__ = ["draw_system", "is_3d", "plot_ranking", "system_points"]
 
 
 def is_3d(ax: Any) -> bool:
@@ -162,4 +163,44 @@ def plot_plan(plan: Any, ax: Any) -> list[Artist]:
         ax.autoscale_view()
     ax.set_xlabel("x (m, inertial)")
     ax.set_ylabel("y (m, inertial)")
+    return artists
+
+
+#: Axis labels of the ranking criteria (:data:`freefloat.analysis._capture_ranking.RANKINGS`) and the energy lost.
+RANKING_LABELS = {
+    "measure": "singularity measure at capture",
+    "spacecraft_rate": "spacecraft rate after the grasp |ω0⁺| (rad/s)",
+    "impulse": "linear grasp impulse on the target (N s)",
+    "angular_impulse": "angular grasp impulse about the target's CM (N m s)",
+    "joint_impulse": "joint impulse |τ̂| of the locked joints (N m s)",
+    "energy_lost": "energy lost in the grasp (J)",
+}
+
+
+def plot_ranking(ranking: Any, ax: Any, *, y: str | None = None) -> list[Artist]:
+    """Draw the trade-off of a :class:`~freefloat.analysis._capture_ranking.CaptureRanking` on 2D axes.
+
+    x: each candidate's singularity measure at capture; y: its value of ``y`` (a ranking criterion or
+    ``"energy_lost"``; default the ranking's criterion, or the spacecraft rate after the grasp when it ranks by the
+    measure). The candidates that pass the planner's checks are dots (one series per eq. 21 family of a planar
+    two-link arm, labelled "family 1 (+acos)", "family 2 (-acos)"; else one series "candidate postures"), those
+    that fail a check grey crosses, the planner's most dexterous choice an open diamond and the chosen one a star.
+    Returns the artists.
+    """
+    name = y if y is not None else ("spacecraft_rate" if ranking.rank_by == "measure" else ranking.rank_by)
+    value = ranking.values(name)
+    x, ok, family = ranking.measure, ranking.valid, ranking.family
+    artists: list[Artist] = []
+    groups = [(family == k, f"family {k + 1} ({'+' if k == 0 else '-'}acos)") for k in (0, 1) if np.any(family == k)]
+    for k, (members, label) in enumerate(groups or [(np.ones(x.shape, dtype=bool), "candidate postures")]):
+        pick = members & ok
+        if np.any(pick):
+            artists += ax.plot(x[pick], value[pick], "o", ls="none", color=f"C{k}", ms=4, label=f"{label}: pass the checks")
+    if np.any(~ok):
+        artists += ax.plot(x[~ok], value[~ok], "x", ls="none", color="0.6", ms=5, label="fail a check along the path")
+    p, c = ranking.planner, ranking.chosen
+    artists += ax.plot([x[p]], [value[p]], "D", ls="none", mfc="none", mec="k", ms=10, mew=1.5, label="most dexterous (1992 §V)")
+    artists += ax.plot([x[c]], [value[c]], "*", ls="none", color="C3", ms=14, label=f"chosen (rank by {ranking.rank_by})")
+    ax.set_xlabel(f"{RANKING_LABELS['measure']}, absolute: {ranking.measure_name}")
+    ax.set_ylabel(RANKING_LABELS[name])
     return artists

@@ -23,28 +23,45 @@ Angles in rad (``theta_deg``-style values only in :mod:`freefloat.papers.paper19
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from scipy.optimize import minimize
 from scipy.spatial.transform import Rotation
 
 from ..core._figures import new_axes
 from ..core.feedback import status
-from ..core.model import Model
+from ..core.model import Model, inertia_matrix
+from ..core.state import State
 from ..core.target import Target
 from ..mechanics.impact import Impact, impact
-from ..mechanics.jacobians import end_effector_jacobian, jacobian_measure
-from ..mechanics.kinematics import end_effector_positions
-from . import _workspace_search as search
-from ._capture_families import CaptureFamilies, _family_of, _is_two_link, _two_link_coefficients, capture_families
-from ._capture_path import PathMotion, free_floating_path_motion, path_checked_candidates, refine_candidates
+from ._capture_families import CaptureFamilies, capture_families
+from ._capture_path import (
+    CheckedCandidate,
+    PathMotion,
+    best_candidate,
+    free_floating_path_motion,
+    path_checked_candidates,
+    refine_candidates,
+)
 from ._capture_plots import draw_system, plot_plan
+from ._capture_posture import CapturePosture, _dexterity, _posture_candidates, optimal_capture_posture, posture_at
+from ._capture_ranking import (
+    RANKINGS,
+    CaptureRanking,
+    Grasp,
+    Payload,
+    check_twist,
+    grasp_problem,
+    grasp_setup,
+    piw_candidates,
+    rank_candidates,
+)
 from ._path_placement import PathDoesNotFitError, PathPlacement, _check_path, _margin, _perpendiculars, approach_distance, place_path
-from ._workspace_reach import end_effector_radius, reachable_workspace, singularity_measure
-from ._workspace_results import PathIndependentWorkspace, _axes, _freeze
+from ._workspace_reach import end_effector_radius
+from ._workspace_results import PathIndependentWorkspace
 from ._workspace_singular import path_independent_workspace
 from .singularity import SingularityCriterion
 
@@ -53,9 +70,11 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
 
 __all__ = [
+    "RANKINGS",
     "CaptureFamilies",
     "CapturePlan",
     "CapturePosture",
+    "CaptureRanking",
     "Impact",
     "PathDoesNotFitError",
     "PathMotion",
@@ -70,195 +89,6 @@ __all__ = [
     "place_path",
     "plan_capture",
 ]
-
-
-# ----------------------------------------------------------------------------------------------------------------- posture
-@dataclass(frozen=True, eq=False)
-class CapturePosture:
-    """The capture configuration of 1992 §V: max |det J*| subject to |r_E| = R+ and the joint limits.
-
-    ``q`` (N,) rad; ``measure``: |det J*| (square J*) or sqrt(det J* J*ᵀ),
-    see :func:`freefloat.manipulability`; ``det``: the signed determinant
-    (None if J* is not square); ``residual`` = |r_E(q)| - R+ (m);
-    ``attitude``: quaternion [x, y, z, w] of the spacecraft that puts the end
-    effector at CM+ + R+ ``direction`` (eq. 20; the smallest rotation in
-    3D); ``theta``: that attitude as the planar angle θ (rad; None in 3D);
-    ``family``: 0 or 1 (eq. 21) for a planar two-link arm.
-    """
-
-    model_name: str
-    end_effector: str
-    q: np.ndarray
-    R_plus: float
-    measure: float
-    det: float | None
-    residual: float
-    direction: np.ndarray
-    attitude: np.ndarray
-    theta: float | None
-    family: int | None
-    starts: int
-
-    def __post_init__(self) -> None:
-        _freeze(self)
-
-    def plot(self, model: Model, ax: Axes | None = None, *, center: Any = (0.0, 0.0)) -> list[Artist]:
-        """Stick figure of ``model`` in this posture and attitude, system CM at ``center`` (x-y plane)."""
-        return draw_system(_axes(ax), model, self.q, attitude=self.attitude, center=center)
-
-
-def _dexterity(model: Model, q: np.ndarray, criterion: SingularityCriterion | None = None) -> np.ndarray:
-    """What the capture posture maximises, (...) for q (..., N): the criterion's measure, absolute.
-
-    Default (``criterion`` None or measure ``"auto"``): the product of the
-    singular values of J* (1992 eq. 14; planar rows for a planar model):
-    |det J*| when J* is square, sqrt(det J* J*ᵀ) (the manipulability) otherwise.
-    """
-    crit = criterion if criterion is not None else SingularityCriterion()
-    measure = "manipulability" if crit.measure == "auto" else crit.measure
-    return np.abs(jacobian_measure(model, np.asarray(q, dtype=float), crit.row_indices(model), measure))
-
-
-def _starts(
-    model: Model, e: int, R_plus: float, box: search.JointBox, samples: int, starts: int, seed: int, criterion: SingularityCriterion | None
-) -> list[np.ndarray]:
-    out: list[np.ndarray] = []
-    if _is_two_link(model):  # the best point of each family of eq. 21 on a fine q1 grid
-        q1 = np.linspace(-np.pi, np.pi, 3601)
-        fam = capture_families(model, e, R_plus, q1)
-        for k in range(2):
-            d = np.abs(fam.det[:, k])
-            if np.any(np.isfinite(d)):
-                i = int(np.nanargmax(d))
-                out.append(np.array([q1[i], fam.q2[i, k]]))
-    q = search.sobol(samples, box.lo, box.hi, seed)
-    r = end_effector_radius(model, q, e)
-    near = np.argsort(np.abs(r - R_plus))[: max(64, q.shape[0] // 50)]
-    meas = _dexterity(model, q[near], criterion)
-    out += [q[i] for i in near[np.argsort(-meas)][:starts]]
-    return out
-
-
-def optimal_capture_posture(
-    model: Model,
-    end_effector: str | int,
-    R_plus: float,
-    *,
-    direction: Any = None,
-    family: int | None = None,
-    samples: int = 1 << 14,
-    starts: int = 8,
-    seed: int = 0,
-    criterion: SingularityCriterion | None = None,
-) -> CapturePosture:
-    """The capture posture that maximises |det J*| (or sqrt det J* J*ᵀ) with |r_E(q)| = R+ (1992 §V, eq. 21).
-
-    ``criterion``: maximise its measure on its rows of J* instead
-    (:class:`~freefloat.analysis.singularity.SingularityCriterion`; measure
-    ``"auto"``: the product of the singular values).
-
-    SLSQP with the equality constraint |r_E|² = R+² (analytic gradient from
-    :func:`freefloat.end_effector_jacobian`) and the joint limits as bounds,
-    from the best point of each eq. 21 family (planar two-link arm) and the
-    best of ``samples`` Sobol configurations near |r_E| = R+. Ties between
-    mirror optima go to det > 0, then the larger first joint angle (the
-    paper's "choosing the positive value"). ``direction``: unit vector from
-    CM+ to the path start A, inertial (default +x: eq. 20 with x_E = R+,
-    y_E = 0); the attitude rotates r_E onto it. ``family`` (0: +acos,
-    1: -acos; planar two-link arm only): the best posture on that family
-    of eq. 21 only (the paper's Fig. 6 shows both).
-    """
-    e = model.end_effector_index(end_effector)
-    if family is not None:
-        if family not in (0, 1) or isinstance(family, bool):
-            raise ValueError(f"family: expected 0 (+acos) or 1 (-acos) of eq. 21, got {family!r}")
-        _two_link_coefficients(model, e)  # ModelError unless a planar two-link arm
-    R_plus = float(R_plus)
-    reach = reachable_workspace(model, e)
-    tol = 10.0 * reach.accuracy
-    if not (np.isfinite(R_plus) and reach.R_min - tol <= R_plus <= reach.R_max + tol):
-        raise ValueError(
-            f"R_plus = {R_plus!r} m is outside the reachable workspace [{reach.R_min:.6g}, {reach.R_max:.6g}] m of {reach.end_effector!r}"
-        )
-    box = search.model_box(model)
-    bounds = [(None, None) if f else (lo, hi) for lo, hi, f in zip(box.lo, box.hi, box.free, strict=True)]
-
-    def constraint(q: np.ndarray) -> np.ndarray:
-        return np.array([(end_effector_radius(model, q, e) ** 2 - R_plus**2)])
-
-    def constraint_jac(q: np.ndarray) -> np.ndarray:
-        r = end_effector_positions(model, q)[e]
-        return (2.0 * r @ end_effector_jacobian(model, q, e)[0:3, 6:])[None, :]
-
-    def objective(q: np.ndarray) -> float:
-        return -float(_dexterity(model, q, criterion))
-
-    results = []
-    candidates = _starts(model, e, R_plus, box, samples, starts, seed, criterion)
-    for q0 in candidates:
-        res = minimize(
-            objective,
-            q0,
-            method="SLSQP",
-            bounds=bounds,
-            constraints=[{"type": "eq", "fun": constraint, "jac": constraint_jac}],
-            options={"ftol": 1e-14, "maxiter": 500},
-        )
-        q = np.asarray(res.x)
-        residual = float(end_effector_radius(model, q, e)) - R_plus
-        inside = bool(np.all((q >= box.lo - 1e-12) | box.free) and np.all((q <= box.hi + 1e-12) | box.free))
-        if abs(residual) < 1e-9 * max(1.0, R_plus) and inside:
-            on = _family_of(model, e, R_plus, q)
-            if family is None or on == family:
-                results.append((float(_dexterity(model, q, criterion)), q, on))
-    if not results:
-        which = "" if family is None else f" on family {family}"
-        raise ValueError(f"optimal_capture_posture: no start converged to |r_E| = {R_plus:.6g} m{which}; try more samples or starts")
-    best_value = max(r[0] for r in results)
-    square = _square(model) and (criterion is None or criterion.rows == "auto")
-
-    def rank(item: tuple[float, np.ndarray, int | None]) -> tuple[bool, float, float]:
-        value, q, _ = item
-        det = float(singularity_measure(model, q)) if square else 0.0
-        return (value >= best_value * (1.0 - 1e-9), det > 0.0, float(np.angle(np.exp(1j * q[0]))) if q.size else 0.0)
-
-    value, q, on_family = max(results, key=rank)
-    q = np.where(box.free, np.angle(np.exp(1j * q)), q)
-    r0 = end_effector_positions(model, q)[e]
-    d = np.zeros(3)
-    if direction is None:
-        d[0] = 1.0
-    else:
-        given = np.asarray(direction, dtype=float).ravel()
-        if given.size not in (2, 3) or not np.all(np.isfinite(given)) or np.linalg.norm(given) == 0.0:
-            raise ValueError(f"direction: expected a nonzero 2D or 3D vector, got {direction!r}")
-        d[: given.size] = given / np.linalg.norm(given)
-    theta: float | None
-    if model.is_planar and abs(d[2]) < 1e-12:
-        theta = float(np.angle(np.exp(1j * (np.arctan2(d[1], d[0]) - np.arctan2(r0[1], r0[0])))))
-        rotation = Rotation.from_rotvec([0.0, 0.0, theta])
-    else:
-        theta = None
-        rotation = Rotation.align_vectors(d[None], r0[None] / np.linalg.norm(r0))[0]
-    return CapturePosture(
-        model_name=model.name,
-        end_effector=model.end_effector_names[e],
-        q=q,
-        R_plus=R_plus,
-        measure=value,
-        det=float(singularity_measure(model, q)) if square else None,
-        residual=float(end_effector_radius(model, q, e)) - R_plus,
-        direction=d,
-        attitude=rotation.as_quat(),
-        theta=theta,
-        family=on_family,
-        starts=len(candidates),
-    )
-
-
-def _square(model: Model) -> bool:
-    rows = 2 * model.n_end_effectors if model.is_planar else 6 * model.n_end_effectors
-    return rows == model.n_joints
 
 
 # ----------------------------------------------------------------------------------------------------------------- the whole §V
@@ -277,6 +107,13 @@ class CapturePlan:
     PIW annulus, or the paper's posture fails a check along it); empty for
     ``"piw"``. ``motion``: that free-floating motion (1992 eqs. 12, 14) along
     the path, with the singularity measure along it.
+
+    A moving target (``plan_capture(..., target_velocity=, target_angular_velocity=)``; else these are None):
+    ``grasp_state``, the robot's :class:`~freefloat.State` just before the grasp (at rest in ``posture``, its CM at
+    the approach point of eq. 19); ``target``, the payload as a :class:`Target` at the grasp (its CM where the plan
+    puts it, the grasping body's axes, the given motion); ``impact``, :func:`impact` of the two (the combined model is
+    ``captured`` up to rounding); ``ranking``, every candidate capture with its measure, its checks and its impact,
+    and the one chosen (:class:`CaptureRanking`, drawn by :meth:`plot_tradeoff`).
     """
 
     before: Model
@@ -289,6 +126,10 @@ class CapturePlan:
     motion: PathMotion | None = None
     criterion: SingularityCriterion = field(default_factory=SingularityCriterion)
     why_path: str = ""
+    grasp_state: State | None = None
+    target: Target | None = None
+    impact: Impact | None = None
+    ranking: CaptureRanking | None = None
 
     @property
     def approach_distance(self) -> float:
@@ -305,38 +146,15 @@ class CapturePlan:
             ax = new_axes(figsize=(7.4, 7.6), projection=None if self.captured.is_planar else "3d")
         return plot_plan(self, ax)
 
-
-def _snap_to_radius(model: Model, e: int, q: np.ndarray, R_plus: float, box: search.JointBox) -> np.ndarray:
-    """Newton steps along the gradient of |r_E| that put each configuration (M, N) on |r_E| = R+; NaN rows where it fails."""
-    q = q.copy()
-    for _ in range(30):
-        r = end_effector_positions(model, q)[:, e]
-        norm = np.linalg.norm(r, axis=-1)
-        grad = np.einsum("mi,mij->mj", r / np.maximum(norm, 1e-300)[:, None], end_effector_jacobian(model, q, e)[:, 0:3, 6:])
-        q -= ((norm - R_plus) / np.maximum(np.einsum("mj,mj->m", grad, grad), 1e-300))[:, None] * grad
-    ok = np.abs(end_effector_radius(model, q, e) - R_plus) < 1e-9 * max(1.0, R_plus)
-    ok &= np.all(((q >= box.lo) & (q <= box.hi)) | box.free, axis=1)
-    q[~ok] = np.nan
-    return q
-
-
-def _posture_candidates(
-    model: Model, e: int, R_plus: float, criterion: SingularityCriterion, *, count: int = 4, seed: int = 0
-) -> list[np.ndarray]:
-    """Up to ``count`` distinct capture configurations on |r_E| = R+ (Sobol samples put on the sphere), the most dexterous first."""
-    out: list[np.ndarray] = []
-    box = search.model_box(model)
-    q = search.sobol(1 << 12, box.lo, box.hi, seed + 1)
-    near = np.argsort(np.abs(end_effector_radius(model, q, e) - R_plus))[:256]
-    snapped = _snap_to_radius(model, e, q[near], R_plus, box)
-    snapped = snapped[np.all(np.isfinite(snapped), axis=1)]
-    if snapped.size:
-        for qq in snapped[np.argsort(-_dexterity(model, snapped, criterion))]:
-            if len(out) >= count:
-                break
-            if all(np.max(np.abs(np.angle(np.exp(1j * (qq - p))))) > 0.3 for p in out):
-                out.append(qq)
-    return out
+    def plot_tradeoff(self, ax: Axes | None = None, *, y: str | None = None) -> list[Artist]:
+        """The trade-off among the candidate capture postures of a moving target (:meth:`CaptureRanking.plot`): the
+        singularity measure at capture against ``y`` (default the ranking's criterion, or the spacecraft rate after the
+        grasp when it ranks by the measure), the most dexterous and the chosen posture marked. Returns the artists."""
+        if self.ranking is None:
+            raise ValueError(
+                "plot_tradeoff: this plan has no ranking; give plan_capture the target's motion (target_velocity, target_angular_velocity)"
+            )
+        return self.ranking.plot(ax, y=y)
 
 
 def _failed_checks(motion: PathMotion) -> str:
@@ -351,17 +169,16 @@ def _failed_checks(motion: PathMotion) -> str:
     return "; ".join(failed)
 
 
-def _path_checked_plan(
-    model: Model,
+def _path_checked_candidates(
     captured: Model,
     e: int,
     path: np.ndarray,
     piw: PathIndependentWorkspace,
-    mass: float,
     criterion: SingularityCriterion,
     R_plus: float | None,
-) -> tuple[PathPlacement, CapturePosture, PathMotion] | None:
-    """Search placements, postures and attitudes whose free-floating motion along the path stays non-singular."""
+) -> tuple[list[CheckedCandidate], int]:
+    """Placements, postures and attitudes whose free-floating motion along the path was integrated: the best screened
+    ones integrated again at the fine step, and how many were screened."""
     reach = piw.reachable
     pts = np.asarray(path, dtype=float)
     a = pts[0]
@@ -375,13 +192,28 @@ def _path_checked_plan(
         radii = np.linspace(reach.R_min, reach.R_max, 8)[1:-1]
     fits = [r for r in radii if max(_margin(pts, a + r * n, reach.R_min, reach.R_max) for n in normals) >= 0.0]
     if not fits:
-        return None
+        return [], 0
     found = path_checked_candidates(
         captured, e, pts, np.array(fits), normals, lambda r: _posture_candidates(captured, e, r, criterion), criterion=criterion
     )
-    best = refine_candidates(captured, e, pts, found[:8], criterion=criterion)
-    if best is None:
-        return None
+    return refine_candidates(captured, e, pts, found[:8], criterion=criterion), len(found)
+
+
+def _path_checked_plan(
+    model: Model,
+    captured: Model,
+    e: int,
+    path: np.ndarray,
+    piw: PathIndependentWorkspace,
+    mass: float,
+    criterion: SingularityCriterion,
+    best: CheckedCandidate,
+    starts: int,
+) -> tuple[PathPlacement, CapturePosture, PathMotion]:
+    """The plan of one path-checked candidate: its placement (CM+, R+, eq. 19), posture and motion."""
+    reach = piw.reachable
+    pts = np.asarray(path, dtype=float)
+    a = pts[0]
     c = best.cm_plus[: pts.shape[1]]
     robot = model.total_mass
     placement = PathPlacement(
@@ -415,9 +247,28 @@ def _path_checked_plan(
         attitude=best.attitude,
         theta=theta,
         family=None,
-        starts=len(found),
+        starts=starts,
     )
     return placement, posture, best.motion
+
+
+def _grasp_options(target_velocity: Any, target_angular_velocity: Any, joints: Any, rank_by: Any) -> Grasp | None:
+    """The moving-target options of :func:`plan_capture`, checked; None when no motion of the target was given."""
+    moving = target_velocity is not None or target_angular_velocity is not None
+    problem = grasp_problem(moving, joints, rank_by)
+    if problem is not None:
+        raise ValueError("{}: {}; {}".format(*problem))
+    if not moving:
+        return None
+    zero = np.zeros(3)
+    return Grasp(
+        velocity=zero if target_velocity is None else check_twist(target_velocity, "target_velocity", "velocity"),
+        angular_velocity=zero
+        if target_angular_velocity is None
+        else check_twist(target_angular_velocity, "target_angular_velocity", "angular_velocity"),
+        joints="free" if joints is None else joints,
+        rank_by=rank_by,
+    )
 
 
 def plan_capture(
@@ -433,6 +284,10 @@ def plan_capture(
     samples: int = 1 << 18,
     criterion: SingularityCriterion | None = None,
     strategy: str = "auto",
+    target_velocity: Any = None,
+    target_angular_velocity: Any = None,
+    joints: str | None = None,
+    rank_by: str = "measure",
 ) -> CapturePlan:
     """Run 1992 §V: capture of a payload (``mass`` kg, ``inertia`` about its CM) that must then follow ``path``.
 
@@ -455,6 +310,20 @@ def plan_capture(
     or ``"auto"`` (the PIW, else the path check). Raises
     :class:`PathDoesNotFitError` when no plan is found.
 
+    A moving target (docs/impact.md, "Moving targets in the capture planner"): ``target_velocity`` (3,) m/s and
+    ``target_angular_velocity`` (3,) rad/s, the payload's CM velocity and angular velocity at the grasp, inertial
+    frame (either may be left out: zero). The payload's mass and inertia stay ``mass`` and ``inertia``, and its pose
+    at the grasp is the plan's (so no :class:`Target` is taken: its position and attitude are what the plan
+    decides). ``joints``: "free" (default) or "locked" during the grasp (:func:`impact`). The plan then also holds
+    ``grasp_state`` (the robot at rest in the capture posture and attitude, its CM at the approach point of eq. 19),
+    ``target`` (the payload there, moving) and ``impact`` (:func:`impact` of the two), and ``ranking``: every
+    candidate capture (the eq. 21 families of a planar two-link arm on a 5° grid of q1, else sampled postures on
+    |r_E| = R+; for a path-checked plan its checked placements) with its measure, its checks and its impact.
+    ``rank_by``: "measure" (default: the 1992 §V choice, the same plan as without a moving target),
+    "spacecraft_rate", "impulse", "angular_impulse" or "joint_impulse" (locked joints): the candidate that passes
+    every check with the smallest value (:class:`CaptureRanking`). Without the target's motion these four are refused,
+    and ``impact``, ``grasp_state``, ``target`` and ``ranking`` are None.
+
     Progress: the post-capture PIW sampling and the path-checked search show a spinner, their elapsed time and a count
     (configurations; stages: one per candidate R+, then the batch integration) on a terminal, and log the same to the
     ``freefloat.progress`` logger elsewhere.
@@ -465,6 +334,7 @@ def plan_capture(
         isinstance(R_plus, bool) or not isinstance(R_plus, (int, float, np.number)) or not np.isfinite(R_plus) or R_plus <= 0
     ):
         raise ValueError(f"R_plus: expected a positive distance (m) from CM+ to A, got {R_plus!r}")
+    grasp = _grasp_options(target_velocity, target_angular_velocity, joints, rank_by)
     crit = criterion if criterion is not None else SingularityCriterion()
     e = model.end_effector_index(end_effector)
     captured = model.with_payload(e, mass=mass, inertia=inertia, offset=offset)
@@ -472,6 +342,7 @@ def plan_capture(
     with status(f"post-capture PIW of {captured.end_effector_names[e]}: {samples:,} sampled configurations"):
         piw = path_independent_workspace(captured, e, samples=samples, criterion=crit)
     found: tuple[str, PathPlacement, CapturePosture, PathMotion] | None = None
+    checked: list[CheckedCandidate] = []
     why_path = "strategy 'path' was asked for"
     if strategy != "path":
         try:
@@ -496,8 +367,9 @@ def plan_capture(
                 )
     if found is None:
         with status("searching capture placements, postures and attitudes whose free-floating motion follows the path"):
-            checked = _path_checked_plan(model, captured, e, pts, piw, float(mass), crit, R_plus)
-        if checked is None:
+            checked, starts = _path_checked_candidates(captured, e, pts, piw, crit, R_plus)
+        best = best_candidate(checked)
+        if best is None:
             where = ", ".join(f"[{lo:.4g}, {hi:.4g}]" for lo, hi in piw.piw) or "(empty)"
             raise PathDoesNotFitError(
                 f"{why_path} (PIW {where} m), and no capture placement, posture and attitude found moves the payload along "
@@ -506,9 +378,9 @@ def plan_capture(
                 margin=-np.inf,
                 fits_reachable=None,
             )
-        found = ("path", *checked)
+        found = ("path", *_path_checked_plan(model, captured, e, pts, piw, float(mass), crit, checked[best], starts))
     method, placement, posture, motion = found
-    return CapturePlan(
+    plan = CapturePlan(
         before=model,
         captured=captured,
         end_effector=model.end_effector_names[e],
@@ -519,4 +391,54 @@ def plan_capture(
         motion=motion,
         criterion=crit,
         why_path=why_path if method == "path" else "",
+    )
+    if grasp is None:
+        return plan
+    with status(f"the grasp of the moving target at each candidate capture posture (ranked by {grasp.rank_by})"):
+        payload = Payload(float(mass), inertia_matrix(inertia, "inertia"), np.asarray(offset, dtype=float))
+        return _ranked_plan(plan, e, pts, checked, grasp, payload)
+
+
+def _ranked_plan(
+    plan: CapturePlan, e: int, path: np.ndarray, checked: list[CheckedCandidate], grasp: Grasp, payload: Payload
+) -> CapturePlan:
+    """The plan with the grasp of a moving target: the candidates ranked, the chosen one's placement, posture and motion,
+    and the impact there."""
+    captured, crit, posture, motion = plan.captured, plan.criterion, plan.posture, plan.motion
+    assert motion is not None
+    if plan.method == "piw":
+        cm = plan.placement.cm_plus
+        others, family = piw_candidates(captured, e, path, posture, cm, crit)
+        candidates = [CheckedCandidate(cm, posture.R_plus, posture.q, posture.attitude, motion), *others]
+        families = np.concatenate([[-1 if posture.family is None else posture.family], family])
+        planner = 0
+    else:
+        candidates, families = checked, np.full(len(checked), -1)
+        best = best_candidate(checked)
+        assert best is not None  # the plan was made from it
+        planner = best
+    ranking = rank_candidates(plan.before, captured, e, candidates, families, planner, payload=payload, grasp=grasp, criterion=crit)
+    chosen = candidates[ranking.chosen]
+    placement = plan.placement
+    if ranking.chosen != planner:
+        if plan.method == "piw":
+            posture = posture_at(
+                captured,
+                e,
+                chosen.q,
+                chosen.attitude,
+                posture.R_plus,
+                posture.direction,
+                crit,
+                int(families[ranking.chosen]),
+                len(candidates),
+            )
+        else:
+            placement, posture, _ = _path_checked_plan(
+                plan.before, captured, e, path, plan.piw, payload.mass, crit, chosen, plan.posture.starts
+            )
+    state, target = grasp_setup(plan.before, captured, e, chosen.cm_plus, posture.q, posture.attitude, payload=payload, grasp=grasp)
+    hit = impact(plan.before, state, target, e, joints=grasp.joints)
+    return dataclasses.replace(
+        plan, placement=placement, posture=posture, motion=chosen.motion, impact=hit, grasp_state=state, target=target, ranking=ranking
     )

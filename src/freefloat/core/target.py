@@ -31,11 +31,12 @@ _MOTION = {
 }
 
 
-def _numbers(value: Any, name: str, fix: str) -> np.ndarray:
+def _numbers(value: Any, name: str, fix: str, where: str | None = None) -> np.ndarray:
+    field = where or f"Target.{name}"
     try:
-        return real_array(value, f"Target.{name}")
+        return real_array(value, field)
     except TypeError:
-        raise ModelError(f"Target.{name}", f"cannot read {value!r:.80} as real numbers", fix) from None
+        raise ModelError(field, f"cannot read {value!r:.80} as real numbers", fix) from None
 
 
 def _masses(value: Any) -> np.ndarray:
@@ -75,15 +76,18 @@ def _inertias(value: Any) -> np.ndarray:
     return arr
 
 
-def _motion(value: Any, name: str) -> np.ndarray:
+def motion_field(value: Any, name: str, where: str | None = None) -> np.ndarray:
+    """A motion field of a target (``name``: "position", "velocity" or "angular_velocity"), (..., 3) floats, finite and
+    within its bound; errors name ``where`` (default ``Target.<name>``): ``ModelError``, ``ShapeError``, ``ValueError``."""
     what, unit, bound, why = _MOTION[name]
+    field = where or f"Target.{name}"
     fix = f"give the {what} in {unit}, shape (3,) (or (..., 3) for a batch), finite"
-    arr = _numbers(value, name, fix)
+    arr = _numbers(value, name, fix, where)
     if arr.ndim == 0 or arr.shape[-1] != 3:
-        raise ShapeError(f"Target.{name}: expected shape (..., 3) ({what}), got {arr.shape}")
+        raise ShapeError(f"{field}: expected shape (..., 3) ({what}), got {arr.shape}")
     if not np.all(np.isfinite(arr)):
-        raise ModelError(f"Target.{name}", "has NaN or infinite entries", fix)
-    check_largest(arr, f"Target.{name}", bound, unit, why, f"check the units ({unit})")
+        raise ModelError(field, "has NaN or infinite entries", fix)
+    check_largest(arr, field, bound, unit, why, f"check the units ({unit})")
     return arr
 
 
@@ -138,10 +142,10 @@ class Target:
         fields = {
             "mass": _masses(self.mass),
             "inertia": _inertias(self.inertia),
-            "position": _motion(self.position, "position"),
+            "position": motion_field(self.position, "position"),
             "attitude": _attitude(self.attitude),
-            "velocity": _motion(self.velocity, "velocity"),
-            "angular_velocity": _motion(self.angular_velocity, "angular_velocity"),
+            "velocity": motion_field(self.velocity, "velocity"),
+            "angular_velocity": motion_field(self.angular_velocity, "angular_velocity"),
         }
         core = {"mass": 0, "inertia": 2, "position": 1, "attitude": 1, "velocity": 1, "angular_velocity": 1}
         shapes = {name: arr.shape[: arr.ndim - core[name]] for name, arr in fields.items()}

@@ -33,7 +33,7 @@ from ..analysis.workspace import PathIndependentWorkspace, end_effector_radius, 
 from ..core._figures import new_figure, save_and_close
 from ..mechanics.kinematics import end_effector_positions
 from ..models import papadopoulos1992
-from ..scenarios.capture_scenario import plot_capture_families, plot_capture_plan
+from ..scenarios.capture_outputs import plot_capture_families, plot_capture_plan
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
