@@ -173,7 +173,7 @@ DOCS_WITH_CODE: dict[str, list[Callable[[dict[str, Any], Path], None] | None]] =
     "simulation.md": [_simulation_first, _simulation_rollout],
     "index.md": [_index],
     "workspaces.md": [_workspaces],
-    "impact.md": [None, None, _impact_planner],
+    "impact.md": [None, None, _impact_planner, None],
 }
 
 

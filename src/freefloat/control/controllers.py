@@ -53,7 +53,7 @@ from ..mechanics.momentum import system_inertia_matrix
 from .desired import DesiredPoint, as_desired
 from .tasks import TaskSpace
 
-__all__ = ["OperationalSpaceController", "TransposedJacobianController", "damped_inverse", "gain_matrix"]
+__all__ = ["OperationalSpaceController", "TransposedJacobianController", "actuation_of", "damped_inverse", "gain_matrix"]
 
 
 def gain_matrix(value: Any, dim: int, name: str) -> np.ndarray:
@@ -94,6 +94,25 @@ def damped_inverse(matrix: np.ndarray, closeness: float, tolerance: float) -> np
     with np.errstate(divide="ignore"):
         inv = np.where(a > 0.0, a / (a * a + lam2), 0.0) if lam2 > 0.0 else 1.0 / a
     return (v * inv) @ v.T
+
+
+def actuation_of(
+    model: Model, state: State, generalized_force: np.ndarray, limits: ActuatorLimits | None, extras: dict[str, Any]
+) -> Actuation:
+    """The actuation that applies Q_c (6 + N, first block inertial) at the resolved ``state``: [f_S; n_S; τ] = J_q⁻ᵀ Q_c
+    (1991 eq. 30), then saturated by ``limits``; ``extras`` (with the attitude matrix under ``"_t0"``) gains Q_c, the
+    unsaturated values and ``saturated``. Every controller of :mod:`freefloat.control` ends here."""
+    q = np.asarray(state.q, dtype=float)
+    t0 = np.asarray(extras.pop("_t0"))
+    q_0 = generalized_force.copy()
+    q_0[0:3] = t0.T @ generalized_force[0:3]  # Q's first block into the spacecraft frame
+    force, torque, tau = _actuation_0(model, q[None], q_0[None])
+    force, torque, tau = force[0], torque[0], tau[0]
+    extras.update(generalized_force=generalized_force, joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque)
+    if limits is not None:
+        tau, force, torque, saturated = limits.apply(tau, force, torque)
+        extras["saturated"] = bool(saturated)
+    return Actuation(joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque, extras=extras)
 
 
 def _closeness(jac: np.ndarray) -> float:
@@ -175,17 +194,7 @@ class _TaskController:
         return ratio
 
     def _actuation(self, state: State, generalized_force: np.ndarray, extras: dict[str, Any]) -> Actuation:
-        q = np.asarray(state.q, dtype=float)
-        t0 = np.asarray(extras.pop("_t0"))
-        q_0 = generalized_force.copy()
-        q_0[0:3] = t0.T @ generalized_force[0:3]  # Q's first block into the spacecraft frame
-        force, torque, tau = _actuation_0(self.model, q[None], q_0[None])
-        force, torque, tau = force[0], torque[0], tau[0]
-        extras.update(generalized_force=generalized_force, joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque)
-        if self.limits is not None:
-            tau, force, torque, saturated = self.limits.apply(tau, force, torque)
-            extras["saturated"] = bool(saturated)
-        return Actuation(joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque, extras=extras)
+        return actuation_of(self.model, state, generalized_force, self.limits, extras)
 
     def __call__(self, t: float, state: State) -> Actuation:
         """The actuation at time t (1991 eq. 30): thruster force and torque (spacecraft frame), joint torques."""

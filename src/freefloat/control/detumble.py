@@ -1,0 +1,204 @@
+"""Detumbling after a capture: a controller that brings the combined system to rest (or to a commanded spacecraft
+attitude) with the thrusters and the joint torques, and what it cost.
+
+:class:`Detumble` is 1991 eq. 27 with the task "zero rates": the task coordinates are the generalized velocities
+themselves (J_z = 1), so eq. 27 becomes the computed-torque law on the whole system,
+
+    Q_c = H+ zddot0,des + C+,   zddot0,des = -K zdot0  (+ K_att e_att on the spacecraft rows),
+
+and [f_S; n_S; τ] = J_q⁻ᵀ Q_c (eq. 30). With an exact model and no saturation every rate decays as exp(-k t):
+v_cm (inertial, by the thruster force), the spacecraft rate ω0 (spacecraft frame, by the thruster torque) and the
+joint rates (by the joint torques). ``attitude=`` adds a commanded spacecraft attitude: ω̇0,des = K_att e - k ω0
+with e the rotation vector of T0ᵀ T0,des (spacecraft frame). ``force=False`` keeps the thrusters' force off
+(torque only): the CM then keeps its velocity, and rest means zero rotation and joint rates.
+
+:func:`detumble_cost` reads a simulated :class:`~freefloat.Trajectory` of it (or of any controller): thruster
+impulse, delta-v of the combined system and the propellant for a specific impulse, peak joint torques, time to rest.
+Reaction wheels are not modelled yet, so no wheel momentum or speed is reported.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..core.conventions import attitude_matrix
+from ..core.errors import ShapeError
+from ..core.model import Model
+from ..core.state import Actuation, State
+from ..mechanics.dynamics import nonlinear_forces
+from ..mechanics.momentum import system_inertia_matrix
+from .controllers import actuation_of
+
+__all__ = ["STANDARD_GRAVITY", "Detumble", "DetumbleCost", "detumble_cost"]
+
+#: g0 of the rocket equation (m/s²): propellant mass from a specific impulse in seconds.
+STANDARD_GRAVITY = 9.80665
+
+
+def _positive(value: Any, name: str, unit: str) -> float:
+    number = float(value)
+    if not (np.isfinite(number) and number > 0.0):
+        raise ValueError(f"{name}: expected a positive finite number ({unit}), got {value!r}")
+    return number
+
+
+class Detumble:
+    """A controller ``(t, state) -> Actuation`` that brings the system to rest: 1991 eq. 27 with J_z = 1 (module doc).
+
+    ``rate_gain`` k (1/s): every generalized rate decays as exp(-k t) (a scalar, or (6 + N,) per row of zdot0 =
+    [v_cm, ω0, qdot]). ``attitude`` (None: rates only; else a unit quaternion [x, y, z, w] or a scipy ``Rotation``,
+    spacecraft frame -> inertial) with ``attitude_gain`` (1/s², default k²/4: critically damped about each axis).
+    ``force=False``: no thruster force (the CM keeps drifting). Actuator limits are the simulation's
+    (``simulate(..., limits=ff.ActuatorLimits(...))``), which saturates and records where it did.
+    """
+
+    def __init__(
+        self,
+        model: Model,
+        *,
+        rate_gain: Any = 0.5,
+        attitude: Any = None,
+        attitude_gain: float | None = None,
+        force: bool = True,
+    ) -> None:
+        if not isinstance(model, Model):
+            raise TypeError(f"model: expected a freefloat Model, got {type(model).__name__}")
+        size = 6 + model.n_joints
+        gains = np.asarray(rate_gain, dtype=float)
+        gains = np.full(size, float(gains)) if gains.ndim == 0 else gains
+        if gains.shape != (size,):
+            raise ShapeError(f"rate_gain: expected a scalar or ({size},) gains (a row of [v_cm, omega, qdot] each), got {gains.shape}")
+        if not (np.all(np.isfinite(gains)) and np.all(gains > 0.0)):
+            raise ValueError(f"rate_gain: every gain must be positive and finite (1/s), got {rate_gain!r}")
+        self.model, self.rate_gain, self.force = model, gains.copy(), bool(force)
+        self.attitude: np.ndarray | None = None
+        self.attitude_gain = 0.0
+        if attitude is not None:
+            rotation = attitude if isinstance(attitude, Rotation) else None
+            if rotation is None:
+                quat = np.asarray(attitude, dtype=float)
+                if quat.shape != (4,) or not np.all(np.isfinite(quat)) or abs(np.linalg.norm(quat) - 1.0) > 1e-9:
+                    raise ValueError(f"attitude: expected a unit quaternion [x, y, z, w] or a scipy Rotation, got {attitude!r}")
+                rotation = Rotation.from_quat(quat)
+            if rotation.single is False:
+                raise ShapeError("attitude: expected one attitude, got a batch")
+            self.attitude = rotation.as_matrix()
+            k = float(np.min(gains[3:6]))
+            self.attitude_gain = _positive(k * k / 4.0 if attitude_gain is None else attitude_gain, "attitude_gain", "1/s^2")
+        elif attitude_gain is not None:
+            raise ValueError("attitude_gain: given without an attitude; pass attitude= as well, or drop attitude_gain")
+
+    def on_capture(self, impact: Any) -> None:
+        """Told by :func:`freefloat.simulate` at a capture event (``ff.Capture(controller_after=Detumble(robot))``):
+        from then on it controls the combined model (``impact.model``: the same joints, the target attached)."""
+        if impact.model.n_joints != self.model.n_joints:
+            raise ValueError(f"impact.model: has {impact.model.n_joints} joints, this controller's model {self.model.n_joints}")
+        self.model = impact.model
+
+    def desired_acceleration(self, state: State) -> np.ndarray:
+        """zddot0,des (6 + N) at a resolved ``state``: -k zdot0, the attitude error term on the ω0 rows, no force rows
+        when ``force=False``."""
+        acc = -self.rate_gain * state.velocity
+        if self.attitude is not None:
+            error = Rotation.from_matrix(attitude_matrix(state.attitude).T @ self.attitude).as_rotvec()
+            acc[3:6] += self.attitude_gain * error
+        if not self.force:
+            acc[0:3] = 0.0
+        return acc
+
+    def __call__(self, t: float, state: State) -> Actuation:
+        """Thruster force and torque (spacecraft frame) and joint torques: Q_c = H+ zddot0,des + C+, then eq. 30."""
+        state = state.resolve(self.model)
+        if np.asarray(state.q).ndim != 1:
+            raise ShapeError("state: a controller takes one state (fields without a batch axis)")
+        acc = self.desired_acceleration(state)
+        q_c = system_inertia_matrix(self.model, state.q) @ acc + nonlinear_forces(self.model, state.q, state.velocity)
+        if not self.force:
+            q_c[0:3] = 0.0  # C+ has no r_cm rows: the CM is left alone
+        return actuation_of(self.model, state, q_c, None, {"desired_acceleration": acc, "_t0": attitude_matrix(state.attitude)})
+
+
+@dataclass(frozen=True)
+class DetumbleCost:
+    """What a detumbling (or any) run cost, from its recorded actuation (:func:`detumble_cost`).
+
+    ``thruster_impulse`` ∫|f_S| dt (N s) and ``torque_impulse`` ∫|n_S| dt (N m s); ``delta_v`` = thruster_impulse /
+    total mass (m/s, the combined system's); ``propellant_mass`` M (1 - exp(-delta_v / (Isp g0))) (kg; None without a
+    specific impulse; the thruster torque's propellant depends on the thrusters' lever arms and is not in it);
+    ``peak_joint_torque`` max |τ| per joint (N,) (N m); ``peak_force``, ``peak_torque`` max |f_S|, |n_S|;
+    ``time_to_rest`` the first output time from which every later output is at rest (None: not at rest at the end);
+    ``final_rates`` (|v_cm|, |ω0|, max |qdot|) at the last output.
+    """
+
+    thruster_impulse: float
+    torque_impulse: float
+    delta_v: float
+    propellant_mass: float | None
+    peak_joint_torque: np.ndarray
+    peak_force: float
+    peak_torque: float
+    time_to_rest: float | None
+    final_rates: tuple[float, float, float]
+
+
+def detumble_cost(
+    trajectory: Any,
+    *,
+    specific_impulse: float | None = None,
+    rest_rate: float = 1e-3,
+    rest_velocity: float | None = 1e-3,
+    rest_joint_rate: float = 1e-3,
+) -> DetumbleCost:
+    """The cost of a simulated run (a :class:`~freefloat.Trajectory` with its model): :class:`DetumbleCost`.
+
+    The actuation is what the run recorded at each output time, held until the next (exact when the outputs are the
+    controller's samples: ``output_period=sample_period``). At rest: |ω0| <= ``rest_rate`` (rad/s), every |qdot| <=
+    ``rest_joint_rate`` (rad/s or m/s) and |v_cm| <= ``rest_velocity`` (m/s; None: the CM velocity is not asked,
+    as after :class:`Detumble` with ``force=False``). ``specific_impulse`` (s) gives the propellant mass.
+    """
+    model = getattr(trajectory, "model", None)
+    if model is None:
+        raise ValueError("trajectory: has no model attached; load it with Trajectory.load(path, model=...)")
+    if np.ndim(trajectory.q) != 2:
+        raise ShapeError("trajectory: expected one run (a rollout's batch: take one trajectory at a time)")
+    isp = None if specific_impulse is None else _positive(specific_impulse, "specific_impulse", "s")
+    rest = (_positive(rest_rate, "rest_rate", "rad/s"), _positive(rest_joint_rate, "rest_joint_rate", "rad/s or m/s"))
+    velocity_bound = None if rest_velocity is None else _positive(rest_velocity, "rest_velocity", "m/s")
+    t = np.asarray(trajectory.t, dtype=float)
+    held = np.diff(t)
+    force = np.linalg.norm(trajectory.spacecraft_force, axis=-1)
+    torque = np.linalg.norm(trajectory.spacecraft_torque, axis=-1)
+    impulse, torque_impulse = float(force[:-1] @ held), float(torque[:-1] @ held)
+    delta_v = impulse / model.total_mass
+    propellant = None if isp is None else float(model.total_mass * -np.expm1(-delta_v / (isp * STANDARD_GRAVITY)))
+    rates = (
+        np.linalg.norm(trajectory.v_cm, axis=-1),
+        np.linalg.norm(trajectory.omega, axis=-1),
+        np.abs(trajectory.qdot).max(axis=-1) if model.n_joints else np.zeros(t.shape),
+    )
+    still = (rates[1] <= rest[0]) & (rates[2] <= rest[1])
+    if velocity_bound is not None:
+        still &= rates[0] <= velocity_bound
+    moving = np.flatnonzero(~still)
+    if moving.size == 0:
+        time_to_rest: float | None = float(t[0])
+    elif moving[-1] == t.size - 1:
+        time_to_rest = None
+    else:
+        time_to_rest = float(t[moving[-1] + 1])
+    tau = np.abs(np.asarray(trajectory.joint_torque, dtype=float))
+    return DetumbleCost(
+        thruster_impulse=impulse,
+        torque_impulse=torque_impulse,
+        delta_v=delta_v,
+        propellant_mass=propellant,
+        peak_joint_torque=tau.max(axis=0) if tau.size else np.zeros(model.n_joints),
+        peak_force=float(force.max()),
+        peak_torque=float(torque.max()),
+        time_to_rest=time_to_rest,
+        final_rates=(float(rates[0][-1]), float(rates[1][-1]), float(rates[2][-1])),
+    )
