@@ -20,6 +20,7 @@ The Panda and Baxter files as distributed are in tests/oracle/test_real_robots.p
 
 from __future__ import annotations
 
+import dataclasses
 import tempfile
 from pathlib import Path
 
@@ -114,3 +115,22 @@ def test_random_trees_with_mimic_joints_match_pinocchio_of_the_expanded_tree(mod
     h_red = t.T @ (tp_inv.T @ system.mass_matrix(qp) @ tp_inv) @ t
     expected = np.linalg.solve(h_red[3:, 3:], t.T[3:] @ (-c_expanded) + np.concatenate([np.zeros(3), tau]))
     check("forward dynamics (contracted)", ff.forward_dynamics(model, q, zdot0, tau)[3:], expected)
+
+
+@settings(max_examples=15, deadline=None, derandomize=True)
+@given(random_mimic_trees(prismatic=0.3, gripper_like=True), st.integers(0, 1000))
+def test_random_trees_with_mimic_joints_and_rotors_match_pinocchio(model: ff.Model, seed: int) -> None:
+    """Mimic joints and rotor inertia together (issue 21): each independent joint's armature in freefloat and in
+    Pinocchio's ``model.armature`` (one entry per velocity of the mimic=True model: a mimic joint has none of its own);
+    H+ (CRBA), C+ (RNEA) and forward dynamics (ABA), which carry the armature in Pinocchio (its kinetic energy and
+    momenta of the bodies do not: the kinematic checks are the test above)."""
+    rng = np.random.default_rng(seed)
+    with tempfile.TemporaryDirectory() as directory:
+        loaded, system = pinocchio_mimic_system(model, directory)
+    armature = rng.uniform(0.01, 0.5, model.n_joints)
+    tips = tuple(name if name not in model.body_names else f"{name}_tip" for name in model.end_effector_names)
+    rotors = dataclasses.replace(loaded, joint_armature=armature)
+    pm = system.pm
+    for name, value in zip(model.joint_names, armature, strict=True):
+        pm.armature[pm.joints[pm.getJointId(name)].idx_v] = value
+    run_urdf_case(rotors, PinocchioSystem(rotors, pm, tips), rng, BOUND)
