@@ -715,6 +715,28 @@ CAPTURE_EDITS: list[tuple[str, str, tuple[tuple[str, str], ...]]] = [
         r"grasp\.rank_by: 'joint_impulse' is zero for free joints .*give joints = 'locked'",
         (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, '[grasp]\nrank_by = "joint_impulse"\n#')),
     ),
+    # the capture sequence: the [detumble] table (a moving target only)
+    (
+        "detumble-unknown-key",
+        r"detumble\.gain: unknown key; use one of attitude, duration, force",
+        (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, "[detumble]\ngain = 0.5\n#")),
+    ),
+    (
+        "detumble-rate-gain-negative",
+        r"detumble\.rate_gain: must be positive, got -0\.5; give detumble\.rate_gain in 1/s",
+        (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, "[detumble]\nrate_gain = -0.5\n#")),
+    ),
+    (
+        "detumble-duration-text",
+        r"detumble\.duration: expected a number, got 'long'",
+        (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, '[detumble]\nduration = "long"\n#')),
+    ),
+    (
+        "detumble-attitude-not-unit",
+        r"detumble\.attitude: has norm 2, not 1",
+        (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, "[detumble]\nattitude = [0.0, 0.0, 0.0, 2.0]\n#")),
+    ),
+    ("detumble-at-rest", r"detumble: needs a moving target", ((_END, "[detumble]\nrate_gain = 0.5\n#"),)),
 ]
 for _id, _, _changes in SIMULATION_EDITS:
     _add(f"sim/{_id}.toml", _edit(SIM, *_changes))
