@@ -1361,15 +1361,17 @@ CASES += [
     cli(f"cli-{command}-{id}", f"{prefix} {args}", match) for command, prefix in _OUT_COMMANDS.items() for id, args, match in BAD_OUTS
 ]
 CASES += [  # capture --rank-by: how a moving target's capture posture is chosen
-    cli("cli-capture-rank-by-unknown", f"capture {CAPTURE} --rank-by cheapest", r"--rank-by 'cheapest': unknown criterion 'cheapest'"),
-    cli("cli-capture-rank-by-empty", f"capture {CAPTURE} --rank-by=", r"--rank-by '': unknown criterion ''"),
     cli(
-        "cli-capture-rank-by-at-rest",
+        "cli-capture-option-rank-by-unknown", f"capture {CAPTURE} --rank-by cheapest", r"--rank-by 'cheapest': unknown criterion 'cheapest'"
+    ),
+    cli("cli-capture-option-rank-by-empty", f"capture {CAPTURE} --rank-by=", r"--rank-by '': unknown criterion ''"),
+    cli(
+        "cli-capture-option-rank-by-at-rest",
         f"capture {CAPTURE} --rank-by spacecraft_rate",
         r"--rank-by 'spacecraft_rate': 'spacecraft_rate' ranks the grasp of a moving target, and no motion of the target is given",
     ),
     cli(
-        "cli-capture-rank-by-joint-impulse-free",
+        "cli-capture-option-rank-by-joint-impulse-free",
         f"capture {MOVING} --rank-by joint_impulse",
         r"--rank-by 'joint_impulse': 'joint_impulse' is zero for free joints",
     ),
