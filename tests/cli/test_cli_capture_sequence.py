@@ -16,6 +16,8 @@ from typer.testing import CliRunner, Result
 
 import freefloat as ff
 from freefloat.cli import app
+from freefloat.scenarios.capture_scenario import capture_scenario_from_dict
+from freefloat.scenarios.capture_sequence import DetumbleSettings
 from images import check_png
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -53,8 +55,9 @@ def test_the_example_writes_the_report_the_run_the_figures_and_the_animation(wri
     with Image.open(out / "capture_detumble.gif") as gif:
         assert gif.n_frames == SCENARIO["detumble"]["frames"]
     markdown = (out / "capture.md").read_text()
-    for name in FIGURES:
-        assert f"]({name})" in markdown
+    for name in ("capture_plan.png", "capture_tradeoff.png", *FIGURES, "capture_detumble.gif"):
+        assert f"]({name})" in markdown and (out / name).is_file()
+    assert result.stdout.rstrip("\n") in markdown  # the whole report, plan and sequence
     assert "reaction wheels  not modelled" in markdown and "reaction wheels  not modelled" in result.stdout
     sequence = _report(out)["sequence"]
     assert sequence["detumble"]["wheel_speeds"] == "not modelled"
@@ -120,6 +123,7 @@ def test_no_animation_skips_the_gif(tmp_path: Path) -> None:
     result = invoke("capture", str(TUMBLING), "--out", str(out), "--no-animation")
     assert result.exit_code == 0, result.output
     assert (out / "capture_momentum.png").is_file() and not (out / "capture_detumble.gif").exists()
+    assert "capture_detumble.gif" not in (out / "capture.md").read_text()
     assert "capture sequence   grasp at t = 0" in result.stdout
 
 
@@ -138,3 +142,14 @@ def test_a_bad_detumble_table_is_refused_naming_the_field(tmp_path: Path, line: 
     scenario.write_text(text.replace("[detumble]\n", f"[detumble]\n{line}\n"))
     result = invoke("capture", str(scenario))
     assert result.exit_code == 1 and message in result.output, result.output
+
+
+def test_the_detumble_table_is_read_with_its_units_and_defaults() -> None:
+    data = tomllib.loads(TUMBLING.read_text())
+    data["detumble"] = {"rate_gain": 2, "attitude": [0.0, 0.0, 0.6, 0.8], "force": False}
+    settings = capture_scenario_from_dict(data).detumble
+    defaults = DetumbleSettings()
+    assert settings is not None and settings.rate_gain == 2.0 and settings.force is False
+    assert settings.attitude == (0.0, 0.0, 0.6, 0.8) and settings.duration == defaults.duration
+    del data["detumble"]
+    assert capture_scenario_from_dict(data).detumble is None

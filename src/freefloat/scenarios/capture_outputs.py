@@ -294,7 +294,7 @@ def write_capture_outputs(result: CaptureResult, out: Path, *, dpi: int = 200, a
         fig.savefig(path, dpi=dpi, bbox_inches="tight", pad_inches=0.15)
         written.append(path)
     if result.sequence is not None:
-        written += write_sequence_outputs(result.sequence, result.scenario.source, out, animation=animation)
+        written += write_sequence_outputs(result.sequence, result.scenario.source, result.render_text(), out, animation=animation)
     return written
 
 

@@ -135,11 +135,13 @@ class CaptureSequence:
             "  reaction wheels  not modelled (no wheel speeds)",
         ]
 
-    def markdown(self, source: str) -> str:
-        """``capture.md``: the report of the sequence with its figures."""
-        body = "\n".join(self.lines())
-        figures = [f"![{name[:-4].replace('_', ' ')}]({name})" for name in SEQUENCE_FILES if name.endswith(".png")]
-        return f"# Capture sequence: {source}\n\n```text\n{body}\n```\n\n" + "\n\n".join(figures) + "\n"
+    def markdown(self, source: str, report: str, *, animation: bool = True) -> str:
+        """``capture.md``: the whole report (``report``, the text of ``freefloat capture``) with the figures of the plan
+        and of the sequence, and the animation."""
+        names = ["capture_plan.png", "capture_tradeoff.png", *(n for n in SEQUENCE_FILES if n.endswith(".png"))]
+        figures = [f"![{name[:-4].replace('_', ' ')}]({name})" for name in [*names, *([ANIMATION_FILE] if animation else [])]]
+        text = report.rstrip("\n")
+        return f"# Capture sequence: {source}\n\n```text\n{text}\n```\n\n" + "\n\n".join(figures) + "\n"
 
 
 def _robot_momentum(model: Any, state: Any) -> np.ndarray:
@@ -173,14 +175,17 @@ def run_capture_sequence(plan: CapturePlan, settings: DetumbleSettings) -> Captu
     return CaptureSequence(settings=settings, run=run, cost=cost, momentum_before=before + target_momentum, momentum_after=after)
 
 
-def write_sequence_outputs(sequence: CaptureSequence, source: str, out: Path, *, dpi: int = 120, animation: bool = True) -> list[Path]:
-    """``capture.md``, the run (``capture_detumble.npz``), the figures and the animation (``capture_detumble.gif``)."""
+def write_sequence_outputs(
+    sequence: CaptureSequence, source: str, report: str, out: Path, *, dpi: int = 120, animation: bool = True
+) -> list[Path]:
+    """``capture.md`` (``report``: the text of the whole run), the run (``capture_detumble.npz``), the figures and the
+    animation (``capture_detumble.gif``)."""
     from matplotlib.figure import Figure
 
     after = sequence.run.after
     assert after is not None
     written = [out / "capture.md", after.save(out / "capture_detumble.npz", overwrite=True)]
-    written[0].write_text(sequence.markdown(source))
+    written[0].write_text(sequence.markdown(source, report, animation=animation))
     for name, draw in (
         ("capture_momentum.png", _plot_momentum),
         ("capture_rates.png", _plot_rates),
@@ -213,7 +218,14 @@ def _plot_momentum(sequence: CaptureSequence, axes: Any) -> None:
             ax.plot([after.t[0]], [sequence.momentum_after[k0 + i]], "x", color=line.get_color(), ms=7)
         ax.set_ylabel(unit)
         ax.legend(fontsize="x-small", loc="upper right")
-    axes[0].set_title("Momentum of robot + target: o before the grasp, x after; then the detumbling thrusters", fontsize="medium")
+    hit = sequence.run.impact
+    assert hit is not None
+    impulse = ", ".join(f"{x:.3g}" for x in hit.impulse)
+    axes[0].set_title(
+        f"Momentum of robot + target: o before the grasp, x after; then the detumbling thrusters\n"
+        f"grasp impulse on the target [{impulse}] (N s; N m s about its CM), energy lost {hit.energy_lost:.3g} J",
+        fontsize="medium",
+    )
     axes[2].plot(after.t, np.linalg.norm(after.v_cm, axis=-1), label="|v_cm| (m/s)")
     axes[2].plot(after.t, np.linalg.norm(after.omega, axis=-1), label="|ω0| (rad/s)")
     axes[2].set_yscale("log")
