@@ -715,6 +715,28 @@ CAPTURE_EDITS: list[tuple[str, str, tuple[tuple[str, str], ...]]] = [
         r"grasp\.rank_by: 'joint_impulse' is zero for free joints .*give joints = 'locked'",
         (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, '[grasp]\nrank_by = "joint_impulse"\n#')),
     ),
+    # the capture sequence: the [detumble] table (a moving target only)
+    (
+        "detumble-unknown-key",
+        r"detumble\.gain: unknown key; use one of attitude, duration, force",
+        (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, "[detumble]\ngain = 0.5\n#")),
+    ),
+    (
+        "detumble-rate-gain-negative",
+        r"detumble\.rate_gain: must be positive, got -0\.5; give detumble\.rate_gain in 1/s",
+        (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, "[detumble]\nrate_gain = -0.5\n#")),
+    ),
+    (
+        "detumble-duration-text",
+        r"detumble\.duration: expected a number, got 'long'",
+        (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, '[detumble]\nduration = "long"\n#')),
+    ),
+    (
+        "detumble-attitude-not-unit",
+        r"detumble\.attitude: has norm 2, not 1",
+        (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, "[detumble]\nattitude = [0.0, 0.0, 0.0, 2.0]\n#")),
+    ),
+    ("detumble-at-rest", r"detumble: needs a moving target", ((_END, "[detumble]\nrate_gain = 0.5\n#"),)),
 ]
 for _id, _, _changes in SIMULATION_EDITS:
     _add(f"sim/{_id}.toml", _edit(SIM, *_changes))
@@ -1339,15 +1361,17 @@ CASES += [
     cli(f"cli-{command}-{id}", f"{prefix} {args}", match) for command, prefix in _OUT_COMMANDS.items() for id, args, match in BAD_OUTS
 ]
 CASES += [  # capture --rank-by: how a moving target's capture posture is chosen
-    cli("cli-capture-rank-by-unknown", f"capture {CAPTURE} --rank-by cheapest", r"--rank-by 'cheapest': unknown criterion 'cheapest'"),
-    cli("cli-capture-rank-by-empty", f"capture {CAPTURE} --rank-by=", r"--rank-by '': unknown criterion ''"),
     cli(
-        "cli-capture-rank-by-at-rest",
+        "cli-capture-option-rank-by-unknown", f"capture {CAPTURE} --rank-by cheapest", r"--rank-by 'cheapest': unknown criterion 'cheapest'"
+    ),
+    cli("cli-capture-option-rank-by-empty", f"capture {CAPTURE} --rank-by=", r"--rank-by '': unknown criterion ''"),
+    cli(
+        "cli-capture-option-rank-by-at-rest",
         f"capture {CAPTURE} --rank-by spacecraft_rate",
         r"--rank-by 'spacecraft_rate': 'spacecraft_rate' ranks the grasp of a moving target, and no motion of the target is given",
     ),
     cli(
-        "cli-capture-rank-by-joint-impulse-free",
+        "cli-capture-option-rank-by-joint-impulse-free",
         f"capture {MOVING} --rank-by joint_impulse",
         r"--rank-by 'joint_impulse': 'joint_impulse' is zero for free joints",
     ),

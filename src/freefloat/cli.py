@@ -488,15 +488,21 @@ def capture_command(
         ),
     ] = None,
     end_effector: EndEffectorOption = None,
+    no_animation: Annotated[
+        bool,
+        typer.Option("--no-animation", help="With a [detumble] table and --out: skip the GIF of the detumbling run."),
+    ] = False,
 ) -> None:
     """Plan a payload capture (1992 §V): approach distance, CM+, R+, capture posture and spacecraft orientation.
 
     --rows/--measure/--threshold/--strategy override the scenario's [singularity] table. A moving target (the
-    scenario's [payload] velocity, angular_velocity): the impact at the grasp and the candidate postures ranked."""
+    scenario's [payload] velocity, angular_velocity): the impact at the grasp and the candidate postures ranked;
+    with a [detumble] table, the capture sequence (the grasp, then detumbling) is simulated and reported."""
 
     from .analysis._capture_ranking import grasp_problem
     from .analysis.capture import STRATEGIES
     from .scenarios.capture_scenario import load_capture_scenario, run_capture_scenario, write_capture_outputs
+    from .scenarios.capture_sequence import ANIMATION_FILE, SEQUENCE_FILES
 
     with user_errors():
         if out is not None and isinstance(out, _EmptyPath):
@@ -517,10 +523,12 @@ def capture_command(
         )
         written: list[Path] = []
         names = ["capture.json", "capture_plan.png", *(["capture_tradeoff.png"] if moving else [])]
+        if loaded.detumble is not None:
+            names += [*SEQUENCE_FILES, *([] if no_animation else [ANIMATION_FILE])]
         with _optional_out(out, overwrite, "capture", names) as target:
             result = run_capture_scenario(loaded)
             if target is not None:
-                written = write_capture_outputs(result, target.stage)
+                written = write_capture_outputs(result, target.stage, animation=not no_animation)
         written = target.final(written) if target is not None else []
     typer.echo(result.render_text().rstrip("\n"))
     for path in written:

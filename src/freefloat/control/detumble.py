@@ -35,8 +35,8 @@ from .controllers import actuation_of
 
 __all__ = ["STANDARD_GRAVITY", "Detumble", "DetumbleCost", "detumble_cost"]
 
-#: g0 of the rocket equation (m/s²): propellant mass from a specific impulse in seconds.
 STANDARD_GRAVITY = 9.80665
+"""g0 of the rocket equation (m/s²): the propellant mass from a specific impulse in seconds."""
 
 
 def _positive(value: Any, name: str, unit: str) -> float:

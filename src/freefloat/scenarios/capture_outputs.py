@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..analysis.capture import RANKINGS, CapturePlan, CapturePosture, CaptureRanking, PathMotion, capture_families
+from .capture_sequence import CaptureSequence, write_sequence_outputs
 
 if TYPE_CHECKING:
     from .capture_scenario import CaptureScenario
@@ -32,6 +33,7 @@ class CaptureResult:
     scenario: CaptureScenario
     plan: CapturePlan
     family_postures: tuple[CapturePosture | None, ...]
+    sequence: CaptureSequence | None = None  # the grasp and the detumbling run ([detumble]), :mod:`.capture_sequence`
 
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready summary; lengths in m, angles in rad and deg (``_deg``)."""
@@ -85,6 +87,7 @@ class CaptureResult:
                 "singularity_free": None if p.motion is None else p.motion.singularity_free,
                 "within_joint_limits": None if p.motion is None else p.motion.within_limits,
             },
+            "sequence": None if self.sequence is None else self.sequence.as_dict(),
         }
 
     def render_text(self) -> str:
@@ -150,7 +153,8 @@ class CaptureResult:
         quat = ", ".join(f"{v:.6f}" for v in chosen.attitude)
         theta = "" if chosen.theta is None else f"θ = {np.degrees(chosen.theta):.2f} deg, "
         lines.append(f"  spacecraft         {theta}attitude quaternion [x, y, z, w] = [{quat}] (eq. 20: end effector on A)")
-        return "\n".join(lines + _grasp_lines(p)) + "\n"
+        sequence = [] if self.sequence is None else self.sequence.lines()
+        return "\n".join(lines + _grasp_lines(p) + sequence) + "\n"
 
 
 #: Column headings of the ranking table (:func:`_grasp_lines`): criterion -> (heading, what its best row is called).
@@ -265,9 +269,11 @@ def _motion_dict(motion: PathMotion) -> dict[str, Any]:
     }
 
 
-def write_capture_outputs(result: CaptureResult, out: Path, *, dpi: int = 200) -> list[Path]:
+def write_capture_outputs(result: CaptureResult, out: Path, *, dpi: int = 200, animation: bool = True) -> list[Path]:
     """``capture.json``, ``capture_plan.png`` (like the paper's Fig. 7), for a two-link arm ``capture_families.png``
-    (Fig. 6) and, for a moving target, ``capture_tradeoff.png`` (:func:`plot_capture_tradeoff`)."""
+    (Fig. 6) and, for a moving target, ``capture_tradeoff.png`` (:func:`plot_capture_tradeoff`); with a capture
+    sequence (``[detumble]``) its report ``capture.md``, run, figures and (``animation``) GIF
+    (:func:`~freefloat.scenarios.capture_sequence.write_sequence_outputs`)."""
     from matplotlib.figure import Figure
 
     out = Path(out)
@@ -287,6 +293,8 @@ def write_capture_outputs(result: CaptureResult, out: Path, *, dpi: int = 200) -
         path = out / name
         fig.savefig(path, dpi=dpi, bbox_inches="tight", pad_inches=0.15)
         written.append(path)
+    if result.sequence is not None:
+        written += write_sequence_outputs(result.sequence, result.scenario.source, result.render_text(), out, animation=animation)
     return written
 
 

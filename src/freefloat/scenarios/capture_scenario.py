@@ -36,6 +36,16 @@ planar two-link arm. Schema (docs/workspaces.md, docs/impact.md)::
     # rank_by = "spacecraft_rate"        # "measure" (1992 §V; default), "spacecraft_rate", "impulse", "angular_impulse",
                                          # "joint_impulse" (locked joints): the posture with the smallest value
 
+    # [detumble]                         # optional, a moving target only: the capture sequence (.capture_sequence)
+    # rate_gain = 0.5                    # 1/s: ff.control.Detumble's, every rate decays as exp(-k t)
+    # duration = 20.0                    # s of detumbling after the grasp at t = 0
+    # sample_period = 0.05               # s, the controller's samples and the outputs
+    # specific_impulse = 220.0           # optional, s: the propellant mass
+    # rest_rate = 1e-3                   # rad/s; rest_joint_rate (rad/s), rest_velocity (m/s): what counts as at rest
+    # attitude = [0.0, 0.0, 0.0, 1.0]    # optional: a commanded spacecraft attitude [x, y, z, w]
+    # force = true                       # false: thruster torque only
+    # frames = 40                        # frames of the animation
+
     [joint_limits]                       # optional, rad: joint name = [lower, upper]
     # arm1_q1 = [-2.5, 2.5]
     [joint_limits_deg]                   # optional, the same in degrees
@@ -62,6 +72,7 @@ from ..core.errors import ModelError, UnknownNameError
 from ..core.model import MAX_LENGTH, Model, inertia_matrix
 from ..io.model_files import read_toml
 from .capture_outputs import CaptureResult, plot_capture_families, plot_capture_plan, write_capture_outputs
+from .capture_sequence import DetumbleSettings, run_capture_sequence
 from .scenario import description_of, refuse_model_file, scenario_model
 
 __all__ = [
@@ -77,12 +88,13 @@ __all__ = [
 
 _TOP_KEYS = {
     "model", "end_effectors", "strict", "end_effector", "samples", "payload", "path", "singularity", "joint_limits", "joint_limits_deg",
-    "description", "grasp",
+    "description", "grasp", "detumble",
 }  # fmt: skip
 _SINGULARITY_KEYS = {"rows", "measure", "threshold", "strategy"}
 _PAYLOAD_KEYS = {"mass", "inertia", "offset", "velocity", "angular_velocity"}
 _PATH_KEYS = {"points", "rule", "R_plus"}
 _GRASP_KEYS = {"joints", "rank_by"}
+_DETUMBLE_KEYS = {f.name for f in dataclasses.fields(DetumbleSettings)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -106,6 +118,7 @@ class CaptureScenario:
     angular_velocity: np.ndarray | None = None
     joints: str | None = None
     rank_by: str = "measure"
+    detumble: DetumbleSettings | None = None
 
 
 def _where(source: str, field: str) -> str:
@@ -268,6 +281,12 @@ def capture_scenario_from_dict(
     broken = grasp_problem(velocity is not None or angular_velocity is not None, grasp.get("joints"), grasp.get("rank_by", "measure"))
     if broken is not None:
         raise ModelError(_where(source, f"grasp.{broken[0]}"), broken[1], broken[2])
+    detumble = None
+    if "detumble" in data:
+        if velocity is None and angular_velocity is None:
+            fix = "give the target's motion ([payload] velocity or angular_velocity) or drop [detumble]"
+            raise ModelError(_where(source, "detumble"), "needs a moving target", fix)
+        detumble = _detumble(data["detumble"], source)
     description = description_of(data, source)
     return CaptureScenario(
         source=source,
@@ -287,7 +306,48 @@ def capture_scenario_from_dict(
         angular_velocity=angular_velocity,
         joints=grasp.get("joints"),
         rank_by=str(grasp.get("rank_by", "measure")),
+        detumble=detumble,
     )
+
+
+def _detumble(table: Any, source: str) -> DetumbleSettings:
+    """The [detumble] table: the capture sequence after the plan (:mod:`.capture_sequence`)."""
+    table = _check_keys(table, _DETUMBLE_KEYS, source, "detumble")
+    values: dict[str, Any] = {}
+    units = {
+        "rate_gain": "1/s", "duration": "s", "sample_period": "s", "specific_impulse": "s",
+        "rest_rate": "rad/s", "rest_velocity": "m/s", "rest_joint_rate": "rad/s",
+    }  # fmt: skip
+    for key, unit in units.items():
+        if key in table:
+            fix = f"give detumble.{key} in {unit}, a number > 0"
+            values[key] = _number(table[key], source, f"detumble.{key}", fix)
+            if values[key] <= 0.0:
+                raise ModelError(_where(source, f"detumble.{key}"), f"must be positive, got {table[key]!r}", fix)
+    if "force" in table:
+        if not isinstance(table["force"], bool):
+            fix = "write force = true (thrusters stop the CM) or false (torque only)"
+            raise ModelError(_where(source, "detumble.force"), f"expected true or false, got {table['force']!r}", fix)
+        values["force"] = table["force"]
+    if "frames" in table:
+        frames = table["frames"]
+        if isinstance(frames, bool) or not isinstance(frames, int) or frames < 2:
+            raise ModelError(_where(source, "detumble.frames"), f"expected an integer >= 2, got {frames!r}", "e.g. frames = 40")
+        values["frames"] = frames
+    if "attitude" in table:
+        fix = "give attitude = [x, y, z, w], a unit quaternion (spacecraft -> inertial), or leave it out (rates only)"
+        raw = table["attitude"]
+        if not isinstance(raw, list) or len(raw) != 4:
+            raise ModelError(_where(source, "detumble.attitude"), f"expected [x, y, z, w], got {raw!r}", fix)
+        quat = np.array([_number(v, source, "detumble.attitude", fix) for v in raw])
+        if abs(np.linalg.norm(quat) - 1.0) > 1e-6:
+            raise ModelError(_where(source, "detumble.attitude"), f"has norm {np.linalg.norm(quat):.6g}, not 1", fix)
+        values["attitude"] = tuple(float(v) for v in quat / np.linalg.norm(quat))
+    settings = DetumbleSettings(**values)
+    if settings.sample_period > settings.duration:
+        fix = "make sample_period (s) at most the duration"
+        raise ModelError(_where(source, "detumble.sample_period"), f"{settings.sample_period:g} s exceeds the duration", fix)
+    return settings
 
 
 def _twist(payload: dict[str, Any], key: str, source: str) -> np.ndarray | None:
@@ -363,4 +423,5 @@ def run_capture_scenario(scenario: CaptureScenario) -> CaptureResult:
             except ValueError:  # no posture on this family within the joint limits
                 found.append(None)
         families = tuple(found)
-    return CaptureResult(scenario=scenario, plan=plan, family_postures=families)
+    sequence = None if scenario.detumble is None else run_capture_sequence(plan, scenario.detumble)
+    return CaptureResult(scenario=scenario, plan=plan, family_postures=families, sequence=sequence)
