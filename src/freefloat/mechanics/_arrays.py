@@ -31,8 +31,8 @@ def new_output(shape: tuple[int, ...], dtype: Any = np.float64) -> np.ndarray:
     read back by the kernel's stores: alternated call by call on the project's 2-core VM (load 3.6,
     10^5 configurations, specialised kernels), touched / untouched: H+ of the 7-DOF arm (135 MB) 29 / 24
     ms median on one thread, 38 / 33 on two (worst 370 / 38 ms); J* of the 1992 system (38 MB) 16 / 12
-    ms on two threads (worst 51 / 23). (The first measurement, which had found concurrent first-touch
-    faults erratic on two threads, 1.6-33 M J*/s, did not reproduce.)
+    ms on two threads (worst 51 / 23). The spread that the touching was for (concurrent first-touch faults
+    on two threads, J* at 1.6-33 M/s) remains in a process's first one to three such calls only (docs/performance.md).
     """
     nbytes = float(np.prod(shape, dtype=float)) * np.dtype(dtype).itemsize
     require_memory(nbytes, f"a result of shape {shape}", "pass fewer configurations per call (a loop over chunks of the batch)")
