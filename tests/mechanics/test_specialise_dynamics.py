@@ -59,7 +59,7 @@ def test_specialised_dynamics_equal_the_generic_kernels(own_cache: None) -> None
     assert all(_specialise.find(tree(model), kind) is not None for kind in KINDS)
     calls: list[str] = []
     real = _specialise.mapped
-    _specialise.mapped = lambda module, t, q, out: (calls.append(module.__name__), real(module, t, q, out))[1]  # type: ignore[assignment]
+    _specialise.mapped = lambda module, *args: (calls.append(module.__name__), real(module, *args))[1]  # type: ignore[assignment]
     try:
         fast = outputs(model, 300, 1)
         small = outputs(model, 3, 2)  # below the specialised kernels' batch size: the generic kernels

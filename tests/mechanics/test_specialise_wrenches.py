@@ -17,7 +17,7 @@ import freefloat as ff
 from freefloat.mechanics import _engine, _lanes, _specialise
 from freefloat.mechanics._tree import tree
 from freefloat.mechanics.forces import _engine_wrenches
-from spies import count_calls
+from spies import count_calls, replace_everywhere
 from trees import build_random_model
 
 KINDS = ("forward", "inverse", "rollout")
@@ -177,3 +177,45 @@ def test_simulate_with_constant_wrenches_uses_the_specialised_rollouts(own_cache
         slow = ff.rollout(model, state, 0.05, dt=1e-3, external=external)
     _close(fast.q, slow.q)
     assert np.abs(fast.q[-1] - state.q).max() > 1e-6
+
+
+def test_inverse_dynamics_hands_its_wrenches_to_the_specialised_kernel(own_cache: None) -> None:
+    """The public ``ff.inverse_dynamics(..., external=)`` passes its wrenches to the engine (the wrench law written once,
+    in ``_recursions.newton_euler``), as ``ff.forward_dynamics`` does: a batch of 64 or more reaches the specialised
+    inverse-dynamics kernel of their layout (spied), and equals the former route, J_q^-T (H+ zddot0 + C+) less
+    J_q^-T Q_ext with Q_ext = sum J+^T [f; n] in numpy (``ff.generalized_forces``), to 1e-12."""
+    model = ff.models.spacecraft_7dof()
+    names = model.body_names
+    rng = np.random.default_rng(21)
+    size, n = 2 * LANES + 5, model.n_joints
+    q, v, acc = rng.uniform(-1.5, 1.5, (size, n)), rng.normal(size=(size, 6 + n)), rng.normal(size=(size, 6 + n))
+    att = Rotation.random(size, random_state=21).as_quat()
+    external = [  # the layout of _layout(model): the first test's kernels serve it when it ran before
+        ff.ExternalWrench(
+            names[-1], force=rng.normal(size=(size, 3)) * 20.0, torque=rng.normal(size=3), point=(0.1, 0.0, 0.05), frame="body"
+        ),
+        ff.ExternalWrench(names[0], force=rng.normal(size=3) * 20.0, torque=rng.normal(size=(size, 3)), point=(0.3, -0.2, 0.1)),
+        ff.ExternalWrench(names[1], force=rng.normal(size=(size, 3)) * 20.0, frame="spacecraft"),
+    ]
+    assert _specialise.layout(_engine_wrenches(model, external)[0]) == _specialise.layout(_layout(model))
+    with _specialise.generic():
+        plain = ff.inverse_dynamics(model, q, v, acc, att)
+        q_ext = ff.generalized_forces(model, q, external=external, attitude=att)
+        wrench_part = ff.mechanics.actuation_from_generalized_forces(model, q, q_ext, att)
+        generic = ff.inverse_dynamics(model, q, v, acc, att, external=external)
+    former = [p - w for p, w in zip(plain, wrench_part, strict=True)]
+    ff.mechanics.specialise(model, ["inverse"], external=external)
+    reached: list[Any] = []
+
+    def spy(module: Any, *args: Any) -> Any:
+        reached.append(module.WRENCHES)
+        return real(module, *args)
+
+    real = _specialise.mapped
+    with pytest.MonkeyPatch.context() as mp:
+        replace_everywhere(mp, real, spy)
+        fast = ff.inverse_dynamics(model, q, v, acc, att, external=external)
+    assert reached == [_specialise.layout(_layout(model))]  # one call, the kernel of the three wrenches' layout
+    for ours, ref, gen in zip(fast, former, generic, strict=True):
+        _close(ours, ref)
+        _close(gen, ref)

@@ -23,19 +23,20 @@ PAIR_BUDGET = 1 << 17
 
 
 def new_output(shape: tuple[int, ...], dtype: Any = np.float64) -> np.ndarray:
-    """``np.empty(shape)`` for a kernel's output, its memory pages written once here when it is large (>= 4 MB).
+    """``np.empty(shape)`` for a kernel's output, after a check that it fits in the free memory.
 
-    Measured on the project's 2-core VM: two numba threads taking the first-touch page faults of a
-    fresh 38 MB output at once ran J* at 1.6-33 M configurations/s from call to call (the faults
-    contend); touched here first, in one thread, the threaded kernels run at the same rate every call.
+    Its pages are left to the kernel that fills it: the system zeroes each page at the first write, just
+    before the kernel's stores, which then find its lines in cache. Touched first in the calling thread
+    (as this did until the engine's maps were measured again), every page was zeroed out to memory and
+    read back by the kernel's stores: alternated call by call on the project's 2-core VM (load 3.6,
+    10^5 configurations, specialised kernels), touched / untouched: H+ of the 7-DOF arm (135 MB) 29 / 24
+    ms median on one thread, 38 / 33 on two (worst 370 / 38 ms); J* of the 1992 system (38 MB) 16 / 12
+    ms on two threads (worst 51 / 23). The spread that the touching was for (concurrent first-touch faults
+    on two threads, J* at 1.6-33 M/s) remains in a process's first one to three such calls only (docs/performance.md).
     """
     nbytes = float(np.prod(shape, dtype=float)) * np.dtype(dtype).itemsize
     require_memory(nbytes, f"a result of shape {shape}", "pass fewer configurations per call (a loop over chunks of the batch)")
-    arr = np.empty(shape, dtype=dtype)
-    if arr.nbytes >= 1 << 22:
-        flat = arr.reshape(-1)
-        flat[:: max(1, 4096 // flat.itemsize)] = 0
-    return arr
+    return np.empty(shape, dtype=dtype)
 
 
 #: Set within :func:`computed_states`: joint arrays a simulation computed (no magnitude bound: a diverged run is still plotted).
@@ -56,6 +57,8 @@ def joint_array(model: Model, q: Any, name: str = "q") -> np.ndarray:
     """``q`` as a float array of shape (..., N); a clear error otherwise (not real numbers, NaN/inf, beyond
     ``MAX_JOINT_VALUE`` of :mod:`freefloat.core.numbers`)."""
     arr = real_array(q, name)
+    if not arr.flags.c_contiguous:  # one copy, which the engine makes anyway; the checks below then read it 3x faster
+        arr = np.ascontiguousarray(arr)
     n = model.n_joints
     if arr.ndim == 0 or arr.shape[-1] != n:
         raise ShapeError(

@@ -491,10 +491,16 @@ def inverse_one(
     s: Any,
     out: np.ndarray,
 ) -> None:  # pragma: no cover - compiled
-    """Rows [omega0, q] of H+ zddot0 + C+ - Q_u - Q_ext (3 + N) at q, zdot0 = ``velocity`` (1991 eq. 19; ``accelerate``
-    False: zddot0 = 0, then C+ - Q)."""
+    """H+ zddot0 + C+ - Q_u - Q_ext (6 + N) at q, zdot0 = ``velocity`` (1991 eq. 19; ``accelerate`` False: zddot0 = 0,
+    then C+ - Q), its first block in the spacecraft frame: M T0^T rddot_cm less the thrusters' and the external forces
+    (their sum by :func:`newton_euler`, which writes the rows [omega0, q])."""
+    n = m.n_joints
     prepare(q, m, s, True)
-    newton_euler(m, s, velocity, acceleration, accelerate, u, t0, ext_i, ext_f, out)
+    newton_euler(m, s, velocity, acceleration, accelerate, u, t0, ext_i, ext_f, out[3:])
+    f = s.total  # the external forces, spacecraft frame
+    for i in range(3):
+        a = t0[0, i] * acceleration[0] + t0[1, i] * acceleration[1] + t0[2, i] * acceleration[2] if accelerate else 0.0
+        out[i] = m.total_mass * a - f[i] - u[n + i]
 
 
 @kernel(inline="always")

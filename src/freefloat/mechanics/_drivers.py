@@ -276,8 +276,8 @@ def _hplus_rate_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
 
 @kernel(inline="always")
 def _inverse_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
-    """a = (Q, V, A, U, T0, ext_i, EXT, accelerate, OUT (C, 3 + N)): rows [omega0, q] of H+ zddot0 + C+ - Q_u - Q_ext
-    (accelerate False: zddot0 = 0)."""
+    """a = (Q, V, A, U, T0, ext_i, EXT, accelerate, OUT (C, 6 + N)): H+ zddot0 + C+ - Q_u - Q_ext, its first block in the
+    spacecraft frame (accelerate False: zddot0 = 0)."""
     Q, V, A, U, T0, ext_i, EXT, accelerate, OUT = a
     inverse_one(Q[i], V[i], A[i], accelerate, U[i], T0[i], m, ext_i, EXT[i], s, OUT[i])
 

@@ -140,7 +140,7 @@ def generalized_jacobian(model: Any, q: np.ndarray) -> np.ndarray:
     flat = _flat(q, batch, (t.n_joints,))
     rows = 6 * t.ee_body.shape[0]
     out = new_output((flat.shape[0], rows, t.n_joints))
-    if not _specialised_map(t, "jstar", flat, out.reshape((flat.shape[0], rows * t.n_joints))):
+    if not _specialised_map(t, "jstar", (flat,), out.reshape((flat.shape[0], rows * t.n_joints))):
         _timed(t, "jstar", flat.shape[0], _drivers.jstar_batch, flat.shape[0], t, flat, out)
     return out.reshape((*batch, rows, t.n_joints))
 
@@ -164,16 +164,28 @@ def jacobian_measures(model: Any, q: np.ndarray, rows: Any, measure: str) -> np.
     return out.reshape(batch)
 
 
-def _specialised_map(t: Tree, kind: str, inputs: Any, out: np.ndarray, wrenches: _specialise.Layout = ()) -> bool:
+def _specialised_map(t: Tree, kind: str, parts: Any, out: np.ndarray, wrenches: _specialise.Layout = ()) -> bool:
     """Run the specialised kernel of the map ``kind`` when made for ``t``'s structure (and the external wrenches'
-    layout ``wrenches``) and the batch is large enough: ``inputs`` the (C, inputs) array (or a function making it),
-    ``out`` (C, outputs); False when it did not run."""
+    layout ``wrenches``) and the batch is large enough: ``parts`` its inputs (:func:`_part` each; or a function making
+    them), ``out`` (C, outputs); False when it did not run."""
     size = out.shape[0]
     fast = _specialise.find(t, kind, wrenches) if size >= _SPECIALISED_MIN else None
     if fast is None:
         return False
-    _specialise.mapped(fast, t, _own(inputs() if callable(inputs) else inputs), out.reshape((size, -1)))
+    _specialise.mapped(fast, t, tuple(parts() if callable(parts) else parts), out.reshape((size, -1)))
     return True
+
+
+def _part(arr: np.ndarray | None, batch: tuple[int, ...], width: int) -> np.ndarray:
+    """An input of a specialised map (:func:`~._specialise.map_parts`): ``arr`` (..., width) as the rows (C, width) of
+    the batch ``batch``, or as one row (1, width) that every configuration shares (None: zeros); C-contiguous,
+    writable float64, a copy only when needed (the kernel reads each row into its lanes: no broadcast copy)."""
+    if arr is None:
+        return np.zeros((1, width))
+    arr = np.asarray(arr)
+    if arr.shape[:-1] != batch and arr.size == width:
+        return _own(arr).reshape((1, width))
+    return _flat(arr, batch, (width,))
 
 
 def _timed(t: Tree, kind: str, counted: int, driver: Any, *args: Any, wrenches: _specialise.Layout = ()) -> None:
@@ -192,7 +204,7 @@ def inertia_matrix(model: Any, q: np.ndarray) -> np.ndarray:
     flat = _flat(q, batch, (t.n_joints,))
     size = 6 + t.n_joints
     out = new_output((flat.shape[0], size, size))
-    if not _specialised_map(t, "hplus", flat, out.reshape((flat.shape[0], size * size))):
+    if not _specialised_map(t, "hplus", (flat,), out.reshape((flat.shape[0], size * size))):
         _timed(t, "hplus", flat.shape[0], _drivers.hplus_batch, flat.shape[0], t, flat, out)
     return out.reshape((*batch, size, size))
 
@@ -209,11 +221,33 @@ def inertia_matrix_rate(model: Any, q: np.ndarray, qdot: np.ndarray) -> np.ndarr
     return out.reshape((*batch, size, size))
 
 
-def _actuation(u: np.ndarray | None, t: Tree, batch: tuple[int, ...]) -> np.ndarray:
+#: An actuation u = [tau (N), f_S (3), n_S (3)]: an array (..., N + 6), or its three parts (each None: zero), or None (zero).
+Actuation = np.ndarray | tuple[np.ndarray | None, ...] | None
+
+
+def _actuation(u: Actuation, t: Tree, batch: tuple[int, ...]) -> np.ndarray:
     """u = [tau (N), f_S (3), n_S (3)] flat (C, N + 6); None is zero."""
+    size = int(np.prod(batch, dtype=np.int64))
     if u is None:
-        return np.zeros((int(np.prod(batch, dtype=np.int64)), t.n_joints + 6))
+        return np.zeros((size, t.n_joints + 6))
+    if isinstance(u, tuple):
+        out = np.zeros((size, t.n_joints + 6))
+        at = 0
+        for part, width in zip(u, (t.n_joints, 3, 3), strict=True):
+            if part is not None:
+                out[:, at : at + width] = np.broadcast_to(part, (*batch, width)).reshape((size, width))
+            at += width
+        return out
     return _flat(u, batch, (t.n_joints + 6,))
+
+
+def _split_actuation(u: Actuation, n: int) -> tuple[np.ndarray | None, ...]:
+    """The three parts (tau, f_S, n_S) of the actuation ``u`` (None: zero)."""
+    if u is None:
+        return (None, None, None)
+    if isinstance(u, tuple):
+        return u
+    return (u[..., :n], u[..., n : n + 3], u[..., n + 3 :])
 
 
 def _attitude_rows(t0: np.ndarray | None) -> np.ndarray:
@@ -226,31 +260,20 @@ def _attitudes(t0: np.ndarray | None, batch: tuple[int, ...]) -> np.ndarray:
 
 
 def _dynamics_batch(
-    q: np.ndarray, velocity: np.ndarray, u: np.ndarray | None, t0: np.ndarray | None, ext: tuple[np.ndarray, np.ndarray], *extra: np.ndarray
+    q: np.ndarray, velocity: np.ndarray, u: Actuation, t0: np.ndarray | None, ext: tuple[np.ndarray, np.ndarray], *extra: np.ndarray
 ) -> tuple[int, ...]:
     """The broadcast batch shape of a dynamics call's inputs."""
+    parts = [] if u is None else [p for p in (u if isinstance(u, tuple) else (u,)) if p is not None]
     return _batch(
-        (q, 1), (velocity, 1), (ext[1], 2), *((e, 1) for e in extra), *(() if u is None else ((u, 1),)), *(() if t0 is None else ((t0, 2),))
+        (q, 1), (velocity, 1), (ext[1], 2), *((e, 1) for e in extra), *((p, 1) for p in parts), *(() if t0 is None else ((t0, 2),))
     )
-
-
-def _lane_inputs(batch: tuple[int, ...], parts: list[tuple[np.ndarray | None, int]]) -> np.ndarray:
-    """A specialised map's inputs (C, sum of widths): each part (array (..., width) broadcast against ``batch``, or None:
-    zero) written once into its columns; no flat copy of each part first, nor a concatenation of them."""
-    width = sum(w for _, w in parts)
-    rows = new_output((*batch, width))
-    at = 0
-    for part, w in parts:
-        rows[..., at : at + w] = 0.0 if part is None else part
-        at += w
-    return rows.reshape((-1, width))
 
 
 def _dynamics_inputs(
     t: Tree,
     q: np.ndarray,
     velocity: np.ndarray,
-    u: np.ndarray | None,
+    u: Actuation,
     t0: np.ndarray | None,
     ext: tuple[np.ndarray, np.ndarray],
     *extra: np.ndarray,
@@ -271,25 +294,29 @@ def residual_rows(
     t0: np.ndarray | None = None,
     ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES,
 ) -> np.ndarray:
-    """Rows [omega0, q] of H+ zddot0 + C+ - Q (..., 3 + N) by Newton-Euler (1991 eq. 19).
+    """H+ zddot0 + C+ - Q (..., 6 + N) by Newton-Euler (1991 eq. 19), its first block in the spacecraft frame:
+    M T0^T rddot_cm less the thrusters' and the external forces.
 
-    ``acceleration`` None: zddot0 = 0 (then C+ - Q); ``u`` = [tau, f_S, n_S] (None: zero);
-    ``t0`` the attitude (..., 3, 3) for inertial-frame wrenches; ``ext`` = (ext_i, ext_f (..., W, 9)).
+    ``acceleration`` None: zddot0 = 0 (then C+ - Q; C+ alone with no ``u`` and no ``ext``: its first block is zero);
+    ``u`` = [tau, f_S, n_S] (None: zero); ``t0`` the attitude (..., 3, 3) (None: the identity) for rddot_cm and
+    inertial-frame wrenches; ``ext`` = (ext_i, ext_f (..., W, 9)).
     """
     t = tree(model)
     n = t.n_joints
     acc_in = np.zeros(6 + n) if acceleration is None else acceleration
     wrenches = _specialise.layout(ext[0])
     batch = _dynamics_batch(q, velocity, u, t0, ext, acc_in)
-    out = new_output((int(np.prod(batch, dtype=np.int64)), 3 + n))
+    out = new_output((int(np.prod(batch, dtype=np.int64)), 6 + n))
 
-    def inputs() -> np.ndarray:  # the specialised kernel's rows: [q, zdot0, zddot0, u] and with wrenches [T0, ext_f]
-        parts = [(q, n), (velocity, 6 + n), (acceleration, 6 + n), (u, n + 6)]
+    def parts() -> list[np.ndarray]:  # the specialised kernel's inputs: q, zdot0, zddot0, u, T0 and with wrenches ext_f
+        rows = [_part(q, batch, n), _part(velocity, batch, 6 + n), _part(acceleration, batch, 6 + n), _part(u, batch, n + 6)]
+        rows.append(_part(_attitude_rows(t0), batch, 9))
         if wrenches:
-            parts += [(_attitude_rows(t0), 9), (ext[1].reshape((*ext[1].shape[:-2], 9 * len(wrenches))), 9 * len(wrenches))]
-        return _lane_inputs(batch, parts)
+            w = 9 * len(wrenches)
+            rows.append(_part(ext[1].reshape((*ext[1].shape[:-2], w)), batch, w))
+        return rows
 
-    if not _specialised_map(t, "inverse", inputs, out, wrenches):
+    if not _specialised_map(t, "inverse", parts, out, wrenches):
         _, (qf, vf, af, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext, acc_in)
         size = qf.shape[0]
         _timed(
@@ -297,7 +324,7 @@ def residual_rows(
             "inverse",
             size,
             _drivers.inverse_batch,
-            qf.shape[0],
+            size,
             t,
             qf,
             vf,
@@ -310,14 +337,14 @@ def residual_rows(
             out,
             wrenches=wrenches,
         )
-    return out.reshape((*batch, 3 + n))
+    return out.reshape((*batch, 6 + n))
 
 
 def accelerations(
     model: Any,
     q: np.ndarray,
     velocity: np.ndarray,
-    u: np.ndarray | None = None,
+    u: Actuation = None,
     t0: np.ndarray | None = None,
     ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -326,10 +353,18 @@ def accelerations(
     n = t.n_joints
     wrenches = _specialise.layout(ext[0])
     batch = _dynamics_batch(q, velocity, u, t0, ext)
-    w = 9 * len(wrenches)
     both = new_output((int(np.prod(batch, dtype=np.int64)), 7 + n))  # zddot0 and the guards' flag
-    parts = [(q, n), (velocity, 6 + n), (u, n + 6), (_attitude_rows(t0), 9), (ext[1].reshape((*ext[1].shape[:-2], w)), w)]
-    if _specialised_map(t, "forward", lambda: _lane_inputs(batch, parts), both, wrenches):
+
+    def parts() -> list[np.ndarray]:  # the specialised kernel's inputs: q, zdot0, tau, f_S, n_S, T0 and with wrenches ext_f
+        rows = [_part(q, batch, n), _part(velocity, batch, 6 + n)]
+        rows += [_part(p, batch, w) for p, w in zip(_split_actuation(u, n), (n, 3, 3), strict=True)]
+        rows.append(_part(_attitude_rows(t0), batch, 9))
+        if wrenches:
+            w = 9 * len(wrenches)
+            rows.append(_part(ext[1].reshape((*ext[1].shape[:-2], w)), batch, w))
+        return rows
+
+    if _specialised_map(t, "forward", parts, both, wrenches):
         return both[:, : 6 + n].reshape((*batch, 6 + n)), (both[:, 6 + n] != 0.0).reshape(batch)
     batch, (qf, vf, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext)
     size = qf.shape[0]

@@ -96,11 +96,9 @@ def layout(ext_i: np.ndarray) -> Layout:
 
 
 def wrench_inputs(kind: str, wrenches: Layout) -> int:
-    """Inputs per configuration of the map ``kind`` beyond :data:`MAP_INPUTS` for the wrenches ``wrenches``: their values
-    (9 each: point, force, couple), and for inverse dynamics the attitude T0 (9; forward dynamics reads it always)."""
-    if not wrenches:
-        return 0
-    return 9 * len(wrenches) + (9 if kind == "inverse" else 0)
+    """Inputs per configuration of the map ``kind`` beyond those without them (:func:`map_parts`) for the wrenches
+    ``wrenches``: their values (9 each: point, force, couple)."""
+    return 9 * len(wrenches)
 
 
 #: sin and cos of one angle without calls (vectorisable): the reduction by the nearest multiple k
@@ -208,22 +206,20 @@ def trace(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[Graph, list[Any], 
         getattr(mod.configuration, ENTRY_POINTS["hplus"])(q, m, s, out)
         return g, list(out.ravel()), n
     if kind == "forward":  # inputs q (N), zdot0 (6 + N), u (N + 6), T0 (9), ext_f (9W); outputs zddot0 (6 + N), then the guards' row
-        w = [g.input("W", j) for j in range(MAP_INPUTS["forward"](n))]
+        w = [g.input("W", j) for j in range(sum(map_parts("forward", n)))]
         q, vel = np.array(w[:n], dtype=object), np.array(w[n : 6 + 2 * n], dtype=object)
         u, t0 = np.array(w[6 + 2 * n : 12 + 3 * n], dtype=object), np.array(w[12 + 3 * n :], dtype=object).reshape(3, 3)
         out = np.full(6 + n, 0.0, dtype=object)
         getattr(mod.configuration, ENTRY_POINTS["forward"])(q, vel, u, t0, m, ext_i, ext_f(len(w)), s, out)
         return g, list(out), len(w) + wrench_inputs(kind, wrenches)
     if kind == "inverse":
-        # inputs q (N), zdot0 (6 + N), zddot0 (6 + N), u (N + 6) [, T0 (9), ext_f (9W)]; outputs the rows [omega0, q] (3 + N)
-        w = [g.input("W", j) for j in range(MAP_INPUTS["inverse"](n))]
+        # inputs q (N), zdot0 (6 + N), zddot0 (6 + N), u (N + 6), T0 (9) [, ext_f (9W)]; outputs H+ zddot0 + C+ - Q (6 + N)
+        w = [g.input("W", j) for j in range(sum(map_parts("inverse", n)))]
         q, vel = np.array(w[:n], dtype=object), np.array(w[n : 6 + 2 * n], dtype=object)
-        acc, u = np.array(w[6 + 2 * n : 12 + 3 * n], dtype=object), np.array(w[12 + 3 * n :], dtype=object)
-        out = np.full(3 + n, 0.0, dtype=object)
-        t0 = np.eye(3, dtype=object)  # read only for inertial-frame external wrenches: an input when there are wrenches
-        if wrenches:
-            t0 = np.array([g.input("W", len(w) + j) for j in range(9)], dtype=object).reshape(3, 3)
-        getattr(mod.configuration, ENTRY_POINTS["inverse"])(q, vel, acc, True, u, t0, m, ext_i, ext_f(len(w) + 9), s, out)
+        acc, u = np.array(w[6 + 2 * n : 12 + 3 * n], dtype=object), np.array(w[12 + 3 * n : 18 + 4 * n], dtype=object)
+        t0 = np.array(w[18 + 4 * n :], dtype=object).reshape(3, 3)
+        out = np.full(6 + n, 0.0, dtype=object)
+        getattr(mod.configuration, ENTRY_POINTS["inverse"])(q, vel, acc, True, u, t0, m, ext_i, ext_f(len(w)), s, out)
         return g, list(out), len(w) + wrench_inputs(kind, wrenches)
     raise ValueError(f"freefloat: no specialised kernel of kind {kind!r}; the kinds are {KINDS}")
 
@@ -287,17 +283,33 @@ def emit(g: Graph, outputs: list[Any], n_in: int, name: str = "lane") -> tuple[s
     return "\n".join(lines) + "\n", slots
 
 
+def distinct(outputs: list[Any]) -> tuple[list[Any], list[int]]:
+    """The distinct values of ``outputs`` (nodes and numbers, first seen first) and, for each output, its index among
+    them: a map's lane kernel writes each value once (H+ (6 + N)^2 outputs: (3 + N)(4 + N) / 2 distinct entries of its
+    symmetric block, its mass and a zero) and its driver copies a row into every column that holds it."""
+    index: dict[tuple[str, Any], int] = {}
+    values: list[Any] = []
+    where = []
+    for o in outputs:
+        key = ("node", o.index) if isinstance(o, Sym) else ("number", repr(float(o)))  # 0.0 and -0.0 apart
+        if key not in index:
+            index[key] = len(values)
+            values.append(o)
+        where.append(index[key])
+    return values, where
+
+
 _DRIVERS = {
     "map": """
 @kernel()
-def serial(Q, P, OUT, W):  # pragma: no cover - compiled
-    _lanes.map_blocks(lane, Q, P, OUT, W, 0, (Q.shape[0] + LANES - 1) // LANES)
+def serial(parts, P, OUT, rows, W):  # pragma: no cover - compiled
+    _lanes.map_blocks(lane, parts, P, OUT, rows, W, 0, (OUT.shape[0] + LANES - 1) // LANES)
 
 
 @kernel(parallel=True)
-def parallel(Q, P, OUT, WS):  # pragma: no cover - compiled
-    for block in prange((Q.shape[0] + LANES - 1) // LANES):
-        _lanes.map_blocks(lane, Q, P, OUT, WS[get_thread_id()], block, block + 1)
+def parallel(parts, P, OUT, rows, WS):  # pragma: no cover - compiled
+    for block in prange((OUT.shape[0] + LANES - 1) // LANES):
+        _lanes.map_blocks(lane, parts, P, OUT, rows, WS[get_thread_id()], block, block + 1)
 """,
     "measure": """
 from freefloat.mechanics._configuration import jacobian_measure_lanes  # the engine's measures, written once
@@ -341,10 +353,14 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
     """The generated module of ``kind`` (with the external wrenches ``wrenches``) for the structure of ``t``: (source,
     data slots, rows of W). The measures: J*'s lane kernel, then the engine's measure."""
     g, outputs, n_in = trace(t, "jstar" if kind == "measure" else kind, wrenches)
+    columns: list[int] = []
+    if kind in MAPS:  # each distinct value in one row: H+'s symmetric entries and its zeros once
+        outputs, where = distinct(outputs)
+        columns = [n_in + k for k in where] + ([n_in + len(outputs)] if g.guards else [])
     lane, slots = emit(g, outputs, n_in)
     ext_at = 0
     if kind in MAPS:
-        rows = n_in + len(outputs) + (1 if g.guards else 0)
+        rows = n_in + len(outputs) + 1  # then the guards' row (_lanes.map_blocks)
     elif kind == "measure":
         rows = n_in + len(outputs) + 5  # the work space of the measure: 5 rows (_lanes.measure_loop)
     else:
@@ -353,10 +369,11 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
         rows = ext_at + 9 * len(wrenches)
     head = (
         f'"""freefloat: {kind} specialised for one model structure (generated by freefloat.mechanics._specialise; do not edit)."""\n\n'
-        "import math\n\nfrom numba import get_thread_id, prange\n\n"
+        "import math\n\nimport numpy as np\nfrom numba import get_thread_id, prange\n\n"
         "from freefloat.mechanics import _lanes\nfrom freefloat.mechanics._lanes import LANES\n"
         "from freefloat.mechanics._numba_cache import kernel\n\n"
-        f"SLOTS = {slots!r}\nROWS = {rows}\nWRENCHES = {wrenches!r}\nEXT_AT = {ext_at}\n\n\n@kernel()\n"
+        f"SLOTS = {slots!r}\nROWS = {rows}\nWRENCHES = {wrenches!r}\nEXT_AT = {ext_at}\n"
+        f"COLUMNS = np.array({columns!r}, dtype=np.int64)\n\n\n@kernel()\n"
     )
     guarded = f"GUARDED = {bool(g.guards)}\n\n\n"
     drivers = _DRIVERS["map" if kind in MAPS else kind].replace("{n}", str(t.n_joints))
@@ -606,12 +623,12 @@ def _warm(module: types.ModuleType, t: Tree, kind: str, wrenches: Layout = ()) -
     data = data_vector(t)[module.SLOTS]
     n = t.n_joints
     if kind in MAPS:
-        q = np.zeros((1, MAP_INPUTS[kind](n) + wrench_inputs(kind, wrenches)))
+        parts = [np.zeros((1, width)) for width in map_parts(kind, n, wrenches)]
         if kind == "forward":
-            q[0, 12 + 3 * n : 21 + 3 * n : 4] = 1.0  # T0 = 1
-        out = np.empty((1, module.ROWS - q.shape[1]))
-        module.serial(q, data, out, np.empty(module.ROWS * LANES))
-        module.parallel(q, data, out, np.empty((_threads(), module.ROWS * LANES)))
+            parts[5][0, ::4] = 1.0  # T0 = 1
+        out = np.empty((1, module.COLUMNS.shape[0]))
+        module.serial(tuple(parts), data, out, module.COLUMNS, np.empty(module.ROWS * LANES))
+        module.parallel(tuple(parts), data, out, module.COLUMNS, np.empty((_threads(), module.ROWS * LANES)))
     elif kind == "measure":
         q, rows, out = np.zeros((1, n)), np.zeros(1, dtype=np.int64), np.empty(1)
         module.serial(q, data, rows, 1, out, np.empty(module.ROWS * LANES))
@@ -663,23 +680,25 @@ def parallel_worth(size: int) -> bool:
     return size >= 4 * LANES and numba.get_num_threads() > 1
 
 
-#: Inputs per configuration of each map kind, for N joints (the rows of W before the outputs).
-MAP_INPUTS = {
-    "jstar": lambda n: n,
-    "hplus": lambda n: n,
-    "forward": lambda n: n + (6 + n) + (n + 6) + 9,
-    "inverse": lambda n: n + 2 * (6 + n) + (n + 6),
-}
+def map_parts(kind: str, n: int, wrenches: Layout = ()) -> tuple[int, ...]:
+    """The widths of the input parts of the map ``kind`` for N joints and the external wrenches ``wrenches``, in the order
+    of its lane rows (what :func:`mapped` takes): "jstar" and "hplus" q (N); "forward" q (N), zdot0 (6 + N),
+    u = [tau (N), f_S (3), n_S (3)] in three parts, T0 (9); "inverse" q (N), zdot0 (6 + N), zddot0 (6 + N),
+    u (N + 6), T0 (9); then, with wrenches, their values ext_f (9W) (:func:`wrench_inputs`)."""
+    parts = {"jstar": (n,), "hplus": (n,), "forward": (n, 6 + n, n, 3, 3, 9), "inverse": (n, 6 + n, 6 + n, n + 6, 9)}[kind]
+    return (*parts, wrench_inputs(kind, wrenches)) if wrenches else parts
 
 
-def mapped(module: types.ModuleType, t: Tree, q: np.ndarray, out: np.ndarray) -> None:
-    """The outputs of a map kind for the rows of q (C, inputs) into out (C, outputs [+ 1: the guards, 1.0 where
-    every guard held, else 0.0]) by the specialised kernel (J*: q (C, N) into out (C, 6E * N))."""
+def mapped(module: types.ModuleType, t: Tree, parts: tuple[np.ndarray, ...], out: np.ndarray) -> None:
+    """The outputs of a map kind for C configurations into out (C, outputs [+ 1: the guards, 1.0 where every guard held,
+    else 0.0]) by the specialised kernel (J*: 6E * N of them, row-major; H+: (6 + N)^2). ``parts``: the inputs
+    (:func:`map_parts`), each a C-contiguous float64 array (C, width), or (1, width) for a row that every configuration
+    shares."""
     data = data_vector(t)[module.SLOTS]
-    if parallel_worth(q.shape[0]):
-        module.parallel(q, data, out, np.empty((_threads(), module.ROWS * LANES)))
+    if parallel_worth(out.shape[0]):
+        module.parallel(parts, data, out, module.COLUMNS, np.empty((_threads(), module.ROWS * LANES)))
     else:
-        module.serial(q, data, out, np.empty(module.ROWS * LANES))
+        module.serial(parts, data, out, module.COLUMNS, np.empty(module.ROWS * LANES))
 
 
 def measured(module: types.ModuleType, t: Tree, q: np.ndarray, rows: np.ndarray, code: int, out: np.ndarray) -> None:

@@ -73,7 +73,7 @@ from ._inputs import (
     revolute_only,
 )
 from ._recursions import FRICTION_SPEED
-from .forces import _actuation_0, _actuation_vector, _engine_wrenches, _generalized_forces_0, _wrenches
+from .forces import _actuation_0, _actuation_parts, _engine_wrenches, _generalized_forces_0, _wrenches
 from .jacobians import actuation_jacobian
 from .kinematics import _rotations, _slides
 from .momentum import system_inertia_matrix
@@ -198,10 +198,7 @@ def nonlinear_forces(model: Model, q: Any, velocity: Any, *, method: str = "recu
     q = _joints(model, q, "q")
     v = _velocity(model, velocity)
     if method == "recursive":
-        rows = _engine.residual_rows(model.without_passive(), q, v)  # the engine counts passive torques in Q
-        out = np.zeros((*rows.shape[:-1], 6 + model.n_joints))
-        out[..., 3:] = rows
-        return out
+        return _engine.residual_rows(model.without_passive(), q, v)  # the engine counts passive torques in Q
     revolute_only(model, "nonlinear_forces(method='barycentric') (1991 eqs. 18-21)")
     kernel = _c_plus_barycentric
     return chunked(pieces(lambda qq, vv: kernel(model, qq, vv), model.n_bodies), q, v, core_ndims=(1, 1))
@@ -384,7 +381,7 @@ def forward_dynamics(
     v = _velocity(model, velocity)
     t0 = _attitude(attitude)
     if method == "recursive":
-        u = _actuation_vector(model, joint_torque, spacecraft_force, spacecraft_torque)
+        u = _actuation_parts(model, joint_torque, spacecraft_force, spacecraft_torque)
         acc, ok = _engine.accelerations(model, q, v, u, t0, _engine_wrenches(model, _wrenches(external)))
         if not np.all(ok):
             h = system_inertia_matrix(model, q)[..., 3:, 3:]
@@ -411,29 +408,30 @@ def inverse_dynamics(
     frame), qddot]; the thruster force and torque act at the spacecraft CM and
     are returned in the spacecraft frame, with the joint torques (..., N):
     J_q^-T (H+ zddot0 + C+ - Q_external), 1991 eqs. 19, 21 and 30.
-    ``method="recursive"`` (default) evaluates H+ zddot0 + C+ by the engine's
-    Newton-Euler recursion; ``method="barycentric"`` from the barycentric H+ and C+.
+    ``method="recursive"`` (default) evaluates H+ zddot0 + C+ - Q_external by the
+    engine's Newton-Euler recursion, the wrenches included (as forward dynamics);
+    ``method="barycentric"`` from the barycentric H+ and C+ and Q_external by
+    :func:`~freefloat.generalized_forces`.
     """
     method = _method(method)
     q = _joints(model, q, "q")
     v = _velocity(model, velocity)
     acc = _velocity(model, acceleration, "acceleration")
     t0 = _attitude(attitude)
-    if method == "barycentric":
-        rows = (
-            np.einsum("...ij,...j->...i", system_inertia_matrix(model, q, method="barycentric")[..., 3:, 3:], acc[..., 3:])
-            + nonlinear_forces(model, q, v, method="barycentric")[..., 3:]
-        )
-    else:
-        rows = _engine.residual_rows(model, q, v, acc)
+    wrenches = _wrenches(external)
+    if method == "recursive":  # the engine: H+ zddot0 + C+ - Q_ext, the passive torques and the wrenches counted in Q
+        return _actuation_0(model, q, _engine.residual_rows(model, q, v, acc, None, t0, _engine_wrenches(model, wrenches)))
+    rows = (
+        np.einsum("...ij,...j->...i", system_inertia_matrix(model, q, method="barycentric")[..., 3:, 3:], acc[..., 3:])
+        + nonlinear_forces(model, q, v, method="barycentric")[..., 3:]
+    )
     # H+ zddot0 + C+ with its first block (M rddot_cm) in the spacecraft frame
     first = model.total_mass * _rotate(t0, acc[..., 0:3], inverse=True)
     batch = np.broadcast_shapes(first.shape[:-1], rows.shape[:-1])
     total = np.concatenate([np.broadcast_to(first, (*batch, 3)), np.broadcast_to(rows, batch + rows.shape[-1:])], axis=-1)
-    wrenches = _wrenches(external)
     if wrenches:
         total = total - _generalized_forces_0(model, q, None, None, None, wrenches, t0)
-    if method == "barycentric" and model.has_passive:  # the engine's rows count them already
+    if model.has_passive:
         total = _plus_joint_rows(total, -passive_torque(model, v[..., 6:]))
     return _actuation_0(model, q, total)
 

@@ -79,17 +79,15 @@ def _engine_wrenches(model: Model, external: Sequence[ExternalWrench]) -> tuple[
     return ext_i, np.stack([np.broadcast_to(r, (*batch, 9)) for r in rows], axis=-2)
 
 
-def _actuation_vector(model: Model, tau: Any, force: Any, torque: Any) -> np.ndarray:
-    """u = [tau (N), f_S (3), n_S (3)] (..., N + 6) as the engine takes it; None is zero."""
-    parts = []
-    for value, size, name, what in (
+def _actuation_parts(model: Model, tau: Any, force: Any, torque: Any) -> tuple[np.ndarray | None, ...]:
+    """u = [tau (N), f_S (3), n_S (3)] as the engine takes it: its three parts (..., N), (..., 3), (..., 3), each
+    checked, None where it is zero (the engine reads them apart: no (..., N + 6) copy is made here)."""
+    checks = (
         (tau, model.n_joints, "joint_torque", f"one torque per joint: {', '.join(model.joint_names) or 'none'}"),
         (force, 3, "spacecraft_force", "thruster force at the spacecraft CM, spacecraft frame"),
         (torque, 3, "spacecraft_torque", "thruster torque, spacecraft frame"),
-    ):
-        parts.append(np.zeros(size) if value is None else _vector(value, size, name, what))
-    batch = np.broadcast_shapes(*(p.shape[:-1] for p in parts))
-    return np.concatenate([np.broadcast_to(p, batch + p.shape[-1:]) for p in parts], axis=-1)
+    )
+    return tuple(None if value is None else _vector(value, size, name, what) for value, size, name, what in checks)
 
 
 def _generalized_forces_0(
