@@ -17,7 +17,10 @@ batch axes (for batched rollouts); all fields then broadcast to one batch shape.
 
 The flat state vector that the integrators see is
 ``x = [r_cm (3), v_cm (3), attitude (4), omega (3), q (N), qdot (N)]``
-(:func:`pack_state`, :func:`unpack_state`), 13 + 2N numbers.
+(:func:`pack_state`, :func:`unpack_state`), 13 + 2N numbers. A run that models the joints' damping and friction
+(:func:`dissipates`) carries one more, last: the energy they have dissipated since the start (J), integrated with
+the state (its rate is the dissipated power), so that it is exact to the integrator's accuracy
+(``Trajectory.dissipated_energy``); :func:`unpack_state` reads either form.
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ from .errors import ShapeError
 from .model import Model
 from .numbers import MAX_POSITION, MAX_SPEED, check_joint_values, check_largest, real_array
 
-__all__ = ["Actuation", "ActuatorLimits", "State", "pack_state", "state_size", "unpack_state"]
+__all__ = ["Actuation", "ActuatorLimits", "State", "dissipated", "dissipates", "pack_state", "state_size", "unpack_state"]
 
 _FIELDS = ("q", "qdot", "omega", "attitude", "r_cm", "v_cm")
 # the CM's bounds: (limit, unit, why, fix) for check_largest
@@ -252,16 +255,40 @@ def state_size(model: Model) -> int:
     return 13 + 2 * model.n_joints
 
 
-def pack_state(state: State) -> np.ndarray:
-    """Flat state [r_cm (3), v_cm (3), attitude (4), omega (3), q (N), qdot (N)] of a resolved state."""
-    return np.concatenate([state.r_cm, state.v_cm, state.attitude, state.omega, state.q, state.qdot], axis=-1)
+def dissipates(model: Model) -> bool:
+    """Whether a run of ``model`` integrates the energy its joints' damping and friction dissipate, in the last slot of
+    its flat state (14 + 2N): when it has them (``model.has_passive``; a run with ``passive="ignore"`` simulates the
+    model without them, which has none)."""
+    return model.has_passive
+
+
+def pack_state(state: State, dissipated: Any = None) -> np.ndarray:
+    """Flat state [r_cm (3), v_cm (3), attitude (4), omega (3), q (N), qdot (N)] of a resolved state; with
+    ``dissipated`` (J, a number or one per state of a batch), that energy appended as the last slot (14 + 2N)."""
+    parts = [state.r_cm, state.v_cm, state.attitude, state.omega, state.q, state.qdot]
+    if dissipated is not None:
+        parts.append(np.broadcast_to(np.asarray(dissipated, dtype=float)[..., None], (*np.shape(state.q)[:-1], 1)))
+    return np.concatenate(parts, axis=-1)
+
+
+def dissipated(model: Model, x: np.ndarray) -> np.ndarray:
+    """The dissipated energy (...) of flat states x (..., 13 + 2N or 14 + 2N): the last slot (a view), or zeros when the
+    states carry none (:func:`dissipates`)."""
+    n = model.n_joints
+    if x.shape[-1] == 14 + 2 * n:
+        return x[..., 13 + 2 * n]
+    return np.zeros(x.shape[:-1])
 
 
 def unpack_state(model: Model, x: np.ndarray) -> State:
-    """Inverse of :func:`pack_state` (views into ``x``, no copies and no checks)."""
+    """Inverse of :func:`pack_state` (views into ``x``, no copies and no checks); the dissipated energy's slot, if
+    there, is not a field of the state (:func:`dissipated` reads it)."""
     n = model.n_joints
-    if x.shape[-1] != 13 + 2 * n:
-        raise ShapeError(f"state vector: expected shape (..., {13 + 2 * n}) for {model.name!r} (13 + 2N, N = {n}), got {x.shape}")
+    if x.shape[-1] not in (13 + 2 * n, 14 + 2 * n):
+        raise ShapeError(
+            f"state vector: expected shape (..., {13 + 2 * n}) for {model.name!r} (13 + 2N, N = {n}; or {14 + 2 * n} with the "
+            f"dissipated energy last), got {x.shape}"
+        )
     return State._trusted(
         r_cm=x[..., 0:3],
         v_cm=x[..., 3:6],

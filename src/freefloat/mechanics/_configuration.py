@@ -20,6 +20,7 @@ from ._numba_cache import kernel
 from ._recursions import (
     centroidal_blocks,
     cholesky_solve,
+    dissipated_power,
     newton_euler,
     point_from_origin,
     prepare,
@@ -563,6 +564,9 @@ def state_derivative_one(
     """dx[row] = d/dt of the flat state x = [r_cm, v_cm, quat [x, y, z, w], omega0, q, qdot] (13 + 2N) under u = [tau, f_S, n_S].
 
     dquat/dt = 1/2 quat ⊗ [omega0, 0] (omega0 in the spacecraft frame). False if H+ is not positive definite.
+    A state with a trailing slot (14 + 2N: the energy the joints' damping and friction have dissipated since the start)
+    gets its rate there, the dissipated power (:func:`~._recursions.dissipated_power`): the integrators integrate it
+    with the state, to their own accuracy. A state without it (13 + 2N) computes no power.
     """
     n = m.n_joints
     t0, vel, acc, q = s.t0, s.vel, s.acc, s.joints
@@ -588,6 +592,8 @@ def state_derivative_one(
     for j in range(n):
         dx[row, 13 + j] = x[13 + n + j]
         dx[row, 13 + n + j] = acc[6 + j]
+    if x.shape[0] > 13 + 2 * n:  # the slot of the dissipated energy (a number while tracing: the rollout's state size)
+        dx[row, 13 + 2 * n] = dissipated_power(m, x, 13 + n)
     return ok
 
 
@@ -598,10 +604,11 @@ def rk4_step(x: np.ndarray, u: np.ndarray, dt: float, m: Any, ext_i: np.ndarray,
     The RK4 of one trajectory (the stepper of a Python-controlled simulation, the generic rollout); the specialised
     rollouts step 64 lanes at once by the same formulas (``_lanes._rk4_rows``; tests/mechanics/test_specialise.py
     checks the two paths against each other). The four stages run in one loop so that the derivative is compiled
-    (inlined) once; the stage derivatives stay in ``s.k`` (4, S).
+    (inlined) once; the stage derivatives stay in ``s.k`` (4, S). x may carry the dissipated energy's slot (14 + 2N:
+    :func:`state_derivative_one`); the stage state is cut to x's size, which says whether it does.
     """
     size = x.shape[0]
-    k, y = s.k, s.y
+    k, y = s.k, s.y[:size]
     ok = True
     for i in range(size):
         y[i] = x[i]

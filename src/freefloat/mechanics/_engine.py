@@ -393,9 +393,10 @@ def accelerations(
 def state_derivative(
     model: Any, x: np.ndarray, u: np.ndarray | None = None, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES
 ) -> tuple[np.ndarray, np.ndarray]:
-    """d/dt of flat states x (..., 13 + 2N) = [r_cm, v_cm, quat xyzw, omega0, q, qdot]; (dx, ok)."""
+    """d/dt of flat states x (..., 13 + 2N) = [r_cm, v_cm, quat xyzw, omega0, q, qdot]; (dx, ok). States of 14 + 2N
+    carry the dissipated energy last: its rate is the power the joints' damping and friction dissipate."""
     t = tree(model)
-    size = 13 + 2 * t.n_joints
+    size = 13 + 2 * t.n_joints + (1 if x.shape[-1] == 14 + 2 * t.n_joints else 0)
     batch = _batch((x, 1), (ext[1], 2), *(() if u is None else ((u, 1),)))
     xf = _flat(x, batch, (size,))
     ext_i, ext_f = _wrench_data(ext, batch)
@@ -417,12 +418,15 @@ def rollout(
     limit: np.ndarray,
     ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Fixed-step RK4 of the states x0 (K, 13 + 2N) with a joint PD in the loop, all compiled, trajectories on threads.
+    """Fixed-step RK4 of the states x0 (K, S) with a joint PD in the loop, all compiled, trajectories on threads.
 
     gains = (kp, kd, q_ref, qdot_ref), each (K, N); u = feedforward[k] + kp (q_ref - q) + kd (qdot_ref - qdot)
     at sample k (every ``hold`` steps; ``feedforward`` (S, K, W), W = N joint torques or N + 6 with
     the thrusters, its last sample held), clipped to +-limit (N + 6). Records at step 0, every
     ``stride`` steps and the last: (states (T, K, S), u (T, K, N + 6), saturated (T, K), steps done (K)).
+    S = 13 + 2N, or 14 + 2N with the energy the joints' damping and friction dissipate in the last slot (integrated
+    with the state: ``_configuration.state_derivative_one``). The specialised kernels of a model with damping or friction
+    integrate it always (:attr:`~._tree.Tree.state_size`): states without the slot run there with one added (and dropped).
     """
     t = tree(model)
     n = t.n_joints
@@ -439,8 +443,15 @@ def rollout(
     if specialised_rollouts(model, k, ext):
         fast = _specialise.find(t, "rollout", wrenches)
         assert fast is not None
-        args = (_own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), xs, us, sat, done)
+        size, given = fast.STATE, x0.shape[1]  # the module's flat state (with the dissipated energy or without), the caller's
+        x_in = x0 if given == size else np.concatenate([x0[:, : 13 + 2 * n], np.zeros((k, size - 13 - 2 * n))], axis=1)
+        x_out = xs if given == size else new_output((rows, k, size))
+        args = (_own(x_in), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), x_out, us, sat, done)
         _specialise.rollout(fast, t, *args, ext_f.reshape(k, 9 * len(wrenches)))  # each trajectory's wrenches (K, 9W)
+        if x_out is not xs:  # the states as given: the energy's slot dropped, or added (zero: the model dissipates nothing)
+            common = min(size, given)
+            xs[..., :common] = x_out[..., :common]
+            xs[..., common:] = 0.0
         return xs, us, sat, done
     start = time.perf_counter()
     _drivers.rollout_batch(k, t, _own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), ext_i, ext_f, xs, us, sat, done)
@@ -470,7 +481,8 @@ def rk4_batch(
 class Stepper:
     """One trajectory stepped from Python (a controller in the loop): scratch space kept between calls.
 
-    ``rk4(x, u, dt, steps)`` advances the flat state x (13 + 2N, float64, contiguous) in place by
+    ``rk4(x, u, dt, steps)`` advances the flat state x (13 + 2N, or 14 + 2N with the energy the joints' damping and
+    friction have dissipated last: ``_configuration.state_derivative_one``; float64, contiguous) in place by
     ``steps`` RK4 steps with u held, in one compiled call, and returns ``steps``; or k < steps when
     H+ was not positive definite in step k; or -(k + 1) when x became non-finite in step k. (A
     partial of the kernel: a controller every step makes this call the hot path.)

@@ -62,6 +62,31 @@ from ._numba_cache import kernel, unowned_floats
 #: A smooth model: a joint at rest under a torque below F creeps at a speed below FRICTION_SPEED instead of sticking.
 FRICTION_SPEED = 0.01
 
+
+@kernel(inline="always")
+def passive_resistance(m: Any, k: int, qd: float) -> float:  # pragma: no cover - compiled
+    """The torque (force) with which body joint k's viscous damping and smooth Coulomb friction resist its rate ``qd``
+    (its own, or a mimic joint's: multiplier times its leader's): d_k qd + F_k tanh(qd / FRICTION_SPEED); the joint feels
+    minus this (``mechanics.passive_torque`` is the numpy reference)."""
+    tau = m.damping[k] * qd
+    if m.friction[k] > 0.0:  # (a zero friction is folded away by the specialiser: see _tree.Field.fold_zeros)
+        tau += m.friction[k] * math.tanh(qd / FRICTION_SPEED)
+    return tau
+
+
+@kernel(inline="always")
+def dissipated_power(m: Any, qdot: np.ndarray, o: int) -> float:  # pragma: no cover - compiled
+    """The power (W) the joints' damping and friction dissipate at the joint rates ``qdot[o : o + N]``:
+    sum over the body joints k of qd_k (d_k qd_k + F_k tanh(qd_k / FRICTION_SPEED)) >= 0 (:func:`passive_resistance`),
+    qd_k = multiplier_k qdot[o + coordinate_k]. The integrators integrate it with the state (its trailing slot:
+    :func:`~._configuration.state_derivative_one`)."""
+    power = 0.0
+    for k in range(1, m.parent.shape[0]):
+        qd = m.multiplier[k] * qdot[o + int(m.coordinate[k])]
+        power += qd * passive_resistance(m, k, qd)
+    return power
+
+
 #: Scratch space of one configuration: views of one flat buffer, made once per batch range (or per
 #: stepper call) and passed down, so no kernel makes a view per configuration (each costs ~25 ns).
 Scratch = namedtuple(
@@ -96,7 +121,7 @@ Scratch = namedtuple(
         "vel",
         "acc",  # attitude, zdot0, zddot0
         "k",
-        "y",  # RK4: the four stage derivatives (4, S), the stage state
+        "y",  # RK4: the four stage derivatives (4, S), the stage state (S = 14 + 2N: room for the dissipated energy)
         "joints",  # (N): joint values read from a state
         "rows",  # (4 S + N + 9): the rows of one trajectory in the rollout loop (_lanes.rollout_blocks, width 1)
         "jac",  # (6E, N): a J* whose measure is wanted
@@ -116,7 +141,7 @@ def scratch(work: np.ndarray, nb: int, ne: int, n: int) -> Any:  # pragma: no co
     after its last use (``tests/mechanics/test_engine.py`` checks every call).
     """
     m = 3 + n
-    size = 13 + 2 * n
+    size = 14 + 2 * n  # a flat state with its trailing slot (the dissipated energy), the longest a kernel steps
     work = unowned_floats(work)  # views without reference counting: the caller holds work
     o = 0
     rot = work[o : o + 9 * nb].reshape((nb, 3, 3))
@@ -578,10 +603,7 @@ def newton_euler(
         # the joint's own dynamics: its rotor (armature), viscous damping and smooth Coulomb friction (passive torques)
         rk = m.multiplier[k]
         c = int(m.coordinate[k])
-        qd = rk * vel[6 + c]
-        row += m.damping[k] * qd
-        if m.friction[k] > 0.0:  # (a zero friction is folded away by the specialiser: see _tree.Field.fold_zeros)
-            row += m.friction[k] * math.tanh(qd / FRICTION_SPEED)
+        row += passive_resistance(m, k, rk * vel[6 + c])
         if accelerate:
             row += m.armature[k] * rk * acc[6 + c]
         out[3 + c] += rk * row  # a mimic joint's row acts on its leader through the law (virtual work)

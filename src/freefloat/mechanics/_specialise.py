@@ -164,8 +164,9 @@ def _ints(a: np.ndarray) -> np.ndarray:
 def trace(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[Graph, list[Any], int]:
     """The graph of one configuration of ``kind`` for the structure of ``t``: (graph, outputs, inputs per lane).
 
-    Inputs "W" rows: "jstar" q (N); "rollout" the state x (13 + 2N) then u (N + 6). Outputs:
-    "jstar" J* (6E x N, row-major); "rollout" dx/dt (13 + 2N). Guards: the Cholesky pivots.
+    Inputs "W" rows: "jstar" q (N); "rollout" the state x (S = ``t.state_size``: 13 + 2N, and the dissipated energy when
+    a joint has damping or friction) then u (N + 6). Outputs: "jstar" J* (6E x N, row-major); "rollout" dx/dt (S: with
+    the dissipated power, the engine's, when S = 14 + 2N). Guards: the Cholesky pivots.
     ``wrenches`` (kinds :data:`WRENCH_KINDS`): the external wrenches' layout (:func:`layout`: bodies and frames,
     numbers while tracing); their values ext_f (W x 9) are inputs: of a map, the rows after its other inputs
     (:func:`wrench_inputs`); of a rollout, the rows after the rollout loop's buffer (:func:`~._lanes.rollout_rows`),
@@ -191,7 +192,7 @@ def trace(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[Graph, list[Any], 
         getattr(mod.configuration, ENTRY_POINTS["jstar"])(q, m, s, out)
         return g, list(out.ravel()), n
     if kind == "rollout":
-        size = 13 + 2 * n
+        size = t.state_size
         x = np.array([g.input("W", i) for i in range(size)], dtype=object)
         u = np.array([g.input("W", size + j) for j in range(n + 6)], dtype=object)
         dx = np.full((1, size), 0.0, dtype=object)
@@ -364,7 +365,7 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
     elif kind == "measure":
         rows = n_in + len(outputs) + 5  # the work space of the measure: 5 rows (_lanes.measure_loop)
     else:
-        size = 13 + 2 * t.n_joints
+        size = t.state_size
         ext_at = _lanes.rollout_rows(size, t.n_joints + 6)  # the W layout of _lanes.rollout_blocks, then the wrenches
         rows = ext_at + 9 * len(wrenches)
     head = (
@@ -373,7 +374,9 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
         "from freefloat.mechanics import _lanes\nfrom freefloat.mechanics._lanes import LANES\n"
         "from freefloat.mechanics._numba_cache import kernel\n\n"
         f"SLOTS = {slots!r}\nROWS = {rows}\nWRENCHES = {wrenches!r}\nEXT_AT = {ext_at}\n"
-        f"COLUMNS = np.array({columns!r}, dtype=np.int64)\n\n\n@kernel()\n"
+        f"COLUMNS = np.array({columns!r}, dtype=np.int64)\n"
+        + (f"STATE = {t.state_size}  # the flat state (13 + 2N; 14 + 2N with the dissipated energy)\n" if kind == "rollout" else "")
+        + "\n\n@kernel()\n"
     )
     guarded = f"GUARDED = {bool(g.guards)}\n\n\n"
     drivers = _DRIVERS["map" if kind in MAPS else kind].replace("{n}", str(t.n_joints))
@@ -634,7 +637,7 @@ def _warm(module: types.ModuleType, t: Tree, kind: str, wrenches: Layout = ()) -
         module.serial(q, data, rows, 1, out, np.empty(module.ROWS * LANES))
         module.parallel(q, data, rows, 1, out, np.empty((_threads(), module.ROWS * LANES)))
     else:
-        size = 13 + 2 * n
+        size = module.STATE
         x0 = np.zeros((1, size))
         x0[0, 9] = 1.0
         zero = np.zeros((1, n))

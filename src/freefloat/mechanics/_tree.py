@@ -291,6 +291,18 @@ class Tree:
     def n_bodies(self) -> int:
         return int(self.parent.shape[0])
 
+    @property
+    def passive(self) -> bool:
+        """Whether a joint has viscous damping or Coulomb friction: then the engine's rollouts of this model integrate
+        the energy they dissipate, in a trailing slot of the flat state (:attr:`state_size`)."""
+        return bool(np.any(self.fields["damping"]) or np.any(self.fields["friction"]))
+
+    @property
+    def state_size(self) -> int:
+        """The flat state the rollouts of this model integrate: 13 + 2N, and the dissipated energy (14 + 2N) when
+        :attr:`passive` (``_configuration.state_derivative_one``)."""
+        return 13 + 2 * self.n_joints + (1 if self.passive else 0)
+
     def field_offset(self, name: str) -> int:
         """Where body field ``name`` starts in ``floats``."""
         offset = 0
@@ -348,5 +360,5 @@ def work_size(n_bodies: int, n_ee: int) -> int:
     and ``n_ee`` end effectors (for B - 1 joint coordinates: enough for the N <= B - 1 of a model with mimic joints)."""
     n = n_bodies - 1
     m = 3 + n
-    size = 13 + 2 * n
+    size = 14 + 2 * n  # a flat state with the dissipated energy's slot
     return 66 * n_bodies + 15 + 2 * m * m + m + 3 * n + 9 + 2 * (6 + n) + 5 * size + n + (4 * size + n + 9) + 12 * n_ee * n

@@ -421,7 +421,7 @@ class DivergenceGuard:
 
     def _energy(self, x: np.ndarray) -> float:
         n = self.n
-        velocity = np.concatenate([x[3:6], x[10:13], x[13 + n :]])
+        velocity = np.concatenate([x[3:6], x[10:13], x[13 + n : 13 + 2 * n]])  # (a dissipated energy may follow)
         # the engine's H+ directly: a diverging state is past what the public calls accept (|q| > 1e6), and is what is measured
         with np.errstate(over="ignore", invalid="ignore"):
             h_plus = _engine.inertia_matrix(self.model, np.ascontiguousarray(x[13 : 13 + n]))
@@ -431,7 +431,8 @@ class DivergenceGuard:
     def _rates_grew(self, x: np.ndarray) -> bool:
         """Whether the fastest rate is 1.2x the one at the last energy test (the kinetic energy, an H+ evaluation,
         cannot have grown much without the rates growing: it is tested then, not at every step)."""
-        rate = max(float(np.abs(x[10 + 3 + self.n :]).max(initial=0.0)), float(np.abs(x[10:13]).max()), float(np.abs(x[3:6]).max()))
+        rates = x[13 + self.n : 13 + 2 * self.n]
+        rate = max(float(np.abs(rates).max(initial=0.0)), float(np.abs(x[10:13]).max()), float(np.abs(x[3:6]).max()))
         if rate <= 1.2 * self.rate_checked:
             return False
         self.rate_checked = rate
@@ -440,7 +441,7 @@ class DivergenceGuard:
     def _fastest(self, x: np.ndarray) -> tuple[str, float, str]:
         """The fastest joint or the spacecraft: (who, rate, unit of the rate)."""
         n = self.n
-        rates = np.abs(x[13 + n :])
+        rates = np.abs(x[13 + n : 13 + 2 * n])
         spin = float(np.linalg.norm(x[10:13]))
         if n and rates.max() >= spin:
             i = int(np.argmax(rates))
@@ -461,7 +462,7 @@ class DivergenceGuard:
             return True
         if self.budget is not None:
             return False
-        rates, spin = values[13 + self.n :], values[10:13]
+        rates, spin = values[13 + self.n : 13 + 2 * self.n], values[10:13]
         bound = max(max(rates, default=0.0), -min(rates, default=0.0), 1.7320508075688772 * max(max(spin), -min(spin)))
         return bound <= self.rate_limit
 
@@ -480,7 +481,7 @@ class DivergenceGuard:
                     "or shorten the sample period"
                 )
         # fast path, every step: a bound on the fastest rate in plain floats (the spin norm <= sqrt(3) max |omega_i|)
-        rates, spin = x[13 + self.n :].tolist(), x[10:13].tolist()
+        rates, spin = x[13 + self.n : 13 + 2 * self.n].tolist(), x[10:13].tolist()
         bound = max(max(rates, default=0.0), -min(rates, default=0.0), 1.7320508075688772 * max(max(spin), -min(spin)))
         if bound <= self.rate_limit:
             return

@@ -5,7 +5,10 @@ one compiled call per run of steps); here are the fixed-step
 and adaptive (scipy ``solve_ivp``) loops, events, and the recorder that turns
 the flat states into a :class:`~freefloat.Trajectory`. The flat state is
 ``x = [r_cm, v_cm, attitude (x, y, z, w), omega, q, qdot]`` (see
-:mod:`freefloat.core.state`).
+:mod:`freefloat.core.state`), with the energy the joints' damping and friction have dissipated as one more
+component, last, when the run models them (:func:`~freefloat.core.state.dissipates`): the integrators integrate its
+rate (the engine's dissipated power) with the state, so every loop here carries it (the joint stops' restarts too) and
+:func:`_trajectory` takes it off into ``Trajectory.dissipated_energy``.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from ..core.errors import ShapeError, SimulationError
 from ..core.model import Model
 from ..core.numbers import MAX_EFFORT
 from ..core.resources import MEMORY_FRACTION, available_memory, format_bytes
-from ..core.state import unpack_state
+from ..core.state import dissipated, unpack_state
 from ..mechanics import _engine
 from ..mechanics.forces import _engine_wrenches, _wrenches
 from .trajectory import Trajectory
@@ -76,7 +79,7 @@ def _rhs(model: Model, external: Any) -> Callable[[np.ndarray, np.ndarray, np.nd
     u = np.zeros(model.n_joints + 6)
 
     def derivative(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
-        out = np.empty(stepper.size)
+        out = np.empty(x.shape[0])  # 13 + 2N, or 14 + 2N with the dissipated energy
         if not stepper.derivative(np.ascontiguousarray(x, dtype=float), _u(model, tau, force, torque, u), out):
             _check_effort(None, u)
             raise SimulationError("H+ (1991 eq. 15) is not positive definite at this state: the mass properties are not physical")
@@ -135,7 +138,7 @@ class _Recorder:
             xs[..., 6:10] /= np.linalg.norm(xs[..., 6:10], axis=-1, keepdims=True)
             acts = [np.stack([a[i] for a in self.act]) for i in range(4)]
         else:
-            xs = np.zeros((0, 13 + 2 * n))
+            xs = np.zeros((0, 13 + 2 * n))  # (no slot: no dissipated energy either)
             acts = [np.zeros((0, n)), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0,), dtype=bool)]
         return _trajectory(model, np.asarray(self.t), xs, (acts[0], acts[1], acts[2], acts[3]), status, message)
 
@@ -150,7 +153,8 @@ def _trajectory(
     *,
     copy: bool = True,
 ) -> Trajectory:
-    """A Trajectory from stacked flat states xs (T, ..., S) and actuation.
+    """A Trajectory from stacked flat states xs (T, ..., S) and actuation; the dissipated energy from their last slot
+    (S = 14 + 2N; zeros for states without it: :func:`~freefloat.core.state.dissipated`), the other fields from the rest.
 
     ``copy=False`` keeps the fields as views of ``xs`` (for the large arrays of
     batched rollouts, which nothing else holds); otherwise each field gets its own array.
@@ -169,6 +173,7 @@ def _trajectory(
         spacecraft_force=own(acts[1]),
         spacecraft_torque=own(acts[2]),
         saturated=own(acts[3]),
+        dissipated_energy=own(dissipated(model, xs)),
         status=status,
         message=message,
         model_name=model.name,

@@ -99,7 +99,7 @@ class JointStops:
     def apply(self, t: float, x: np.ndarray, joints: list[int] | None = None) -> None:
         """Put every joint beyond its limit (or the ``joints`` given, at their limit) back on it and apply its impulse."""
         n = self.model.n_joints
-        q, qdot, omega = x[13 : 13 + n], x[13 + n :], x[10:13]
+        q, qdot, omega = x[13 : 13 + n], x[13 + n : 13 + 2 * n], x[10:13]  # (a dissipated energy after them: untouched)
         self.release(x)
         for i in range(n) if joints is None else joints:
             side = _side(float(q[i]), self.lower[i], self.upper[i])

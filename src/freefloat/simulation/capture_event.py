@@ -19,7 +19,9 @@ two phases:
 
 Phase 2 restarts the integrator at the event: its output times are t_e + k ``output_period`` and its
 controller samples t_e + k ``sample_period`` (t is absolute in both phases: controllers and events see the
-run's time). With ``fixed_step`` the capture time ``at`` must be a multiple of the step.
+run's time). Its dissipated energy (the joints' damping and friction) goes on from phase 1's at the event: both
+count from t = 0 (the grasp's own loss is ``impact.energy_lost``, apart). With ``fixed_step`` the capture time ``at``
+must be a multiple of the step.
 
 The result, a :class:`CaptureRun`, holds both phase trajectories, the impact, the event time, the target's
 motion up to the grasp and the momentum of robot plus target throughout (inertial frame, about the inertial
@@ -182,6 +184,15 @@ class CaptureRun:
         return self.before.t if self.after is None else np.concatenate([self.before.t, self.after.t])
 
     @property
+    def dissipated_energy(self) -> np.ndarray | None:
+        """The energy the joints' damping and friction have dissipated since t = 0 (T1 + T2,), J: phase 2's goes on from
+        phase 1's (the grasp's loss, ``impact.energy_lost``, is not in it); None when a phase's is unknown."""
+        before, after = self.before.dissipated_energy, None if self.after is None else self.after.dissipated_energy
+        if before is None or (self.after is not None and after is None):
+            return None
+        return before if after is None else np.concatenate([before, after])
+
+    @property
     def linear_momentum(self) -> np.ndarray:
         """Linear momentum of robot plus target (T1 + T2, 3), N s, inertial frame: constant without external forces."""
         before = self.before.linear_momentum + self.target.mass[:, None] * self.target.velocity
@@ -229,10 +240,12 @@ def _still(model: Model, state: State, t: float) -> Trajectory:
     return rec.trajectory()
 
 
-def _shifted(traj: Trajectory, dt: float) -> Trajectory:
-    """``traj`` with its times (and its joint-limit events') moved by ``dt``."""
+def _shifted(traj: Trajectory, dt: float, dissipated: float) -> Trajectory:
+    """``traj`` with its times (and its joint-limit events') moved by ``dt`` and its dissipated energy by ``dissipated``
+    (J: the energy dissipated before it started, so that it counts from the start of the whole run)."""
     events = tuple(dataclasses.replace(e, t=e.t + dt, t_end=None if e.t_end is None else e.t_end + dt) for e in traj.joint_limit_events)
-    return dataclasses.replace(traj, t=traj.t + dt, joint_limit_events=events)
+    energy = None if traj.dissipated_energy is None else traj.dissipated_energy + dissipated
+    return dataclasses.replace(traj, t=traj.t + dt, joint_limit_events=events, dissipated_energy=energy)
 
 
 def _later(func: Any, dt: float) -> Any:
@@ -325,16 +338,17 @@ def simulate_capture(
         if callable(tell):
             tell(grasp)
     remaining = duration - t_e
+    spent = 0.0 if before.dissipated_energy is None else float(before.dissipated_energy[-1])  # phase 2 goes on from it
     run = dict(before=before, impact=grasp, t_capture=t_e, target=target, coast=motion, capture=capture, closest_approach=distance)
     if remaining <= 1e-12 * duration:
-        after = _still(grasp.model, grasp.state, t_e)
+        after = _shifted(_still(grasp.model, grasp.state, 0.0), t_e, spent)
     else:
         later = {**options, "events": tuple(_later(ev, t_e) for ev in events)}
         try:
-            after = _shifted(simulate(grasp.model, grasp.state, remaining, _later(after_controller, t_e), **later), t_e)
+            after = _shifted(simulate(grasp.model, grasp.state, remaining, _later(after_controller, t_e), **later), t_e, spent)
         except SimulationError as exc:  # the message's times count from the grasp (the second run's own clock): said so
             message = f"after the grasp at t = {t_e:.6g} s (times from the grasp): {exc}"
-            failed = None if exc.trajectory is None else _shifted(exc.trajectory, t_e)
+            failed = None if exc.trajectory is None else _shifted(exc.trajectory, t_e, spent)
             error = SimulationError(message, failed)
             error.run = CaptureRun(after=failed, status="failed", message=message, **run)  # type: ignore[attr-defined, arg-type]
             raise error from exc

@@ -31,7 +31,7 @@ from ..core.errors import FreefloatError, LongRunWarning, ShapeError, Simulation
 from ..core.model import Model
 from ..core.numbers import MAX_EFFORT, tolerance_problem
 from ..core.resources import require_memory
-from ..core.state import Actuation, ActuatorLimits, State, pack_state, unpack_state
+from ..core.state import Actuation, ActuatorLimits, State, dissipates, pack_state, unpack_state
 from ..mechanics import _engine
 from ._guard import (
     MAX_RATE,
@@ -240,7 +240,9 @@ def simulate(
     ``passive``: ``"model"`` (default) applies the joints' passive torques the model has (viscous damping and smooth
     Coulomb friction, ``model.joint_damping`` / ``joint_friction``: :func:`freefloat.mechanics.passive_torque`);
     ``"ignore"`` simulates without them (the paper systems have none). The energy they dissipate is
-    ``traj.dissipated_energy``; being internal torques, they change no momentum. The rotors' inertia
+    ``traj.dissipated_energy``: integrated with the state (its rate, the dissipated power, is one more component of the
+    integrated state), so it is exact to the integrator's accuracy at every output time, however seldom the run
+    records; zeros with ``"ignore"`` or a model without them. Being internal torques, they change no momentum. The rotors' inertia
     (``model.joint_armature``) is inertia, always modelled.
 
     Runs cannot hang unnoticed:
@@ -304,7 +306,7 @@ def simulate(
     stops = JointStops(model, joint_limits, restitution)
     stops.check_initial(np.asarray(state.q, dtype=float))
     period = output_period or max(0.01, fixed_step or 0.0)
-    x0 = pack_state(state)
+    x0 = pack_state(state, 0.0 if dissipates(model) else None)  # with the dissipated energy's slot when there are passive torques
     rec = _Recorder(model)
     zero = (np.zeros(model.n_joints), np.zeros(3), np.zeros(3))
 
@@ -429,7 +431,7 @@ def rollout(
     """
     model = _passive_model(model, passive)
     state = initial_states.resolve(model)
-    x = pack_state(state)
+    x = pack_state(state, 0.0 if dissipates(model) else None)  # with the dissipated energy's slot when there are passive torques
     if x.ndim != 2:
         raise ShapeError(f"initial_states: expected fields with one leading batch axis (B, ...), got a state of shape {x.shape}")
     batch = x.shape[:1]
@@ -484,7 +486,7 @@ def rollout(
                 tau, force, torque, _ = act
                 x = step(x, tau, force, torque)
                 with np.errstate(invalid="ignore"):
-                    rates = np.concatenate([x[:, 10:13], x[:, 13 + n :]], axis=-1)  # omega0 and qdot
+                    rates = np.concatenate([x[:, 10:13], x[:, 13 + n : 13 + 2 * n]], axis=-1)  # omega0 and qdot
                     bad = ~(np.abs(rates) <= MAX_RATE).all(axis=-1) | ~np.isfinite(x[:, : 13 + n]).all(axis=-1)
                 if bad.any():  # the divergence guard of simulate: a non-finite state, or a rate beyond what the model can mean
                     first = int(np.argmax(bad))

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import csv
 import json
+import warnings
 from dataclasses import asdict, dataclass, field, fields
 from functools import cached_property
 from pathlib import Path
@@ -37,7 +38,10 @@ _ARRAYS = (
     "spacecraft_force",
     "spacecraft_torque",
     "saturated",
+    "dissipated_energy",
 )
+#: Arrays a file may lack: written by a freefloat before them (``dissipated_energy``: see :meth:`Trajectory.load`).
+_OPTIONAL = ("dissipated_energy",)
 
 
 @dataclass(frozen=True)
@@ -73,6 +77,15 @@ class Trajectory:
     the arrays hold what was computed before the failure). Derived quantities
     need ``model``. ``joint_limit_events``: the hard-stop impacts, or the limit
     violations when stops are off (:class:`JointLimitEvent`).
+
+    ``dissipated_energy`` (T,) (T, B for a rollout), J: the energy the joints' viscous damping and Coulomb friction
+    have dissipated since the start of the run, integrated with the state by the run's own integrator (the dissipated
+    power sum_k qdot_k (d_k qdot_k + F_k tanh(qdot_k / v_s)) >= 0 over the joints is one more component of the
+    integrated state: ``freefloat.core.state``), so it is exact to the integrator's accuracy at every output time,
+    however seldom the run records. With it, kinetic energy + dissipated = initial kinetic energy + the work of the
+    actuators (and of external wrenches), to that accuracy. Zeros for a model without damping and friction or a run
+    with ``passive="ignore"``. None when unknown: a trajectory made without it, or a file of an older freefloat loaded
+    without its model (:meth:`load`).
     """
 
     t: np.ndarray
@@ -91,6 +104,7 @@ class Trajectory:
     model_name: str = ""
     model: Model | None = field(default=None, repr=False)
     joint_limit_events: tuple[JointLimitEvent, ...] = ()
+    dissipated_energy: np.ndarray | None = None
 
     @property
     def joint_limits_violated(self) -> bool:
@@ -132,16 +146,6 @@ class Trajectory:
         """The joints' passive torques at the output times (T, N) (T, B, N for a rollout): damping and friction
         (:func:`freefloat.mechanics.passive_torque`; zeros for a model without, or a run with ``passive="ignore"``)."""
         return passive_torque(self._need_model(), self.qdot)
-
-    @cached_property
-    def dissipated_energy(self) -> np.ndarray:
-        """Energy the joints' damping and friction have dissipated since the start (T,) (T, B for a rollout), J: the
-        integral of -passive_torque . qdot by the trapezoidal rule over the output times (exact to O(h^2) of the output
-        period h: record often for a tight balance). With it, kinetic energy + dissipated = initial kinetic energy +
-        the work of the actuators."""
-        power = -np.sum(self.passive_torque * self.qdot, axis=-1)
-        steps = 0.5 * (power[1:] + power[:-1]) * np.diff(self.t).reshape((-1,) + (1,) * (power.ndim - 1))
-        return np.concatenate([np.zeros_like(power[:1]), np.cumsum(steps, axis=0)], axis=0)
 
     @cached_property
     def end_effector_positions(self) -> np.ndarray:
@@ -223,12 +227,12 @@ class Trajectory:
             "status": self.status,
             "message": self.message,
             "model_name": self.model_name or (self.model.name if self.model else ""),
-            "shapes": {name: list(np.shape(getattr(self, name))[1:]) for name in _ARRAYS},
+            "shapes": {name: list(np.shape(getattr(self, name))[1:]) for name in self._saved()},
             "joint_limit_events": [asdict(e) for e in self.joint_limit_events],
         }
         if path.suffix == ".npz":
             with path.open("wb") as fh:
-                np.savez(fh, **{name: getattr(self, name) for name in _ARRAYS}, meta=json.dumps(meta))
+                np.savez(fh, **{name: getattr(self, name) for name in self._saved()}, meta=json.dumps(meta))
         elif path.suffix == ".csv":
             header, columns = self._columns()
             sidecar.write_text(json.dumps({"freefloat_trajectory": meta, "columns": header}, indent=2) + "\n", encoding="utf-8")
@@ -240,13 +244,17 @@ class Trajectory:
             raise ValueError(f"{path}: unknown trajectory file type {path.suffix!r}; use .npz or .csv")
         return path
 
+    def _saved(self) -> list[str]:
+        """The arrays a file holds: all of them (the dissipated energy when known)."""
+        return [name for name in _ARRAYS if getattr(self, name) is not None]
+
     def _columns(self) -> tuple[list[str], list[np.ndarray]]:
         """CSV column names and values: ``t``, ``q[joint]`` per joint (by name when the model is known), ``omega[x]``
         ... per component, ``attitude[x]`` ... ``attitude[w]``; a batched trajectory's columns ``q[b][joint]``."""
         header: list[str] = []
         columns: list[np.ndarray] = []
         joints = list(self.model.joint_names) if self.model is not None else None
-        for name in _ARRAYS:
+        for name in self._saved():
             arr = np.asarray(getattr(self, name), dtype=float)
             columns.append(arr.reshape(arr.shape[0], -1))
             if arr.ndim == 1:
@@ -267,15 +275,21 @@ class Trajectory:
 
     @classmethod
     def load(cls, path: str | Path, model: Model | None = None) -> Trajectory:
-        """Read a trajectory written by :meth:`save`; attach ``model`` for the derived quantities."""
+        """Read a trajectory written by :meth:`save`; attach ``model`` for the derived quantities.
+
+        A file written by a freefloat before the dissipated energy was integrated with the state holds none: with the
+        model attached, ``dissipated_energy`` is then the trapezoidal rule over the file's output times (an estimate,
+        exact to O(h^2) of the output period h: a warning says so; zeros, exact, for a model without damping and
+        friction); without it, None (a warning says so too).
+        """
         path = Path(path)
         if path.suffix == ".npz":
             try:
                 with np.load(path, allow_pickle=False) as data:
-                    missing = [name for name in (*_ARRAYS, "meta") if name not in data.files]
+                    missing = [name for name in (*_ARRAYS, "meta") if name not in data.files and name not in _OPTIONAL]
                     if missing:
                         raise ValueError(f"{path}: not a freefloat trajectory file, missing {', '.join(missing)}")
-                    arrays = {name: data[name] for name in _ARRAYS}
+                    arrays = {name: data[name] for name in _ARRAYS if name in data.files}
                     meta = json.loads(str(data["meta"]))
             except (ValueError, OSError, EOFError, KeyError, AttributeError) as exc:  # numpy's errors for a file that is no .npz
                 if str(path) in str(exc):
@@ -285,6 +299,8 @@ class Trajectory:
             arrays, meta = _read_csv(path)
         else:
             raise ValueError(f"{path}: unknown trajectory file type {path.suffix!r}; use .npz or .csv")
+        if "dissipated_energy" not in arrays:
+            arrays["dissipated_energy"] = _older_file_dissipation(path, model, arrays["t"], arrays["qdot"])
         return cls(
             **arrays,
             status=meta.get("status", "finished"),
@@ -309,10 +325,39 @@ class Trajectory:
         return int(self.t.shape[0])
 
     def equals(self, other: Trajectory, rtol: float = 0.0, atol: float = 0.0) -> bool:
-        """Array-wise comparison (for round-trip tests)."""
-        return all(
-            np.allclose(getattr(self, f.name), getattr(other, f.name), rtol=rtol, atol=atol) for f in fields(self) if f.name in _ARRAYS
+        """Array-wise comparison (for round-trip tests; an unknown dissipated energy equals only another unknown one)."""
+        return all(_same(getattr(self, f.name), getattr(other, f.name), rtol, atol) for f in fields(self) if f.name in _ARRAYS)
+
+
+def _same(a: np.ndarray | None, b: np.ndarray | None, rtol: float, atol: float) -> bool:
+    if a is None or b is None:
+        return a is None and b is None
+    return bool(np.allclose(a, b, rtol=rtol, atol=atol))
+
+
+def _older_file_dissipation(path: Path, model: Model | None, t: np.ndarray, qdot: np.ndarray) -> np.ndarray | None:
+    """The dissipated energy of a file that holds none (written by an older freefloat): the trapezoidal rule over its
+    output times with the model's passive torques (zeros without damping and friction: exact), else None; said."""
+    if model is not None and not model.has_passive:
+        return np.zeros(qdot.shape[:-1])
+    if model is None:
+        warnings.warn(
+            f"{path}: the file holds no dissipated energy (written by an older freefloat): dissipated_energy is None; "
+            "load it with its model for an estimate (the trapezoidal rule over the output times)",
+            UserWarning,
+            stacklevel=3,
         )
+        return None
+    warnings.warn(
+        f"{path}: the file holds no dissipated energy (written by an older freefloat): dissipated_energy is the trapezoidal "
+        "rule over its output times, an estimate exact to O(h^2) of the output period h; simulate again for the "
+        "integrated one",
+        UserWarning,
+        stacklevel=3,
+    )
+    power = -np.sum(passive_torque(model, qdot) * qdot, axis=-1)
+    steps = 0.5 * (power[1:] + power[:-1]) * np.diff(t).reshape((-1,) + (1,) * (power.ndim - 1))
+    return np.concatenate([np.zeros_like(power[:1]), np.cumsum(steps, axis=0)], axis=0)
 
 
 def _sidecar(path: Path) -> Path:
@@ -345,6 +390,8 @@ def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     arrays = {}
     for name in _ARRAYS:
         cols = [i for i, h in enumerate(header) if h == name or h.startswith(f"{name}[")]
+        if not cols and name in _OPTIONAL:
+            continue
         if not cols:
             raise ValueError(f"{path}: not a freefloat trajectory CSV: no column {name!r} (or {name}[...]); write it with Trajectory.save")
         shape = tuple(shapes.get(name, [] if header[cols[0]] == name else [len(cols)]))
