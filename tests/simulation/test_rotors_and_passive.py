@@ -271,7 +271,7 @@ def test_rollouts_with_rotors_damping_and_friction_equal_a_loop_of_simulations(c
 #: kinetic energy + dissipated - initial kinetic energy, free-floating (no actuation), relative to the energy each
 #: trajectory dissipates in its 4 s (a fifth of its kinetic energy or more), per system and integration path: the
 #: dissipated power is integrated with the state, so the balance holds to the integrator's accuracy at every output,
-#: however seldom the run records (0.5 s here). Measured 2026-12 (2-core VM), arm / gripper: RK4 at 1 ms 4.8e-10 /
+#: however seldom the run records (0.5 s here). Measured 2026-11 (2-core VM), arm / gripper: RK4 at 1 ms 4.8e-10 /
 #: 8.3e-13; DOP853 at rtol = atol = 1e-12 1.9e-15 / 2.6e-14; rollouts (RK4 at 1 ms, other starts) of 3 trajectories
 #: 1.4e-9 / 8.8e-13 and of 9 (the specialised kernels) 1.0e-9 / 8.3e-12. Bounds about 3x those, each below the 1e-7
 #: relative change of the dissipated energy the tests show they would see (the trapezoid over 1 ms outputs that this
