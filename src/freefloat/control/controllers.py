@@ -43,14 +43,14 @@ from typing import Any
 
 import numpy as np
 
-from ..core.conventions import attitude_matrix
 from ..core.errors import NearSingularWarning, ShapeError
 from ..core.model import Model
 from ..core.state import Actuation, ActuatorLimits, State
 from ..mechanics.dynamics import nonlinear_forces
 from ..mechanics.forces import _actuation_0
 from ..mechanics.momentum import system_inertia_matrix
-from .desired import DesiredPoint, as_desired
+from . import _compiled
+from .desired import DesiredPoint, SetPoint, StraightLine, as_desired
 from .tasks import TaskSpace
 
 __all__ = ["OperationalSpaceController", "TransposedJacobianController", "actuation_of", "damped_inverse", "gain_matrix"]
@@ -141,15 +141,20 @@ class _TaskController:
     ) -> None:
         if not isinstance(task, TaskSpace):
             raise TypeError(f"task: expected a freefloat.TaskSpace, got {type(task).__name__}")
+        self.models = _compiled.models_of(model)  # one model, or payload variants per trajectory
+        model = self.models[0]
         if task.model is not model:
             raise ValueError(f"task: built for model {task.model.name!r}, not for {model.name!r}; build the task from this model")
         self.model = model
         self.task = task
         self.desired = as_desired(desired)
         for z in getattr(self.desired, "targets", list)():
-            task.check_target(z, "desired")
-        self.kp = gain_matrix(kp, task.dim, "kp")
-        self.kd = gain_matrix(kd, task.dim, "kd")
+            for row in np.reshape(z, (-1, np.shape(z)[-1])) if np.ndim(z) == 2 else [z]:  # a set point per trajectory: (B, size)
+                task.check_target(row, "desired")
+        self.kp_rows = _compiled.gains(kp, task.dim, "kp", gain_matrix)  # (1 or B, dim, dim)
+        self.kd_rows = _compiled.gains(kd, task.dim, "kd", gain_matrix)
+        self.kp = self.kp_rows[0] if self.kp_rows.shape[0] == 1 else self.kp_rows
+        self.kd = self.kd_rows[0] if self.kd_rows.shape[0] == 1 else self.kd_rows
         if not (np.isfinite(singular_tolerance) and 0.0 < singular_tolerance < 1.0):
             raise ValueError(f"singular_tolerance: expected a number in (0, 1), got {singular_tolerance!r}")
         if not (np.isfinite(null_space_damping) and null_space_damping >= 0.0):
@@ -180,37 +185,54 @@ class _TaskController:
             raise ValueError(f"desired(t={t:g}): returned NaN or infinite values")
         return DesiredPoint(z, rates[0], rates[1])
 
-    def _check_singular(self, jac: np.ndarray) -> float:
-        ratio = _closeness(jac)
-        near = ratio < self.singular_tolerance
+    def _warn_singular(self, ratio: np.ndarray) -> None:
+        """Warn (once each time it enters the region) when σ_min/σ_max of J_z is below the tolerance (any trajectory)."""
+        worst = float(np.min(ratio))
+        near = worst < self.singular_tolerance
         if near and not self._near_singular:
             warnings.warn(
-                f"{self.law}: J_z (1991 eq. 23) is near singular (sigma_min/sigma_max = {ratio:.2e} < {self.singular_tolerance:g}); "
+                f"{self.law}: J_z (1991 eq. 23) is near singular (sigma_min/sigma_max = {worst:.2e} < {self.singular_tolerance:g}); "
                 "the task loses a direction there and the controller keeps running without it",
                 NearSingularWarning,
                 stacklevel=3,
             )
         self._near_singular = near
-        return ratio
 
-    def _actuation(self, state: State, generalized_force: np.ndarray, extras: dict[str, Any]) -> Actuation:
-        return actuation_of(self.model, state, generalized_force, self.limits, extras)
+    def compiled_law(self, batch: int | None = None, point: DesiredPoint | None = None) -> Any:
+        """The controller as a compiled law (:mod:`freefloat.mechanics._laws`) for a run of ``batch`` trajectories (None:
+        one simulation), or None when its desired motion is a Python function (``point``: that motion evaluated now).
+        :func:`freefloat.simulate` and :func:`freefloat.rollout` run it in their compiled loops."""
+        return _compiled.task_law(self, batch, point)
 
     def __call__(self, t: float, state: State) -> Actuation:
-        """The actuation at time t (1991 eq. 30): thruster force and torque (spacecraft frame), joint torques."""
+        """The actuation at time t (1991 eq. 30): thruster force and torque (spacecraft frame), joint torques.
+
+        ``state`` may hold a batch of B states (a rollout): row b takes the per-trajectory parameters' row b."""
         state = state.resolve(self.model)
-        if np.asarray(state.q).ndim != 1:
-            raise ShapeError("state: a controller takes one state (fields without a batch axis)")
-        q_c, extras = self._generalized_force(float(t), state)
-        return self._actuation(state, q_c, extras)
+        q_c, u, extras = self._law(float(t), state)
+        n = self.model.n_joints
+        extras.update(generalized_force=q_c, joint_torque=u[..., :n], spacecraft_force=u[..., n : n + 3], spacecraft_torque=u[..., n + 3 :])
+        tau, force, torque = u[..., :n], u[..., n : n + 3], u[..., n + 3 :]
+        if self.limits is not None:
+            tau, force, torque, saturated = self.limits.apply(tau, force, torque)
+            extras["saturated"] = bool(saturated) if np.ndim(saturated) == 0 else saturated
+        return Actuation(joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque, extras=extras)
 
     def generalized_force(self, t: float, state: State) -> np.ndarray:
         """Q_c (6 + N) in the zdot0 coordinates (first block inertial)."""
-        state = state.resolve(self.model)
-        return self._generalized_force(float(t), state)[0]
+        return self._law(float(t), state.resolve(self.model))[0]
 
-    def _generalized_force(self, t: float, state: State) -> tuple[np.ndarray, dict[str, Any]]:
-        raise NotImplementedError
+    def _law(self, t: float, state: State) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
+        """(Q_c, u = [τ, f_S, n_S] before the limits, extras) of the compiled law at (t, a resolved state)."""
+        shape = np.shape(state.q)
+        batch = None if len(shape) == 1 else int(np.prod(shape[:-1]))
+        compiled = isinstance(self.desired, (SetPoint, StraightLine))
+        law = self.compiled_law(batch, None if compiled else self.desired_point(t))
+        if law is None:  # a straight line given without its task on a task with orientations: evaluated here
+            law = self.compiled_law(batch, self.desired_point(t))
+        u, e, edot, q_c, ratio = _compiled.evaluate(law, self.model, t, state)
+        self._warn_singular(ratio)
+        return q_c, u, {"error": e, "error_rate": edot, "sigma_ratio": float(ratio) if ratio.ndim == 0 else ratio}
 
 
 class TransposedJacobianController(_TaskController):
@@ -224,19 +246,6 @@ class TransposedJacobianController(_TaskController):
     """
 
     law = "transposed-Jacobian controller (1991 eq. 29)"
-
-    def _generalized_force(self, t: float, state: State) -> tuple[np.ndarray, dict[str, Any]]:
-        des = self.desired_point(t)
-        z, jac, zdot, _ = self.task.evaluate(state)
-        e = self.task.error(des.z, z)
-        edot = des.zdot - zdot
-        q_c = jac.T @ (self.kp @ e + self.kd @ edot)
-        ratio = self._check_singular(jac)
-        if self.null_space_damping > 0.0:
-            velocity = np.asarray(state.velocity)
-            pinv = np.linalg.pinv(jac, rcond=self.singular_tolerance)
-            q_c -= self.null_space_damping * (velocity - pinv @ (jac @ velocity))
-        return q_c, {"error": e, "error_rate": edot, "sigma_ratio": ratio, "_t0": attitude_matrix(state.attitude)}
 
 
 class OperationalSpaceController(_TaskController):
@@ -269,19 +278,3 @@ class OperationalSpaceController(_TaskController):
         j_bar = h_inv_jt @ h_tilde
         c_tilde = j_bar.T @ c_plus - h_tilde @ bias
         return h_tilde, c_tilde, j_bar
-
-    def _generalized_force(self, t: float, state: State) -> tuple[np.ndarray, dict[str, Any]]:
-        des = self.desired_point(t)
-        z, jac, zdot, bias = self.task.evaluate(state, bias=True)
-        assert bias is not None
-        e = self.task.error(des.z, z)
-        edot = des.zdot - zdot
-        ratio = self._check_singular(jac)
-        h_tilde, c_tilde, j_bar = self._task_dynamics(state, jac, bias, ratio)
-        command = self.kp @ e + self.kd @ edot + des.zddot
-        q_c = jac.T @ (h_tilde @ command + c_tilde)
-        if self.null_space_damping > 0.0:
-            velocity = np.asarray(state.velocity)
-            q_c -= self.null_space_damping * (velocity - jac.T @ (j_bar.T @ velocity))
-        extras = {"error": e, "error_rate": edot, "sigma_ratio": ratio, "_t0": attitude_matrix(state.attitude)}
-        return q_c, extras

@@ -29,9 +29,7 @@ from ..core.conventions import attitude_matrix
 from ..core.errors import ShapeError
 from ..core.model import Model
 from ..core.state import Actuation, State
-from ..mechanics.dynamics import nonlinear_forces
-from ..mechanics.momentum import system_inertia_matrix
-from .controllers import actuation_of
+from . import _compiled
 
 __all__ = ["STANDARD_GRAVITY", "Detumble", "DetumbleCost", "detumble_cost"]
 
@@ -65,16 +63,22 @@ class Detumble:
         attitude_gain: float | None = None,
         force: bool = True,
     ) -> None:
-        if not isinstance(model, Model):
-            raise TypeError(f"model: expected a freefloat Model, got {type(model).__name__}")
+        self.models = _compiled.models_of(model)  # one model, or payload variants per trajectory
+        model = self.models[0]
         size = 6 + model.n_joints
         gains = np.asarray(rate_gain, dtype=float)
         gains = np.full(size, float(gains)) if gains.ndim == 0 else gains
-        if gains.shape != (size,):
-            raise ShapeError(f"rate_gain: expected a scalar or ({size},) gains (a row of [v_cm, omega, qdot] each), got {gains.shape}")
+        if gains.ndim == 2 and gains.shape[1] in (1, size):  # per trajectory: (B, 1) or (B, 6 + N)
+            gains = np.broadcast_to(gains, (gains.shape[0], size))
+        elif gains.shape != (size,):
+            raise ShapeError(
+                f"rate_gain: expected a scalar or ({size},) gains (a row of [v_cm, omega, qdot] each), or per trajectory (B, {size}) "
+                f"or (B, 1), got {gains.shape}"
+            )
         if not (np.all(np.isfinite(gains)) and np.all(gains > 0.0)):
             raise ValueError(f"rate_gain: every gain must be positive and finite (1/s), got {rate_gain!r}")
         self.model, self.rate_gain, self.force = model, gains.copy(), bool(force)
+        self.rate_gain_rows = np.atleast_2d(self.rate_gain).copy()
         self.attitude: np.ndarray | None = None
         self.attitude_gain = 0.0
         if attitude is not None:
@@ -87,7 +91,7 @@ class Detumble:
             if rotation.single is False:
                 raise ShapeError("attitude: expected one attitude, got a batch")
             self.attitude = rotation.as_matrix()
-            k = float(np.min(gains[3:6]))
+            k = float(np.min(gains[..., 3:6]))
             self.attitude_gain = _positive(k * k / 4.0 if attitude_gain is None else attitude_gain, "attitude_gain", "1/s^2")
         elif attitude_gain is not None:
             raise ValueError("attitude_gain: given without an attitude; pass attitude= as well, or drop attitude_gain")
@@ -98,6 +102,12 @@ class Detumble:
         if impact.model.n_joints != self.model.n_joints:
             raise ValueError(f"impact.model: has {impact.model.n_joints} joints, this controller's model {self.model.n_joints}")
         self.model = impact.model
+        self.models = (impact.model,)
+
+    def compiled_law(self, batch: int | None = None) -> Any:
+        """The controller as a compiled law (:mod:`freefloat.mechanics._laws`) for a run of ``batch`` trajectories (None:
+        one simulation): :func:`freefloat.simulate` and :func:`freefloat.rollout` run it in their compiled loops."""
+        return _compiled.detumble_law(self, batch)
 
     def desired_acceleration(self, state: State) -> np.ndarray:
         """zddot0,des (6 + N) at a resolved ``state``: -k zdot0, the attitude error term on the ω0 rows, no force rows
@@ -111,15 +121,16 @@ class Detumble:
         return acc
 
     def __call__(self, t: float, state: State) -> Actuation:
-        """Thruster force and torque (spacecraft frame) and joint torques: Q_c = H+ zddot0,des + C+, then eq. 30."""
+        """Thruster force and torque (spacecraft frame) and joint torques: Q_c = H+ zddot0,des + C+, then eq. 30 (the
+        compiled law of :mod:`freefloat.mechanics._laws`). ``state`` may hold a batch of B states (a rollout)."""
         state = state.resolve(self.model)
-        if np.asarray(state.q).ndim != 1:
-            raise ShapeError("state: a controller takes one state (fields without a batch axis)")
-        acc = self.desired_acceleration(state)
-        q_c = system_inertia_matrix(self.model, state.q) @ acc + nonlinear_forces(self.model, state.q, state.velocity)
-        if not self.force:
-            q_c[0:3] = 0.0  # C+ has no r_cm rows: the CM is left alone
-        return actuation_of(self.model, state, q_c, None, {"desired_acceleration": acc, "_t0": attitude_matrix(state.attitude)})
+        shape = np.shape(state.q)
+        law = self.compiled_law(None if len(shape) == 1 else int(np.prod(shape[:-1])))
+        u, _, _, q_c, _ = _compiled.evaluate(law, self.model, float(t), state)
+        n = self.model.n_joints
+        tau, force, torque = u[..., :n], u[..., n : n + 3], u[..., n + 3 :]
+        extras = {"generalized_force": q_c, "joint_torque": tau, "spacecraft_force": force, "spacecraft_torque": torque}
+        return Actuation(joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque, extras=extras)
 
 
 @dataclass(frozen=True)

@@ -38,6 +38,7 @@ from ._configuration import (
     state_derivative_one,
 )
 from ._lanes import LANES, rollout_loop
+from ._laws import law_control, law_one
 from ._numba_cache import bind, kernel, unowned_floats, unowned_ints
 from ._recursions import kinematics, scratch
 from ._tree import Tree, arrays, buffer_lengths, work_size
@@ -53,6 +54,7 @@ __all__ = [
     "hplus_rate_batch",
     "inverse_batch",
     "jstar_batch",
+    "law_batch",
     "measure_batch",
     "point_bias_batch",
     "point_jacobian_batch",
@@ -117,8 +119,9 @@ def driver(name: str, row: Any, *, block: int = BLOCK, parallel_min: int | None 
 
 
 # ----------------------------------------------------------------- one trajectory stepped from Python (the Stepper)
-#: The rollout loop of _lanes, one trajectory at a time, stepped by the engine's RK4 step (bound as a global: inlined).
-_rollout_blocks = rollout_loop(rk4_step_rows, "generic")
+#: The rollout loop of _lanes, one trajectory at a time, stepped by the engine's RK4 step, with the joint PD or a control
+#: law of _laws in it (bound as globals: inlined).
+_rollout_blocks = rollout_loop(rk4_step_rows, "generic", law_control)
 
 
 @kernel(inline="always")
@@ -299,30 +302,20 @@ def _derivative_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
 @kernel(inline="always")
 def _rollout_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
     """Trajectory b of a rollout (the loop of :func:`~._lanes.rollout_blocks`, one lane wide, on the engine's state
-    derivative). a = (X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, ext_i, EXT, XS, US, SAT, DONE)."""
-    X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, ext_i, EXT, XS, US, SAT, DONE = a
-    _rollout_blocks(
-        (m, ext_i, EXT[b], s),
-        1,
-        b,
-        b + 1,
-        X0,
-        dt,
-        steps,
-        hold,
-        stride,
-        kp,
-        kd,
-        qref,
-        vref,
-        ff,
-        lim,
-        XS,
-        US,
-        SAT,
-        DONE,
-        s.rows,
-    )
+    derivative) with the joint PD or a control law (:func:`~._laws.law_control`), on the model of the buffers
+    (plant_ints, PLANT[b] or PLANT[0]: a payload variant per trajectory). a = (X0, dt, steps, hold, stride,
+    C = ((kp, kd, qref, vref, ff), law), lim, plant_ints, PLANT (K, F), ext_i, EXT, XS, US, SAT, DONE)."""
+    X0, dt, steps, hold, stride, C, lim, plant_ints, PLANT, ext_i, EXT, XS, US, SAT, DONE = a
+    plant = arrays(plant_ints, PLANT[b if PLANT.shape[0] > 1 else 0])
+    _rollout_blocks((plant, ext_i, EXT[b], s), 1, b, b + 1, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, s.rows)
+
+
+@kernel(inline="always")
+def _law_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
+    """a = (L, T (C,), X (C, S), U (C, N + 6), E (C, d), ED (C, d), QC (C, 6 + N), RATIO (C,)): the control law L at
+    time T[i] and state X[i] (its per-trajectory parameters' row i): u, e, ė, Q_c, σ_min/σ_max of J_z."""
+    L, T, X, U, E, ED, QC, RATIO = a
+    RATIO[i] = law_one(L, i, T[i], X[i], s, U[i], E[i], ED[i], QC[i])
 
 
 frames_batch = driver("frames", _frames_row)
@@ -337,3 +330,4 @@ inverse_batch = driver("inverse", _inverse_row)
 forward_batch = driver("forward", _forward_row)
 derivative_batch = driver("derivative", _derivative_row)
 rollout_batch = driver("rollout", _rollout_row, block=1, parallel_min=2)  # one trajectory is long work: threads pay from two
+law_batch = driver("law", _law_row)

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from . import _configuration, _drivers, _specialise
+from . import _configuration, _drivers, _laws, _specialise
 from ._arrays import new_output
 from ._lanes import LANES
 from ._tree import Tree, tree, work_size
@@ -27,11 +27,13 @@ __all__ = [
     "NO_WRENCHES",
     "Stepper",
     "accelerations",
+    "control_law",
     "frames",
     "generalized_jacobian",
     "inertia_matrix",
     "inertia_matrix_rate",
     "jacobian_measures",
+    "law_rollout",
     "point_biases",
     "point_jacobians",
     "points",
@@ -446,7 +448,7 @@ def rollout(
         size, given = fast.STATE, x0.shape[1]  # the module's flat state (with the dissipated energy or without), the caller's
         x_in = x0 if given == size else np.concatenate([x0[:, : 13 + 2 * n], np.zeros((k, size - 13 - 2 * n))], axis=1)
         x_out = xs if given == size else new_output((rows, k, size))
-        args = (_own(x_in), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), x_out, us, sat, done)
+        args = (_own(x_in), *timing, (kp, kd, qref, vref, _own(feedforward)), _own(limit), x_out, us, sat, done)
         _specialise.rollout(fast, t, *args, ext_f.reshape(k, 9 * len(wrenches)))  # each trajectory's wrenches (K, 9W)
         if x_out is not xs:  # the states as given: the energy's slot dropped, or added (zero: the model dissipates nothing)
             common = min(size, given)
@@ -454,10 +456,71 @@ def rollout(
             xs[..., common:] = 0.0
         return xs, us, sat, done
     start = time.perf_counter()
-    _drivers.rollout_batch(k, t, _own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), ext_i, ext_f, xs, us, sat, done)
+    C = ((kp, kd, qref, vref, _own(feedforward)), _no_law(t))
+    _drivers.rollout_batch(
+        k, t, _own(x0), *timing, C, _own(limit), _own(t.ints, np.int64), _own(t.floats[None]), ext_i, ext_f, xs, us, sat, done
+    )
     if k >= _SPECIALISED_ROLLOUTS_MIN and _drivers.rollout_batch.compiled:  # work they would take
         _specialise.account(t, "rollout", time.perf_counter() - start, wrenches)
     return xs, us, sat, done
+
+
+def control_law(model: Any, law: Any, t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The control law ``law`` (a :data:`~._laws.Law`; its per-trajectory rows are the rows of x) at the times t (C,)
+    and flat states x (C, S) of ``model`` (its structure: the law's model): (u (C, N + 6) = [tau, f_S, n_S] with the
+    controller's limits, e (C, d), edot (C, d), Q_c (C, 6 + N), sigma_min/sigma_max of J_z (C,))."""
+    t_ = tree(model)
+    n = t_.n_joints
+    size = x.shape[0]
+    dim = law.kp.shape[1]
+    u, e, edot = new_output((size, n + 6)), new_output((size, dim)), new_output((size, dim))
+    qc, ratio = new_output((size, 6 + n)), new_output((size,))
+    _drivers.law_batch(size, t_, law, _own(t), _own(x), u, e, edot, qc, ratio)
+    return u, e, edot, qc, ratio
+
+
+def law_rollout(
+    model: Any,
+    plant: np.ndarray | None,
+    x0: np.ndarray,
+    dt: float,
+    steps: int,
+    hold: int,
+    stride: int,
+    law: Any,
+    limit: np.ndarray,
+    ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES,
+    pd: tuple[np.ndarray, ...] | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Fixed-step RK4 of the states x0 (K, S) with the control law ``law`` (:data:`~._laws.Law`) in the loop, or (law
+    None) the joint PD ``pd`` = (kp, kd, q_ref, qdot_ref (K, N), feedforward (S, K, W)) as in :func:`rollout`; all
+    compiled, trajectories on threads: :func:`rollout`'s loop and records, on the generic kernels, with the plant's mass
+    properties ``plant`` (1 or K rows of floats of ``model``'s structure: payload variants per trajectory)."""
+    t = tree(model)
+    n = t.n_joints
+    k = x0.shape[0]
+    rows = 1 + sum(1 for i in range(1, steps + 1) if i % stride == 0 or i == steps)
+    xs = new_output((rows, k, x0.shape[1]))
+    us = new_output((rows, k, n + 6))
+    sat = np.empty((rows, k), dtype=np.bool_)
+    done = np.empty(k, dtype=np.int64)
+    ext_i, ext_f = _wrench_data(ext, (k,))
+    timing = (float(dt), int(steps), int(hold), int(stride))
+    plant = t.floats[None] if plant is None else plant
+    if law is None:
+        assert pd is not None
+        C = ((*(_own(np.broadcast_to(g, (k, n))) for g in pd[:4]), _own(pd[4])), _no_law(t))
+    else:
+        zero = np.zeros((1, n))
+        C = ((zero, zero, zero, zero, np.zeros((1, 1, n))), law)  # no joint PD: the law
+    _drivers.rollout_batch(k, t, _own(x0), *timing, C, _own(limit), _own(t.ints, np.int64), _own(plant), ext_i, ext_f, xs, us, sat, done)
+    return xs, us, sat, done
+
+
+@functools.cache
+def _no_law(t: Tree) -> Any:
+    """The empty control law of a rollout with the joint PD (the generic rollout's controller is either)."""
+    return _laws.make_law(t.ints, t.floats[None])
 
 
 def specialised_rollouts(model: Any, batch: int, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES) -> bool:

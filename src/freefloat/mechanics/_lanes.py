@@ -34,26 +34,17 @@ LANES = 64
 
 @numba.njit(inline="always", nogil=True, error_model="numpy")
 def joint_pd(
-    ff: np.ndarray,
-    sample: int,
-    b: int,
-    kp: np.ndarray,
-    kd: np.ndarray,
-    qref: np.ndarray,
-    vref: np.ndarray,
-    lim: np.ndarray,
-    x: np.ndarray,
-    x0: int,
-    u: np.ndarray,
-    u0: int,
-    step: int,
+    C: Any, P: Any, sample: int, t: float, b: int, lim: np.ndarray, x: np.ndarray, x0: int, u: np.ndarray, u0: int, step: int
 ) -> bool:  # pragma: no cover
-    """The joint PD of the rollouts at one sample of trajectory b: u = ff[sample, b] + kp (qref - q) + kd (vref - qdot), clipped to +-lim.
+    """The joint PD of the rollouts at sample ``sample`` (time t) of trajectory b: C = (kp, kd, qref, vref, ff) (each
+    (K, N), ff (S, K, W)), u = ff[sample, b] (its last sample held) + kp (qref - q) + kd (vref - qdot), clipped to +-lim.
 
     The state is x[x0 + i * step] (i = 0 .. 13 + 2N) and u is written to u[u0 + j * step] (j = 0 .. N + 6):
     step 1 for one trajectory, LANES for a lane of a block (:func:`rollout_blocks`). True if any
-    component was clipped.
+    component was clipped. A controller of the rollout loop has this signature (``P``: the lane kernel's data).
     """
+    kp, kd, qref, vref, ff = C
+    sample = min(sample, ff.shape[0] - 1)
     n = kp.shape[1]
     width = ff.shape[2]
     sat = False
@@ -213,11 +204,7 @@ def _rollout_blocks(
     steps: int,
     hold: int,
     stride: int,
-    kp: np.ndarray,
-    kd: np.ndarray,
-    qref: np.ndarray,
-    vref: np.ndarray,
-    ff: np.ndarray,
+    C: Any,
     lim: np.ndarray,
     XS: np.ndarray,
     US: np.ndarray,
@@ -226,11 +213,12 @@ def _rollout_blocks(
     W: np.ndarray,
 ) -> None:  # pragma: no cover
     """The rollout loop, written once: fixed-step RK4 of the trajectories of blocks first..last, ``width`` at a time,
-    with the joint PD in the loop (:func:`joint_pd`; the generic rollout runs it with width 1, the specialised one
-    with :data:`LANES`). Each step is ``_rk4_rows``.
+    with a controller in the loop: ``CONTROL(C, P, k, t, b, lim, W, x0, u0, width)`` (bound by :func:`rollout_loop`: the
+    joint PD :func:`joint_pd`, C its gains; or a control law of :mod:`._laws`, width 1, C its :data:`~._laws.Law`).
+    The generic rollout runs it with width 1, the specialised one with :data:`LANES`. Each step is ``_rk4_rows``.
 
-    Trajectory b (a row of X0 (K, S)): u = ff[k] + kp (qref - q) + kd (vref - qdot) at sample k (every ``hold``
-    steps; ff's last sample held), clipped to +-lim; states, actuations and saturation flags recorded at step 0,
+    Trajectory b (a row of X0 (K, S)): u = the controller's output at sample k (every ``hold``
+    steps), clipped to +-lim; states, actuations and saturation flags recorded at step 0,
     every ``stride`` steps and the last step into XS, US, SAT; DONE[b] = the steps completed (fewer: a non-finite
     state or H+ not positive definite; the records after it are NaN).
 
@@ -274,9 +262,8 @@ def _rollout_blocks(
                         DONE[b0 + lane_] = step - 1 if not ok else step
                         W[o_fail + lane_] = 1.0
             if step == 0 or (step % hold == 0 and step < steps):
-                sk = min(sample, ff.shape[0] - 1)
                 for lane_ in range(count):
-                    sat = joint_pd(ff, sk, b0 + lane_, kp, kd, qref, vref, lim, W, o_x + lane_, W, o_u + lane_, width)
+                    sat = CONTROL(C, P, sample, step * dt, b0 + lane_, lim, W, o_x + lane_, W, o_u + lane_, width)  # type: ignore[name-defined]  # noqa: F821
                     W[o_flag + lane_] = 1.0 if sat else 0.0
                 for lane_ in range(count, width):  # lanes past the batch: copy lane 0's controls
                     for j in range(nu):
@@ -303,16 +290,19 @@ def _rollout_blocks(
 @functools.cache
 def bound_loops(lane: Any, name: str) -> tuple[Any, Any]:
     """The RK4 step and the rollout loop above for the lane kernel ``lane``: (rk4_rows(P, W, width, size, nu, dt),
-    rollout_blocks(P, width, first, last, X0, ...)), both inlined where called. The lane kernel is bound as a global
-    of copies of the one source (not passed as an argument), so that numba inlines it into the loop as well."""
+    rollout_blocks(P, width, first, last, X0, ...)) with the joint PD, both inlined where called. The lane kernel is
+    bound as a global of copies of the one source (not passed as an argument), so that numba inlines it into the loop."""
     rk4 = numba.njit(inline="always", nogil=True, error_model="numpy")(bind(_rk4_rows, f"rk4_rows_{name}", LANE=lane))
     return rk4, rollout_loop(rk4, name)
 
 
 @functools.cache
-def rollout_loop(rk4_rows: Any, name: str) -> Any:
-    """The rollout loop above with the RK4 step ``rk4_rows(P, W, width, size, nu, dt)`` (bound as a global: inlined)."""
-    return numba.njit(inline="always", nogil=True, error_model="numpy")(bind(_rollout_blocks, f"rollout_blocks_{name}", RK4_ROWS=rk4_rows))
+def rollout_loop(rk4_rows: Any, name: str, control: Any = joint_pd) -> Any:
+    """The rollout loop above with the RK4 step ``rk4_rows(P, W, width, size, nu, dt)`` and the controller ``control``
+    (:func:`joint_pd`, or a control law's adapter: :func:`~._laws.law_control`), bound as globals: inlined."""
+    return numba.njit(inline="always", nogil=True, error_model="numpy")(
+        bind(_rollout_blocks, f"rollout_blocks_{name}", RK4_ROWS=rk4_rows, CONTROL=control)
+    )
 
 
 def rollout_rows(size: int, nu: int) -> int:

@@ -334,18 +334,18 @@ _, rollout_blocks = _lanes.bound_loops(lane, "specialised")  # the one rollout l
 
 
 @kernel()
-def serial(P, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, EXT, W):  # pragma: no cover - compiled
+def serial(P, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, EXT, W):  # pragma: no cover - compiled
     for block in range((X0.shape[0] + LANES - 1) // LANES):
         _lanes.block_rows(EXT, W, EXT_AT, block)  # the block's external wrenches (EXT (K, 9W); W = 0: none)
-        rollout_blocks(P, LANES, block, block + 1, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, W)
+        rollout_blocks(P, LANES, block, block + 1, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, W)
 
 
 @kernel(parallel=True)
-def parallel(P, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, EXT, WS):  # pragma: no cover - compiled
+def parallel(P, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, EXT, WS):  # pragma: no cover - compiled
     for block in prange((X0.shape[0] + LANES - 1) // LANES):
         W = WS[get_thread_id()]
         _lanes.block_rows(EXT, W, EXT_AT, block)
-        rollout_blocks(P, LANES, block, block + 1, X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, XS, US, SAT, DONE, W)
+        rollout_blocks(P, LANES, block, block + 1, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, W)
 """,
 }
 

@@ -33,6 +33,7 @@ from ..core.numbers import MAX_EFFORT, tolerance_problem
 from ..core.resources import require_memory
 from ..core.state import Actuation, ActuatorLimits, State, dissipates, pack_state, unpack_state
 from ..mechanics import _engine
+from ._compiled_runs import compiled_simulation, law_of, law_rows, plant_models
 from ._guard import (
     MAX_RATE,
     MIN_WALL_BUDGET,
@@ -332,6 +333,10 @@ def simulate(
     pd = controller if not external else None  # the energy test of a joint PD holds without external wrenches
     what = "controller sample" if sample_period else "RK4 step"
     guard = DivergenceGuard(model, x0, min(duration, period), h, what, divergence_guard, pd, wall_limit, duration)
+    if fixed_step is not None and not events and not stops.active:  # the controller inside the compiled loop, when it can be
+        compiled = compiled_simulation(model, x0, duration, float(fixed_step), sample_period, period, controller, limits, external, guard)
+        if compiled is not None:
+            return _with_limits(compiled, stops)
     bar = Progress(progress, duration)
     try:
         guard.check(0.0, x0)  # an initial rate beyond meaning: stopped now, named (its first step would be non-finite)
@@ -429,9 +434,11 @@ def rollout(
     ``"interrupted"``: the finished trajectories of a compiled rollout (in chunks of
     trajectories), or every trajectory up to the last step of a Python-controlled one.
     """
-    model = _passive_model(model, passive)
+    model, plant = plant_models(model, passive)
     state = initial_states.resolve(model)
     x = pack_state(state, 0.0 if dissipates(model) else None)  # with the dissipated energy's slot when there are passive torques
+    if x.ndim == 2 and plant.shape[0] not in (1, x.shape[0]):
+        raise ShapeError(f"model: {plant.shape[0]} per-trajectory models, but initial_states has {x.shape[0]} trajectories")
     if x.ndim != 2:
         raise ShapeError(f"initial_states: expected fields with one leading batch axis (B, ...), got a state of shape {x.shape}")
     batch = x.shape[:1]
@@ -472,11 +479,17 @@ def rollout(
     rec = _Recorder(model)
     bar = Progress(progress, float(duration))
     try:
-        if controller is None or isinstance(controller, JointPD):
-            compiled = _rollout_pd(model, x, dt, steps, hold, stride, controller, limits, external, bar)
+        law = law_of(controller, batch[0])
+        if controller is None or isinstance(controller, JointPD) or law is not None:
+            compiled = _rollout_pd(model, x, dt, steps, hold, stride, controller, limits, external, bar, law, plant)
             if compiled is not None:
                 times, xs, acts, status, message = compiled
                 return _batch_limits(_trajectory(model, times, xs, acts, status, message, copy=False))  # quaternions kept unit
+        if plant.shape[0] > 1:
+            raise ValueError(
+                "model: per-trajectory models run with the compiled controllers only (the built-in ones: JointPD, "
+                "ff.control's TransposedJacobianController, OperationalSpaceController, Detumble); give this controller one model"
+            )
         step = _stepper(model, dt, external)
         act = command(0.0, x)
         rec.add(0.0, x, act)
@@ -539,8 +552,12 @@ def _rollout_pd(
     limits: ActuatorLimits,
     external: Any,
     bar: Progress,
+    law: Any = None,
+    plant: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], str, str] | None:
-    """A whole batched rollout with a joint PD (or none), compiled, in chunks of trajectories.
+    """A whole batched rollout with a joint PD (or none) or a control law (``law``: a built-in controller's
+    ``compiled_law``), compiled, in chunks of trajectories, on the mass properties ``plant`` (the floats of 1 or B
+    payload variants of ``model``: :func:`~._compiled_runs.plant_models`; None: the model's).
 
     Returns the output times (T,), the states (T, B, S), the actuation (tau, f_S, n_S,
     saturated), the status and message; or None when the controller needs Python (a feed-forward
@@ -563,7 +580,7 @@ def _rollout_pd(
     zeros = np.zeros((batch, n))
     feed = np.zeros((1, batch, n))
     gains: list[Any] = [zeros, zeros, zeros, zeros]
-    if controller is not None:
+    if law is None and controller is not None:
         gains = [controller.kp, controller.kd, controller.q_ref, controller.qdot_ref]
         if controller.feedforward is not None:
             ff = np.asarray(controller.feedforward, dtype=float)
@@ -575,7 +592,8 @@ def _rollout_pd(
     except ValueError:
         return None
     ext = _engine_inputs(model, external)
-    fast = _engine.specialised_rollouts(model, batch, ext)
+    per_trajectory = plant is not None and plant.shape[0] > 1
+    fast = law is None and not per_trajectory and _engine.specialised_rollouts(model, batch, ext)
     # chunks only for a long rollout (progress, Ctrl-C): joining the chunks copies every output once
     threads = max(1, os.cpu_count() or 1)
     seconds = _derivative_cost(model) * 4 * steps * batch / threads / (SPECIALISED_SPEEDUP if fast else 1.0)
@@ -587,8 +605,14 @@ def _rollout_pd(
     try:
         for start in range(0, batch, chunk):
             rows = slice(start, min(batch, start + chunk))
-            gains_c = tuple(g[rows] for g in arrays)
-            parts.append(_engine.rollout(model, x0[rows], dt, steps, hold, stride, gains_c, feed[:, rows], lim, ext))  # type: ignore[arg-type]
+            if law is not None or per_trajectory:
+                chunk_law = None if law is None else law_rows(law, rows, batch)
+                pd = None if law is not None else (*(g[rows] for g in arrays), feed[:, rows])
+                plant_c = plant if plant is None or plant.shape[0] == 1 else plant[rows]
+                parts.append(_engine.law_rollout(model, plant_c, x0[rows], dt, steps, hold, stride, chunk_law, lim, ext, pd))
+            else:
+                gains_c = tuple(g[rows] for g in arrays)
+                parts.append(_engine.rollout(model, x0[rows], dt, steps, hold, stride, gains_c, feed[:, rows], lim, ext))  # type: ignore[arg-type]
             bar.update(steps * dt * rows.stop / batch)
     except KeyboardInterrupt:
         if not parts:

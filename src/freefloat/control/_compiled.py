@@ -1,0 +1,194 @@
+"""The built-in controllers as the compiled control laws of :mod:`freefloat.mechanics._laws` (private).
+
+Each controller of :mod:`freefloat.control` describes itself as a :data:`~freefloat.mechanics._laws.Law` (arrays:
+its task, gains, desired motion, its model's mass properties) through :func:`task_law` or :func:`detumble_law`; its
+``__call__`` runs the law on the engine (:func:`evaluate`), and :func:`freefloat.simulate` / :func:`freefloat.rollout`
+run the same law inside their compiled loops (``controller.compiled_law(batch)``). Per-trajectory parameters have a
+leading axis of B: gains (B, d) or (B, d, d), set points (B, size), models (a sequence of B payload variants).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..core.errors import ShapeError
+from ..core.model import Model
+from ..core.state import State, pack_state
+from ..mechanics import _engine
+from ..mechanics._laws import DETUMBLE, OPERATIONAL_SPACE, PROFILES, TRANSPOSED_JACOBIAN, make_law, same_structure
+from ..mechanics._tree import tree
+
+__all__ = ["batch_of", "detumble_law", "evaluate", "gains", "models_of", "task_law"]
+
+LAW_CODES = {"transposed": TRANSPOSED_JACOBIAN, "operational": OPERATIONAL_SPACE}
+
+
+def models_of(model: Any) -> tuple[Model, ...]:
+    """A controller's models: one :class:`~freefloat.Model`, or a sequence of B payload variants of one structure
+    (the same bodies, joints and placements; mass properties per trajectory)."""
+    if isinstance(model, Model):
+        return (model,)
+    if isinstance(model, Sequence) and not isinstance(model, (str, bytes)) and model and all(isinstance(m, Model) for m in model):
+        first = tree(model[0])
+        for i, other in enumerate(model[1:], start=1):
+            if not same_structure(first, tree(other)):
+                raise ValueError(
+                    f"model[{i}]: {other.name!r} has another structure than model[0] ({model[0].name!r}); per-trajectory "
+                    "models must be payload variants of one robot (model.with_payload(...)): the same bodies and joints"
+                )
+        return tuple(model)
+    raise TypeError(f"model: expected a freefloat Model or a sequence of Models (one per trajectory), got {type(model).__name__}")
+
+
+def mass_rows(models: Sequence[Model]) -> np.ndarray:
+    """The floats of each model (without the joints' passive torques: the laws' C+ has none), (K, F)."""
+    return np.stack([tree(m.without_passive()).floats for m in models]).copy()
+
+
+def batch_of(name: str, count: int, batch: int | None) -> int:
+    """``count`` per-trajectory values of ``name`` checked against the run's ``batch`` (None: one simulation)."""
+    if count == 1:
+        return 1
+    if batch is None:
+        raise ShapeError(f"{name}: {count} per-trajectory values, but a single simulation has one trajectory; use freefloat.rollout")
+    if count != batch:
+        raise ShapeError(f"{name}: {count} per-trajectory values, but the rollout has {batch} trajectories")
+    return count
+
+
+def gains(value: Any, dim: int, name: str, check: Any) -> np.ndarray:
+    """Gains as (K, dim, dim): a scalar, a diagonal (dim,) or a matrix (dim, dim) for every trajectory (K = 1); per
+    trajectory (K = B) a (B, dim, dim) array, a (B, dim) array of diagonals or (B, 1) scalars (a (dim, dim) array is one
+    matrix). ``check(value, dim, name)`` validates one (it returns the (dim, dim) matrix)."""
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim <= 1 or arr.shape == (dim, dim):
+        return check(arr, dim, name)[None].copy()
+    if arr.ndim == 2 and arr.shape[1] in (1, dim):
+        rows = [np.broadcast_to(row, (dim,)) for row in arr]
+    elif arr.ndim == 3:
+        rows = list(arr)
+    else:
+        raise ShapeError(
+            f"{name}: expected a scalar, ({dim},), ({dim}, {dim}) or per trajectory (B, {dim}), (B, 1) or (B, {dim}, {dim}), "
+            f"got shape {arr.shape}"
+        )
+    return np.stack([check(row, dim, f"{name}[{b}]") for b, row in enumerate(rows)]).copy()
+
+
+def _rows(value: Any, width: int, name: str) -> np.ndarray:
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[None]
+    if arr.ndim != 2 or arr.shape[1] != width:
+        raise ShapeError(f"{name}: expected ({width},) or per trajectory (B, {width}), got shape {np.shape(value)}")
+    return np.ascontiguousarray(arr).copy()
+
+
+def task_law(controller: Any, batch: int | None, point: Any = None) -> Any:
+    """The :data:`~freefloat.mechanics._laws.Law` of a task-space controller (eqs. 27, 29), or None when its desired
+    motion is a Python function (``point``: a desired point evaluated in Python, taken as the set point instead).
+    Per-trajectory values are checked against ``batch`` (ShapeError naming the parameter)."""
+    from .desired import SetPoint, StraightLine
+
+    task = controller.task
+    desired = controller.desired
+    profile, timing = -1, np.zeros(2)
+    size, dim = task.size, task.dim
+    zdot, zddot = np.zeros((1, dim)), np.zeros((1, dim))
+    if point is not None:
+        start = goal = _rows(point.z, size, "desired.z")
+        zdot, zddot = _rows(point.zdot, dim, "desired.zdot"), _rows(point.zddot, dim, "desired.zddot")
+    elif isinstance(desired, SetPoint):
+        start = goal = _rows(desired.z, size, "desired")
+    elif isinstance(desired, StraightLine) and (desired.task is task or (desired.task is None and size == dim)):
+        start, goal = _rows(desired.start, size, "desired.start"), _rows(desired.goal, size, "desired.goal")
+        profile, timing = PROFILES.index(desired.profile), np.array([desired.duration, desired.start_time], dtype=float)
+        if desired.task is None:  # a plain vector: no angles to wrap, no quaternions (a task of positions only)
+            if any(it.kind != "position" for it in task.items):
+                return None
+    else:
+        return None
+    models = controller.models
+    floats = mass_rows(models)
+    for name, count in (
+        ("kp", controller.kp_rows.shape[0]),
+        ("kd", controller.kd_rows.shape[0]),
+        ("desired", start.shape[0]),
+        ("desired goal", goal.shape[0]),
+        ("model", floats.shape[0]),
+    ):
+        batch_of(name, count, batch)
+    items = np.array([[0 if it.kind == "position" else 1, it.body] for it in task.items], dtype=np.int64)
+    points = np.array([it.point if it.kind == "position" else (0.0, 0.0, 0.0) for it in task.items], dtype=float).reshape(-1, 3)
+    limits = _limit_row(controller.limits, models[0].n_joints)
+    quaternions = int(not task.planar and task.orientation == "quaternion")
+    setup = np.array([LAW_CODES[controller.law.split("-")[0]], int(task.planar), quaternions, 1, profile], dtype=np.int64)
+    return _law(
+        setup=setup,
+        items=items,
+        points=points,
+        models=models,
+        floats=floats,
+        kp=controller.kp_rows,
+        kd=controller.kd_rows,
+        start=start,
+        goal=goal,
+        zdot=zdot,
+        zddot=zddot,
+        timing=timing,
+        settings=np.array([controller.singular_tolerance, controller.null_space_damping]),
+        limits=limits,
+    )
+
+
+def detumble_law(controller: Any, batch: int | None) -> Any:
+    """The :data:`~freefloat.mechanics._laws.Law` of :class:`~freefloat.control.detumble.Detumble`."""
+    models = controller.models
+    floats = mass_rows(models)
+    for name, count in (("rate_gain", controller.rate_gain_rows.shape[0]), ("model", floats.shape[0])):
+        batch_of(name, count, batch)
+    n = models[0].n_joints
+    attitude = np.eye(3)[None] if controller.attitude is None else np.asarray(controller.attitude, dtype=float)[None]
+    return _law(
+        setup=np.array([DETUMBLE, 0, 0, int(controller.force), -1], dtype=np.int64),
+        models=models,
+        floats=floats,
+        limits=np.full(n + 6, np.inf),
+        rate_gain=controller.rate_gain_rows,
+        attitude=attitude,
+        attitude_gain=np.array([controller.attitude_gain], dtype=float),
+    )
+
+
+def _law(models: Sequence[Model], floats: np.ndarray, **given: Any) -> Any:
+    """A Law of the given fields for the controller's models (their floats (K, F))."""
+    return make_law(np.array(tree(models[0]).ints, dtype=np.int64), floats, **given)
+
+
+def _limit_row(limits: Any, n: int) -> np.ndarray:
+    """An ActuatorLimits (or None) as the (N + 6,) bounds of [tau, f_S, n_S] (inf: none)."""
+    out = np.full(n + 6, np.inf)
+    if limits is None:
+        return out
+    limits.apply(np.zeros(n), np.zeros(3), np.zeros(3))  # its own checks and errors
+    for sl, value in (
+        (slice(0, n), limits.joint_torque),
+        (slice(n, n + 3), limits.spacecraft_force),
+        (slice(n + 3, n + 6), limits.spacecraft_torque),
+    ):
+        if value is not None:
+            out[sl] = np.broadcast_to(np.asarray(value, dtype=float), out[sl].shape)
+    return out
+
+
+def evaluate(law: Any, model: Model, t: float, state: State) -> tuple[np.ndarray, ...]:
+    """The law at time t and a resolved state (one, or a batch (B, ...) whose row b takes the law's row b):
+    (u (..., N + 6) with the controller's own limits, e, edot, Q_c, sigma ratio), each with the state's batch shape."""
+    x = pack_state(state)
+    batch = x.shape[:-1]
+    flat = x.reshape(-1, x.shape[-1])
+    out = _engine.control_law(model, law, np.full(flat.shape[0], float(t)), flat)
+    return tuple(a.reshape((*batch, *a.shape[1:])) for a in out)

@@ -1,0 +1,109 @@
+"""The built-in controllers inside the compiled loops of :func:`freefloat.simulate` and :func:`freefloat.rollout` (private).
+
+A controller that describes itself as a compiled law (``controller.compiled_law(batch)``: the controllers of
+:mod:`freefloat.control`, whose ``__call__`` runs the same law, :mod:`freefloat.mechanics._laws`) or a
+:class:`~freefloat.JointPD` runs in the engine's rollout loop (:func:`freefloat.mechanics._engine.law_rollout`) with no
+Python per step: a rollout of B trajectories, or one simulation as a rollout of one. The results are those of the
+Python loop (the same law, the same RK4 step, the same samples, limits and records; ``tests/control/test_compiled.py``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..core.errors import SimulationError
+from ..core.model import Model
+from ..core.state import ActuatorLimits
+from ..mechanics._laws import same_structure
+from ..mechanics._tree import tree
+from ._guard import Progress
+from ._integrate import _trajectory
+from .pd import JointPD
+from .trajectory import Trajectory
+
+__all__ = ["PER_TRAJECTORY", "compiled_simulation", "law_of", "law_rows", "plant_models"]
+
+#: The fields of a control law with a row per trajectory (1 row: shared).
+PER_TRAJECTORY = ("floats", "kp", "kd", "start", "goal", "zdot", "zddot", "rate_gain", "attitude", "attitude_gain")
+
+
+def law_of(controller: Any, batch: int | None) -> Any:
+    """The compiled law of ``controller`` for a run of ``batch`` trajectories (None: one simulation), or None: it has
+    none (a Python controller), or it needs Python (a desired motion given as a function). Raises the controller's
+    errors for per-trajectory values of another length than the batch."""
+    make = getattr(controller, "compiled_law", None)
+    return make(batch) if callable(make) else None
+
+
+def law_rows(law: Any, rows: slice, batch: int) -> Any:
+    """The law of the trajectories ``rows`` of a batch of ``batch`` (its per-trajectory fields cut to those rows)."""
+    if batch == 1:
+        return law
+    return law._replace(**{f: getattr(law, f)[rows] for f in PER_TRAJECTORY if getattr(law, f).shape[0] == batch})
+
+
+def plant_models(model: Any, passive: str) -> tuple[Model, np.ndarray]:
+    """The model a rollout simulates and its mass properties per trajectory: ``model`` is one model, or a sequence of B
+    payload variants of one structure (:meth:`~freefloat.Model.with_payload`): (the first, with the joints' passive
+    torques as ``passive`` says, and the floats of each (K, F))."""
+    from .simulate import _passive_model
+
+    if isinstance(model, Sequence) and not isinstance(model, (str, bytes)):
+        if not model:
+            raise ValueError("model: an empty sequence of models; give one model or one per trajectory")
+        models = [_passive_model(m, passive) for m in model]
+        for i, other in enumerate(models[1:], start=1):
+            if not same_structure(tree(models[0]), tree(other)):
+                raise ValueError(
+                    f"model[{i}]: {other.name!r} has another structure than model[0] ({models[0].name!r}); per-trajectory "
+                    "models must be payload variants of one robot (model.with_payload(...)): the same bodies and joints"
+                )
+        return models[0], np.stack([tree(m).floats for m in models])
+    single = _passive_model(model, passive)
+    return single, np.array(tree(single).floats)[None]
+
+
+def compiled_simulation(
+    model: Model,
+    x0: np.ndarray,
+    duration: float,
+    dt: float,
+    sample_period: float | None,
+    period: float,
+    controller: Any,
+    limits: ActuatorLimits,
+    external: Any,
+    guard: Any,
+) -> Trajectory | None:
+    """One fixed-step simulation with its controller inside the compiled loop: the trajectory, or None when the Python
+    loop must run it (a Python controller, a sample period that is not a whole number of steps, a feed-forward on
+    another period), or when it failed or its divergence guard (checked at the recorded outputs) stops it: the Python
+    loop then runs it again and reports the failure as it does."""
+    from .simulate import _rollout_pd
+
+    law = law_of(controller, None)
+    if law is None and not isinstance(controller, JointPD):
+        return None
+    steps = round(duration / dt)
+    hold = max(1, round((sample_period or dt) / dt))
+    if sample_period is not None and sample_period > dt and abs(hold * dt - sample_period) > 1e-12 * sample_period:
+        return None
+    stride = max(1, round(period / dt))
+    try:
+        pd = controller if isinstance(controller, JointPD) else None
+        run = _rollout_pd(model, x0[None], dt, steps, hold, stride, pd, limits, external, Progress(False, duration), law)
+    except SimulationError:
+        return None
+    if run is None:
+        return None
+    times, xs, acts, _, _ = run
+    traj = _trajectory(model, times, xs[:, 0], (acts[0][:, 0], acts[1][:, 0], acts[2][:, 0], acts[3][:, 0]))
+    try:
+        for t, x in zip(times, xs[:, 0], strict=True):
+            guard.check(float(t), x)
+    except SimulationError:
+        return None
+    return traj
