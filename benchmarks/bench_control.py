@@ -8,7 +8,16 @@
   dt) running the same Python controller each step: state read back with ``from_mujoco_state``, joint
   torques into ``data.ctrl``, the thruster wrench (rotated to the world frame) into
   ``data.xfrc_applied`` of the spacecraft (MuJoCo applies it at the body CM, where the paper's
-  thrusters act). The end states of both engines are compared (they integrate the same equations).
+  thrusters act). The end states of both engines are compared (they integrate the same equations);
+* ``compiled`` (issue 23): the built-in controllers inside the compiled loops. ``single``: one simulation of §V with
+  the transposed-Jacobian controller (dt = 10 ms, sampled every step) compiled (``simulate(..., controller)``), against
+  the same controller called from Python every step (``simulate(..., lambda t, s: controller(t, s))``) and against
+  MuJoCo with that Python controller (as ``steps``); ``rollouts``: 1024 trajectories of §V with the operational-space
+  controller (per-trajectory set points) compiled (``rollout(..., controller=controller)``), against the same controller
+  in Python over a ``mujoco.rollout``-style loop: the whole batch's controls computed in Python each step, then the
+  batch stepped by compiled code (freefloat's batched RK4 step; MuJoCo's own batch stepper would need a Python
+  conversion of each of the 1024 states per step, which would measure the conversion). Both with the largest
+  difference of the recorded states between the compiled and the Python loop.
 """
 
 from __future__ import annotations
@@ -22,6 +31,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bench_core import machine_line
+from bench_workspace import best_of
 from freefloat.control import OperationalSpaceController, TransposedJacobianController
 from freefloat.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
 from freefloat.papers.paper1991 import run_controller, section5_setup
@@ -63,6 +73,66 @@ def _freefloat_run(name: str, duration: float) -> tuple[float, int, Any]:
     return time.perf_counter() - t0, round(duration / DT), traj
 
 
+def compiled_controllers(quick: bool, log: Any) -> dict[str, Any]:
+    """The two targets of issue 23 (see the module docstring); ratios measured in this run."""
+    from freefloat.simulation.simulate import rollout
+
+    model, task, state, target = section5_setup()
+    tj = TransposedJacobianController(model, task, target, 30.0, 60.0)
+    horizon = 3.0 if quick else 30.0
+    steps = round(horizon / DT)
+    simulate(model, state, 0.1, tj, fixed_step=DT)  # compiled already: no compile in the timings
+    wall, fast = best_of(lambda: simulate(model, state, horizon, tj, fixed_step=DT), 5)
+    short = min(horizon, 3.0)
+    py_wall, slow = best_of(lambda: simulate(model, state, short, lambda t, s: tj(t, s), fixed_step=DT), 3)
+    mj_wall = min(_mujoco_run("tj", short)[0] for _ in range(3))
+    n_short = round(short / DT)
+    single = {
+        "steps": steps,
+        "compiled_steps_per_s": steps / wall,
+        "python_steps_per_s": n_short / py_wall,
+        "mujoco_python_controller_steps_per_s": n_short / mj_wall,
+        "ratio_over_python": (steps / wall) / (n_short / py_wall),
+        "ratio_over_mujoco": (steps / wall) / (n_short / mj_wall),
+        "max_dq_compiled_vs_python": float(np.abs(fast.q[: len(slow)] - slow.q).max()),
+    }
+    log(
+        f"compiled single TJ: {single['compiled_steps_per_s']:.0f} steps/s; Python controller {single['python_steps_per_s']:.0f}; "
+        f"MuJoCo + Python controller {single['mujoco_python_controller_steps_per_s']:.0f}; x{single['ratio_over_mujoco']:.1f} MuJoCo"
+    )
+    batch = 128 if quick else 1024
+    rng = np.random.default_rng(23)
+    targets = np.tile(target, (batch, 1))
+    targets[:, 3:5] += rng.uniform(-0.1, 0.1, (batch, 2))
+    states = ff_state_batch(state, batch, rng)
+    osc = OperationalSpaceController(model, task, targets, 30.0, 60.0)
+    duration = 1.0
+    rollout(model, states, DT, dt=DT, controller=osc)  # compiled already
+    r_wall, r_fast = best_of(lambda: rollout(model, states, duration, dt=DT, controller=osc), 3)
+    p_wall, r_slow = best_of(lambda: rollout(model, states, duration, dt=DT, controller=lambda t, s: osc(t, s)), 1 if not quick else 2)
+    r_steps = round(duration / DT) * batch
+    rollouts = {
+        "trajectories": batch,
+        "steps_each": round(duration / DT),
+        "compiled_wall_s": r_wall,
+        "python_loop_wall_s": p_wall,
+        "compiled_trajectory_steps_per_s": r_steps / r_wall,
+        "python_loop_trajectory_steps_per_s": r_steps / p_wall,
+        "ratio_over_python_loop": p_wall / r_wall,
+        "max_dq_compiled_vs_python": float(np.abs(r_fast.q - r_slow.q).max()),
+    }
+    log(f"compiled rollouts OSC x{batch}: {r_wall:.3f} s vs Python loop {p_wall:.3f} s: x{rollouts['ratio_over_python_loop']:.1f}")
+    return {"single": single, "rollouts": rollouts, "load_average": os.getloadavg()}
+
+
+def ff_state_batch(state: Any, batch: int, rng: np.random.Generator) -> Any:
+    """``batch`` states around ``state`` (joint angles spread by 0.05 rad)."""
+    from freefloat.core.state import State
+
+    q = np.asarray(state.q) + rng.uniform(-0.05, 0.05, (batch, len(state.q)))
+    return State(q=q, attitude=np.tile(state.attitude, (batch, 1)))
+
+
 def run(quick: bool, log: Any) -> dict[str, Any]:
     report: dict[str, Any] = {
         "machine": {"python": platform.python_version(), "cpu_count": os.cpu_count(), "platform": platform.platform()},
@@ -92,6 +162,7 @@ def run(quick: bool, log: Any) -> dict[str, Any]:
             "end_state_max_dr_cm_m": dr,
         }
         log(f"steps {name}: freefloat {steps / ff_wall:.0f} steps/s, MuJoCo + Python controller {steps / mj_wall:.0f} steps/s, dq {dq:.1e}")
+    report["compiled"] = compiled_controllers(quick, log)
     report["settings"] = {"dt": DT, "section5_duration_s": duration, "steps_horizon_s": horizon}
     return report
 
@@ -107,5 +178,20 @@ def table(report: dict[str, Any]) -> str:
             f"  {name:4s} {r['freefloat_steps_per_s']:18.0f} {r['mujoco_steps_per_s']:15.0f} "
             f"{r['ratio_freefloat_over_mujoco']:6.2f} {r['end_state_max_dq_rad']:15.1e}"
         )
+    if "compiled" in report:
+        c, r = report["compiled"]["single"], report["compiled"]["rollouts"]
+        lines.append("built-in controllers compiled (issue 23), same run:")
+        lines.append(
+            f"  one §V simulation, TJ: {c['compiled_steps_per_s']:.0f} steps/s compiled, {c['python_steps_per_s']:.0f} with the "
+            f"controller in Python (x{c['ratio_over_python']:.1f}), "
+            f"MuJoCo + Python controller {c['mujoco_python_controller_steps_per_s']:.0f} "
+            f"(x{c['ratio_over_mujoco']:.1f}); max |dq| compiled - Python {c['max_dq_compiled_vs_python']:.1e}"
+        )
+        lines.append(
+            f"  {r['trajectories']} rollouts x {r['steps_each']} steps, OSC: {r['compiled_wall_s']:.3f} s compiled, "
+            f"{r['python_loop_wall_s']:.3f} s Python loop (x{r['ratio_over_python_loop']:.1f}); "
+            f"max |dq| {r['max_dq_compiled_vs_python']:.1e}"
+        )
+        lines.append(f"  load average {report['compiled']['load_average']}")
     lines.append(machine_line(report["machine"]))
     return "\n".join(lines)

@@ -18,7 +18,7 @@ from ..core.errors import ShapeError
 from ..core.model import Model
 from ..core.state import State, pack_state
 from ..mechanics import _engine
-from ..mechanics._laws import DETUMBLE, OPERATIONAL_SPACE, PROFILES, TRANSPOSED_JACOBIAN, make_law, same_structure
+from ..mechanics._laws import DETUMBLE, OPERATIONAL_SPACE, PROFILES, TRANSPOSED_JACOBIAN, actuator_bounds, make_law, same_structure
 from ..mechanics._tree import tree
 
 __all__ = ["batch_of", "detumble_law", "evaluate", "gains", "models_of", "task_law"]
@@ -123,10 +123,11 @@ def task_law(controller: Any, batch: int | None, point: Any = None) -> Any:
         batch_of(name, count, batch)
     items = np.array([[0 if it.kind == "position" else 1, it.body] for it in task.items], dtype=np.int64)
     points = np.array([it.point if it.kind == "position" else (0.0, 0.0, 0.0) for it in task.items], dtype=float).reshape(-1, 3)
-    limits = _limit_row(controller.limits, models[0].n_joints)
+    limits = actuator_bounds(controller.limits, models[0].n_joints)
     quaternions = int(not task.planar and task.orientation == "quaternion")
     setup = np.array([LAW_CODES[controller.law.split("-")[0]], int(task.planar), quaternions, 1, profile], dtype=np.int64)
     return _law(
+        batch=batch,
         setup=setup,
         items=items,
         points=points,
@@ -153,6 +154,7 @@ def detumble_law(controller: Any, batch: int | None) -> Any:
     n = models[0].n_joints
     attitude = np.eye(3)[None] if controller.attitude is None else np.asarray(controller.attitude, dtype=float)[None]
     return _law(
+        batch=batch,
         setup=np.array([DETUMBLE, 0, 0, int(controller.force), -1], dtype=np.int64),
         models=models,
         floats=floats,
@@ -163,25 +165,10 @@ def detumble_law(controller: Any, batch: int | None) -> Any:
     )
 
 
-def _law(models: Sequence[Model], floats: np.ndarray, **given: Any) -> Any:
-    """A Law of the given fields for the controller's models (their floats (K, F))."""
-    return make_law(np.array(tree(models[0]).ints, dtype=np.int64), floats, **given)
-
-
-def _limit_row(limits: Any, n: int) -> np.ndarray:
-    """An ActuatorLimits (or None) as the (N + 6,) bounds of [tau, f_S, n_S] (inf: none)."""
-    out = np.full(n + 6, np.inf)
-    if limits is None:
-        return out
-    limits.apply(np.zeros(n), np.zeros(3), np.zeros(3))  # its own checks and errors
-    for sl, value in (
-        (slice(0, n), limits.joint_torque),
-        (slice(n, n + 3), limits.spacecraft_force),
-        (slice(n + 3, n + 6), limits.spacecraft_torque),
-    ):
-        if value is not None:
-            out[sl] = np.broadcast_to(np.asarray(value, dtype=float), out[sl].shape)
-    return out
+def _law(models: Sequence[Model], floats: np.ndarray, batch: int | None, **given: Any) -> Any:
+    """A Law of the given fields for the controller's models (their floats (K, F)), for a run of ``batch`` trajectories
+    (its ``lowest`` a row per trajectory: the threads of a rollout write each their own)."""
+    return make_law(np.array(tree(models[0]).ints, dtype=np.int64), floats, lowest=np.ones(batch or 1), **given)
 
 
 def evaluate(law: Any, model: Model, t: float, state: State) -> tuple[np.ndarray, ...]:

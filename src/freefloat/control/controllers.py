@@ -204,6 +204,12 @@ class _TaskController:
         :func:`freefloat.simulate` and :func:`freefloat.rollout` run it in their compiled loops."""
         return _compiled.task_law(self, batch, point)
 
+    def compiled_run_done(self, law: Any) -> None:
+        """After a compiled run of :meth:`compiled_law`: the near-singular warning, once, if J_z came near singular at a
+        sample (the compiled loop cannot warn as it goes)."""
+        self._near_singular = False
+        self._warn_singular(law.lowest)
+
     def __call__(self, t: float, state: State) -> Actuation:
         """The actuation at time t (1991 eq. 30): thruster force and torque (spacecraft frame), joint torques.
 

@@ -567,12 +567,19 @@ def resolve_model(model: Any, argument: str = "model") -> Model:
 def accepts_model_names(func: Callable[..., Any]) -> Callable[..., Any]:
     """``func(model, ...)`` that also takes a model name or file path for ``model`` (:func:`resolve_model`)."""
 
+    many = getattr(func, "takes_model_sequences", False)  # a sequence of Models (one per trajectory) passes as it is
+
+    def resolve(model: Any) -> Any:
+        if many and isinstance(model, (list, tuple)) and all(isinstance(m, Model) for m in model):
+            return model
+        return resolve_model(model)
+
     @functools.wraps(func)
     def wrapper(*args: Any, **kwargs: Any) -> Any:
         if args:
-            args = (resolve_model(args[0]), *args[1:])
+            args = (resolve(args[0]), *args[1:])
         elif "model" in kwargs:
-            kwargs["model"] = resolve_model(kwargs["model"])
+            kwargs["model"] = resolve(kwargs["model"])
         return func(*args, **kwargs)
 
     return wrapper

@@ -38,7 +38,7 @@ from ._configuration import (
     state_derivative_one,
 )
 from ._lanes import LANES, rollout_loop
-from ._laws import law_control, law_one
+from ._laws import Law, law_control, law_one
 from ._numba_cache import bind, kernel, unowned_floats, unowned_ints
 from ._recursions import kinematics, scratch
 from ._tree import Tree, arrays, buffer_lengths, work_size
@@ -318,6 +318,36 @@ def _law_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
     RATIO[i] = law_one(L, i, T[i], X[i], s, U[i], E[i], ED[i], QC[i])
 
 
+def _rollout_parallel(size: int, ints: np.ndarray, floats: np.ndarray, WORK: np.ndarray, *a: Any) -> None:  # pragma: no cover
+    """The parallel rollout: one trajectory per task on numba's threads (:func:`_rollout_task`). numba's threads take
+    no tuple of arrays, so the controller C = ((kp, kd, qref, vref, ff), law) arrives as its arrays, flat
+    (:meth:`RolloutBatched.__call__`), and each task makes it again."""
+    for b in prange(size):
+        _rollout_task(b, ints, floats, WORK[_thread()], *a)
+
+
+def _rollout_task(b: int, ints: np.ndarray, floats: np.ndarray, work: np.ndarray, *a: Any) -> None:  # pragma: no cover
+    """Trajectory b of the parallel rollout: the controller's tuples made from the flat arguments (:data:`ROLLOUT_FLAT`
+    of them after X0, dt, steps, hold, stride), then the serial rollout kernel."""
+    pd = (a[5], a[6], a[7], a[8], a[9])
+    law = Law(a[10], a[11], a[12], a[13], a[14], a[15], a[16], a[17], a[18], a[19], a[20], a[21], a[22], a[23], a[24], a[25], a[26], a[27])
+    ROLLOUT_SERIAL(b, b + 1, ints, floats, work, a[0], a[1], a[2], a[3], a[4], (pd, law), *a[28:])  # type: ignore[name-defined]  # noqa: F821
+
+
+#: The arrays of a rollout's controller: the joint PD's five, then the fields of a control law.
+ROLLOUT_FLAT = 5 + len(Law._fields)
+
+
+class RolloutBatched(Batched):
+    """The rollout's driver: the serial kernel with the controller as tuples, the parallel one with them flat."""
+
+    def __call__(self, size: int, t: Tree, *a: Any) -> Any:
+        if size >= self.PARALLEL_MIN and numba.get_num_threads() > 1:
+            pd, law = a[5]
+            return super().__call__(size, t, *a[:5], *pd, *law, *a[6:])
+        return super().__call__(size, t, *a)
+
+
 frames_batch = driver("frames", _frames_row)
 points_batch = driver("points", _points_row)
 point_jacobian_batch = driver("point_jacobian", _point_jacobian_row)
@@ -329,5 +359,10 @@ hplus_rate_batch = driver("hplus_rate", _hplus_rate_row)
 inverse_batch = driver("inverse", _inverse_row)
 forward_batch = driver("forward", _forward_row)
 derivative_batch = driver("derivative", _derivative_row)
-rollout_batch = driver("rollout", _rollout_row, block=1, parallel_min=2)  # one trajectory is long work: threads pay from two
+_rollout_serial = kernel()(bind(_serial_template, "rollout_serial", ROW=_rollout_row))
+_rollout_task_kernel = kernel()(bind(_rollout_task, "rollout_task", ROLLOUT_SERIAL=_rollout_serial))
+#: One trajectory is long work: threads pay from two.
+rollout_batch = RolloutBatched(
+    _rollout_serial, kernel(parallel=True)(bind(_rollout_parallel, "rollout_parallel", _rollout_task=_rollout_task_kernel)), parallel_min=2
+)
 law_batch = driver("law", _law_row)

@@ -408,6 +408,19 @@ def state_derivative(
     return out.reshape((*batch, size)), ok.reshape(batch)
 
 
+def _records(n: int, x0: np.ndarray, steps: int, stride: int) -> tuple[np.ndarray, ...]:
+    """The outputs of a rollout of the states x0 (K, S) recorded at step 0, every ``stride`` steps and the last:
+    (states (T, K, S), u (T, K, N + 6), saturated (T, K), steps done (K))."""
+    k = x0.shape[0]
+    rows = 1 + sum(1 for i in range(1, steps + 1) if i % stride == 0 or i == steps)
+    return (
+        new_output((rows, k, x0.shape[1])),
+        new_output((rows, k, n + 6)),
+        np.empty((rows, k), dtype=np.bool_),
+        np.empty(k, dtype=np.int64),
+    )
+
+
 def rollout(
     model: Any,
     x0: np.ndarray,
@@ -433,11 +446,7 @@ def rollout(
     t = tree(model)
     n = t.n_joints
     k = x0.shape[0]
-    rows = 1 + sum(1 for i in range(1, steps + 1) if i % stride == 0 or i == steps)
-    xs = new_output((rows, k, x0.shape[1]))
-    us = new_output((rows, k, n + 6))
-    sat = np.empty((rows, k), dtype=np.bool_)
-    done = np.empty(k, dtype=np.int64)
+    xs, us, sat, done = _records(n, x0, steps, stride)
     kp, kd, qref, vref = (_own(np.broadcast_to(g, (k, n))) for g in gains)
     ext_i, ext_f = _wrench_data(ext, (k,))
     wrenches = _specialise.layout(ext_i)
@@ -447,7 +456,7 @@ def rollout(
         assert fast is not None
         size, given = fast.STATE, x0.shape[1]  # the module's flat state (with the dissipated energy or without), the caller's
         x_in = x0 if given == size else np.concatenate([x0[:, : 13 + 2 * n], np.zeros((k, size - 13 - 2 * n))], axis=1)
-        x_out = xs if given == size else new_output((rows, k, size))
+        x_out = xs if given == size else new_output((xs.shape[0], k, size))
         args = (_own(x_in), *timing, (kp, kd, qref, vref, _own(feedforward)), _own(limit), x_out, us, sat, done)
         _specialise.rollout(fast, t, *args, ext_f.reshape(k, 9 * len(wrenches)))  # each trajectory's wrenches (K, 9W)
         if x_out is not xs:  # the states as given: the energy's slot dropped, or added (zero: the model dissipates nothing)
@@ -499,11 +508,7 @@ def law_rollout(
     t = tree(model)
     n = t.n_joints
     k = x0.shape[0]
-    rows = 1 + sum(1 for i in range(1, steps + 1) if i % stride == 0 or i == steps)
-    xs = new_output((rows, k, x0.shape[1]))
-    us = new_output((rows, k, n + 6))
-    sat = np.empty((rows, k), dtype=np.bool_)
-    done = np.empty(k, dtype=np.int64)
+    xs, us, sat, done = _records(n, x0, steps, stride)
     ext_i, ext_f = _wrench_data(ext, (k,))
     timing = (float(dt), int(steps), int(hold), int(stride))
     plant = t.floats[None] if plant is None else plant

@@ -68,6 +68,7 @@ LAW_FIELDS = (
     ("rate_gain", "(K, 6 + N): the detumbling rate gains k (1/s)"),
     ("attitude", "(K, 3, 3): the detumbling's commanded attitude (spacecraft -> inertial)"),
     ("attitude_gain", "(K,): its gain (1/s^2; 0: rates only)"),
+    ("lowest", "(K,): written by the loops: the smallest σ_min/σ_max of J_z met at a sample (for the warning after the run)"),
 )
 Law = namedtuple("Law", [name for name, _ in LAW_FIELDS])  # type: ignore[misc]
 
@@ -308,35 +309,45 @@ def task_one(
             vi += 3
 
 
+#: The kinds of task items by their rows (:func:`item_rows`).
+POSITION, ANGLES, QUATERNION = 0, 1, 2
+
+
+@kernel(inline="always")
+def item_rows(L: Any, p: int) -> tuple[int, int, int]:  # pragma: no cover - compiled
+    """(rows of z, rows of ż, kind) of item p of the task in ``L``: a position (2 planar, else 3), angles (θ planar;
+    Euler 3-2-1) or a quaternion (4 rows of z, 3 of ż)."""
+    planar = L.setup[1] != 0
+    if L.items[p, 0] == 0:
+        rows = 2 if planar else 3
+        return rows, rows, POSITION
+    if planar:
+        return 1, 1, ANGLES
+    if L.setup[2] != 0:
+        return 4, 3, QUATERNION
+    return 3, 3, ANGLES
+
+
 @kernel(inline="always")
 def task_error(L: Any, desired: np.ndarray, actual: np.ndarray, e: np.ndarray) -> None:  # pragma: no cover - compiled
     """e = z1,des ⊖ z1 (1991 eq. 26): differences; angles wrapped to [−π, π); quaternions 2 sign(w_e) vec(q_des ⊗ q⁻¹)."""
-    planar = L.setup[1] != 0
-    quaternions = L.setup[2] != 0
     zi = 0
     vi = 0
     qe = np.empty(4)
     for p in range(L.items.shape[0]):
-        if L.items[p, 0] == 0:
-            rows = 2 if planar else 3
-            for i in range(rows):
-                e[vi + i] = desired[zi + i] - actual[zi + i]
-            zi += rows
-            vi += rows
-        elif planar or not quaternions:
-            rows = 1 if planar else 3
-            for i in range(rows):
-                e[vi + i] = _wrap(desired[zi + i] - actual[zi + i])
-            zi += rows
-            vi += rows
-        else:
+        nz, nv, kind = item_rows(L, p)
+        if kind == QUATERNION:
             _compose(desired[zi : zi + 4], actual[zi : zi + 4], True, qe)
             sign = -1.0 if qe[3] < 0.0 else 1.0
             norm = math.sqrt(qe[0] * qe[0] + qe[1] * qe[1] + qe[2] * qe[2] + qe[3] * qe[3])
             for i in range(3):
                 e[vi + i] = 2.0 * sign * qe[i] / norm
-            zi += 4
-            vi += 3
+        else:
+            for i in range(nz):
+                diff = desired[zi + i] - actual[zi + i]
+                e[vi + i] = diff if kind == POSITION else _wrap(diff)
+        zi += nz
+        vi += nv
 
 
 @kernel(inline="always")
@@ -357,18 +368,14 @@ def desired_one(L: Any, b: int, t: float, z: np.ndarray, zdot: np.ndarray, zddot
     sc, ds, dds = time_scaling(profile, (t - start_time) / duration)
     direction = zdot  # the straight line's direction in ż coordinates, scaled below
     task_error(L, goal, start, direction)
-    planar = L.setup[1] != 0
-    quaternions = L.setup[2] != 0
     zi = 0
     vi = 0
     turn = np.empty(4)
     for p in range(L.items.shape[0]):
-        if L.items[p, 0] == 0 or planar or not quaternions:
-            rows = (2 if planar else 3) if L.items[p, 0] == 0 else (1 if planar else 3)
-            for i in range(rows):
+        nz, nv, kind = item_rows(L, p)
+        if kind != QUATERNION:
+            for i in range(nz):
                 z[zi + i] = start[zi + i] + sc * direction[vi + i]
-            zi += rows
-            vi += rows
         else:  # slerp: exp(s φ) q_start, φ the inertial rotation vector from start to goal
             _compose(goal[zi : zi + 4], start[zi : zi + 4], True, turn)
             _rotation_vector(turn, direction, vi)
@@ -383,8 +390,8 @@ def desired_one(L: Any, b: int, t: float, z: np.ndarray, zdot: np.ndarray, zddot
             for i in range(4):
                 unit[i] = start[zi + i] / norm
             _compose(turn, unit, False, z[zi : zi + 4])
-            zi += 4
-            vi += 3
+        zi += nz
+        vi += nv
     for i in range(zdot.shape[0]):
         zddot[i] = direction[i] * dds / duration**2
         zdot[i] = direction[i] * ds / duration
@@ -578,7 +585,9 @@ def law_control(
     dim = L.kp.shape[1]
     e, edot, qc = np.empty(dim), np.empty(dim), np.empty(6 + n)
     out = u[u0 : u0 + n + 6]
-    law_one(L, b, t, x[x0 : x0 + 13 + 2 * n], s, out, e, edot, qc)
+    ratio = law_one(L, b, t, x[x0 : x0 + 13 + 2 * n], s, out, e, edot, qc)
+    seen = _row(L.lowest, b)
+    L.lowest[seen] = min(L.lowest[seen], ratio)
     sat = False
     for j in range(n + 6):
         out[j] = min(max(out[j], -L.limits[j]), L.limits[j])  # the controller's own limits (no flag: an extra of its output)
@@ -614,10 +623,12 @@ def make_law(ints: np.ndarray, floats: np.ndarray, **given: Any) -> Any:
         "rate_gain": np.zeros((1, 1)),
         "attitude": np.eye(3)[None],
         "attitude_gain": np.zeros(1),
+        "lowest": np.ones(1),
         **given,
     }
     integer = ("setup", "items", "ints")
-    return Law(**{name: np.array(fields[name], dtype=np.int64 if name in integer else np.float64) for name in Law._fields})
+    names: list[str] = [name for name, _ in LAW_FIELDS]
+    return Law(**{name: np.array(fields[name], dtype=np.int64 if name in integer else np.float64) for name in names})
 
 
 def same_structure(a: Any, b: Any) -> bool:
@@ -626,3 +637,20 @@ def same_structure(a: Any, b: Any) -> bool:
     if a.ints.shape != b.ints.shape or not np.array_equal(a.ints, b.ints):
         return False
     return all(np.array_equal(a.fields[f.name], b.fields[f.name]) for f in BODY_FIELDS if f.role == "structure")
+
+
+def actuator_bounds(limits: Any, n: int) -> np.ndarray:
+    """An ``ActuatorLimits`` (or None) as the (N + 6,) bounds of [tau, f_S, n_S] that the loops clip to (inf: none);
+    its own checks first (the errors of ``ActuatorLimits.apply``)."""
+    out = np.full(n + 6, np.inf)
+    if limits is None:
+        return out
+    limits.apply(np.zeros(n), np.zeros(3), np.zeros(3))
+    for sl, value in (
+        (slice(0, n), limits.joint_torque),
+        (slice(n, n + 3), limits.spacecraft_force),
+        (slice(n + 3, n + 6), limits.spacecraft_torque),
+    ):
+        if value is not None:
+            out[sl] = np.broadcast_to(np.asarray(value, dtype=float), out[sl].shape)
+    return out

@@ -24,10 +24,10 @@ from ._integrate import _trajectory
 from .pd import JointPD
 from .trajectory import Trajectory
 
-__all__ = ["PER_TRAJECTORY", "compiled_simulation", "law_of", "law_rows", "plant_models"]
+__all__ = ["PER_TRAJECTORY", "after_run", "compiled_simulation", "law_of", "law_rows", "plant_models"]
 
 #: The fields of a control law with a row per trajectory (1 row: shared).
-PER_TRAJECTORY = ("floats", "kp", "kd", "start", "goal", "zdot", "zddot", "rate_gain", "attitude", "attitude_gain")
+PER_TRAJECTORY = ("floats", "kp", "kd", "start", "goal", "zdot", "zddot", "rate_gain", "attitude", "attitude_gain", "lowest")
 
 
 def law_of(controller: Any, batch: int | None) -> Any:
@@ -36,6 +36,14 @@ def law_of(controller: Any, batch: int | None) -> Any:
     errors for per-trajectory values of another length than the batch."""
     make = getattr(controller, "compiled_law", None)
     return make(batch) if callable(make) else None
+
+
+def after_run(controller: Any, law: Any) -> None:
+    """Tell the controller what its compiled run met (``controller.compiled_run_done(law)``: the task controllers warn
+    of a near-singular J_z there, once per run)."""
+    done = getattr(controller, "compiled_run_done", None)
+    if law is not None and callable(done):
+        done(law)
 
 
 def law_rows(law: Any, rows: slice, batch: int) -> Any:
@@ -106,4 +114,5 @@ def compiled_simulation(
             guard.check(float(t), x)
     except SimulationError:
         return None
+    after_run(controller, law)
     return traj

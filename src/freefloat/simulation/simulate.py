@@ -33,7 +33,8 @@ from ..core.numbers import MAX_EFFORT, tolerance_problem
 from ..core.resources import require_memory
 from ..core.state import Actuation, ActuatorLimits, State, dissipates, pack_state, unpack_state
 from ..mechanics import _engine
-from ._compiled_runs import compiled_simulation, law_of, law_rows, plant_models
+from ..mechanics._laws import actuator_bounds
+from ._compiled_runs import after_run, compiled_simulation, law_of, law_rows, plant_models
 from ._guard import (
     MAX_RATE,
     MIN_WALL_BUDGET,
@@ -481,7 +482,9 @@ def rollout(
     try:
         law = law_of(controller, batch[0])
         if controller is None or isinstance(controller, JointPD) or law is not None:
-            compiled = _rollout_pd(model, x, dt, steps, hold, stride, controller, limits, external, bar, law, plant)
+            pd = controller if isinstance(controller, JointPD) else None
+            compiled = _rollout_pd(model, x, dt, steps, hold, stride, pd, limits, external, bar, law, plant)
+            after_run(controller, law)
             if compiled is not None:
                 times, xs, acts, status, message = compiled
                 return _batch_limits(_trajectory(model, times, xs, acts, status, message, copy=False))  # quaternions kept unit
@@ -521,6 +524,9 @@ def rollout(
         return _batch_limits(rec.trajectory())
     finally:
         bar.close()
+
+
+rollout.takes_model_sequences = True  # type: ignore[attr-defined]  # ff.rollout(models, ...): one model per trajectory
 
 
 #: A compiled rollout of more trajectories than this runs in chunks (progress, Ctrl-C) of at least this many.
@@ -568,15 +574,7 @@ def _rollout_pd(
     """
     n = model.n_joints
     batch = x0.shape[0]
-    lim = np.full(n + 6, np.inf)
-    limits.apply(np.zeros(n), np.zeros(3), np.zeros(3))  # validates the limits (same errors as the Python path)
-    for sl, value in (
-        (slice(0, n), limits.joint_torque),
-        (slice(n, n + 3), limits.spacecraft_force),
-        (slice(n + 3, n + 6), limits.spacecraft_torque),
-    ):
-        if value is not None:
-            lim[sl] = np.broadcast_to(np.asarray(value, dtype=float), lim[sl].shape)
+    lim = actuator_bounds(limits, n)  # (the same errors as the Python path)
     zeros = np.zeros((batch, n))
     feed = np.zeros((1, batch, n))
     gains: list[Any] = [zeros, zeros, zeros, zeros]

@@ -1,0 +1,151 @@
+"""The built-in controllers inside the compiled loops equal their Python versions step for step (issue 23).
+
+``ff.simulate`` / ``ff.rollout`` run a built-in controller (its ``compiled_law``) inside the compiled RK4 loop; wrapped
+in a plain function the same controller runs from Python every sample. Both must record the same states and actuation
+to 1e-12 at every step, with limits, sample-and-hold, per-trajectory gains, set points and payload models; a gain moved
+by 1e-7 must break that bound (the comparison can fail). Small models and a few dozen steps: the kernels are compiled
+once per machine (mechanics/_numba_cache.py).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+import freefloat as ff
+from freefloat.control import Detumble, OperationalSpaceController, TransposedJacobianController
+from freefloat.control.desired import StraightLine
+from freefloat.control.tasks import TaskSpace
+from freefloat.core.errors import ShapeError
+from freefloat.papers.paper1991 import section5_setup
+
+BOUND = 1e-12
+DT = 0.01
+FIELDS = ("q", "qdot", "omega", "attitude", "r_cm", "v_cm", "joint_torque", "spacecraft_force", "spacecraft_torque")
+
+
+def python(controller: Any) -> Any:
+    """The controller as a plain Python function: the simulation loops call it every sample."""
+    return lambda t, state: controller(t, state)
+
+
+def gap(a: ff.Trajectory, b: ff.Trajectory, row: int | None = None) -> float:
+    """The largest difference of the recorded states and actuation (every field, every output), relative to 1 + |value|;
+    ``row``: trajectory ``row`` of the rollout ``a`` against the single run ``b``."""
+    assert np.array_equal(a.t, b.t)
+
+    def of(traj: ff.Trajectory, name: str, r: int | None) -> np.ndarray:
+        return np.asarray(getattr(traj, name)) if r is None else np.asarray(getattr(traj, name))[:, r]
+
+    assert np.array_equal(of(a, "saturated", row), b.saturated)
+    return max(float(np.max(np.abs(of(a, f, row) - of(b, f, None)) / (1.0 + np.abs(of(b, f, None))))) for f in FIELDS)
+
+
+@pytest.fixture(scope="module")
+def section5() -> tuple[ff.Model, TaskSpace, ff.State, np.ndarray]:
+    return section5_setup()
+
+
+def test_single_simulations_equal_the_python_loop(section5: Any) -> None:
+    """TJ (eq. 29, with the controller's limits and the simulation's), OSC (eq. 27, sampled every 3 steps), a straight
+    line, the detumbling and a joint PD: compiled single simulations equal the Python loop to 1e-12 at every step."""
+    model, task, state, target = section5
+    start = task.coordinates(state)
+    limits = ff.ActuatorLimits(joint_torque=60.0, spacecraft_force=40.0)
+    spinning = ff.State(q=state.q, qdot=[0.3, -0.2], omega=[0.0, 0.0, 0.2], attitude=state.attitude, v_cm=[0.05, 0.0, 0.0])
+    runs = [
+        (TransposedJacobianController(model, task, target, 30.0, 60.0, limits=ff.ActuatorLimits(joint_torque=50.0)), {"limits": limits}),
+        (OperationalSpaceController(model, task, target, [30, 30, 20, 30, 30], 60.0), {"sample_period": 3 * DT}),
+        (OperationalSpaceController(model, task, StraightLine(start, target, 0.3, "minimum_jerk", task=task), 30.0, 60.0), {}),
+        (Detumble(model, rate_gain=[0.5, 0.5, 0.5, 0.6, 0.6, 0.7, 0.8, 0.9], attitude=Rotation.from_euler("z", 0.3)), {}),
+        (ff.JointPD(kp=[40.0, 20.0], kd=[9.0, 5.0], q_ref=[0.2, -0.4]), {"limits": ff.ActuatorLimits(joint_torque=8.0)}),
+    ]
+    for controller, options in runs:
+        start_state = spinning if isinstance(controller, Detumble) else state
+        fast = ff.simulate(model, start_state, 0.4, controller, fixed_step=DT, output_period=DT, **options)
+        slow = ff.simulate(model, start_state, 0.4, python(controller), fixed_step=DT, output_period=DT, **options)
+        assert len(fast) == 41
+        assert gap(fast, slow) <= BOUND, type(controller).__name__
+    assert fast.saturated.any()  # the joint PD's limit acted, recorded alike
+
+
+@pytest.mark.parametrize("orientation", ["euler321", "quaternion"])
+def test_spatial_tasks_equal_the_python_loop(orientation: str) -> None:
+    """Spatial tasks (eq. 22: end-effector and spacecraft positions and orientations) on a 3D arm, both laws."""
+    model = ff.models.load_model("spacecraft_7dof")
+    task = TaskSpace.paper1991(model, orientation=orientation)
+    q = np.array([0.3, -0.5, 0.4, -0.7, 0.2, 0.6, -0.3])
+    state = ff.State(q=q, qdot=np.full(model.n_joints, 0.05), omega=[0.01, -0.02, 0.03]).resolve(model)
+    goal = task.coordinates(ff.State(q=q + 0.05))  # a nearby posture: reachable, away from the Euler singularity
+    for law in (TransposedJacobianController, OperationalSpaceController):
+        controller = law(model, task, goal, 20.0, 15.0, null_space_damping=2.0)
+        fast = ff.simulate(model, state, 0.1, controller, fixed_step=DT, output_period=DT)
+        slow = ff.simulate(model, state, 0.1, python(controller), fixed_step=DT, output_period=DT)
+        assert gap(fast, slow) <= BOUND
+
+
+def test_rollouts_with_per_trajectory_parameters_equal_python(section5: Any) -> None:
+    """A rollout of 4 with per-trajectory gains (B, d) and set points (B, size): the compiled loop equals the Python
+    loop over the batch (the controller's __call__ takes the batch, row b its parameters) at every step; and a gain
+    moved by 1e-7 breaks the bound."""
+    model, task, state, target = section5
+    batch = 4
+    states = ff.State(q=np.tile(state.q, (batch, 1)) + np.linspace(0, 0.1, batch)[:, None], attitude=np.tile(state.attitude, (batch, 1)))
+    kp = np.outer(np.linspace(20.0, 35.0, batch), np.ones(task.dim))
+    targets = np.tile(target, (batch, 1))
+    targets[:, 3] += np.linspace(-0.1, 0.1, batch)
+    for law in (TransposedJacobianController, OperationalSpaceController):
+        controller = law(model, task, targets, kp, 60.0)
+        fast = ff.rollout(model, states, 0.2, dt=DT, controller=controller, sample_period=2 * DT)
+        slow = ff.rollout(model, states, 0.2, dt=DT, controller=python(controller), sample_period=2 * DT)
+        assert fast.q.shape == (21, batch, 2)
+        assert gap(fast, slow) <= BOUND
+        moved = law(model, task, targets, kp * (1.0 + 1e-7), 60.0)
+        assert gap(ff.rollout(model, states, 0.2, dt=DT, controller=moved, sample_period=2 * DT), slow) > BOUND
+    assert np.ptp(fast.q[-1, :, 0]) > 1e-3  # the trajectories differ: each took its own parameters
+
+
+def test_payload_models_per_trajectory_equal_single_python_runs(section5: Any) -> None:
+    """Payload variants per trajectory (plant and controller models, detumbling rate gains (B, 1)): trajectory b of the
+    compiled rollout equals a Python simulation of model b with the parameters of b, at every step."""
+    model, _, state, target = section5
+    models = [model.with_payload(mass=m, inertia=i) for m, i in ((50.0, 5.0), (200.0, 20.0), (400.0, 25.0))]
+    spinning = ff.State(q=state.q, qdot=[0.3, -0.2], omega=[0.0, 0.0, 0.2], attitude=state.attitude)
+    states = ff.State(q=np.tile(state.q, (3, 1)), qdot=np.tile([0.3, -0.2], (3, 1)), omega=[0.0, 0.0, 0.2], attitude=state.attitude)
+    gains = np.array([[0.4], [0.6], [0.8]])
+    controllers = [
+        (OperationalSpaceController(models, TaskSpace.planar_1991(models[0]), target, 30.0, 60.0), None),
+        (Detumble(models, rate_gain=gains), gains),
+    ]
+    for controller, rate in controllers:
+        fast = ff.rollout(models, states, 0.2, dt=DT, controller=controller)
+        for b, m in enumerate(models):
+            if rate is None:
+                own: Any = OperationalSpaceController(m, TaskSpace.planar_1991(m), target, 30.0, 60.0)
+                start = spinning
+            else:
+                own, start = Detumble(m, rate_gain=float(rate[b, 0])), spinning
+            slow = ff.simulate(m, start, 0.2, python(own), fixed_step=DT, output_period=DT)
+            assert gap(fast, slow, b) <= BOUND
+    assert np.ptp(fast.omega[-1, :, 2]) > 1e-4  # the payloads (and gains) made the trajectories differ
+
+
+def test_bad_per_trajectory_inputs_are_named(section5: Any) -> None:
+    model, task, state, target = section5
+    states = ff.State(q=np.tile(state.q, (4, 1)), attitude=state.attitude)
+    controller = TransposedJacobianController(model, task, target, np.full((3, task.dim), 30.0), 60.0)
+    with pytest.raises(ShapeError, match=r"kp: 3 per-trajectory values, but the rollout has 4 trajectories"):
+        ff.rollout(model, states, 0.1, dt=DT, controller=controller)
+    with pytest.raises(ShapeError, match=r"kp: 3 per-trajectory values, but a single simulation has one trajectory"):
+        ff.simulate(model, state, 0.1, controller, fixed_step=DT)
+    with pytest.raises(ShapeError, match=r"model: 2 per-trajectory models, but initial_states has 4 trajectories"):
+        ff.rollout([model, model.with_payload(mass=10.0, inertia=1.0)], states, 0.1, dt=DT, controller=ff.JointPD(kp=1.0, kd=1.0))
+    with pytest.raises(ShapeError, match=r"rate_gain: expected a scalar or \(8,\)"):
+        Detumble(model, rate_gain=np.ones((3, 5)))
+    with pytest.raises(ValueError, match=r"model\[1\]: .* has another structure than model\[0\]"):
+        ff.rollout([model, ff.models.papadopoulos1992()], states, 0.1, dt=DT, controller=ff.JointPD(kp=1.0, kd=1.0))
+    with pytest.raises(ValueError, match=r"per-trajectory models run with the compiled controllers only"):
+        ff.rollout([model] * 4, states, 0.1, dt=DT, controller=python(ff.JointPD(kp=1.0, kd=1.0)))
