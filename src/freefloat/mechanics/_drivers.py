@@ -365,4 +365,4 @@ _rollout_task_kernel = kernel()(bind(_rollout_task, "rollout_task", ROLLOUT_SERI
 rollout_batch = RolloutBatched(
     _rollout_serial, kernel(parallel=True)(bind(_rollout_parallel, "rollout_parallel", _rollout_task=_rollout_task_kernel)), parallel_min=2
 )
-law_batch = driver("law", _law_row)
+law_batch = driver("law", _law_row, parallel_min=2**62)  # serial: numba's threads take no tuple of arrays (the law)

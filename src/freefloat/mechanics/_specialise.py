@@ -641,7 +641,7 @@ def _warm(module: types.ModuleType, t: Tree, kind: str, wrenches: Layout = ()) -
         x0 = np.zeros((1, size))
         x0[0, 9] = 1.0
         zero = np.zeros((1, n))
-        args = (data, x0, 1e-3, 1, 1, 1, zero, zero, zero, zero, np.zeros((1, 1, n)), np.full(n + 6, np.inf))
+        args = (data, x0, 1e-3, 1, 1, 1, (zero, zero, zero, zero, np.zeros((1, 1, n))), np.full(n + 6, np.inf))
         outs = (np.empty((2, 1, size)), np.empty((2, 1, n + 6)), np.empty((2, 1), dtype=np.bool_), np.empty(1, dtype=np.int64))
         ext = np.zeros((1, 9 * len(wrenches)))
         module.serial(*args, *outs, ext, np.empty(module.ROWS * LANES))
