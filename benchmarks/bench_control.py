@@ -111,6 +111,7 @@ def compiled_controllers(quick: bool, log: Any) -> dict[str, Any]:
     r_wall, r_fast = best_of(lambda: rollout(model, states, duration, dt=DT, controller=osc), 3)
     p_wall, r_slow = best_of(lambda: rollout(model, states, duration, dt=DT, controller=lambda t, s: osc(t, s)), 1 if not quick else 2)
     r_steps = round(duration / DT) * batch
+    per_state = _per_state_loop(model, task, targets, states, 0.1 if not quick else 0.05)
     rollouts = {
         "trajectories": batch,
         "steps_each": round(duration / DT),
@@ -120,9 +121,33 @@ def compiled_controllers(quick: bool, log: Any) -> dict[str, Any]:
         "python_loop_trajectory_steps_per_s": r_steps / p_wall,
         "ratio_over_python_loop": p_wall / r_wall,
         "max_dq_compiled_vs_python": float(np.abs(r_fast.q - r_slow.q).max()),
+        "per_state_python_loop_trajectory_steps_per_s": per_state,
+        "ratio_over_per_state_python_loop": (r_steps / r_wall) / per_state,
     }
+    log(f"per-state Python loop: {per_state:.0f} trajectory steps/s")
     log(f"compiled rollouts OSC x{batch}: {r_wall:.3f} s vs Python loop {p_wall:.3f} s: x{rollouts['ratio_over_python_loop']:.1f}")
     return {"single": single, "rollouts": rollouts, "load_average": os.getloadavg()}
+
+
+def _per_state_loop(model: Any, task: Any, targets: np.ndarray, states: Any, duration: float) -> float:
+    """Trajectory steps per second of the mujoco.rollout-style loop with a Python controller called per state (as a
+    MuJoCo user calls one: ``mujoco.rollout`` steps the batch, the controller runs per trajectory in Python between
+    steps): one OperationalSpaceController per trajectory, its ``__call__`` on each state, then the batch's RK4 step."""
+    from freefloat.core.state import pack_state, unpack_state
+    from freefloat.mechanics import _engine
+
+    own = [OperationalSpaceController(model, task, z, 30.0, 60.0) for z in targets]
+    x = pack_state(states.resolve(model))
+    n = model.n_joints
+    u = np.zeros((x.shape[0], n + 6))
+    steps = round(duration / DT)
+    t0 = time.perf_counter()
+    for i in range(steps):
+        for b, controller in enumerate(own):
+            act = controller(i * DT, unpack_state(model, x[b]))
+            u[b, :n], u[b, n : n + 3], u[b, n + 3 :] = act.joint_torque, act.spacecraft_force, act.spacecraft_torque
+        x = _engine.rk4_batch(model, x, u, DT, 1)
+    return steps * x.shape[0] / (time.perf_counter() - t0)
 
 
 def ff_state_batch(state: Any, batch: int, rng: np.random.Generator) -> Any:
@@ -190,7 +215,8 @@ def table(report: dict[str, Any]) -> str:
         lines.append(
             f"  {r['trajectories']} rollouts x {r['steps_each']} steps, OSC: {r['compiled_wall_s']:.3f} s compiled, "
             f"{r['python_loop_wall_s']:.3f} s Python loop (x{r['ratio_over_python_loop']:.1f}); "
-            f"max |dq| {r['max_dq_compiled_vs_python']:.1e}"
+            f"max |dq| {r['max_dq_compiled_vs_python']:.1e}; controller per state in Python (mujoco.rollout style) "
+            f"{r['per_state_python_loop_trajectory_steps_per_s']:.0f} trajectory steps/s (x{r['ratio_over_per_state_python_loop']:.1f})"
         )
         lines.append(f"  load average {report['compiled']['load_average']}")
     lines.append(machine_line(report["machine"]))
