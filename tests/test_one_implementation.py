@@ -42,7 +42,12 @@ USES_PAIRS = {
 }
 #: The engine's one-configuration kernels and the only places that call them.
 ENGINE_KERNELS = {"mass_properties", "centroidal_blocks", "newton_euler", "hplus_one", "jstar_one", "accelerations_one", "unit_momenta"}
-ENGINE_CALLERS = {"mechanics/_recursions.py", "mechanics/_configuration.py", "mechanics/_drivers.py"}
+ENGINE_CALLERS = {
+    "mechanics/_recursions.py",
+    "mechanics/_configuration.py",
+    "mechanics/_drivers.py",
+    "mechanics/_laws.py",  # the control laws: H+ and C+ of the engine (hplus_one), never their own
+}
 #: Modules allowed to import numba (the compiled engine and its cache).
 NUMBA_MODULES = {"mechanics/_numba_cache.py", "mechanics/_drivers.py", "mechanics/_lanes.py", "mechanics/_specialise.py"}
 
