@@ -307,10 +307,19 @@ def test_scratch_buffers_are_always_kernel_arguments() -> None:
 
     folder = Path(ff.__file__).parent / "mechanics"
     sites = []
-    for name in ("_drivers.py", "_configuration.py"):
+    for name in ("_drivers.py", "_configuration.py", "_laws.py"):
         tree = ast.parse((folder / name).read_text(encoding="utf-8"))
         for func in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)):
             params = {a.arg for a in func.args.args}
+            params |= {  # names unpacked from the call's arrays: X0, ..., PLANT, ... = a (kernel arguments too)
+                e.id
+                for n in ast.walk(func)
+                if isinstance(n, ast.Assign) and isinstance(n.value, ast.Name) and n.value.id in params
+                for t in n.targets
+                if isinstance(t, ast.Tuple)
+                for e in t.elts
+                if isinstance(e, ast.Name)
+            }
             sliced = {  # names assigned from a subscript of a parameter: work = floats[f:]
                 t.id
                 for n in ast.walk(func)
@@ -323,13 +332,17 @@ def test_scratch_buffers_are_always_kernel_arguments() -> None:
                 sites.append(f"{name}::{func.name}::{call.func.id}")  # type: ignore[attr-defined]
                 buffers = call.args[:1] if call.func.id == "scratch" else call.args  # type: ignore[attr-defined]
                 for arg in buffers:
-                    ok = isinstance(arg, ast.Name) and arg.id in params | sliced
+                    base = arg.value if isinstance(arg, ast.Subscript) else arg  # a row of an argument: PLANT[b]
+                    base = base.value if isinstance(base, ast.Attribute) else base  # a field of one: L.floats
+                    ok = isinstance(base, ast.Name) and base.id in params | sliced
                     assert ok, f"{name}::{func.name}: {ast.unparse(call)}"
     assert sorted(sites) == [
+        "_drivers.py::_law_rollout_row::arrays",  # the plant's mass properties per trajectory
         "_drivers.py::_serial_template::arrays",
         "_drivers.py::_serial_template::scratch",
         "_drivers.py::unpack::arrays",
         "_drivers.py::unpack::scratch",
+        "_laws.py::law_one::arrays",  # the controller's model (per trajectory)
     ]
 
 

@@ -55,6 +55,7 @@ __all__ = [
     "inverse_batch",
     "jstar_batch",
     "law_batch",
+    "law_rollout_batch",
     "measure_batch",
     "point_bias_batch",
     "point_jacobian_batch",
@@ -119,9 +120,10 @@ def driver(name: str, row: Any, *, block: int = BLOCK, parallel_min: int | None 
 
 
 # ----------------------------------------------------------------- one trajectory stepped from Python (the Stepper)
-#: The rollout loop of _lanes, one trajectory at a time, stepped by the engine's RK4 step, with the joint PD or a control
-#: law of _laws in it (bound as globals: inlined).
-_rollout_blocks = rollout_loop(rk4_step_rows, "generic", law_control)
+#: The rollout loop of _lanes, one trajectory at a time, stepped by the engine's RK4 step (bound as a global: inlined),
+#: with the joint PD in it; and the same loop with a control law of _laws (or the joint PD) in it.
+_rollout_blocks = rollout_loop(rk4_step_rows, "generic")
+_law_rollout_blocks = rollout_loop(rk4_step_rows, "law", law_control)
 
 
 @kernel(inline="always")
@@ -302,12 +304,22 @@ def _derivative_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
 @kernel(inline="always")
 def _rollout_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
     """Trajectory b of a rollout (the loop of :func:`~._lanes.rollout_blocks`, one lane wide, on the engine's state
-    derivative) with the joint PD or a control law (:func:`~._laws.law_control`), on the model of the buffers
-    (plant_ints, PLANT[b] or PLANT[0]: a payload variant per trajectory). a = (X0, dt, steps, hold, stride,
-    C = ((kp, kd, qref, vref, ff), law), lim, plant_ints, PLANT (K, F), ext_i, EXT, XS, US, SAT, DONE)."""
+    derivative) with the joint PD. a = (X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, ext_i, EXT, XS, US,
+    SAT, DONE)."""
+    X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, ext_i, EXT, XS, US, SAT, DONE = a
+    C = (kp, kd, qref, vref, ff)
+    _rollout_blocks((m, ext_i, EXT[b], s), 1, b, b + 1, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, s.rows)
+
+
+@kernel(inline="always")
+def _law_rollout_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
+    """Trajectory b of a rollout with a control law (:func:`~._laws.law_control`; or the joint PD, law code 0) in the
+    loop, on the model of the buffers (plant_ints, PLANT[b] or PLANT[0]: a payload variant per trajectory; both kernel
+    arguments). a = (X0, dt, steps, hold, stride, C = ((kp, kd, qref, vref, ff), law), lim, plant_ints, PLANT (K, F),
+    ext_i, EXT, XS, US, SAT, DONE). Its own kernel (the law's loop), so that a joint PD rollout compiles no law."""
     X0, dt, steps, hold, stride, C, lim, plant_ints, PLANT, ext_i, EXT, XS, US, SAT, DONE = a
     plant = arrays(plant_ints, PLANT[b if PLANT.shape[0] > 1 else 0])
-    _rollout_blocks((plant, ext_i, EXT[b], s), 1, b, b + 1, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, s.rows)
+    _law_rollout_blocks((plant, ext_i, EXT[b], s), 1, b, b + 1, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, s.rows)
 
 
 @kernel(inline="always")
@@ -319,7 +331,7 @@ def _law_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
 
 
 def _rollout_parallel(size: int, ints: np.ndarray, floats: np.ndarray, WORK: np.ndarray, *a: Any) -> None:  # pragma: no cover
-    """The parallel rollout: one trajectory per task on numba's threads (:func:`_rollout_task`). numba's threads take
+    """The parallel rollout with a law: one trajectory per task on numba's threads (:func:`_rollout_task`). numba's threads take
     no tuple of arrays, so the controller C = ((kp, kd, qref, vref, ff), law) arrives as its arrays, flat
     (:meth:`RolloutBatched.__call__`), and each task makes it again."""
     for b in prange(size):
@@ -327,11 +339,11 @@ def _rollout_parallel(size: int, ints: np.ndarray, floats: np.ndarray, WORK: np.
 
 
 def _rollout_task(b: int, ints: np.ndarray, floats: np.ndarray, work: np.ndarray, *a: Any) -> None:  # pragma: no cover
-    """Trajectory b of the parallel rollout: the controller's tuples made from the flat arguments (:data:`ROLLOUT_FLAT`
+    """Trajectory b of the parallel rollout with a law: the controller's tuples made from the flat arguments (:data:`ROLLOUT_FLAT`
     of them after X0, dt, steps, hold, stride), then the serial rollout kernel."""
     pd = (a[5], a[6], a[7], a[8], a[9])
-    law = Law(a[10], a[11], a[12], a[13], a[14], a[15], a[16], a[17], a[18], a[19], a[20], a[21], a[22], a[23], a[24], a[25], a[26], a[27])
-    ROLLOUT_SERIAL(b, b + 1, ints, floats, work, a[0], a[1], a[2], a[3], a[4], (pd, law), *a[28:])  # type: ignore[name-defined]  # noqa: F821
+    law = Law(a[10], a[11], a[12], a[13], a[14], a[15], a[16], a[17], a[18], a[19], a[20], a[21], a[22], a[23], a[24], a[25], a[26], a[27])  # type: ignore[call-arg]
+    LAW_ROLLOUT_SERIAL(b, b + 1, ints, floats, work, a[0], a[1], a[2], a[3], a[4], (pd, law), *a[28:])  # type: ignore[name-defined]  # noqa: F821
 
 
 #: The arrays of a rollout's controller: the joint PD's five, then the fields of a control law.
@@ -359,10 +371,12 @@ hplus_rate_batch = driver("hplus_rate", _hplus_rate_row)
 inverse_batch = driver("inverse", _inverse_row)
 forward_batch = driver("forward", _forward_row)
 derivative_batch = driver("derivative", _derivative_row)
-_rollout_serial = kernel()(bind(_serial_template, "rollout_serial", ROW=_rollout_row))
-_rollout_task_kernel = kernel()(bind(_rollout_task, "rollout_task", ROLLOUT_SERIAL=_rollout_serial))
-#: One trajectory is long work: threads pay from two.
-rollout_batch = RolloutBatched(
-    _rollout_serial, kernel(parallel=True)(bind(_rollout_parallel, "rollout_parallel", _rollout_task=_rollout_task_kernel)), parallel_min=2
+rollout_batch = driver("rollout", _rollout_row, block=1, parallel_min=2)  # one trajectory is long work: threads pay from two
+_law_rollout_serial = kernel()(bind(_serial_template, "law_rollout_serial", ROW=_law_rollout_row))
+_rollout_task_kernel = kernel()(bind(_rollout_task, "law_rollout_task", LAW_ROLLOUT_SERIAL=_law_rollout_serial))
+law_rollout_batch = RolloutBatched(
+    _law_rollout_serial,
+    kernel(parallel=True)(bind(_rollout_parallel, "law_rollout_parallel", _rollout_task=_rollout_task_kernel)),
+    parallel_min=2,
 )
 law_batch = driver("law", _law_row, parallel_min=2**62)  # serial: numba's threads take no tuple of arrays (the law)

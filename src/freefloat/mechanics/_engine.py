@@ -465,10 +465,7 @@ def rollout(
             xs[..., common:] = 0.0
         return xs, us, sat, done
     start = time.perf_counter()
-    C = ((kp, kd, qref, vref, _own(feedforward)), _no_law(t))
-    _drivers.rollout_batch(
-        k, t, _own(x0), *timing, C, _own(limit), _own(t.ints, np.int64), _own(t.floats[None]), ext_i, ext_f, xs, us, sat, done
-    )
+    _drivers.rollout_batch(k, t, _own(x0), *timing, kp, kd, qref, vref, _own(feedforward), _own(limit), ext_i, ext_f, xs, us, sat, done)
     if k >= _SPECIALISED_ROLLOUTS_MIN and _drivers.rollout_batch.compiled:  # work they would take
         _specialise.account(t, "rollout", time.perf_counter() - start, wrenches)
     return xs, us, sat, done
@@ -518,7 +515,9 @@ def law_rollout(
     else:
         zero = np.zeros((1, n))
         C = ((zero, zero, zero, zero, np.zeros((1, 1, n))), law)  # no joint PD: the law
-    _drivers.rollout_batch(k, t, _own(x0), *timing, C, _own(limit), _own(t.ints, np.int64), _own(plant), ext_i, ext_f, xs, us, sat, done)
+    _drivers.law_rollout_batch(
+        k, t, _own(x0), *timing, C, _own(limit), _own(t.ints, np.int64), _own(plant), ext_i, ext_f, xs, us, sat, done
+    )
     return xs, us, sat, done
 
 
