@@ -56,7 +56,7 @@ from ..mechanics.forces import _actuation_0
 from ..mechanics.momentum import system_inertia_matrix
 from .desired import DesiredPoint, as_desired
 from .tasks import TaskSpace
-from .wheels import check_actuators, wheel_torques
+from .wheels import check_actuators, route_actuation
 
 __all__ = ["OperationalSpaceController", "TransposedJacobianController", "actuation_of", "damped_inverse", "gain_matrix"]
 
@@ -121,13 +121,7 @@ def actuation_of(
     force, torque, tau = _actuation_0(model, q[None], q_0[None])
     force, torque, tau = force[0], torque[0], tau[0]
     extras.update(generalized_force=generalized_force, joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque)
-    wheel = None
-    if actuators[0] == "wheels":
-        wheel, extras["unrealised_torque"] = wheel_torques(model, state, torque)
-        extras["wheel_torque"] = wheel
-        torque = np.zeros(3)
-    if actuators[1] == "none":
-        force = np.zeros(3)
+    force, torque, wheel = route_actuation(model, state, force, torque, actuators, extras)
     if limits is not None:
         tau, force, torque, saturated = limits.apply(tau, force, torque)
         extras["saturated"] = bool(saturated)

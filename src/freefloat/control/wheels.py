@@ -24,7 +24,7 @@ from ..core.model import Model
 from ..core.state import State
 from ..mechanics.momentum import wheel_momentum
 
-__all__ = ["FORCE_BY", "TORQUE_BY", "check_actuators", "wheel_torques"]
+__all__ = ["FORCE_BY", "TORQUE_BY", "check_actuators", "route_actuation", "wheel_torques"]
 
 #: Who gives the spacecraft torque of a controller: the thrusters (1991 eq. 30 as printed) or the reaction wheels.
 TORQUE_BY = ("thrusters", "wheels")
@@ -61,10 +61,26 @@ def _axes(model: Model) -> np.ndarray:
 
 
 def wheel_torques(model: Model, state: State, spacecraft_torque: Any) -> tuple[np.ndarray, np.ndarray]:
-    """The wheel motor torques (W,), N m, that give the spacecraft torque ``spacecraft_torque`` (3,), N m, spacecraft
-    frame, at the resolved ``state`` (its ``omega`` and ``wheel_speed``): ``u = -A⁺ (n + ω0 × h_w)`` (module
-    docstring), and the part of n the wheels cannot give (3,) (zero when they span three axes)."""
+    """The wheel motor torques (..., W), N m, that give the spacecraft torque ``spacecraft_torque`` (..., 3), N m,
+    spacecraft frame, at the resolved ``state`` (its ``omega`` and ``wheel_speed``): ``u = -A⁺ (n + ω0 × h_w)`` (module
+    docstring), and the part of n the wheels cannot give (..., 3) (zero when they span three axes)."""
     axes = _axes(model)
     demand = np.asarray(spacecraft_torque, dtype=float) + np.cross(state.omega, wheel_momentum(model, state.wheel_speed))
-    torques = -np.linalg.pinv(axes) @ demand
-    return torques, demand + axes @ torques
+    torques = -demand @ np.linalg.pinv(axes).T
+    return torques, demand + torques @ axes.T
+
+
+def route_actuation(
+    model: Model, state: State, force: np.ndarray, torque: np.ndarray, actuators: tuple[str, str], extras: dict[str, Any]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """A controller's thruster force and torque sent where ``actuators`` = (torque_by, force_by) says
+    (:func:`check_actuators`): ``(force, torque, wheel torques or None)``; ``extras`` gains ``wheel_torque`` and
+    ``unrealised_torque`` when the wheels take the torque. Every controller of :mod:`freefloat.control` ends here."""
+    wheel = None
+    if actuators[0] == "wheels":
+        wheel, extras["unrealised_torque"] = wheel_torques(model, state, torque)
+        extras["wheel_torque"] = wheel
+        torque = np.zeros_like(torque)
+    if actuators[1] == "none":
+        force = np.zeros_like(force)
+    return force, torque, wheel
