@@ -8,7 +8,7 @@ same points as one call would draw, and a chunk is stored, resumed and never com
     [map]
     model = "papadopoulos1992"     # built-in name, or a model file (relative to the campaign file)
     end_effector = 0               # name or index (default 0): |r_E| is its distance from the system CM
-    samples = 134217728            # configurations in all (2^27)
+    samples = 134217728            # configurations in all (2^27; at most 2^30)
     chunk = 1048576                # configurations per run: a power of two
     seed = 0                       # of the scrambling
     bins = 128                     # histogram bins of |r_E| and of log10 |measure|
@@ -48,6 +48,9 @@ __all__ = ["MAP_SCALARS", "MAP_SERIES", "MEASURE_DECADES", "map_chunk", "map_fro
 #: What a map chunk records.
 MAP_SCALARS = ("configurations", "radius_min", "radius_max", "measure_abs_min", "singular", "singular_radius_min", "singular_radius_max")
 MAP_SERIES = ("radius_histogram", "singular_radius_histogram", "map")
+#: The most configurations a map samples: the length of scipy's Sobol sequence (2^30, 1.07e9), the one of
+#: :func:`freefloat.workspace.workspace_cloud` and the workspace searches (same seed, same points).
+MAX_SAMPLES = 1 << 30
 #: The span of the log10 |measure| bins (decades); values outside are counted in the end bins.
 MEASURE_DECADES = (-8.0, 4.0)
 _MAP_KEYS = {"model", "end_effector", "samples", "chunk", "seed", "bins", "singularity"}
@@ -130,8 +133,9 @@ def map_chunk(table: dict[str, Any], base: str, start: int, size: int) -> tuple[
     model = _model(table["model"], base)
     e = model.end_effector_index(table["end_effector"])
     box = model_box(model)
-    sobol = qmc.Sobol(box.lo.size, scramble=True, bits=64, seed=np.random.default_rng(table["seed"]))
-    sobol.fast_forward(start)
+    sobol = qmc.Sobol(box.lo.size, scramble=True, seed=np.random.default_rng(table["seed"]))
+    if start:  # (scipy's fast_forward(0) overflows)
+        sobol.fast_forward(start)
     with warnings.catch_warnings():  # a chunk of a power-of-two sequence: the whole sample keeps the balance
         warnings.filterwarnings("ignore", "The balance properties of Sobol", UserWarning)
         q = box.lo + sobol.random(size) * (box.hi - box.lo)

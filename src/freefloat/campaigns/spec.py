@@ -53,6 +53,7 @@ from ..io.model_files import read_toml
 from ..scenarios.scenario import _number, _table, _where
 
 __all__ = [
+    "COLUMNS",
     "DISTRIBUTIONS",
     "SERIES",
     "STATISTICS",
@@ -81,6 +82,8 @@ SERIES = (
 #: Summary statistics of ``[summary] statistics``: these, and ``pN`` (the N-th percentile, 0 <= N <= 100).
 STATISTICS = ("mean", "std", "min", "median", "max", "count")
 
+#: The columns of every run's row (:mod:`.store`), before the parameters and the recorded scalars.
+COLUMNS = ("run_id", "index", "status", "reason", "seconds", "worker")
 _TOP_KEYS = {"description", "scenario", "function", "map", "runs", "parameters", "record", "summary"}
 _RUNS_KEYS = {"count", "seed"}
 _RECORD_KEYS = {"scalars", "series"}
@@ -413,6 +416,12 @@ def campaign_from_dict(data: Any, *, source: str = "", base: Path | None = None)
             "drop runs.count or add a distribution",
         )
     scalars, series = _record(top.get("record", {}), source, kind)
+    for name in scalars:
+        if name in grid or name in random or name in COLUMNS:
+            fix = "record another quantity, or vary the parameter under another name"
+            raise ModelError(
+                _where(source, "record.scalars"), f"{name!r} is also a column of the results (a parameter or {', '.join(COLUMNS)})", fix
+            )
     summary = _summary(top.get("summary", {}), source, scalars)
     description = top.get("description", "")
     if not isinstance(description, str):

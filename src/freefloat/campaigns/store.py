@@ -32,14 +32,13 @@ import numpy as np
 from .._version import __version__
 from ..core.errors import CampaignError
 from .execute import RunOutcome
-from .spec import CampaignSpec, Run
+from .spec import COLUMNS, CampaignSpec, Run
 
 __all__ = ["MANIFEST", "CampaignStore", "finished_runs", "read_runs", "read_series"]
 
 MANIFEST = "campaign.json"
 FORMAT = "freefloat-campaign-1"
 _LOCK = ".campaign.lock"
-_FIXED = ("run_id", "index", "status", "reason", "seconds", "worker")
 
 
 def _column_type(values: list[Any]) -> Any:
@@ -159,7 +158,7 @@ class CampaignStore:
         for outcome in outcomes:
             params = by_id[outcome.run_id].parameters
             fixed = (outcome.run_id, outcome.index, outcome.status, outcome.reason, outcome.seconds, outcome.worker)
-            for name, value in zip(_FIXED, fixed, strict=True):
+            for name, value in zip(COLUMNS, fixed, strict=True):
                 rows[name].append(value)
             for name in self.spec.parameters:
                 rows[name].append(params[name] if self.schema.field(name).type != pa.string() else str(params[name]))
