@@ -14,11 +14,13 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import socket
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from urllib.parse import urlsplit
 
 from ..core.errors import CampaignError
 from ..simulation._guard import Progress
@@ -68,9 +70,13 @@ def dask_client(scheduler: str | None = None, *, workers: int | None = None, mem
     if scheduler is not None:
         if workers is not None or memory_limit is not None:
             raise CampaignError("--workers and --memory-limit shape a local cluster; with --scheduler, the cluster's own workers run")
+        host, port = _address(scheduler)
         try:
+            if scheduler.startswith("tcp://"):
+                with socket.create_connection((host, port), timeout=CONNECT_TIMEOUT):  # refused at once, before Dask's retries
+                    pass
             client = Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
-        except (OSError, ValueError, TypeError) as exc:
+        except (OSError, ValueError, TypeError, MemoryError) as exc:  # (MemoryError: something that is not a scheduler answered)
             why = " ".join(str(exc).split())
             raise CampaignError(
                 f"--scheduler {scheduler}: no Dask scheduler answered within {CONNECT_TIMEOUT:g} s ({why}); "
@@ -93,6 +99,18 @@ def dask_client(scheduler: str | None = None, *, workers: int | None = None, mem
         )
     with cluster, Client(cluster, set_as_default=False) as client:
         yield client
+
+
+def _address(address: str) -> tuple[str, int]:
+    """The host and port of a scheduler address ``protocol://host:port``; a CampaignError if it is not one."""
+    parts = urlsplit(address)
+    try:
+        port = parts.port
+    except ValueError:
+        port = None
+    if not parts.scheme or not parts.hostname or port is None:
+        raise CampaignError(f"--scheduler {address}: expected a scheduler address such as tcp://127.0.0.1:8786")
+    return parts.hostname, port
 
 
 def _lost(run: Run, exc: BaseException) -> RunOutcome:
