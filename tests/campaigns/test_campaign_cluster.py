@@ -2,7 +2,7 @@
 address (one for the module), and local clusters of the command itself.
 
 - the same campaign through ``--scheduler`` and on a local cluster: the same run ids and the same numbers;
-- a worker killed mid-campaign, and a runner interrupted (SIGINT, and ``--max-runs``) then resumed: every run
+- a worker killed mid-campaign, and a runner interrupted (SIGINT; and ``--max-runs``) then resumed: every run
   stored once, and computed once (the ``done-I-PID`` files that each run writes count the computations);
 - a worker that runs out of memory: its run is stored as failed with the reason, the others finish.
 """
@@ -132,10 +132,13 @@ def test_scheduler_and_local_cluster_give_the_same_runs(cluster: Cluster, tmp_pa
         parameters={"controller.kp": {"values": [10.0, 20.0]}, "initial.qdot[0]": {"distribution": "normal", "mean": 0.0, "std": 0.05}},
         record={"scalars": ["kinetic_energy.final", "angular_momentum_change", "final_state.q[1]"], "series": ["q", "omega"]},
     )
-    there = freefloat(spec, "--out", tmp_path / "cluster", "--scheduler", cluster.address)
+    # on the cluster: the first 3 runs (--max-runs), then the rest (--resume); here: all at once on a local cluster
+    first = freefloat(spec, "--out", tmp_path / "cluster", "--scheduler", cluster.address, "--max-runs", "3")
+    there = freefloat(spec, "--out", tmp_path / "cluster", "--scheduler", cluster.address, "--resume")
     here = freefloat(spec, "--out", tmp_path / "local", "--workers", "1")
-    assert there.returncode == 0 and here.returncode == 0, there.stderr + here.stderr
-    assert "4 ok, 0 failed" in there.stdout
+    assert first.returncode == there.returncode == here.returncode == 0, first.stderr + there.stderr + here.stderr
+    assert "3 ok, 0 failed, 0 already stored, of 3 selected (4 planned)" in first.stdout
+    assert "1 ok, 0 failed, 3 already stored, of 4 selected" in there.stdout and "4 ok, 0 failed" in here.stdout
     a, b = (read_runs(tmp_path / name).drop_columns(["seconds", "worker"]) for name in ("cluster", "local"))
     assert a.equals(b)  # same ids, parameters and numbers, bit for bit
     assert a.column("run_id").to_pylist() == [r.run_id for r in plan_runs(load_campaign(spec))]
@@ -175,27 +178,12 @@ def test_an_interrupted_runner_resumes_without_computing_twice(cluster: Cluster,
     assert runner.returncode == 130 and "interrupted" in output
     first = stored(out)
     assert len(first) == 4  # the 4 runs submitted (2 running, 2 queued), none of the others
-    refused = freefloat(spec, "--out", out, "--scheduler", cluster.address)  # without --resume
-    assert refused.returncode == 1 and "pass --resume" in refused.stderr
     resumed = freefloat(spec, "--out", out, "--scheduler", cluster.address, "--resume")
     assert resumed.returncode == 0, resumed.stderr
     assert f"{8 - len(first)} ok, 0 failed, {len(first)} already stored" in resumed.stdout
     ids = stored(out)
     assert len(ids) == len(set(ids)) == 8 and set(first) < set(ids)
     assert marks(tmp_path, "done") == marks(tmp_path, "start") == list(range(8))
-
-
-def test_max_runs_then_resume(cluster: Cluster, tmp_path: Path) -> None:
-    spec = marked_campaign(tmp_path, 5, gated=False)
-    out = tmp_path / "out"
-    first = freefloat(spec, "--out", out, "--scheduler", cluster.address, "--max-runs", "2")
-    assert first.returncode == 0 and "2 ok, 0 failed, 0 already stored, of 2 selected (5 planned)" in first.stdout
-    plan = [r.run_id for r in plan_runs(load_campaign(spec))]
-    assert stored(out) == plan[:2]
-    rest = freefloat(spec, "--out", out, "--scheduler", cluster.address, "--resume")
-    assert rest.returncode == 0 and "3 ok, 0 failed, 2 already stored" in rest.stdout
-    assert stored(out) == plan and marks(tmp_path, "done") == list(range(5))
-    assert np.array_equal(read_series(out, plan[4])["steps"], np.arange(5.0))
 
 
 def test_a_worker_out_of_memory_fails_its_run_only(tmp_path: Path) -> None:
