@@ -80,11 +80,16 @@ def cluster(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Cluster]:
         running.worker("w1")
         running.worker("w2")
         yield running
-    finally:
-        for process in reversed(running.processes):
-            process.terminate()
-        for process in running.processes:
-            process.wait(timeout=30)
+    finally:  # the workers first (they say goodbye to the scheduler), then the scheduler; a process that lingers is killed
+        for group in (running.processes[1:], running.processes[:1]):
+            for process in group:
+                process.terminate()
+            for process in group:
+                try:
+                    process.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    process.kill()
+                    process.wait()
 
 
 def campaign(folder: Path, name: str = "campaign.toml", **tables: Any) -> Path:

@@ -63,11 +63,13 @@ def test_plan_is_the_grid_times_the_draws_with_stable_ids() -> None:
     assert not {r.run_id for r in plan_runs(other[0])} & {r.run_id for r in runs}
 
 
-def test_the_example_campaign_loads() -> None:
+def test_the_example_campaigns_load() -> None:
     spec = load_campaign(ROOT / "examples" / "campaigns" / "tumbling_capture.toml")
     assert spec.kind == "capture" and len(plan_runs(spec)) == 64 and spec.rank_by == "sequence.detumble.delta_v"
     draws = np.array([r.parameters["payload.inertia"] for r in plan_runs(spec)])
     assert np.all(draws > 0.0)  # lognormal
+    maps = load_campaign(ROOT / "examples" / "campaigns" / "singularity_map_7dof.toml")
+    assert maps.kind == "map" and len(plan_runs(maps)) == 128 and maps.scenario["threshold"] == 0.02
 
 
 def test_dotted_paths_read_and_replace_without_touching_the_original() -> None:

@@ -274,7 +274,7 @@ def summarize_campaign(out: str | Path, spec: CampaignSpec) -> CampaignSummary:
         if columns[name].dtype.kind in "iuf" and spec.kind != "map"
     }
     sensitivity = {o: {i: _spearman(x, y) for i, x in inputs.items()} for o, y in values.items()} if inputs else {}
-    rank_by = spec.rank_by or (scalars[0] if scalars else "")
+    rank_by = spec.rank_by or (scalars[0] if scalars and spec.kind != "map" else "")  # (a map's chunks have no worst)
     worst: list[dict[str, Any]] = []
     if rank_by:
         key = values[rank_by]

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 import socket
 import time
 from collections.abc import Callable, Iterator
@@ -123,8 +124,16 @@ def _lost(run: Run, exc: BaseException) -> RunOutcome:
     return RunOutcome(run.run_id, run.index, "failed", reason)
 
 
-def _task(spec: CampaignSpec, run: Run) -> RunTask:
-    return RunTask(run.run_id, run.index, spec.kind, spec.scenario, spec.base, spec.function, run.parameters, spec.scalars, spec.series)
+def _task(spec: CampaignSpec, run: Run, numba_threads: int | None = None) -> RunTask:
+    return RunTask(
+        run.run_id, run.index, spec.kind, spec.scenario, spec.base, spec.function, run.parameters, spec.scalars, spec.series,
+        numba_threads,
+    )  # fmt: skip
+
+
+def local_threads(workers: int) -> int:
+    """Threads of the batched kernels in each worker of a local cluster: the machine's cores shared between them."""
+    return max(1, (os.cpu_count() or 1) // workers)
 
 
 def run_campaign(
@@ -165,7 +174,8 @@ def run_campaign(
             limit = window or max(4, 2 * sum(client.nthreads().values()))
             bar = Progress(progress, float(len(todo)), what=f"campaign {spec.campaign_id}", unit="runs", rate=True)
             try:
-                interrupted = _drive(client, spec, store, todo, limit, bar, counts, flush_seconds, flush_runs)
+                threads = None if scheduler is not None else local_threads(workers or 1)
+                interrupted = _drive(client, spec, store, todo, limit, bar, counts, flush_seconds, flush_runs, threads)
             finally:
                 bar.close()
     return CampaignRun(
@@ -184,6 +194,7 @@ def _drive(
     counts: dict[str, int],
     flush_seconds: float,
     flush_runs: int,
+    threads: int | None,
 ) -> bool:
     """Submit, collect and store; True when interrupted (Ctrl-C, SIGTERM)."""
     from distributed import as_completed
@@ -200,7 +211,7 @@ def _drive(
             run = next(queue, None)
             if run is None:
                 return
-            future = client.submit(execute_run, _task(spec, run), key=f"freefloat-run-{run.run_id}", retries=0)
+            future = client.submit(execute_run, _task(spec, run, threads), key=f"freefloat-run-{run.run_id}", retries=0)
             running[future] = run
             finished.add(future)
 
