@@ -11,7 +11,10 @@
   on 1 and on 2 workers: runs/s from the connected client to the last run stored (each fresh worker loads the
   compiled kernels on its first run: included, ``first_run_s`` says how long), and the same runs in a loop in
   this process (``in_process_runs_per_s``: :func:`~freefloat.campaigns.execute.execute_run`, kernels warm).
-  ``speedup_2_over_1``: the 2-worker rate over the 1-worker rate (at most 2 on 2 cores, less with the machine's load).
+  A local cluster shares the cores between its workers (``numba_threads``: 2 threads for the batched kernels of the
+  one worker, 1 each for two, on 2 cores); ``workers_1_threads_1`` is one worker with its kernels on 1 thread.
+  ``speedup_2_over_1``: the 2-worker rate over the 1-worker rate; ``speedup_2_over_1_threads_1``: over the
+  1-worker, 1-thread rate (at most 2 on 2 cores; the machine's other load changes both).
 """
 
 from __future__ import annotations
@@ -37,13 +40,13 @@ def trivial(parameters: dict[str, Any]) -> dict[str, Any]:
     return {"x": float(parameters["i"])}
 
 
-def timed_campaign(spec: Any, workers: int, max_runs: int | None = None) -> dict[str, Any]:
+def timed_campaign(spec: Any, workers: int, max_runs: int | None = None, numba_threads: int | None = None) -> dict[str, Any]:
     """One campaign on a fresh local cluster of ``workers`` processes, into a temporary folder."""
     started: dict[str, float] = {}
     with tempfile.TemporaryDirectory() as folder:
         t0 = time.perf_counter()
         done = run_campaign(
-            spec, Path(folder) / "out", workers=workers, max_runs=max_runs, progress=False,
+            spec, Path(folder) / "out", workers=workers, max_runs=max_runs, progress=False, numba_threads=numba_threads,
             on_started=lambda client: started.setdefault("t", time.perf_counter()),
         )  # fmt: skip
         end = time.perf_counter()
@@ -92,7 +95,10 @@ def bench_throughput(runs: int, log: Callable[[str], None]) -> dict[str, Any]:
     for workers in (1, 2):
         log(f"[throughput] {runs} runs on {workers} worker(s)")
         out[f"workers_{workers}"] = timed_campaign(spec, workers, max_runs=runs)
+    log(f"[throughput] {runs} runs on 1 worker, kernels on 1 thread")
+    out["workers_1_threads_1"] = timed_campaign(spec, 1, max_runs=runs, numba_threads=1)
     out["speedup_2_over_1"] = out["workers_2"]["runs_per_s"] / out["workers_1"]["runs_per_s"]
+    out["speedup_2_over_1_threads_1"] = out["workers_2"]["runs_per_s"] / out["workers_1_threads_1"]["runs_per_s"]
     return out
 
 
@@ -117,12 +123,15 @@ def table(report: dict[str, Any]) -> str:
     lines.append("")
     lines.append(f"{EXAMPLE.name}: {t['runs']} runs; in this process {t['in_process_runs_per_s']:.2f} runs/s")
     lines.append(f"{'workers':>8s} {'cluster start':>14s} {'wall':>8s} {'runs/s':>9s} {'median run':>11s} {'slowest run':>12s}")
-    for k in (1, 2):
-        e = t[f"workers_{k}"]
+    for key, label in (("workers_1", "1"), ("workers_1_threads_1", "1 (1 thr)"), ("workers_2", "2")):
+        e = t[key]
         lines.append(
-            f"{k:>8d} {e['cluster_start_s']:>13.2f}s {e['wall_s']:>7.2f}s {e['runs_per_s']:>9.2f} {e['run_seconds_median']:>10.2f}s "
+            f"{label:>8s} {e['cluster_start_s']:>13.2f}s {e['wall_s']:>7.2f}s {e['runs_per_s']:>9.2f} {e['run_seconds_median']:>10.2f}s "
             f"{e['first_run_s']:>11.2f}s"
         )
-    lines.append(f"2 workers over 1: {t['speedup_2_over_1']:.2f}x")
+    lines.append(
+        f"2 workers over 1: {t['speedup_2_over_1']:.2f}x (kernels on 2 threads in the 1 worker), "
+        f"{t['speedup_2_over_1_threads_1']:.2f}x (on 1 thread)"
+    )
     lines.append(machine_line(report["machine"]))
     return "\n".join(lines)

@@ -150,10 +150,12 @@ def run_campaign(
     flush_seconds: float = 2.0,
     flush_runs: int = 256,
     on_started: Callable[[Any], None] | None = None,
+    numba_threads: int | None = None,
 ) -> CampaignRun:
     """Run the campaign's missing runs into ``out`` (module docstring). ``max_runs``: only the first N of the plan;
     ``window``: runs submitted at a time (default twice the cluster's threads, at least 4); ``on_started``: called
-    with the client once it is connected."""
+    with the client once it is connected; ``numba_threads``: threads of the batched kernels in each run (default: on a
+    local cluster the cores shared between its workers, :func:`local_threads`; on an existing one, its workers')."""
     start = time.perf_counter()
     if max_runs is not None and max_runs < 1:
         raise CampaignError(f"--max-runs: expected at least 1, got {max_runs}")
@@ -174,7 +176,7 @@ def run_campaign(
             limit = window or max(4, 2 * sum(client.nthreads().values()))
             bar = Progress(progress, float(len(todo)), what=f"campaign {spec.campaign_id}", unit="runs", rate=True)
             try:
-                threads = None if scheduler is not None else local_threads(workers or 1)
+                threads = numba_threads if numba_threads is not None or scheduler is not None else local_threads(workers or 1)
                 interrupted = _drive(client, spec, store, todo, limit, bar, counts, flush_seconds, flush_runs, threads)
             finally:
                 bar.close()
