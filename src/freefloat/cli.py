@@ -633,13 +633,16 @@ def reproduce_command(
         typer.echo(str(path))
 
 
+CampaignSpecArg = Annotated[Path, typer.Argument(metavar="SPEC", help="Campaign TOML (schema: docs/campaigns.md).")]
+CampaignOut = Annotated[
+    Path, typer.Option("--out", parser=_out_path, metavar="DIR", help="Output directory: runs/*.parquet, series.zarr, report/.")
+]
+
+
 @app.command("campaign")
 def campaign_command(
-    spec: Annotated[Path, typer.Argument(metavar="SPEC", help="Campaign TOML (schema: docs/campaigns.md).")],
-    out: Annotated[
-        Path,
-        typer.Option("--out", parser=_out_path, metavar="DIR", help="Output directory: runs/*.parquet, series.zarr, report/."),
-    ],
+    spec: CampaignSpecArg,
+    out: CampaignOut,
     scheduler: Annotated[
         str | None,
         typer.Option("--scheduler", metavar="ADDRESS", help="An existing Dask scheduler (tcp://host:port). Default: a local cluster."),

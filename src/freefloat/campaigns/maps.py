@@ -42,6 +42,7 @@ from ..core.errors import ModelError
 from ..core.model import Model
 from ..models import load_model
 from ..scenarios.scenario import _number, _table, _where
+from .spec import integer_field
 
 __all__ = ["MAP_SCALARS", "MAP_SERIES", "MEASURE_DECADES", "map_chunk", "map_from_dict", "map_runs", "radius_bound"]
 
@@ -57,13 +58,6 @@ _MAP_KEYS = {"model", "end_effector", "samples", "chunk", "seed", "bins", "singu
 _SINGULARITY_KEYS = {"rows", "measure", "threshold"}
 
 
-def _integer(table: dict[str, Any], key: str, default: int, low: int, source: str, fix: str) -> int:
-    value = table.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, int) or value < low:
-        raise ModelError(_where(source, f"map.{key}"), f"expected an integer >= {low}, got {value!r}", fix)
-    return value
-
-
 def map_from_dict(data: Any, source: str) -> dict[str, Any]:
     """The validated ``[map]`` table (plain values: it is hashed into the campaign's id and sent to the workers)."""
     table = _table(data, _MAP_KEYS, source, "map")
@@ -74,12 +68,12 @@ def map_from_dict(data: Any, source: str) -> dict[str, Any]:
     ee = table.get("end_effector", 0)
     if isinstance(ee, bool) or not isinstance(ee, (int, str)):
         raise ModelError(_where(source, "map.end_effector"), f"expected a name or an index, got {ee!r}", "e.g. end_effector = 0")
-    chunk = _integer(table, "chunk", 1 << 20, 16, source, "give a power of two, e.g. chunk = 1048576")
+    chunk = integer_field(table, "chunk", 1 << 20, 16, source, "map", "give a power of two, e.g. chunk = 1048576")
     if chunk & (chunk - 1):
         raise ModelError(
             _where(source, "map.chunk"), f"{chunk} is not a power of two", "give a power of two (Sobol points come in powers of two)"
         )
-    samples = _integer(table, "samples", chunk, chunk, source, "give the configurations in all, a multiple of chunk")
+    samples = integer_field(table, "samples", chunk, chunk, source, "map", "give the configurations in all, a multiple of chunk")
     if samples % chunk or samples > 1 << 62:
         raise ModelError(
             _where(source, "map.samples"),
@@ -100,8 +94,8 @@ def map_from_dict(data: Any, source: str) -> dict[str, Any]:
         "end_effector": ee,
         "samples": samples,
         "chunk": chunk,
-        "seed": _integer(table, "seed", 0, 0, source, "e.g. seed = 0"),
-        "bins": _integer(table, "bins", 128, 2, source, "e.g. bins = 128"),
+        "seed": integer_field(table, "seed", 0, 0, source, "map", "e.g. seed = 0"),
+        "bins": integer_field(table, "bins", 128, 2, source, "map", "e.g. bins = 128"),
         "rows": singular.get("rows", "auto"),
         "measure": singular.get("measure", "auto"),
         "threshold": threshold,

@@ -277,6 +277,14 @@ def _draws(table: dict[str, Any], size: int, rng: np.random.Generator) -> list[A
     return [float(v) for v in np.atleast_1d(frozen.rvs(size=size, random_state=rng))]
 
 
+def integer_field(table: dict[str, Any], key: str, default: int, low: int, source: str, where: str, fix: str) -> int:
+    """``table[key]`` (``default`` when absent): an integer >= ``low``, else a ModelError naming ``where.key``."""
+    value = table.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, int) or value < low:
+        raise ModelError(_where(source, f"{where}.{key}"), f"expected an integer >= {low}, got {value!r}", fix)
+    return value
+
+
 def _string_list(value: Any, source: str, where: str, fix: str) -> tuple[str, ...]:
     if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
         raise ModelError(_where(source, where), f"expected a list of names, got {value!r}", fix)
@@ -318,10 +326,7 @@ def _summary(table: Any, source: str, scalars: tuple[str, ...]) -> dict[str, Any
             )
         out["rank_by"] = rank
     if "worst" in table:
-        worst = table["worst"]
-        if isinstance(worst, bool) or not isinstance(worst, int) or worst < 1:
-            raise ModelError(_where(source, "summary.worst"), f"expected an integer >= 1, got {worst!r}", "e.g. worst = 5")
-        out["worst"] = worst
+        out["worst"] = integer_field(table, "worst", 5, 1, source, "summary", "e.g. worst = 5")
     if "worst_is" in table:
         if table["worst_is"] not in ("max", "min"):
             raise ModelError(
@@ -370,14 +375,8 @@ def campaign_from_dict(data: Any, *, source: str = "", base: Path | None = None)
             )
         kind, scenario, where = "function", {}, str(base.resolve())
     runs = _table(top.get("runs", {}), _RUNS_KEYS, source, "runs")
-    values = {}
-    for key, default in (("count", 1), ("seed", 0)):
-        value = runs.get(key, default)
-        if isinstance(value, bool) or not isinstance(value, int) or value < (1 if key == "count" else 0):
-            raise ModelError(
-                _where(source, f"runs.{key}"), f"expected an integer >= {1 if key == 'count' else 0}, got {value!r}", f"e.g. {key} = 64"
-            )
-        values[key] = value
+    values = {"count": integer_field(runs, "count", 1, 1, source, "runs", "e.g. count = 64")}
+    values["seed"] = integer_field(runs, "seed", 0, 0, source, "runs", "e.g. seed = 2026")
     grid: dict[str, list[Any]] = {}
     random: dict[str, dict[str, Any]] = {}
     if kind == "map" and top.get("parameters"):
