@@ -38,7 +38,6 @@ class RunTask:
     parameters: dict[str, Any]
     scalars: tuple[str, ...]
     series: tuple[str, ...]
-    numba_threads: int | None = None  # threads of the batched kernels in this run (None: the worker's setting)
 
 
 @dataclass(frozen=True)
@@ -124,11 +123,6 @@ def execute_run(task: RunTask) -> RunOutcome:
     """Run one task; a failure of the run itself is a "failed" outcome with its reason, never an exception."""
     start = time.perf_counter()
     worker = f"{socket.gethostname()}:{os.getpid()}"
-    if task.numba_threads is not None:  # a local cluster shares the cores between its workers
-        import numba
-
-        most = int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]
-        numba.set_num_threads(max(1, min(task.numba_threads, most)))
     try:
         scalars, series = _compute(task)
     except MemoryError as exc:

@@ -42,7 +42,7 @@ from ..core.errors import ModelError
 from ..core.model import Model
 from ..models import load_model
 from ..scenarios.scenario import _number, _table, _where
-from .spec import integer_field
+from ._fields import integer_field
 
 __all__ = ["MAP_SCALARS", "MAP_SERIES", "MEASURE_DECADES", "map_chunk", "map_from_dict", "map_runs", "radius_bound"]
 

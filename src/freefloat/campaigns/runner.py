@@ -62,9 +62,12 @@ class CampaignRun:
 
 
 @contextlib.contextmanager
-def dask_client(scheduler: str | None = None, *, workers: int | None = None, memory_limit: str | None = None) -> Iterator[Any]:
-    """A Dask client on ``scheduler``, or on a new local cluster of ``workers`` processes (one thread each) on
-    127.0.0.1 with ``memory_limit`` per worker (e.g. "2GiB"); closed (and the local cluster stopped) on exit."""
+def dask_client(
+    scheduler: str | None = None, *, workers: int | None = None, memory_limit: str | None = None, numba_threads: int | None = None
+) -> Iterator[Any]:
+    """A Dask client on ``scheduler``, or on a new local cluster of ``workers`` processes (one task thread each) on
+    127.0.0.1 with ``memory_limit`` per worker (e.g. "2GiB") and ``numba_threads`` for the batched kernels in each
+    (default :func:`local_threads`: the cores shared between the workers); closed (and the cluster stopped) on exit."""
     import dask
     from distributed import Client, LocalCluster
 
@@ -88,7 +91,9 @@ def dask_client(scheduler: str | None = None, *, workers: int | None = None, mem
         return
     if workers is not None and workers < 1:
         raise CampaignError(f"--workers: expected at least 1, got {workers}")
-    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}):
+    threads = numba_threads if numba_threads is not None else local_threads(workers or 1)
+    environ = {**dask.config.get("distributed.nanny.pre-spawn-environ"), "NUMBA_NUM_THREADS": str(threads)}  # read at numba's import
+    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES, "distributed.nanny.pre-spawn-environ": environ}):
         cluster = LocalCluster(
             n_workers=workers or 1,
             threads_per_worker=1,
@@ -124,11 +129,8 @@ def _lost(run: Run, exc: BaseException) -> RunOutcome:
     return RunOutcome(run.run_id, run.index, "failed", reason)
 
 
-def _task(spec: CampaignSpec, run: Run, numba_threads: int | None = None) -> RunTask:
-    return RunTask(
-        run.run_id, run.index, spec.kind, spec.scenario, spec.base, spec.function, run.parameters, spec.scalars, spec.series,
-        numba_threads,
-    )  # fmt: skip
+def _task(spec: CampaignSpec, run: Run) -> RunTask:
+    return RunTask(run.run_id, run.index, spec.kind, spec.scenario, spec.base, spec.function, run.parameters, spec.scalars, spec.series)
 
 
 def local_threads(workers: int) -> int:
@@ -168,7 +170,7 @@ def run_campaign(
     interrupted = False
     if todo:
         with (
-            dask_client(scheduler, workers=workers, memory_limit=memory_limit) as client,
+            dask_client(scheduler, workers=workers, memory_limit=memory_limit, numba_threads=numba_threads) as client,
             CampaignStore.open(out, spec, plan, resume=resume) as store,
         ):
             if on_started is not None:
@@ -176,8 +178,7 @@ def run_campaign(
             limit = window or max(4, 2 * sum(client.nthreads().values()))
             bar = Progress(progress, float(len(todo)), what=f"campaign {spec.campaign_id}", unit="runs", rate=True)
             try:
-                threads = numba_threads if numba_threads is not None or scheduler is not None else local_threads(workers or 1)
-                interrupted = _drive(client, spec, store, todo, limit, bar, counts, flush_seconds, flush_runs, threads)
+                interrupted = _drive(client, spec, store, todo, limit, bar, counts, flush_seconds, flush_runs)
             finally:
                 bar.close()
     return CampaignRun(
@@ -196,7 +197,6 @@ def _drive(
     counts: dict[str, int],
     flush_seconds: float,
     flush_runs: int,
-    threads: int | None,
 ) -> bool:
     """Submit, collect and store; True when interrupted (Ctrl-C, SIGTERM)."""
     from distributed import as_completed
@@ -213,7 +213,7 @@ def _drive(
             run = next(queue, None)
             if run is None:
                 return
-            future = client.submit(execute_run, _task(spec, run, threads), key=f"freefloat-run-{run.run_id}", retries=0)
+            future = client.submit(execute_run, _task(spec, run), key=f"freefloat-run-{run.run_id}", retries=0)
             running[future] = run
             finished.add(future)
 

@@ -51,6 +51,8 @@ from scipy import stats
 from ..core.errors import ModelError
 from ..io.model_files import read_toml
 from ..scenarios.scenario import _number, _table, _where
+from ._fields import integer_field
+from .maps import map_from_dict, map_runs
 
 __all__ = [
     "COLUMNS",
@@ -277,14 +279,6 @@ def _draws(table: dict[str, Any], size: int, rng: np.random.Generator) -> list[A
     return [float(v) for v in np.atleast_1d(frozen.rvs(size=size, random_state=rng))]
 
 
-def integer_field(table: dict[str, Any], key: str, default: int, low: int, source: str, where: str, fix: str) -> int:
-    """``table[key]`` (``default`` when absent): an integer >= ``low``, else a ModelError naming ``where.key``."""
-    value = table.get(key, default)
-    if isinstance(value, bool) or not isinstance(value, int) or value < low:
-        raise ModelError(_where(source, f"{where}.{key}"), f"expected an integer >= {low}, got {value!r}", fix)
-    return value
-
-
 def _string_list(value: Any, source: str, where: str, fix: str) -> tuple[str, ...]:
     if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
         raise ModelError(_where(source, where), f"expected a list of names, got {value!r}", fix)
@@ -353,8 +347,6 @@ def _scenario(top: dict[str, Any], source: str, base: Path) -> tuple[str, dict[s
 
 def campaign_from_dict(data: Any, *, source: str = "", base: Path | None = None) -> CampaignSpec:
     """Validate a campaign given as a dict (a parsed TOML file); ``base``: the folder of relative paths."""
-    from .maps import map_from_dict  # the map's own table
-
     base = Path(".") if base is None else base
     top = _table(data, _TOP_KEYS, source, "")
     given = [k for k in ("scenario", "function", "map") if k in top]
@@ -457,8 +449,6 @@ def plan_runs(spec: CampaignSpec) -> list[Run]:
     run's id, is the same on every machine and after a resume.
     """
     if spec.kind == "map":
-        from .maps import map_runs
-
         return [Run(_run_id(spec, i, params), i, params) for i, params in enumerate(map_runs(spec.scenario))]
     points = list(itertools.product(*spec.grid.values())) or [()]
     total = len(points) * spec.count
