@@ -191,3 +191,24 @@ def test_store_and_report_from_stored_runs(tmp_path: Path) -> None:
     text = summary.markdown()
     assert "failure rate 12.5 %" in text and "| square |" in text
     assert len(summary.plot_distributions()) == 1 and summary.plot_failures() is not None
+    assert summary.plot_sensitivity().get_xticklabels()[0].get_text() == "i"
+
+
+def test_a_map_campaign_summed_from_its_store(tmp_path: Path) -> None:
+    table = {"model": "papadopoulos1992-one-arm", "samples": 512, "chunk": 128, "seed": 5, "bins": 8, "singularity": {"threshold": 0.05}}
+    spec = campaign_from_dict({"map": table}, source="m.toml", base=tmp_path)
+    plan = plan_runs(spec)
+    with CampaignStore.open(tmp_path / "out", spec, plan, resume=False) as store:
+        outcomes = [RunOutcome(r.run_id, r.index, "ok", "", *map_chunk(spec.scenario, spec.base, **r.parameters)) for r in plan]
+        for outcome in outcomes:
+            store.write_series(outcome)
+        store.add(outcomes[:1])
+        store.add(outcomes[1:])
+    totals = summarize_campaign(tmp_path / "out", spec).totals
+    whole_scalars, whole = map_chunk(spec.scenario, spec.base, 0, 512)
+    assert totals["configurations"] == 512 and totals["radius_max"] == whole_scalars["radius_max"]
+    assert totals["singular_fraction"] == whole_scalars["singular"] / 512
+    assert totals["map"] == whole["map"].tolist() and totals["radius_histogram"] == whole["radius_histogram"].tolist()
+    summary = summarize_campaign(tmp_path / "out", spec)
+    assert summary.worst == [] and "## Map totals" in summary.markdown()
+    assert len(summary.plot_map()) == 2
