@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -212,3 +213,17 @@ def test_a_map_campaign_summed_from_its_store(tmp_path: Path) -> None:
     summary = summarize_campaign(tmp_path / "out", spec)
     assert summary.worst == [] and "## Map totals" in summary.markdown()
     assert len(summary.plot_map()) == 2
+
+
+def test_a_worker_death_fails_the_run_and_any_other_cluster_error_stops_the_campaign() -> None:
+    from distributed.scheduler import KilledWorker
+
+    from freefloat.campaigns.runner import _lost
+    from freefloat.campaigns.spec import Run
+
+    run = Run("abc", 3, {})
+    worker = SimpleNamespace(address="tcp://127.0.0.1:1")  # the scheduler's record of the worker that died last
+    outcome = _lost(run, KilledWorker("freefloat-run-abc", worker, 1))
+    assert (outcome.status, outcome.index) == ("failed", 3) and outcome.reason.startswith("KilledWorker: the worker running it died")
+    with pytest.raises(CampaignError, match=r"run abc could not run on the cluster \(ModuleNotFoundError: No module named 'freefloat'\)"):
+        _lost(run, ModuleNotFoundError("No module named 'freefloat'"))

@@ -120,13 +120,18 @@ def _address(address: str) -> tuple[str, int]:
 
 
 def _lost(run: Run, exc: BaseException) -> RunOutcome:
-    """The outcome of a run whose task raised on the cluster: its worker died (KilledWorker) or the task broke."""
-    message = " ".join(str(exc).split())
+    """The outcome of a run whose task raised on the cluster. Its worker died on each try (KilledWorker: killed, or
+    out of memory): the run is failed, with that reason. Anything else (freefloat missing on a worker, the task
+    cancelled, the scheduler gone) is the cluster's failure, not the run's: a CampaignError stops the campaign (the
+    finished runs are kept) so that ``--resume`` runs it once the cluster is fixed."""
+    message = " ".join(str(exc).split()) or type(exc).__name__
     if type(exc).__name__ == "KilledWorker":
         reason = f"KilledWorker: the worker running it died (killed, or out of memory) on each try ({message})"
-    else:
-        reason = f"{type(exc).__name__}: {message}"
-    return RunOutcome(run.run_id, run.index, "failed", reason)
+        return RunOutcome(run.run_id, run.index, "failed", reason)
+    raise CampaignError(
+        f"run {run.run_id} could not run on the cluster ({type(exc).__name__}: {message}); the finished runs are kept: "
+        "check the workers (freefloat installed, the scenario's files at the same paths), then --resume"
+    ) from exc
 
 
 def _task(spec: CampaignSpec, run: Run) -> RunTask:
@@ -222,7 +227,7 @@ def _drive(
             run = running.pop(future)
             try:
                 outcome = future.result()
-            except Exception as exc:  # the task itself broke on the cluster (KilledWorker, lost data)
+            except Exception as exc:  # (a run's own failure is an outcome: this is the cluster's)
                 outcome = _lost(run, exc)
             future.release()
             store.write_series(outcome)
