@@ -32,6 +32,7 @@ from ..core.state import Actuation, State
 from ..mechanics.dynamics import nonlinear_forces
 from ..mechanics.momentum import system_inertia_matrix
 from .controllers import actuation_of
+from .wheels import check_actuators
 
 __all__ = ["STANDARD_GRAVITY", "Detumble", "DetumbleCost", "detumble_cost"]
 
@@ -52,7 +53,8 @@ class Detumble:
     ``rate_gain`` k (1/s): every generalized rate decays as exp(-k t) (a scalar, or (6 + N,) per row of zdot0 =
     [v_cm, ω0, qdot]). ``attitude`` (None: rates only; else a unit quaternion [x, y, z, w] or a scipy ``Rotation``,
     spacecraft frame -> inertial) with ``attitude_gain`` (1/s², default k²/4: critically damped about each axis).
-    ``force=False``: no thruster force (the CM keeps drifting). Actuator limits are the simulation's
+    ``force=False``: no thruster force (the CM keeps drifting). ``torque_by="wheels"``: the spacecraft torque by the
+    reaction wheels (:mod:`freefloat.control.wheels`), not the thrusters. Actuator limits are the simulation's
     (``simulate(..., limits=ff.ActuatorLimits(...))``), which saturates and records where it did.
     """
 
@@ -64,9 +66,11 @@ class Detumble:
         attitude: Any = None,
         attitude_gain: float | None = None,
         force: bool = True,
+        torque_by: str = "thrusters",
     ) -> None:
         if not isinstance(model, Model):
             raise TypeError(f"model: expected a freefloat Model, got {type(model).__name__}")
+        self.actuators = check_actuators(model, torque_by, "thrusters" if force else "none")
         size = 6 + model.n_joints
         gains = np.asarray(rate_gain, dtype=float)
         gains = np.full(size, float(gains)) if gains.ndim == 0 else gains
@@ -119,7 +123,8 @@ class Detumble:
         q_c = system_inertia_matrix(self.model, state.q) @ acc + nonlinear_forces(self.model, state.q, state.velocity)
         if not self.force:
             q_c[0:3] = 0.0  # C+ has no r_cm rows: the CM is left alone
-        return actuation_of(self.model, state, q_c, None, {"desired_acceleration": acc, "_t0": attitude_matrix(state.attitude)})
+        extras = {"desired_acceleration": acc, "_t0": attitude_matrix(state.attitude)}
+        return actuation_of(self.model, state, q_c, None, extras, self.actuators)
 
 
 @dataclass(frozen=True)
@@ -131,7 +136,11 @@ class DetumbleCost:
     specific impulse; the thruster torque's propellant depends on the thrusters' lever arms and is not in it);
     ``peak_joint_torque`` max |τ| per joint (N,) (N m); ``peak_force``, ``peak_torque`` max |f_S|, |n_S|;
     ``time_to_rest`` the first output time from which every later output is at rest (None: not at rest at the end);
-    ``final_rates`` (|v_cm|, |ω0|, max |qdot|) at the last output.
+    ``final_rates`` (|v_cm|, |ω0|, max |qdot|) at the last output. With reaction wheels (None without):
+    ``peak_wheel_speed`` max |Omega| per wheel (W,) (rad/s, relative to the spacecraft), ``peak_wheel_momentum``
+    max |Js (Omega + a.ω0)| per wheel (W,) (N m s, the rotor's own spin momentum: what its speed limit bounds in
+    Basilisk's terms), ``peak_wheel_torque`` max |u| per wheel (W,) (N m), and ``wheel_saturated`` (W,) whether a
+    wheel's torque or speed limit acted at an output.
     """
 
     thruster_impulse: float
@@ -143,6 +152,10 @@ class DetumbleCost:
     peak_torque: float
     time_to_rest: float | None
     final_rates: tuple[float, float, float]
+    peak_wheel_speed: np.ndarray | None = None
+    peak_wheel_momentum: np.ndarray | None = None
+    peak_wheel_torque: np.ndarray | None = None
+    wheel_saturated: np.ndarray | None = None
 
 
 def detumble_cost(
@@ -201,4 +214,20 @@ def detumble_cost(
         peak_torque=float(torque.max()),
         time_to_rest=time_to_rest,
         final_rates=(float(rates[0][-1]), float(rates[1][-1]), float(rates[2][-1])),
+        **_wheel_costs(model, trajectory),
     )
+
+
+def _wheel_costs(model: Model, trajectory: Any) -> dict[str, Any]:
+    """The reaction wheels' part of :class:`DetumbleCost` (empty without wheels)."""
+    if not model.wheels or getattr(trajectory, "wheel_speed", None) is None:
+        return {}
+    speed = np.asarray(trajectory.wheel_speed, dtype=float)
+    axes = np.array([w.axis for w in model.wheels])
+    spin = np.array([w.inertia for w in model.wheels]) * (speed + np.asarray(trajectory.omega) @ axes.T)
+    return {
+        "peak_wheel_speed": np.abs(speed).max(axis=0),
+        "peak_wheel_momentum": np.abs(spin).max(axis=0),
+        "peak_wheel_torque": np.abs(np.asarray(trajectory.wheel_torque, dtype=float)).max(axis=0),
+        "wheel_saturated": np.any(trajectory.wheel_torque_saturated | trajectory.wheel_speed_saturated, axis=0),
+    }
