@@ -69,6 +69,9 @@ def scalar_value(result: Any, name: str) -> float:
 def _trajectory_series(traj: Any, names: tuple[str, ...]) -> dict[str, np.ndarray]:
     if traj is None:
         return {}
+    missing = [name for name in names if getattr(traj, name) is None]
+    if missing:
+        raise ValueError(f"record.series: this run has no {', '.join(missing)} (a model without wheels has no wheel series)")
     return {"t": np.asarray(traj.t), **{name: np.asarray(getattr(traj, name)) for name in names}}
 
 

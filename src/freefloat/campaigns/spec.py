@@ -79,7 +79,7 @@ DISTRIBUTIONS: dict[str, tuple[str, ...]] = {
 #: Time series a run can record (:class:`~freefloat.Trajectory` fields, time first).
 SERIES = (
     "q", "qdot", "omega", "attitude", "r_cm", "v_cm", "joint_torque", "spacecraft_force", "spacecraft_torque",
-    "kinetic_energy", "angular_momentum", "linear_momentum",
+    "kinetic_energy", "angular_momentum", "linear_momentum", "wheel_angle", "wheel_speed", "wheel_torque",
 )  # fmt: skip
 #: Summary statistics of ``[summary] statistics``: these, and ``pN`` (the N-th percentile, 0 <= N <= 100).
 STATISTICS = ("mean", "std", "min", "median", "max", "count")
