@@ -2,8 +2,9 @@
 address (one for the module), and local clusters of the command itself.
 
 - the same campaign through ``--scheduler`` and on a local cluster: the same run ids and the same numbers;
-- a worker killed mid-campaign, and a runner interrupted (SIGINT; and ``--max-runs``) then resumed: every run
-  stored once, and computed once (the ``done-I-PID`` files that each run writes count the computations);
+- a worker killed mid-campaign, and a runner interrupted (Ctrl-C to its process group, local workers included;
+  and ``--max-runs``) then resumed: every run stored once, and computed once (the ``done-I-PID`` files that each
+  run writes count the computations);
 - a worker that runs out of memory: its run is stored as failed with the reason, the others finish.
 """
 
@@ -100,8 +101,10 @@ def campaign(folder: Path, name: str = "campaign.toml", **tables: Any) -> Path:
 
 def freefloat(*args: str | Path, wait: bool = True) -> Any:
     command = [sys.executable, "-m", "freefloat", "campaign", *map(str, args), "--no-progress"]
-    if not wait:
-        return subprocess.Popen(command, env=environment(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if not wait:  # a session of its own: a signal to its process group is a terminal's Ctrl-C
+        return subprocess.Popen(
+            command, env=environment(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+        )
     return subprocess.run(command, env=environment(), capture_output=True, text=True, timeout=300)
 
 
@@ -173,9 +176,10 @@ def test_a_worker_killed_mid_campaign_loses_nothing(cluster: Cluster, tmp_path: 
 def test_an_interrupted_runner_resumes_without_computing_twice(cluster: Cluster, tmp_path: Path) -> None:
     spec = marked_campaign(tmp_path, 8, gated=True)
     out = tmp_path / "out"
-    runner = freefloat(spec, "--out", out, "--scheduler", cluster.address, wait=False)
+    # on a local cluster of 2 workers, Ctrl-C as a terminal sends it: to the command and its workers alike
+    runner = freefloat(spec, "--out", out, "--workers", "2", wait=False)
     wait_for(lambda: len(marks(tmp_path, "start")) >= 2, "two runs in progress")
-    runner.send_signal(signal.SIGINT)
+    os.killpg(runner.pid, signal.SIGINT)
     assert runner.stderr is not None
     wait_for(lambda: "stopping: waiting for the 4 runs in progress" in runner.stderr.readline(), "the runner to stop submitting")
     (tmp_path / "marks" / "gate").touch()  # the runs in progress finish, and are stored
@@ -183,7 +187,7 @@ def test_an_interrupted_runner_resumes_without_computing_twice(cluster: Cluster,
     assert runner.returncode == 130 and "interrupted" in output
     first = stored(out)
     assert len(first) == 4  # the 4 runs submitted (2 running, 2 queued), none of the others
-    resumed = freefloat(spec, "--out", out, "--scheduler", cluster.address, "--resume")
+    resumed = freefloat(spec, "--out", out, "--scheduler", cluster.address, "--resume")  # the same campaign on the cluster
     assert resumed.returncode == 0, resumed.stderr
     assert f"{8 - len(first)} ok, 0 failed, {len(first)} already stored" in resumed.stdout
     ids = stored(out)

@@ -93,7 +93,8 @@ def dask_client(
         raise CampaignError(f"--workers: expected at least 1, got {workers}")
     threads = numba_threads if numba_threads is not None else local_threads(workers or 1)
     environ = {**dask.config.get("distributed.nanny.pre-spawn-environ"), "NUMBA_NUM_THREADS": str(threads)}  # read at numba's import
-    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES, "distributed.nanny.pre-spawn-environ": environ}):
+    settings = {"distributed.scheduler.allowed-failures": ALLOWED_FAILURES, "distributed.nanny.pre-spawn-environ": environ}
+    with dask.config.set(settings), _workers_ignore_ctrl_c():
         cluster = LocalCluster(
             n_workers=workers or 1,
             threads_per_worker=1,
@@ -105,6 +106,25 @@ def dask_client(
         )
     with cluster, Client(cluster, set_as_default=False) as client:
         yield client
+
+
+@contextlib.contextmanager
+def _workers_ignore_ctrl_c() -> Iterator[None]:
+    """Start the local workers with SIGINT ignored (a process started so keeps it: Python then installs no
+    KeyboardInterrupt), so that a terminal's Ctrl-C, which reaches the whole process group, stops the runner only and
+    the runs in progress finish. (A worker that its nanny restarts later, after an out-of-memory kill, has the
+    default again.) Off the main thread, where no signal can be set, nothing changes."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def _address(address: str) -> tuple[str, int]:
