@@ -295,9 +295,15 @@ class Progress:
     """
 
     def __init__(
-        self, mode: bool | Callable[[float, float], Any] | None, duration: float, what: str = "simulating", unit: str = "s"
+        self,
+        mode: bool | Callable[[float, float], Any] | None,
+        duration: float,
+        what: str = "simulating",
+        unit: str = "s",
+        *,
+        rate: bool = False,
     ) -> None:
-        self.what, self.unit = what, unit
+        self.what, self.unit, self.rate = what, unit, rate
         self.logged = 0.0
         self.callback = mode if callable(mode) else None
         self.enabled = mode is not False
@@ -330,8 +336,8 @@ class Progress:
                     elapsed = now - self.start
                     left = f", about {_duration(elapsed * (self.duration - t) / t)} left" if t > 0 else ""
                     progress_log.info(
-                        "%s: %.4g / %.4g %s (%.0f%%), %s elapsed%s", self.what, t, self.duration, self.unit,
-                        100.0 * t / self.duration, _duration(elapsed), left,
+                        "%s: %.4g / %.4g %s (%.0f%%)%s, %s elapsed%s", self.what, t, self.duration, self.unit,
+                        100.0 * t / self.duration, self._rate(t, elapsed), _duration(elapsed), left,
                     )  # fmt: skip
                 return
             from rich.console import Console
@@ -341,14 +347,19 @@ class Progress:
                 TextColumn(self.what),
                 BarColumn(),
                 TextColumn("{task.completed:.4g} / {task.total:.4g} " + self.unit),
+                TextColumn("{task.fields[rate]}"),
                 TimeElapsedColumn(),
                 TimeRemainingColumn(),
                 console=Console(stderr=True),
                 transient=True,
             )
             self.bar.start()
-            self.bar.add_task(self.what, total=self.duration)
-        self.bar.update(self.bar.task_ids[0], completed=float(t))
+            self.bar.add_task(self.what, total=self.duration, rate="")
+        self.bar.update(self.bar.task_ids[0], completed=float(t), rate=self._rate(t, now - self.start))
+
+    def _rate(self, t: float, elapsed: float) -> str:
+        """``", 2.5 runs/s"`` with ``rate`` (the work done per second of wall time so far), else empty."""
+        return f", {t / elapsed:.3g} {self.unit}/s" if self.rate and elapsed > 0 else ""
 
     def close(self) -> None:
         """Remove the bar (if one appeared)."""
