@@ -100,7 +100,7 @@ def dask_client(
             threads_per_worker=1,
             processes=True,
             host="127.0.0.1",
-            dashboard_address=None,
+            dashboard_address="127.0.0.1:0",  # the scheduler's HTTP server on a free port (None still takes 8787, warning when busy)
             memory_limit=memory_limit or "auto",
             silence_logs=logging.CRITICAL,
         )
