@@ -33,9 +33,6 @@ READS_INERTIA = {
     "simulation/coast.py::Coast.__init__": "a target's own torque-free motion before a grasp (Euler's equations of one body)",
     "simulation/coast.py::Coast.at": "the same: the coasting target's angular velocity R I⁻¹ Rᵀ L (no H+, C+ or J*)",
     "analysis/_capture_ranking.py::grasp_setup": "the planned payload handed to the Target of the grasp (data; the impact is mechanics')",
-    "mechanics/momentum.py::wheel_momentum": "the reaction wheels' spin relative to the spacecraft, sum Js Omega a (no H+, C+ or J*)",
-    "mechanics/momentum.py::kinetic_energy": "the reaction wheels' spin energy added to 1/2 zdot H+ zdot (H+ is the engine's)",
-    "control/detumble.py::_wheel_costs": "a cost: each wheel rotor's own spin momentum Js (Omega + a.omega0)",
 }
 #: Functions allowed to use the pair inertias (each one quantity).
 USES_PAIRS = {

@@ -30,7 +30,7 @@ from ..core.errors import ShapeError
 from ..core.model import Model
 from ..core.state import Actuation, State
 from ..mechanics.dynamics import nonlinear_forces
-from ..mechanics.momentum import system_inertia_matrix
+from ..mechanics.momentum import system_inertia_matrix, wheel_spin_momentum
 from .controllers import actuation_of
 from .wheels import check_actuators
 
@@ -223,8 +223,7 @@ def _wheel_costs(model: Model, trajectory: Any) -> dict[str, Any]:
     if not model.wheels or getattr(trajectory, "wheel_speed", None) is None:
         return {}
     speed = np.asarray(trajectory.wheel_speed, dtype=float)
-    axes = np.array([w.axis for w in model.wheels])
-    spin = np.array([w.inertia for w in model.wheels]) * (speed + np.asarray(trajectory.omega) @ axes.T)
+    spin = wheel_spin_momentum(model, speed, trajectory.omega)
     return {
         "peak_wheel_speed": np.abs(speed).max(axis=0),
         "peak_wheel_momentum": np.abs(spin).max(axis=0),

@@ -22,6 +22,7 @@ import numpy as np
 from ..core.errors import NearSingularWarning
 from ..core.model import Model
 from ..core.state import State
+from ..core.wheels import wheel_arrays
 from ..mechanics.momentum import wheel_momentum
 
 __all__ = ["FORCE_BY", "TORQUE_BY", "check_actuators", "route_actuation", "wheel_torques"]
@@ -57,7 +58,7 @@ def check_actuators(model: Model, torque_by: Any, force_by: Any) -> tuple[str, s
 
 
 def _axes(model: Model) -> np.ndarray:
-    return np.array([w.axis for w in model.wheels]).T.reshape(3, -1)
+    return wheel_arrays(model)[0].T
 
 
 def wheel_torques(model: Model, state: State, spacecraft_torque: Any) -> tuple[np.ndarray, np.ndarray]:

@@ -42,7 +42,16 @@ from .errors import ModelError
 if TYPE_CHECKING:
     from .model import Model
 
-__all__ = ["WHEEL_KEYS", "ReactionWheel", "check_wheels", "reaction_wheel", "wheel_joint_model", "wheel_limits", "wheels_from"]
+__all__ = [
+    "WHEEL_KEYS",
+    "ReactionWheel",
+    "check_wheels",
+    "reaction_wheel",
+    "wheel_arrays",
+    "wheel_joint_model",
+    "wheel_limits",
+    "wheels_from",
+]
 
 #: The keys of a wheel's table in a model file or side file (``[[wheels]]``), with what each holds.
 WHEEL_KEYS = {
@@ -191,6 +200,11 @@ def check_wheels(wheels: Sequence[ReactionWheel], spacecraft_inertia: np.ndarray
             )
 
 
+def wheel_arrays(model: Model) -> tuple[np.ndarray, np.ndarray]:
+    """(spin axes (W, 3), spacecraft frame; rotor inertias Js (W,), kg m²) of the model's wheels."""
+    return np.array([w.axis for w in model.wheels]).reshape(-1, 3), np.array([w.inertia for w in model.wheels])
+
+
 def wheel_limits(model: Model) -> tuple[np.ndarray, np.ndarray]:
     """(max_torque (W,), max_speed (W,)) of the model's wheels (inf where none)."""
     return (np.array([w.max_torque for w in model.wheels]), np.array([w.max_speed for w in model.wheels]))
@@ -208,8 +222,7 @@ def wheel_joint_model(model: Model) -> Model:
     if found is not None:
         return found
     w = len(model.wheels)
-    axes = np.array([wh.axis for wh in model.wheels])
-    js = np.array([wh.inertia for wh in model.wheels])
+    axes, js = wheel_arrays(model)
     spin = js[:, None, None] * axes[:, :, None] * axes[:, None, :]
     inertia = np.concatenate([model.inertia, spin])
     inertia[0] = model.inertia[0] - spin.sum(axis=0)

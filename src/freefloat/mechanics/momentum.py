@@ -34,6 +34,7 @@ import numpy as np
 from ..core.conventions import attitude_matrix
 from ..core.errors import ShapeError
 from ..core.model import Model
+from ..core.wheels import wheel_arrays
 from . import _engine
 from ._arrays import chunked, joint_array, pieces, vector_array
 from ._inputs import body_joints, check_method, gather_square
@@ -48,6 +49,7 @@ __all__ = [
     "linear_momentum",
     "system_inertia_matrix",
     "wheel_momentum",
+    "wheel_spin_momentum",
     "zero_momentum_rate",
 ]
 
@@ -250,8 +252,8 @@ def kinetic_energy(model: Model, q: Any, velocity: Any, *, wheel_speed: Any = No
     if wheel_speed is None:
         return energy
     speed = _wheel_speeds(model, wheel_speed)
-    js = np.array([w.inertia for w in model.wheels])
-    along = v[..., 3:6] @ np.array([w.axis for w in model.wheels]).reshape(-1, 3).T  # a_i . omega0
+    axes, js = wheel_arrays(model)
+    along = v[..., 3:6] @ axes.T  # a_i . omega0
     return energy + np.sum(js * (along * speed + 0.5 * speed**2), axis=-1)
 
 
@@ -267,5 +269,12 @@ def wheel_momentum(model: Model, wheel_speed: Any) -> np.ndarray:
     """The reaction wheels' angular momentum relative to the spacecraft, sum_i Js_i Omega_i a_i (..., 3), N m s,
     spacecraft frame, for wheel speeds ``wheel_speed`` (..., W) relative to the spacecraft (:mod:`freefloat.core.wheels`).
     The model's H+ holds the wheels locked; the total angular momentum is its own plus this."""
-    speed = _wheel_speeds(model, wheel_speed)
-    return speed @ np.array([w.inertia * w.axis for w in model.wheels]).reshape(-1, 3)
+    axes, js = wheel_arrays(model)
+    return _wheel_speeds(model, wheel_speed) @ (js[:, None] * axes)
+
+
+def wheel_spin_momentum(model: Model, wheel_speed: Any, omega: Any) -> np.ndarray:
+    """Each rotor's own spin momentum about its axis, Js_i (Omega_i + a_i . omega0) (..., W), N m s, for wheel speeds
+    (..., W) relative to the spacecraft and spacecraft rates omega0 (..., 3), spacecraft frame: what a free rotor keeps."""
+    axes, js = wheel_arrays(model)
+    return js * (_wheel_speeds(model, wheel_speed) + np.asarray(omega, dtype=float) @ axes.T)

@@ -295,7 +295,7 @@ def capture_scenario_from_dict(
             raise ModelError(_where(source, "detumble"), "needs a moving target", fix)
         detumble = _detumble(data["detumble"], source)
         if detumble.torque_by == "wheels" and not model.wheels:
-            fix = "declare the spacecraft's [[wheels]] in the scenario or its model file (docs/wheels.md), or use \"thrusters\""
+            fix = 'declare the spacecraft\'s [[wheels]] in the scenario or its model file (docs/wheels.md), or use "thrusters"'
             raise ModelError(_where(source, "detumble.torque_by"), f"'wheels', but {model.name!r} has no reaction wheels", fix)
     description = description_of(data, source)
     return CaptureScenario(

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..control.detumble import Detumble, DetumbleCost, detumble_cost
-from ..mechanics.momentum import angular_momentum, linear_momentum
+from ..mechanics.momentum import angular_momentum, linear_momentum, wheel_spin_momentum
 from ..simulation.capture_event import Capture, CaptureRun
 from ..simulation.simulate import simulate
 
@@ -309,7 +309,7 @@ def _plot_wheels(sequence: CaptureSequence, axes: Any) -> None:
     after = sequence.run.after
     assert after is not None and after.model is not None and after.wheel_speed is not None
     wheels = after.model.wheels
-    spin = np.array([w.inertia for w in wheels]) * (after.wheel_speed + after.omega @ np.array([w.axis for w in wheels]).T)
+    spin = wheel_spin_momentum(after.model, after.wheel_speed, after.omega)
     limited = np.asarray(after.wheel_torque_saturated) | np.asarray(after.wheel_speed_saturated)
     for i, wheel in enumerate(wheels):
         (line,) = axes[0].plot(after.t, after.wheel_speed[:, i], label=f"Ω {wheel.name}")

@@ -61,25 +61,29 @@ Controller = Callable[[float, State], Any]
 METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
 
 
-def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Controller output -> (tau, f_S, n_S) arrays, with errors that name what is wrong."""
+def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+    """Controller output -> (tau, f_S, n_S) arrays, and the wheel torques last for a model with reaction wheels (zeros
+    when not given), with errors that name what is wrong."""
     n = model.n_joints
     if raw is None:
         raise TypeError(f"controller returned None; return joint torques of shape {(*batch, n)} or a freefloat.Actuation")
     if isinstance(raw, np.ndarray) and raw.shape == (*batch, n) and raw.dtype == np.float64:
         if _plain_torques(raw):  # the fast path of plain torques, finite and in range
             zeros = zero_thrust(batch)
-            return raw, zeros, zeros
+            return (raw, zeros, zeros, np.zeros((*batch, model.n_wheels))) if model.wheels else (raw, zeros, zeros)
     if not isinstance(raw, Actuation):
         raw = Actuation(joint_torque=raw)
     if raw.wheel_torque is not None and not model.wheels:
         raise ValueError(f"controller returned wheel torques, but {model.name!r} has no reaction wheels (model.wheels; docs/wheels.md)")
     parts = []
-    for name, size, what in (
+    fields = [
         ("joint_torque", n, f"one torque per joint: {', '.join(model.joint_names) or 'none'}"),
         ("spacecraft_force", 3, "thruster force, spacecraft frame"),
         ("spacecraft_torque", 3, "thruster torque, spacecraft frame"),
-    ):
+    ]
+    if model.wheels:
+        fields.append(("wheel_torque", model.n_wheels, f"one per wheel: {', '.join(w.name for w in model.wheels)}"))
+    for name, size, what in fields:
         value = getattr(raw, name)
         if value is None:
             parts.append(np.zeros((*batch, size)))
@@ -99,24 +103,7 @@ def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarr
                 "gains and units"
             )
         parts.append(arr)
-    return parts[0], parts[1], parts[2]
-
-
-def _wheel_command(model: Model, raw: Any) -> np.ndarray:
-    """The wheel torques (W,) of a controller's output (zeros when it gives none), checked like the rest."""
-    value = raw.wheel_torque if isinstance(raw, Actuation) else None
-    names = ", ".join(w.name for w in model.wheels)
-    if value is None:
-        return np.zeros(model.n_wheels)
-    try:
-        arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise TypeError(f"controller returned a wheel_torque that is not numbers: {value!r}") from exc
-    if arr.shape != (model.n_wheels,):
-        raise ShapeError(f"controller returned wheel_torque of shape {arr.shape}; expected ({model.n_wheels},) (one per wheel: {names})")
-    if not np.isfinite(arr).all() or np.abs(arr).max(initial=0.0) > MAX_EFFORT:
-        raise ValueError(f"controller returned a non-finite or impossibly large wheel_torque: {arr}")
-    return arr
+    return tuple(parts)
 
 
 def _plain_torques(raw: np.ndarray) -> bool:
@@ -150,8 +137,7 @@ def _call_controller(controller: Controller, model: Model, t: float, x: np.ndarr
     except Exception as exc:
         raise SimulationError(f"the controller raised {type(exc).__name__} at t = {t:.6g} s: {exc}") from exc
     try:
-        parts = _actuation(model, raw, batch)
-        return (*parts, _wheel_command(model, raw)) if model.wheels else parts
+        return _actuation(model, raw, batch)
     except (TypeError, ValueError) as exc:
         raise SimulationError(f"bad controller output at t = {t:.6g} s: {exc}") from exc
 
