@@ -212,6 +212,15 @@ def test_model_files_the_builder_and_the_side_file_declare_wheels(tmp_path: Path
     urdf = ff.load("examples/models/six_dof_arm.urdf", wheels=tmp_path / "wheels.toml")
     assert urdf.n_wheels == 1 and urdf.wheels[0].max_speed == 300.0 and urdf.wheels[0].axis.tolist() == [1.0, 0.0, 0.0]
     assert ff.load("papadopoulos1992", wheels=[{"name": "a", "axis": [0, 1, 0], "inertia": 0.1}]).n_wheels == 1
+    from typer.testing import CliRunner
+
+    from freefloat.cli import app
+
+    shown = CliRunner().invoke(app, ["inspect", str(tmp_path / "m.toml")])  # what freefloat inspect says of them
+    assert (
+        shown.exit_code == 0
+        and "wheel rw1           axis [0, 0, 1] (spacecraft frame), Js 0.3 kg m², max torque 0.1 N m, max speed none" in shown.stdout
+    )
 
 
 @pytest.mark.parametrize(
