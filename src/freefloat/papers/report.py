@@ -53,8 +53,8 @@ def model_info(model: Model) -> dict[str, Any]:
       parent frame at q = 0), limits ([lower, upper] in rad or m, null = none) and limits_deg
       (revolute joints; null otherwise);
       and the joint's own dynamics: armature (kg m², kg), damping and friction (Model.joint_*);
-    - ``wheels``: each reaction wheel (docs/wheels.md; the text shows one line each): name, axis (spacecraft frame), inertia (Js, kg m²), max_torque
-      (N m) and max_speed (rad/s, null = none), viscous and coulomb friction;
+    - ``wheels``: each reaction wheel (docs/wheels.md; the text shows one line each): name, axis (spacecraft frame),
+      inertia (Js, kg m²), max_torque (N m) and max_speed (rad/s, null = none), viscous and coulomb friction;
     - ``mimic``: each mimic joint (a dependent coordinate, no column of q): name, leader (the independent
       joint it follows), multiplier and offset (q = multiplier q_leader + offset), type and child body;
     - ``end_effector_rule``: "named" (the file or the caller named them), "leaf sites" (MJCF
