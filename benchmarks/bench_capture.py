@@ -16,9 +16,9 @@
   with a spinning one ranked by the spacecraft rate after the grasp (145 candidate postures on the eq. 21
   families, their free-floating motions along the path and one batched impact call), best of ``repeats``.
 * **The capture-and-detumble example** (``examples/scenarios/tumbling_satellite_capture.toml``, a 500 kg satellite
-  tumbling at 3 deg/s): the whole scenario as ``freefloat capture`` runs it (read, plan, grasp, 20 s of
-  ``Detumble``), the sequence alone (the grasp and the detumbling simulation), best of ``repeats``, and writing its
-  outputs (JSON, markdown, figures, the 20-frame GIF) once.
+  tumbling at 3 deg/s): the whole scenario as ``freefloat capture`` runs it (read, plan, grasp, 30 s of
+  ``Detumble`` with its three reaction wheels), the sequence alone (the grasp and the detumbling simulation), best
+  of ``repeats``, and writing its outputs (JSON, markdown, figures, the 20-frame GIF) once.
 """
 
 from __future__ import annotations
@@ -201,7 +201,7 @@ def table(report: dict[str, Any]) -> str:
     lines.append(
         f"capture and detumble example (tumbling_satellite_capture.toml, {q['detumble_duration_s']:g} s of Detumble, "
         f"{q['samples']} samples): scenario {q['scenario_s']:.2f} s, sequence alone {q['sequence_s']:.2f} s, outputs with "
-        f"the GIF {q['outputs_s']:.2f} s; at rest from {q['time_to_rest']} s, delta-v {q['delta_v']:.4g} m/s"
+        f"the GIF {q['outputs_s']:.2f} s; at rest from {q['time_to_rest']:.6g} s, delta-v {q['delta_v']:.4g} m/s"
     )
     lines.append(machine_line(report["machine"]))
     return "\n".join(lines)

@@ -25,6 +25,7 @@ from bench_core import machine_info
 
 #: name -> module (in this folder). Register a new benchmark by adding one line.
 BENCHMARKS: dict[str, str] = {
+    "campaign": "bench_campaign",
     "capture": "bench_capture",
     "control": "bench_control",
     "core": "bench_core",

@@ -298,6 +298,27 @@ SIMULATION_EDITS: list[tuple[str, str, tuple[tuple[str, str], ...]]] = [
         (_after("duration = 10.0", 'end_effectors = "arm1_ee"'),),
     ),
     ("end-effectors-of-builtin", r"model: .*whose end effectors are fixed", (_after("duration = 10.0", 'end_effectors = ["arm1_ee"]'),)),
+    # reaction wheels (docs/wheels.md)
+    (
+        "wheels-axis-not-unit",
+        r"wheels\[0\] \(rw\)\.axis: is not a unit vector \(norm 1\.41421\); give the unit spin axis",
+        (_after("duration = 10.0", 'wheels = [{name = "rw", axis = [1.0, 1.0, 0.0], inertia = 0.1}]'),),
+    ),
+    (
+        "wheels-unknown-key",
+        r"wheels\[0\]\.Js: unknown key 'Js'; use the keys name, axis, inertia",
+        (_after("duration = 10.0", 'wheels = [{name = "rw", axis = [1.0, 0.0, 0.0], Js = 0.1}]'),),
+    ),
+    (
+        "wheels-larger-than-the-spacecraft",
+        r"wheels: the wheels' spin inertias .* are not smaller than the spacecraft body's inertia",
+        (_after("duration = 10.0", 'wheels = [{name = "rw", axis = [1.0, 0.0, 0.0], inertia = 1e5}]'),),
+    ),
+    (
+        "wheel-speed-without-wheels",
+        r"initial\.wheel_speed: .*has no \[\[wheels\]\]",
+        (("[initial]", "[initial]\nwheel_speed = [10.0]"),),
+    ),
     ("strict-not-a-bool", r"strict: expected true or false, got 'yes'", (_after("duration = 10.0", 'strict = "yes"'),)),
     ("description-not-a-string", r"description: expected a string, got 5", (("description = ", "description = 5\n#"),)),
     ("unknown-key", r"sim/unknown-key\.toml: colour: unknown key", (_after("duration = 10.0", "colour = 'red'"),)),
@@ -737,6 +758,16 @@ CAPTURE_EDITS: list[tuple[str, str, tuple[tuple[str, str], ...]]] = [
         (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, "[detumble]\nattitude = [0.0, 0.0, 0.0, 2.0]\n#")),
     ),
     ("detumble-at-rest", r"detumble: needs a moving target", ((_END, "[detumble]\nrate_gain = 0.5\n#"),)),
+    (
+        "detumble-torque-by-unknown",
+        r"detumble\.torque_by: unknown 'gyros'; write torque_by = \"thrusters\" or \"wheels\"",
+        (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, '[detumble]\ntorque_by = "gyros"\n#')),
+    ),
+    (
+        "detumble-torque-by-wheels-without-wheels",
+        r"detumble\.torque_by: 'wheels', but 'papadopoulos1992_one_arm' has no reaction wheels; declare the spacecraft's",
+        (_after(_INERTIA, "velocity = [0.0, 0.1, 0.0]"), (_END, '[detumble]\ntorque_by = "wheels"\n#')),
+    ),
 ]
 for _id, _, _changes in SIMULATION_EDITS:
     _add(f"sim/{_id}.toml", _edit(SIM, *_changes))
@@ -1341,6 +1372,71 @@ CASES += [cli(f"cli-capture-model-{id}", f"capture {{files}}/cap/model-{id}.toml
 CASES += [cli(f"cli-simulate-{id}", f"simulate {{files}}/sim/{id}.toml --out out", match) for id, match, _ in SIMULATION_EDITS]
 CASES += [cli(f"cli-capture-{id}", f"capture {{files}}/cap/{id}.toml", match) for id, match, _ in CAPTURE_EDITS]
 CASES += [cli(f"cli-simulate-{id}", f"simulate {path} --out out", match) for id, path, match in BAD_SCENARIOS]
+
+# reaction wheels through the API (the files' and scenarios' wheels are in SIMULATION_EDITS and CAPTURE_EDITS)
+WHEELED = [{"name": "rw", "axis": [0.0, 0.0, 1.0], "inertia": 0.1}]
+CASES += [
+    api(
+        "wheel-torque-without-wheels",
+        lambda f: ff.simulate(M(arms=1), ff.State(), 0.1, lambda t, s: ff.Actuation(wheel_torque=[0.1]), fixed_step=0.01),
+        ff.SimulationError,
+        r"bad controller output at t = 0 s: controller returned wheel torques, but 'papadopoulos1992_one_arm' has no reaction wheels",
+    ),
+    api(
+        "wheel-speed-without-wheels",
+        lambda f: ff.State(wheel_speed=[1.0]).resolve(M(arms=1)),
+        ShapeError,
+        r"State\.wheel_speed: expected shape \(\.\.\., 0\) \('papadopoulos1992_one_arm' has no reaction wheels\)",
+    ),
+    api(
+        "rollout-with-wheels",
+        lambda f: ff.rollout(ff.load("papadopoulos1992", wheels=WHEELED), ff.State(q=np.zeros((2, 4))), 0.1, dt=0.01),
+        ValueError,
+        r"model: 'papadopoulos1992' has reaction wheels, which rollout does not simulate yet; run each trajectory with",
+    ),
+    api(
+        "torque-by-wheels-without-wheels",
+        lambda f: ff.control.Detumble(M(arms=1), torque_by="wheels"),
+        ValueError,
+        r"torque_by: 'wheels', but 'papadopoulos1992_one_arm' has no reaction wheels; declare them",
+    ),
+    api("torque-by-unknown", lambda f: ff.control.Detumble(M(arms=1), torque_by="gyros"), ValueError, r"torque_by: expected one of"),
+    api(
+        "wheel-torque-limit-negative",
+        lambda f: ff.load("papadopoulos1992", wheels=[{**WHEELED[0], "max_torque": -1.0}]),
+        ModelError,
+        r"wheels\[0\] \(rw\)\.max_torque: must be positive and finite, got -1\.0; give the torque limit in N m",
+    ),
+    api(
+        "wheel-speed-wrong-size",
+        lambda f: ff.simulate(ff.load("papadopoulos1992", wheels=WHEELED), ff.State(wheel_speed=[1.0, 2.0]), 0.1, fixed_step=0.01),
+        ShapeError,
+        r"State\.wheel_speed: expected shape \(\.\.\., 1\) \(one speed per reaction wheel of 'papadopoulos1992': rw\)",
+    ),
+]
+
+# campaigns (docs/campaigns.md): each refused before any cluster starts or any run is computed
+_CAMPAIGN = f'scenario = "{SCENARIO.as_posix()}"\n[parameters]\n'
+_add("camp/unknown-parameter.toml", _CAMPAIGN + '"target.mass" = { values = [1.0, 2.0] }\n')
+_add("camp/unknown-distribution.toml", _CAMPAIGN + '"controller.kp" = { distribution = "weibull", shape = 2.0 }\n')
+_add("camp/ok.toml", _CAMPAIGN + '"controller.kp" = { values = [1.0, 2.0] }\n')
+CASES += [
+    cli(
+        "cli-campaign-unknown-parameter",
+        "campaign {files}/camp/unknown-parameter.toml --out out",
+        r"parameters\.target\.mass: unknown parameter",
+    ),
+    cli(
+        "cli-campaign-unknown-distribution",
+        "campaign {files}/camp/unknown-distribution.toml --out out",
+        r"parameters\.controller\.kp\.distribution: unknown distribution 'weibull'",
+    ),
+    cli(
+        "cli-campaign-unreachable-scheduler",
+        "campaign {files}/camp/ok.toml --out out --scheduler tcp://127.0.0.1:1",
+        r"--scheduler tcp://127\.0\.0\.1:1: no Dask scheduler answered within 4 s",
+    ),
+]
 CASES += [cli(f"cli-capture-{id}", f"capture {path}", match) for id, path, match in BAD_SCENARIOS]
 CASES += [
     cli(f"cli-{command}-{id}", f"{args[0] if on_file else args[1]} {option}", match)

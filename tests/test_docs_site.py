@@ -88,7 +88,7 @@ def test_guides_reference_and_results(site: Path) -> None:
         assert not re.search(r":(?:py:)?[a-z]+:(?:<code>|`)", page.read_text(encoding="utf-8")), page
     # the command line: each command's help, as the command prints it
     cli = (site / "cli" / "index.html").read_text(encoding="utf-8")
-    for command in ("inspect", "specialise", "demo", "workspace", "capture", "simulate", "reproduce"):
+    for command in ("inspect", "specialise", "demo", "workspace", "capture", "simulate", "reproduce", "campaign"):
         assert f"Usage: freefloat {command} [OPTIONS]" in cli, command
     # the papers reproduced: make demo's tables and figures
     for paper in ("1991", "1992"):

@@ -28,7 +28,7 @@ EVERYDAY = {
 }  # fmt: skip
 
 #: The namespace modules, attributes of ``freefloat``.
-NAMESPACES = ("capture", "control", "conventions", "mechanics", "models", "papers", "planar", "scenarios", "workspace")
+NAMESPACES = ("campaigns", "capture", "control", "conventions", "mechanics", "models", "papers", "planar", "scenarios", "workspace")
 
 #: The top level before it was trimmed: every one of these names must still be reachable.
 FORMER_TOP_LEVEL = (

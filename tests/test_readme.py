@@ -6,6 +6,7 @@ way (by hand from the paper's Table I, by another function, or from the paper's 
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 import shutil
@@ -22,6 +23,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import freefloat as ff
+from freefloat.core.model import inertia_matrix
 from images import check_paper_figure
 from printed_1992 import PAPER, paper_or_documented
 
@@ -372,3 +374,20 @@ def test_readme_commands_run_top_to_bottom(tmp_path: Path) -> None:
     paper_or_documented("92.S5.theta_deg", capture["posture"]["theta_deg"])
     paper_or_documented("92.T6.PIW_min", capture["piw"]["R_min"])
     paper_or_documented("92.T6.PIW_max", capture["piw"]["R_max"])
+
+    # freefloat campaign: the first 2 runs of the example campaign, stored and summarised; the runs are the capture
+    # scenario with the drawn target (its delta-v as freefloat capture computes it: the row's parameters into the scenario)
+    line = "freefloat campaign examples/campaigns/tumbling_capture.toml --out out/campaign --max-runs 2"
+    assert "2 ok, 0 failed, 0 already stored, of 2 selected (64 planned)" in outputs[line]
+    rows = ff.campaigns.read_runs(out / "campaign").to_pylist()
+    spec = ff.campaigns.load_campaign(tmp_path / "examples/campaigns/tumbling_capture.toml")
+    assert [r["run_id"] for r in rows] == [r.run_id for r in ff.campaigns.plan_runs(spec)[:2]]
+    assert "| sequence.detumble.delta_v |" in (out / "campaign/report/summary.md").read_text()
+    scenario = ff.scenarios.load_capture_scenario(tmp_path / "examples/scenarios/tumbling_satellite_capture.toml")
+    first = rows[0]
+    velocity = scenario.angular_velocity.copy()
+    velocity[2] = first["payload.angular_velocity[2]"]
+    inertia = inertia_matrix(first["payload.inertia"], "payload.inertia")  # Izz of the planar model, as the scenario reads it
+    target = dataclasses.replace(scenario, mass=first["payload.mass"], angular_velocity=velocity, inertia=inertia)
+    sequence = ff.scenarios.run_capture_scenario(target).sequence
+    assert sequence is not None and first["sequence.detumble.delta_v"] == pytest.approx(sequence.cost.delta_v, rel=1e-12)

@@ -15,6 +15,7 @@ the rest live in namespaces:
 - ``ff.workspace``: workspaces, determinant maps, workspace limits.
 - ``ff.capture``: payload capture planning (1992 §V), path placement.
 - ``ff.scenarios``: simulation and capture scenario files.
+- ``ff.campaigns``: a scenario run many times (Monte-Carlo, grids, maps) on a Dask cluster; reports.
 - ``ff.papers``: reproduction of the papers.
 
 Every public function whose first argument is ``model`` (here and in the
@@ -25,12 +26,13 @@ else is a TypeError that says what is expected.
 
 The packages below draw the layers (docs/architecture.md): ``core`` <
 ``mechanics`` < ``simulation`` | ``control`` | ``analysis`` < ``io`` <
-``models`` < ``scenarios`` < ``papers`` < ``cli``.
+``models`` < ``scenarios`` < ``papers`` | ``campaigns`` < ``cli``.
 """
 
 from __future__ import annotations
 
 # namespace modules: ``as`` marks them re-exported (they are attributes, not in __all__: see NAMESPACES)
+from . import campaigns as campaigns
 from . import control as control
 from . import mechanics as mechanics
 from . import models as models
@@ -81,7 +83,7 @@ from .simulation.simulate import rollout, simulate
 from .simulation.trajectory import Trajectory
 
 #: The namespace modules (attributes of ``freefloat``, not star-exported): see the module docstring.
-NAMESPACES = ("capture", "control", "conventions", "mechanics", "models", "papers", "planar", "scenarios", "workspace")
+NAMESPACES = ("campaigns", "capture", "control", "conventions", "mechanics", "models", "papers", "planar", "scenarios", "workspace")
 
 __all__ = [
     "Actuation",

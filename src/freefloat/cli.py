@@ -633,6 +633,55 @@ def reproduce_command(
         typer.echo(str(path))
 
 
+CampaignSpecArg = Annotated[Path, typer.Argument(metavar="SPEC", help="Campaign TOML (schema: docs/campaigns.md).")]
+CampaignOut = Annotated[
+    Path, typer.Option("--out", parser=_out_path, metavar="DIR", help="Output directory: runs/*.parquet, series.zarr, report/.")
+]
+
+
+@app.command("campaign")
+def campaign_command(
+    spec: CampaignSpecArg,
+    out: CampaignOut,
+    scheduler: Annotated[
+        str | None,
+        typer.Option("--scheduler", metavar="ADDRESS", help="An existing Dask scheduler (tcp://host:port). Default: a local cluster."),
+    ] = None,
+    workers: Annotated[
+        int | None, typer.Option("--workers", metavar="N", help="Worker processes of the local cluster (default 1).")
+    ] = None,
+    memory_limit: Annotated[
+        str | None, typer.Option("--memory-limit", metavar="SIZE", help="Memory per local worker, e.g. 2GiB (default: a share of RAM).")
+    ] = None,
+    resume: Annotated[bool, typer.Option("--resume", help="Run only the runs that DIR does not hold yet.")] = False,
+    max_runs: Annotated[int | None, typer.Option("--max-runs", metavar="N", help="Only the first N runs of the plan.")] = None,
+    progress: Annotated[
+        bool | None,
+        typer.Option("--progress/--no-progress", help="Progress on stderr (default: a bar on a terminal; elsewhere a line every 10 s)."),
+    ] = None,
+) -> None:
+    """Run a campaign: a scenario many times with values varied, on a Dask cluster; results kept as runs finish.
+
+    Ctrl-C stops submitting, waits for the runs in progress and keeps every finished run; --resume goes on.
+    The summary tables and plots go to DIR/report/."""
+    from .campaigns import load_campaign, run_campaign, summarize_campaign, write_campaign_report
+
+    with user_errors():
+        if isinstance(out, _EmptyPath):
+            output_directory("")
+        loaded = load_campaign(spec)
+        done = run_campaign(
+            loaded, out, scheduler=scheduler, workers=workers, memory_limit=memory_limit, resume=resume, max_runs=max_runs,
+            progress=progress,
+        )  # fmt: skip
+        written = write_campaign_report(summarize_campaign(out, loaded), out) if done.ok + done.failed + done.skipped else []
+    typer.echo(done.line())
+    for path in written:
+        typer.echo(f"wrote {path}", err=True)
+    if done.interrupted:
+        raise typer.Exit(130)
+
+
 def main() -> None:
     """Entry point of the ``freefloat`` script and of ``python -m freefloat``.
 

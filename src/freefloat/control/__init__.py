@@ -5,6 +5,7 @@
 - :mod:`.controllers`: the transposed-Jacobian (eqs. 29-30) and operational-space (eq. 27) controllers.
 - :mod:`.detumble`: bringing a system to rest after a capture (:class:`Detumble`, eq. 27 with the task "zero rates")
   and its cost (:func:`detumble_cost`).
+- :mod:`.wheels`: the spacecraft torque by reaction wheels (:func:`wheel_torques`; the controllers' ``torque_by``).
 
 A controller is a callable ``(t, state) -> Actuation`` for :func:`freefloat.simulate`.
 Layer: imports :mod:`freefloat.core` and :mod:`freefloat.mechanics` only.
@@ -16,6 +17,7 @@ from .controllers import OperationalSpaceController, TransposedJacobianControlle
 from .desired import DesiredPoint, FunctionTrajectory, MinimumJerk, SetPoint, StraightLine, as_desired
 from .detumble import STANDARD_GRAVITY, Detumble, DetumbleCost, detumble_cost
 from .tasks import TaskItem, TaskSpace
+from .wheels import wheel_torques
 
 __all__ = [
     "STANDARD_GRAVITY",
@@ -35,4 +37,5 @@ __all__ = [
     "damped_inverse",
     "detumble_cost",
     "gain_matrix",
+    "wheel_torques",
 ]

@@ -34,6 +34,10 @@ task (eq. 27) or acts on the whole ż0 after removing its task part (eq. 29).
 
 Actuation limits (``limits``, an :class:`~freefloat.ActuatorLimits`) saturate
 each output component; the unsaturated values are in ``Actuation.extras``.
+
+``torque_by="wheels"`` sends the spacecraft torque n_S to the reaction wheels instead of the thrusters
+(:func:`freefloat.control.wheels.wheel_torques`, ``Actuation.wheel_torque``); ``force_by="none"`` gives no thruster
+force (1991 §II: wheels for the attitude, thrusters or nothing for the CM).
 """
 
 from __future__ import annotations
@@ -52,6 +56,7 @@ from ..mechanics.momentum import system_inertia_matrix
 from . import _compiled
 from .desired import DesiredPoint, SetPoint, StraightLine, as_desired
 from .tasks import TaskSpace
+from .wheels import check_actuators, route_actuation
 
 __all__ = ["OperationalSpaceController", "TransposedJacobianController", "actuation_of", "damped_inverse", "gain_matrix"]
 
@@ -97,11 +102,18 @@ def damped_inverse(matrix: np.ndarray, closeness: float, tolerance: float) -> np
 
 
 def actuation_of(
-    model: Model, state: State, generalized_force: np.ndarray, limits: ActuatorLimits | None, extras: dict[str, Any]
+    model: Model,
+    state: State,
+    generalized_force: np.ndarray,
+    limits: ActuatorLimits | None,
+    extras: dict[str, Any],
+    actuators: tuple[str, str] = ("thrusters", "thrusters"),
 ) -> Actuation:
     """The actuation that applies Q_c (6 + N, first block inertial) at the resolved ``state``: [f_S; n_S; τ] = J_q⁻ᵀ Q_c
     (1991 eq. 30), then saturated by ``limits``; ``extras`` (with the attitude matrix under ``"_t0"``) gains Q_c, the
-    unsaturated values and ``saturated``. Every controller of :mod:`freefloat.control` ends here."""
+    unsaturated values and ``saturated``. Every controller of :mod:`freefloat.control` ends here. ``actuators`` =
+    (torque_by, force_by) (:mod:`freefloat.control.wheels`): the spacecraft torque to the reaction wheels (``"wheels"``,
+    ``extras["wheel_torque"]``), the force to nobody (``"none"``)."""
     q = np.asarray(state.q, dtype=float)
     t0 = np.asarray(extras.pop("_t0"))
     q_0 = generalized_force.copy()
@@ -109,10 +121,11 @@ def actuation_of(
     force, torque, tau = _actuation_0(model, q[None], q_0[None])
     force, torque, tau = force[0], torque[0], tau[0]
     extras.update(generalized_force=generalized_force, joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque)
+    force, torque, wheel = route_actuation(model, state, force, torque, actuators, extras)
     if limits is not None:
         tau, force, torque, saturated = limits.apply(tau, force, torque)
         extras["saturated"] = bool(saturated)
-    return Actuation(joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque, extras=extras)
+    return Actuation(joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque, wheel_torque=wheel, extras=extras)
 
 
 def _closeness(jac: np.ndarray) -> float:
@@ -138,7 +151,10 @@ class _TaskController:
         limits: ActuatorLimits | None = None,
         singular_tolerance: float = 1e-2,
         null_space_damping: float = 0.0,
+        torque_by: str = "thrusters",
+        force_by: str = "thrusters",
     ) -> None:
+        self.actuators = check_actuators(model, torque_by, force_by)
         if not isinstance(task, TaskSpace):
             raise TypeError(f"task: expected a freefloat.TaskSpace, got {type(task).__name__}")
         self.models = _compiled.models_of(model)  # one model, or payload variants per trajectory
@@ -219,10 +235,11 @@ class _TaskController:
         n = self.model.n_joints
         extras.update(generalized_force=q_c, joint_torque=u[..., :n], spacecraft_force=u[..., n : n + 3], spacecraft_torque=u[..., n + 3 :])
         tau, force, torque = u[..., :n], u[..., n : n + 3], u[..., n + 3 :]
+        force, torque, wheel = route_actuation(self.model, state, force, torque, self.actuators, extras)
         if self.limits is not None:
             tau, force, torque, saturated = self.limits.apply(tau, force, torque)
             extras["saturated"] = bool(saturated) if np.ndim(saturated) == 0 else saturated
-        return Actuation(joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque, extras=extras)
+        return Actuation(joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque, wheel_torque=wheel, extras=extras)
 
     def generalized_force(self, t: float, state: State) -> np.ndarray:
         """Q_c (6 + N) in the zdot0 coordinates (first block inertial)."""

@@ -29,7 +29,9 @@ from ..core.conventions import attitude_matrix
 from ..core.errors import ShapeError
 from ..core.model import Model
 from ..core.state import Actuation, State
+from ..mechanics.momentum import wheel_spin_momentum
 from . import _compiled
+from .wheels import check_actuators, route_actuation
 
 __all__ = ["STANDARD_GRAVITY", "Detumble", "DetumbleCost", "detumble_cost"]
 
@@ -50,7 +52,8 @@ class Detumble:
     ``rate_gain`` k (1/s): every generalized rate decays as exp(-k t) (a scalar, or (6 + N,) per row of zdot0 =
     [v_cm, ω0, qdot]). ``attitude`` (None: rates only; else a unit quaternion [x, y, z, w] or a scipy ``Rotation``,
     spacecraft frame -> inertial) with ``attitude_gain`` (1/s², default k²/4: critically damped about each axis).
-    ``force=False``: no thruster force (the CM keeps drifting). Actuator limits are the simulation's
+    ``force=False``: no thruster force (the CM keeps drifting). ``torque_by="wheels"``: the spacecraft torque by the
+    reaction wheels (:mod:`freefloat.control.wheels`), not the thrusters. Actuator limits are the simulation's
     (``simulate(..., limits=ff.ActuatorLimits(...))``), which saturates and records where it did.
     """
 
@@ -62,9 +65,11 @@ class Detumble:
         attitude: Any = None,
         attitude_gain: float | None = None,
         force: bool = True,
+        torque_by: str = "thrusters",
     ) -> None:
         self.models = _compiled.models_of(model)  # one model, or payload variants per trajectory
         model = self.models[0]
+        self.actuators = check_actuators(model, torque_by, "thrusters" if force else "none")
         size = 6 + model.n_joints
         gains = np.asarray(rate_gain, dtype=float)
         gains = np.full(size, float(gains)) if gains.ndim == 0 else gains
@@ -130,7 +135,8 @@ class Detumble:
         n = self.model.n_joints
         tau, force, torque = u[..., :n], u[..., n : n + 3], u[..., n + 3 :]
         extras = {"generalized_force": q_c, "joint_torque": tau, "spacecraft_force": force, "spacecraft_torque": torque}
-        return Actuation(joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque, extras=extras)
+        force, torque, wheel = route_actuation(self.model, state, force, torque, self.actuators, extras)
+        return Actuation(joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque, wheel_torque=wheel, extras=extras)
 
 
 @dataclass(frozen=True)
@@ -142,7 +148,11 @@ class DetumbleCost:
     specific impulse; the thruster torque's propellant depends on the thrusters' lever arms and is not in it);
     ``peak_joint_torque`` max |τ| per joint (N,) (N m); ``peak_force``, ``peak_torque`` max |f_S|, |n_S|;
     ``time_to_rest`` the first output time from which every later output is at rest (None: not at rest at the end);
-    ``final_rates`` (|v_cm|, |ω0|, max |qdot|) at the last output.
+    ``final_rates`` (|v_cm|, |ω0|, max |qdot|) at the last output. With reaction wheels (None without):
+    ``peak_wheel_speed`` max |Omega| per wheel (W,) (rad/s, relative to the spacecraft), ``peak_wheel_momentum``
+    max |Js (Omega + a.ω0)| per wheel (W,) (N m s, the rotor's own spin momentum: what its speed limit bounds in
+    Basilisk's terms), ``peak_wheel_torque`` max |u| per wheel (W,) (N m), and ``wheel_saturated`` (W,) whether a
+    wheel's torque or speed limit acted at an output.
     """
 
     thruster_impulse: float
@@ -154,6 +164,10 @@ class DetumbleCost:
     peak_torque: float
     time_to_rest: float | None
     final_rates: tuple[float, float, float]
+    peak_wheel_speed: np.ndarray | None = None
+    peak_wheel_momentum: np.ndarray | None = None
+    peak_wheel_torque: np.ndarray | None = None
+    wheel_saturated: np.ndarray | None = None
 
 
 def detumble_cost(
@@ -212,4 +226,19 @@ def detumble_cost(
         peak_torque=float(torque.max()),
         time_to_rest=time_to_rest,
         final_rates=(float(rates[0][-1]), float(rates[1][-1]), float(rates[2][-1])),
+        **_wheel_costs(model, trajectory),
     )
+
+
+def _wheel_costs(model: Model, trajectory: Any) -> dict[str, Any]:
+    """The reaction wheels' part of :class:`DetumbleCost` (empty without wheels)."""
+    if not model.wheels or getattr(trajectory, "wheel_speed", None) is None:
+        return {}
+    speed = np.asarray(trajectory.wheel_speed, dtype=float)
+    spin = wheel_spin_momentum(model, speed, trajectory.omega)
+    return {
+        "peak_wheel_speed": np.abs(speed).max(axis=0),
+        "peak_wheel_momentum": np.abs(spin).max(axis=0),
+        "peak_wheel_torque": np.abs(np.asarray(trajectory.wheel_torque, dtype=float)).max(axis=0),
+        "wheel_saturated": np.any(trajectory.wheel_torque_saturated | trajectory.wheel_speed_saturated, axis=0),
+    }

@@ -19,6 +19,7 @@ from scipy.spatial.transform import Rotation
 from .errors import ModelError
 from .mimic import leader_limits, resolve_mimics
 from .model import JOINT_PASSIVE, Model, _vector, check_inertia, check_mass, inertia_matrix
+from .wheels import ReactionWheel, reaction_wheel
 
 __all__ = ["BodySpec", "EndEffectorSpec", "JointSpec", "ModelBuilder"]
 
@@ -104,6 +105,7 @@ class ModelBuilder:
         self._joints: list[JointSpec] = []
         self._end_effectors: list[EndEffectorSpec] = []
         self._mimics: list[tuple[str, str, float, float]] = []
+        self._wheels: list[ReactionWheel] = []
 
     def add_body(
         self,
@@ -254,6 +256,36 @@ class ModelBuilder:
         self._mimics.append((joint, leader, law[0], law[1]))
         return self
 
+    def add_wheel(
+        self,
+        name: str,
+        *,
+        axis: Any,
+        inertia: float,
+        max_torque: float | None = None,
+        max_speed: float | None = None,
+        viscous: float = 0.0,
+        coulomb: float = 0.0,
+    ) -> ModelBuilder:
+        """Add a reaction wheel to the spacecraft (:mod:`freefloat.core.wheels`, docs/wheels.md; Basilisk's names in
+        brackets): ``axis`` the unit spin axis in the spacecraft frame [gsHat_B], ``inertia`` the rotor's inertia
+        about it in kg m² [Js], ``max_torque`` N m [u_max] and ``max_speed`` rad/s [Omega_max] (None: no limit),
+        ``viscous`` (N m s/rad) and ``coulomb`` (N m) bearing friction. The spacecraft body's mass and inertia
+        include the wheels (locked): add them to it.
+        """
+        wheel = reaction_wheel(
+            name,
+            axis=axis,
+            inertia=inertia,
+            max_torque=max_torque,
+            max_speed=max_speed,
+            viscous=viscous,
+            coulomb=coulomb,
+            path=f"wheels[{len(self._wheels)}]",
+        )
+        self._wheels.append(wheel)
+        return self
+
     def add_end_effector(self, name: str, *, body: str, point: Any = (0.0, 0.0, 0.0)) -> ModelBuilder:
         """Name an end effector: ``point`` (m) in the frame of ``body`` (a body or a frame fixed to one).
 
@@ -278,10 +310,10 @@ class ModelBuilder:
         ``corrections``: what a file reader changed in the given data (``Model.corrections``).
         """
         model = _build(self.name, self._bodies, self._joints, source, self._end_effectors, self._mimics)
-        if corrections:
+        if corrections or self._wheels:
             import dataclasses
 
-            model = dataclasses.replace(model, corrections=tuple(dict(c) for c in corrections))
+            model = dataclasses.replace(model, corrections=tuple(dict(c) for c in corrections), wheels=tuple(self._wheels))
         return model
 
 

@@ -11,6 +11,7 @@ from collections.abc import Iterable
 from typing import Any
 
 __all__ = [
+    "CampaignError",
     "FreefloatError",
     "LongRunWarning",
     "MemoryBudgetError",
@@ -100,6 +101,11 @@ class SimulationError(FreefloatError, RuntimeError):
     def __init__(self, message: str, trajectory: Any = None) -> None:
         super().__init__(message)
         self.trajectory = trajectory
+
+
+class CampaignError(FreefloatError, ValueError):
+    """A campaign cannot start or go on: an output directory holding another campaign, a scheduler that does not
+    answer, a second runner on the same directory. The message names the option and the fix."""
 
 
 class StiffGainsWarning(UserWarning):

@@ -23,6 +23,7 @@ from . import barycentric
 from .errors import ModelError, UnknownNameError
 from .mimic import body_joints
 from .numbers import real_array
+from .wheels import ReactionWheel, check_wheels, wheels_from
 
 __all__ = [
     "JOINT_TYPES",
@@ -231,6 +232,10 @@ class Model:
                           "multiplier", "offset", "type", and its own "lower", "upper", "armature", "damping",
                           "friction"}: q_mimic = multiplier q_leader + offset. A mimic joint has no column of q;
                           its body moves with the leader. Empty for most models (then N = B - 1).
+        wheels            the spacecraft's reaction wheels (:class:`~freefloat.core.wheels.ReactionWheel`: spin axis in the
+                          spacecraft frame, rotor inertia, torque and speed limits, friction; docs/wheels.md). The
+                          spacecraft body's mass and inertia include them, locked; a simulation adds their spin
+                          (``State.wheel_speed``). Empty for most models.
 
     Body joints: with mimic joints, the B - 1 joints that move bodies 1..B-1 are the N independent joints and
     the mimic ones; ``body_joint_names``, ``body_joint_type``, ``body_joint_prismatic`` and the map
@@ -264,6 +269,7 @@ class Model:
     joint_friction: Any = None
     unmodelled: tuple[dict[str, Any], ...] = ()
     mimic: tuple[dict[str, Any], ...] = ()
+    wheels: tuple[ReactionWheel, ...] = ()
     # derived at build time
     total_mass: float = field(init=False)
     subtree: np.ndarray = field(init=False, repr=False)
@@ -302,6 +308,8 @@ class Model:
             object.__setattr__(self, f"joint_{name}", _frozen(_joint_parameter(self, name, getattr(self, f"joint_{name}"), what)))
         object.__setattr__(self, "mimic", tuple(dict(r) for r in self.mimic))
         object.__setattr__(self, "_body_joints", body_joints(self, JOINT_TYPES, tuple(JOINT_PASSIVE)))
+        object.__setattr__(self, "wheels", wheels_from(self.wheels))
+        check_wheels(self.wheels, self.inertia[0], self.joint_names)
         if self.mimic:  # the same bodies with every joint independent: the mass tables are the expanded model's
             expanded = self.expanded()
             for name in ("subtree", "total_mass", "bary", "rotation_basis"):
@@ -337,6 +345,11 @@ class Model:
     def n_joints(self) -> int:
         """Number of joint coordinates N: the independent joints (= B - 1 without mimic joints)."""
         return len(self.joint_names)
+
+    @property
+    def n_wheels(self) -> int:
+        """Number of reaction wheels W (``wheels``)."""
+        return len(self.wheels)
 
     @property
     def has_mimic(self) -> bool:
@@ -528,6 +541,7 @@ class Model:
         return (
             f"Model({self.name!r}: {_count(self.n_bodies, 'body', 'bodies')}, {_count(self.n_joints, 'joint')}"
             f"{f' (+{len(self.mimic)} mimic)' if self.mimic else ''}, "
+            f"{_count(self.n_wheels, 'wheel') + ', ' if self.wheels else ''}"
             f"{_count(self.n_end_effectors, 'end effector')}, mass {self.total_mass:.6g} kg)"
         )
 

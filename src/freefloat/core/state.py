@@ -9,6 +9,8 @@ State (all SI, frames as in :mod:`freefloat.conventions`):
                     rotation matrix is accepted too
     r_cm      (3,)  system CM position, inertial frame (|r_cm| up to MAX_POSITION = 1e12 m)
     v_cm      (3,)  system CM velocity, inertial frame (|v_cm| up to MAX_SPEED = 1e8 m/s)
+    wheel_speed (W,) reaction wheel speeds relative to the spacecraft, rad/s, ``model.wheels`` order (Basilisk's
+                    Omega; :mod:`freefloat.core.wheels`); only for a model with wheels
 
 Omitted fields are zero (attitude: identity). Values beyond the bounds of :mod:`freefloat.core.numbers`
 (|q| > 1e6 rad or m, a CM position or speed component beyond 1e12 m or 1e8 m/s) are refused as input: no
@@ -17,7 +19,9 @@ batch axes (for batched rollouts); all fields then broadcast to one batch shape.
 
 The flat state vector that the integrators see is
 ``x = [r_cm (3), v_cm (3), attitude (4), omega (3), q (N), qdot (N)]``
-(:func:`pack_state`, :func:`unpack_state`), 13 + 2N numbers. A run that models the joints' damping and friction
+(:func:`pack_state`, :func:`unpack_state`), 13 + 2N numbers. A model with W reaction wheels integrates them as joints
+(:func:`freefloat.core.wheels.wheel_joint_model`): ``x = [..., omega, q (N), wheel angles (W), qdot (N), wheel_speed (W)]``,
+13 + 2(N + W) numbers. A run that models the joints' damping and friction
 (:func:`dissipates`) carries one more, last: the energy they have dissipated since the start (J), integrated with
 the state (its rate is the dissipated power), so that it is exact to the integrator's accuracy
 (``Trajectory.dissipated_energy``); :func:`unpack_state` reads either form.
@@ -38,7 +42,7 @@ from .numbers import MAX_POSITION, MAX_SPEED, check_joint_values, check_largest,
 
 __all__ = ["Actuation", "ActuatorLimits", "State", "dissipated", "dissipates", "pack_state", "state_size", "unpack_state"]
 
-_FIELDS = ("q", "qdot", "omega", "attitude", "r_cm", "v_cm")
+_FIELDS = ("q", "qdot", "omega", "attitude", "r_cm", "v_cm", "wheel_speed")
 # the CM's bounds: (limit, unit, why, fix) for check_largest
 _CM_BOUNDS = {
     "r_cm": (
@@ -113,6 +117,7 @@ class State:
     attitude: Any = None
     r_cm: Any = None
     v_cm: Any = None
+    wheel_speed: Any = None
 
     def __post_init__(self) -> None:
         for name, what in (
@@ -124,7 +129,7 @@ class State:
                 object.__setattr__(self, name, _finite(name, getattr(self, name), 3, what))
         if self.attitude is not None:
             object.__setattr__(self, "attitude", _quaternion(self.attitude))
-        for name in ("q", "qdot"):
+        for name in ("q", "qdot", "wheel_speed"):
             value = getattr(self, name)
             if value is not None:
                 arr = real_array(value, f"State.{name}")
@@ -146,7 +151,7 @@ class State:
     def resolve(self, model: Model) -> State:
         """A copy with every field an array of the right size for ``model`` (errors name the field)."""
         n = model.n_joints
-        shapes = [np.shape(v)[:-1] for v in (self.q, self.qdot, self.omega, self.attitude, self.r_cm, self.v_cm) if v is not None]
+        shapes = [np.shape(getattr(self, name))[:-1] for name in _FIELDS if getattr(self, name) is not None]
         try:
             batch = np.broadcast_shapes(*shapes) if shapes else ()
         except ValueError as exc:
@@ -168,6 +173,13 @@ class State:
             attitude=np.broadcast_to(quat, (*batch, 4)).copy(),
             r_cm=get("r_cm", 3, "system CM position, inertial frame"),
             v_cm=get("v_cm", 3, "system CM velocity, inertial frame"),
+            wheel_speed=get(
+                "wheel_speed",
+                model.n_wheels,
+                f"one speed per reaction wheel of {model.name!r}: {', '.join(w.name for w in model.wheels)}"
+                if model.wheels
+                else f"{model.name!r} has no reaction wheels",
+            ),
         )
 
     @property
@@ -186,12 +198,16 @@ class Actuation:
     """What a controller returns: joint torques (N,) in N m, and the thruster force (N) and torque
     (N m) at the spacecraft CM (3,), both in the spacecraft frame. ``None`` means zero (free-floating).
 
+    ``wheel_torque`` (W,), N m: the motor torque on each reaction wheel about its spin axis (``model.wheels`` order;
+    the spacecraft gets the opposite torque), before the wheels' limits (:mod:`freefloat.core.wheels`).
+
     ``extras`` is free for the controller's own diagnostics; the simulator ignores it.
     """
 
     joint_torque: Any = None
     spacecraft_force: Any = None
     spacecraft_torque: Any = None
+    wheel_torque: Any = None
     extras: dict[str, Any] = field(default_factory=dict)
 
 
@@ -251,21 +267,27 @@ class ActuatorLimits:
 
 
 def state_size(model: Model) -> int:
-    """Length of the flat state vector [r_cm, v_cm, attitude, omega, q, qdot]: 13 + 2N."""
-    return 13 + 2 * model.n_joints
+    """Length of the flat state vector [r_cm, v_cm, attitude, omega, q, (wheel angles), qdot, (wheel speeds)]:
+    13 + 2(N + W)."""
+    return 13 + 2 * (model.n_joints + model.n_wheels)
 
 
 def dissipates(model: Model) -> bool:
     """Whether a run of ``model`` integrates the energy its joints' damping and friction dissipate, in the last slot of
     its flat state (14 + 2N): when it has them (``model.has_passive``; a run with ``passive="ignore"`` simulates the
     model without them, which has none)."""
-    return model.has_passive
+    return model.has_passive or any(w.viscous or w.coulomb for w in model.wheels)
 
 
 def pack_state(state: State, dissipated: Any = None) -> np.ndarray:
     """Flat state [r_cm (3), v_cm (3), attitude (4), omega (3), q (N), qdot (N)] of a resolved state; with
-    ``dissipated`` (J, a number or one per state of a batch), that energy appended as the last slot (14 + 2N)."""
-    parts = [state.r_cm, state.v_cm, state.attitude, state.omega, state.q, state.qdot]
+    ``dissipated`` (J, a number or one per state of a batch), that energy appended as the last slot (14 + 2N).
+    With wheel speeds (W > 0): [..., omega, q, wheel angles (zeros), qdot, wheel_speed] (module docstring)."""
+    speed = getattr(state, "wheel_speed", None)
+    if speed is not None and np.shape(speed)[-1]:
+        parts = [state.r_cm, state.v_cm, state.attitude, state.omega, state.q, np.zeros_like(speed), state.qdot, speed]
+    else:
+        parts = [state.r_cm, state.v_cm, state.attitude, state.omega, state.q, state.qdot]
     if dissipated is not None:
         parts.append(np.broadcast_to(np.asarray(dissipated, dtype=float)[..., None], (*np.shape(state.q)[:-1], 1)))
     return np.concatenate(parts, axis=-1)
@@ -274,7 +296,7 @@ def pack_state(state: State, dissipated: Any = None) -> np.ndarray:
 def dissipated(model: Model, x: np.ndarray) -> np.ndarray:
     """The dissipated energy (...) of flat states x (..., 13 + 2N or 14 + 2N): the last slot (a view), or zeros when the
     states carry none (:func:`dissipates`)."""
-    n = model.n_joints
+    n = model.n_joints + model.n_wheels
     if x.shape[-1] == 14 + 2 * n:
         return x[..., 13 + 2 * n]
     return np.zeros(x.shape[:-1])
@@ -283,11 +305,11 @@ def dissipated(model: Model, x: np.ndarray) -> np.ndarray:
 def unpack_state(model: Model, x: np.ndarray) -> State:
     """Inverse of :func:`pack_state` (views into ``x``, no copies and no checks); the dissipated energy's slot, if
     there, is not a field of the state (:func:`dissipated` reads it)."""
-    n = model.n_joints
-    if x.shape[-1] not in (13 + 2 * n, 14 + 2 * n):
+    n, w = model.n_joints, model.n_wheels
+    if x.shape[-1] not in (13 + 2 * (n + w), 14 + 2 * (n + w)):
         raise ShapeError(
-            f"state vector: expected shape (..., {13 + 2 * n}) for {model.name!r} (13 + 2N, N = {n}; or {14 + 2 * n} with the "
-            f"dissipated energy last), got {x.shape}"
+            f"state vector: expected shape (..., {13 + 2 * (n + w)}) for {model.name!r} (13 + 2(N + W), N = {n} joints, "
+            f"W = {w} wheels; or {14 + 2 * (n + w)} with the dissipated energy last), got {x.shape}"
         )
     return State._trusted(
         r_cm=x[..., 0:3],
@@ -295,5 +317,6 @@ def unpack_state(model: Model, x: np.ndarray) -> State:
         attitude=x[..., 6:10],
         omega=x[..., 10:13],
         q=x[..., 13 : 13 + n],
-        qdot=x[..., 13 + n : 13 + 2 * n],
+        qdot=x[..., 13 + n + w : 13 + 2 * n + w],
+        wheel_speed=x[..., 13 + 2 * n + w : 13 + 2 * (n + w)],
     )

@@ -34,6 +34,7 @@ from scipy.spatial.transform import Rotation
 from ..core.builder import ModelBuilder
 from ..core.errors import ModelCorrectionWarning, ModelError, UnmodelledElementWarning
 from ..core.model import JOINT_PASSIVE, Model, resolve_model
+from ..core.wheels import wheels_from
 from ._readers import EndEffectors, end_effector_specs, naming_file, physical_inertia
 from .mjcf import load_mjcf
 from .unmodelled import report_unmodelled, urdf_unmodelled
@@ -43,12 +44,12 @@ __all__ = ["load", "load_toml", "load_urdf", "save", "to_toml_dict", "to_urdf_st
 _BODY_KEYS = {"name", "mass", "inertia", "com", "end_effector", "end_effector_name", "frame"}
 _JOINT_KEYS = {"name", "type", "parent", "child", "origin", "rpy", "axis", "limits", "armature", "damping", "friction", "mimic"}
 _MIMIC_KEYS = {"joint", "multiplier", "offset"}
-_TOP_KEYS = {"name", "description", "bodies", "joints", "end_effectors", "corrections"}
+_TOP_KEYS = {"name", "description", "bodies", "joints", "end_effectors", "corrections", "wheels"}
 _CORRECTION_KEYS = {"body", "field", "given", "why"}
 _EE_KEYS = {"name", "body", "point"}
 
 
-def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool = False, joints: Any = None) -> Model:
+def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool = False, joints: Any = None, wheels: Any = None) -> Model:
     """Load a model from a ``.toml``, ``.urdf`` or MJCF (``.xml`` with a ``<mujoco>`` root) file, or a
     built-in model by name (``ff.load("papadopoulos1992")``).
 
@@ -60,6 +61,10 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
     replace the file's: ``{joint name: {"armature": kg m², "damping": N m s/rad, "friction": N m}}``
     (docs/model-files.md), or the path of a TOML file of such tables (``[panda_joint1]`` then
     ``armature = 0.1``). A value given here replaces the file's; the others keep the file's.
+    ``wheels``: the spacecraft's reaction wheels, for files that cannot say them (URDF, MJCF) or to replace the
+    file's: a list of tables ``{"name", "axis", "inertia", "max_torque", "max_speed", "viscous", "coulomb"}``
+    (docs/wheels.md), or the path of a TOML side file of ``[[wheels]]`` tables. The spacecraft body of the file must
+    include the wheels' mass and inertia (locked).
     """
     if not isinstance(path, (str, os.PathLike)):
         raise TypeError(f"path: expected a model file path or a built-in model name (str or pathlib.Path), got {type(path).__name__}")
@@ -71,7 +76,8 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
     path = Path(path)
     if not path.suffix and not path.exists():
         builtin = resolve_model(str(path), "path")  # a built-in name (or an error listing them)
-        return builtin if joints is None else with_joint_dynamics(builtin, joints)
+        builtin = builtin if joints is None else with_joint_dynamics(builtin, joints)
+        return builtin if wheels is None else with_wheels(builtin, wheels)
     if not path.is_file():
         raise ModelError(str(path), "file not found", "give the path of a .toml, .urdf or MJCF .xml model file")
     suffix = path.suffix.lower()
@@ -95,6 +101,8 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
         )
     if joints is not None:
         model = with_joint_dynamics(model, joints)
+    if wheels is not None:
+        model = with_wheels(model, wheels)
     check_whole_model(model)
     return model
 
@@ -262,7 +270,20 @@ def from_dict(data: dict[str, Any], source: str = "", *, end_effectors: EndEffec
     if declared:
         unknown = sorted(declared)[0]
         raise ModelError("corrections", f"names body {unknown!r}, which is not in [[bodies]]", "name a body of the model")
-    return builder.build(source=source, corrections=records)
+    model = builder.build(source=source, corrections=records)
+    return with_wheels(model, data["wheels"], "wheels") if "wheels" in data else model
+
+
+def with_wheels(model: Model, wheels: Any, where: str = "wheels") -> Model:
+    """``model`` with the reaction wheels ``wheels`` (see :func:`load`): a list of tables (:data:`WHEEL_KEYS`) or
+    :class:`~freefloat.core.wheels.ReactionWheel`, or the path of a TOML side file of ``[[wheels]]`` tables. They replace
+    the model's own wheels; each error names the wheel and the field."""
+    if isinstance(wheels, (str, os.PathLike)):
+        where = f"{wheels}: wheels"
+        data = read_toml(Path(wheels), "reaction-wheel file")
+        _check_keys(data, {"wheels"}, str(wheels))
+        wheels = data.get("wheels", [])
+    return dataclasses.replace(model, wheels=wheels_from(wheels, where))
 
 
 def _table_array(data: dict[str, Any], key: str, allowed: set[str]) -> list[tuple[str, dict[str, Any]]]:
@@ -372,6 +393,8 @@ def to_toml_dict(model: Model) -> dict[str, Any]:
         bodies.append(body)
         joints.append(joint)
     out: dict[str, Any] = {"name": model.name, "bodies": bodies, "joints": joints}
+    if model.wheels:
+        out["wheels"] = [w.as_dict() for w in model.wheels]
     if model.end_effector_rule == "named":
         out["end_effectors"] = [
             {"name": name, "body": _frame_name(model, e), "point": [0.0, 0.0, 0.0]} for e, name in enumerate(model.end_effector_names)

@@ -132,7 +132,7 @@ def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     :func:`~._engine.Stepper` (fewer arguments: numba unboxes each array argument at ~0.1 us a call).
 
     ints = [the model's ints (:func:`~._tree.arrays`), W, WATCH, REASON, ext_i (W x 2)];
-    floats = [the model's floats, ext_f (W x 9), watch (1 + 2N), work (work_size(B, E))].
+    floats = [the model's floats, ext_f (W x 9), watch (1 + 3N), work (work_size(B, E))].
     WATCH 1: :func:`rk4_steps` watches the state (see there); REASON: why it stopped early (ints[o + 2]).
     """
     m = arrays(ints, floats)
@@ -145,24 +145,25 @@ def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     ext_i = ints[o + 3 : o + 3 + 2 * nw].reshape((nw, 2))
     ext_f = floats[f : f + 9 * nw].reshape((nw, 9))
     f += 9 * nw
-    watch = floats[f : f + 1 + 2 * m.n_joints]
-    f += 1 + 2 * m.n_joints
+    watch = floats[f : f + 1 + 3 * m.n_joints]
+    f += 1 + 3 * m.n_joints
     work = floats[f:]
     return m, ext_i, ext_f, watch, header, scratch(work, nb, m.ee_body.shape[0], m.n_joints)
 
 
 @kernel(inline="always")
 def watched(x: np.ndarray, watch: np.ndarray) -> int:  # pragma: no cover - compiled
-    """Why x needs a look from Python (0: it does not): 1 a rate above watch[0] (joint rates, or sqrt(3) times a
-    spacecraft rate component: a bound on |omega0|), 2 a joint beyond [watch[1 + j], watch[1 + N + j]], 3 both."""
-    n = (watch.shape[0] - 1) // 2
+    """Why x needs a look from Python (0: it does not): 1 a rate above its bound (sqrt(3) times a spacecraft rate
+    component, a bound on |omega0|, above watch[0]; joint j's rate above watch[1 + 2N + j]: a reaction wheel's bound is
+    not a robot joint's), 2 a joint beyond [watch[1 + j], watch[1 + N + j]], 3 both."""
+    n = (watch.shape[0] - 1) // 3
     fast = watch[0]
     reason = 0
     for i in range(3):
         if 1.7320508075688772 * abs(x[10 + i]) > fast:
             reason = 1
     for j in range(n):
-        if abs(x[13 + n + j]) > fast:
+        if abs(x[13 + n + j]) > watch[1 + 2 * n + j]:
             reason = 1
     for j in range(n):
         v = x[13 + j]

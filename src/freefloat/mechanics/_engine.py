@@ -566,19 +566,21 @@ class Stepper:
         self.ints = np.concatenate([t.ints, header, ext_i.ravel()]).astype(np.int64)
         work = np.empty(work_size(t.n_bodies, t.ee_body.shape[0]))
         self._watch_at = t.floats.shape[0] + ext_f.size
-        watch = np.full(1 + 2 * t.n_joints, np.inf)
+        watch = np.full(1 + 3 * t.n_joints, np.inf)
         watch[1 : 1 + t.n_joints] = -np.inf
         self.floats = np.concatenate([t.floats, ext_f.ravel(), watch, work])
         self.rk4: Callable[[np.ndarray, np.ndarray, float, int], int] = functools.partial(_drivers.rk4_steps, self.ints, self.floats)
 
-    def watch(self, rate: float = np.inf, lower: Any = None, upper: Any = None) -> None:
-        """Make :attr:`rk4` stop after a step that leaves a joint rate (or sqrt(3) |omega0_i|) above ``rate`` or a
-        joint outside [lower, upper]; :attr:`reason` then says which (1 rate, 2 limit, 3 both)."""
+    def watch(self, rate: float = np.inf, lower: Any = None, upper: Any = None, joint_rates: Any = None) -> None:
+        """Make :attr:`rk4` stop after a step that leaves a joint rate (or sqrt(3) |omega0_i|) above ``rate`` (the
+        joints' own bounds ``joint_rates`` (N,) when given) or a joint outside [lower, upper]; :attr:`reason` then says
+        which (1 rate, 2 limit, 3 both)."""
         n = self.tree.n_joints
-        w = self.floats[self._watch_at : self._watch_at + 1 + 2 * n]
+        w = self.floats[self._watch_at : self._watch_at + 1 + 3 * n]
         w[0] = rate
         w[1 : 1 + n] = -np.inf if lower is None else lower
-        w[1 + n :] = np.inf if upper is None else upper
+        w[1 + n : 1 + 2 * n] = np.inf if upper is None else upper
+        w[1 + 2 * n :] = rate if joint_rates is None else joint_rates
         self.ints[self._header + 1] = int(np.isfinite(w).any())
 
     @property

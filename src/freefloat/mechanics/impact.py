@@ -38,6 +38,7 @@ joints are at rest before the grasp, and may be negative (energy given by the jo
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -48,6 +49,7 @@ from ..core.errors import ShapeError
 from ..core.model import Model, resolve_model
 from ..core.state import State
 from ..core.target import Target
+from ..core.wheels import wheel_joint_model
 from .jacobians import point_jacobian
 from .kinematics import body_rotations, point_positions
 from .momentum import system_inertia_matrix
@@ -78,6 +80,11 @@ class Impact:
                        the target as a payload of the grasping body: (...) kg, (..., 3, 3) kg m² about its CM in
                        the body's axes, (..., 3) m its CM from the end-effector point in the body frame
                        (the arguments of ``Model.with_payload``)
+        wheel_impulse  (..., W) for a robot with reaction wheels: the impulse of each wheel's motor torque (N m s).
+                       The wheels are joints of the grasp like the others (:mod:`freefloat.core.wheels`):
+                       ``"free"``, no motor impulse (each rotor keeps its own spin; its speed relative to the
+                       spacecraft, ``state.wheel_speed``, changes with the spacecraft's rate); ``"locked"``, the
+                       motors hold the wheel speeds relative to the spacecraft. None without wheels.
     """
 
     state: State
@@ -91,6 +98,7 @@ class Impact:
     payload_mass: Any
     payload_inertia: np.ndarray
     payload_offset: np.ndarray
+    wheel_impulse: Any = None
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -168,6 +176,8 @@ def impact(model: Any, state: State, target: Target, end_effector: str | int = 0
         raise TypeError(f"state: expected a freefloat.State, got {type(state).__name__}")
     if not isinstance(target, Target):
         raise TypeError(f"target: expected a freefloat.capture.Target, got {type(target).__name__}")
+    if model.wheels:
+        return _with_wheels(model, state, target, end_effector, joints)
     e = model.end_effector_index(end_effector)
     k = int(model.end_effector_body[e])
     robot = state.resolve(model)
@@ -247,4 +257,45 @@ def impact(model: Any, state: State, target: Target, end_effector: str | int = 0
     )
     if not batch:
         _ = result.model  # one impact: build the combined model now, so that its errors are the call's
+    return result
+
+
+def _with_wheels(model: Model, state: State, target: Target, end_effector: str | int, joints: str) -> Impact:
+    """:func:`impact` of a robot with reaction wheels: the impact of its wheel-joint model (the wheels joints of the
+    spacecraft, :func:`freefloat.core.wheels.wheel_joint_model`), read back as the robot's (its state with the wheel
+    speeds, the wheels' impulses apart)."""
+    n = model.n_joints
+    robot = state.resolve(model)
+    inner = impact(
+        wheel_joint_model(model),
+        State._trusted(
+            q=np.concatenate([robot.q, np.zeros_like(robot.wheel_speed)], axis=-1),
+            qdot=np.concatenate([robot.qdot, robot.wheel_speed], axis=-1),
+            omega=robot.omega,
+            attitude=robot.attitude,
+            r_cm=robot.r_cm,
+            v_cm=robot.v_cm,
+        ),
+        target,
+        end_effector,
+        joints,
+    )
+    after = inner.state
+    result = dataclasses.replace(
+        inner,
+        state=State._trusted(
+            q=after.q[..., :n],
+            qdot=after.qdot[..., :n],
+            wheel_speed=after.qdot[..., n:],
+            omega=after.omega,
+            attitude=after.attitude,
+            r_cm=after.r_cm,
+            v_cm=after.v_cm,
+        ),
+        joint_impulse=inner.joint_impulse[..., :n],
+        wheel_impulse=inner.joint_impulse[..., n:],
+        robot=model,
+    )
+    if not result.shape:
+        _ = result.model
     return result

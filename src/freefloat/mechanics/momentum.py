@@ -32,7 +32,9 @@ from typing import Any
 import numpy as np
 
 from ..core.conventions import attitude_matrix
+from ..core.errors import ShapeError
 from ..core.model import Model
+from ..core.wheels import wheel_arrays
 from . import _engine
 from ._arrays import chunked, joint_array, pieces, vector_array
 from ._inputs import body_joints, check_method, gather_square
@@ -46,6 +48,8 @@ __all__ = [
     "kinetic_energy",
     "linear_momentum",
     "system_inertia_matrix",
+    "wheel_momentum",
+    "wheel_spin_momentum",
     "zero_momentum_rate",
 ]
 
@@ -216,14 +220,18 @@ def _velocity(model: Model, velocity: Any) -> np.ndarray:
     return vector_array(velocity, 6 + model.n_joints, "velocity", "zdot0 = [rdot_cm, omega0, qdot]")
 
 
-def angular_momentum(model: Model, q: Any, velocity: Any, *, attitude: Any = None) -> np.ndarray:
+def angular_momentum(model: Model, q: Any, velocity: Any, *, attitude: Any = None, wheel_speed: Any = None) -> np.ndarray:
     """Angular momentum about the system CM, (..., 3): 1992 eq. 12, h = T0 (D w0 + D_q qdot).
 
-    In the inertial frame (the spacecraft frame when ``attitude`` is None).
+    In the inertial frame (the spacecraft frame when ``attitude`` is None). With reaction wheels
+    (``model.wheels``), ``wheel_speed`` (..., W), rad/s relative to the spacecraft, adds their spin
+    :func:`wheel_momentum` (H+ holds the wheels locked: None means they do not turn relative to it).
     """
     v = _velocity(model, velocity)
     h = system_inertia_matrix(model, q)
     h0 = np.einsum("...ij,...j->...i", h[..., 3:6, 3:], v[..., 3:])
+    if wheel_speed is not None:
+        h0 = h0 + wheel_momentum(model, wheel_speed)
     if attitude is None:
         return h0
     return np.einsum("...ij,...j->...i", attitude_matrix(attitude), h0)
@@ -235,8 +243,38 @@ def linear_momentum(model: Model, velocity: Any) -> np.ndarray:
     return model.total_mass * v[..., :3]
 
 
-def kinetic_energy(model: Model, q: Any, velocity: Any) -> np.ndarray:
-    """Kinetic energy 1/2 zdot0^T H+ zdot0 (1991 eq. 14), (...)."""
+def kinetic_energy(model: Model, q: Any, velocity: Any, *, wheel_speed: Any = None) -> np.ndarray:
+    """Kinetic energy 1/2 zdot0^T H+ zdot0 (1991 eq. 14), (...). With reaction wheels, ``wheel_speed`` (..., W) adds
+    their spin relative to the spacecraft: sum_i Js_i ((a_i . omega0) Omega_i + Omega_i^2 / 2) (H+ holds them locked)."""
     h = system_inertia_matrix(model, q)
     v = _velocity(model, velocity)
-    return 0.5 * np.einsum("...i,...ij,...j->...", v, h, v)
+    energy = 0.5 * np.einsum("...i,...ij,...j->...", v, h, v)
+    if wheel_speed is None:
+        return energy
+    speed = _wheel_speeds(model, wheel_speed)
+    axes, js = wheel_arrays(model)
+    along = v[..., 3:6] @ axes.T  # a_i . omega0
+    return energy + np.sum(js * (along * speed + 0.5 * speed**2), axis=-1)
+
+
+def _wheel_speeds(model: Model, wheel_speed: Any) -> np.ndarray:
+    speed = np.asarray(wheel_speed, dtype=float)
+    if speed.ndim == 0 or speed.shape[-1] != model.n_wheels:
+        names = ", ".join(w.name for w in model.wheels) or "none"
+        raise ShapeError(f"wheel_speed: expected shape (..., {model.n_wheels}), one speed per reaction wheel ({names}), got {speed.shape}")
+    return speed
+
+
+def wheel_momentum(model: Model, wheel_speed: Any) -> np.ndarray:
+    """The reaction wheels' angular momentum relative to the spacecraft, sum_i Js_i Omega_i a_i (..., 3), N m s,
+    spacecraft frame, for wheel speeds ``wheel_speed`` (..., W) relative to the spacecraft (:mod:`freefloat.core.wheels`).
+    The model's H+ holds the wheels locked; the total angular momentum is its own plus this."""
+    axes, js = wheel_arrays(model)
+    return _wheel_speeds(model, wheel_speed) @ (js[:, None] * axes)
+
+
+def wheel_spin_momentum(model: Model, wheel_speed: Any, omega: Any) -> np.ndarray:
+    """Each rotor's own spin momentum about its axis, Js_i (Omega_i + a_i . omega0) (..., W), N m s, for wheel speeds
+    (..., W) relative to the spacecraft and spacecraft rates omega0 (..., 3), spacecraft frame: what a free rotor keeps."""
+    axes, js = wheel_arrays(model)
+    return js * (_wheel_speeds(model, wheel_speed) + np.asarray(omega, dtype=float) @ axes.T)

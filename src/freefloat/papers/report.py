@@ -53,6 +53,8 @@ def model_info(model: Model) -> dict[str, Any]:
       parent frame at q = 0), limits ([lower, upper] in rad or m, null = none) and limits_deg
       (revolute joints; null otherwise);
       and the joint's own dynamics: armature (kg m², kg), damping and friction (Model.joint_*);
+    - ``wheels``: each reaction wheel (docs/wheels.md; the text shows one line each): name, axis (spacecraft frame),
+      inertia (Js, kg m²), max_torque (N m) and max_speed (rad/s, null = none), viscous and coulomb friction;
     - ``mimic``: each mimic joint (a dependent coordinate, no column of q): name, leader (the independent
       joint it follows), multiplier and offset (q = multiplier q_leader + offset), type and child body;
     - ``end_effector_rule``: "named" (the file or the caller named them), "leaf sites" (MJCF
@@ -173,6 +175,17 @@ def model_info(model: Model) -> dict[str, Any]:
         "end_effectors": end_effectors,
         "bodies": bodies,
         "barycentric": barycentric,
+        "wheels": [
+            {
+                "name": w.name,
+                "axis": _vec(w.axis),
+                "inertia": _float(w.inertia),
+                **{key: (_float(getattr(w, key)) if np.isfinite(getattr(w, key)) else None) for key in ("max_torque", "max_speed")},
+                "viscous": _float(w.viscous),
+                "coulomb": _float(w.coulomb),
+            }
+            for w in model.wheels
+        ],
     }
 
 
@@ -261,6 +274,17 @@ def _summary(info: dict[str, Any]) -> list[tuple[str, str]]:
         ("corrections", f"{len(info.get('corrections', []))} (listed below)" if info.get("corrections") else "none"),
         ("not modelled", f"{len(info.get('unmodelled', []))} kind(s) dropped (listed below)" if info.get("unmodelled") else "none"),
     ]
+    for w in info.get("wheels", []):
+        limits = ", ".join(
+            f"{label} {_num(w[key]) + ' ' + unit if w[key] is not None else 'none'}"
+            for key, label, unit in (("max_torque", "max torque", "N m"), ("max_speed", "max speed", "rad/s"))
+        )
+        lines.append(
+            (
+                f"wheel {w['name']}",
+                f"axis [{', '.join(_num(x) for x in w['axis'])}] (spacecraft frame), Js {_num(w['inertia'])} kg m², {limits}",
+            )
+        )
     kinds = [j.get("type", "revolute") for j in info["joints"]]
     if "prismatic" in kinds:
         lines.append(("joint types", f"{kinds.count('revolute')} revolute, {kinds.count('prismatic')} prismatic (q in m)"))

@@ -44,7 +44,13 @@ planar two-link arm. Schema (docs/workspaces.md, docs/impact.md)::
     # rest_rate = 1e-3                   # rad/s; rest_joint_rate (rad/s), rest_velocity (m/s): what counts as at rest
     # attitude = [0.0, 0.0, 0.0, 1.0]    # optional: a commanded spacecraft attitude [x, y, z, w]
     # force = true                       # false: thruster torque only
+    # torque_by = "wheels"               # the spacecraft torque by the reaction wheels ([[wheels]]), not the thrusters
     # frames = 40                        # frames of the animation
+
+    [[wheels]]                           # optional: the spacecraft's reaction wheels (docs/wheels.md), or
+    # name = "rw_z"                      # wheels = "FILE.toml", a side file of [[wheels]] tables
+    # axis = [0.0, 0.0, 1.0]             # spin axis, spacecraft frame (Basilisk gsHat_B)
+    # inertia = 0.3                      # kg m² about it (Js); max_torque (N m), max_speed (rad/s), viscous, coulomb
 
     [joint_limits]                       # optional, rad: joint name = [lower, upper]
     # arm1_q1 = [-2.5, 2.5]
@@ -68,12 +74,13 @@ from ..analysis._capture_families import _is_two_link
 from ..analysis._capture_ranking import check_twist, grasp_problem
 from ..analysis.capture import STRATEGIES, CapturePosture, optimal_capture_posture, plan_capture
 from ..analysis.singularity import MEASURES, ROWS, SingularityCriterion
+from ..control.wheels import TORQUE_BY
 from ..core.errors import ModelError, UnknownNameError
 from ..core.model import MAX_LENGTH, Model, inertia_matrix
 from ..io.model_files import read_toml
 from .capture_outputs import CaptureResult, plot_capture_families, plot_capture_plan, write_capture_outputs
 from .capture_sequence import DetumbleSettings, run_capture_sequence
-from .scenario import description_of, refuse_model_file, scenario_model
+from .scenario import description_of, refuse_model_file, scenario_model, scenario_wheels
 
 __all__ = [
     "CaptureResult",
@@ -88,7 +95,7 @@ __all__ = [
 
 _TOP_KEYS = {
     "model", "end_effectors", "strict", "end_effector", "samples", "payload", "path", "singularity", "joint_limits", "joint_limits_deg",
-    "description", "grasp", "detumble",
+    "description", "grasp", "detumble", "wheels",
 }  # fmt: skip
 _SINGULARITY_KEYS = {"rows", "measure", "threshold", "strategy"}
 _PAYLOAD_KEYS = {"mass", "inertia", "offset", "velocity", "angular_velocity"}
@@ -220,7 +227,7 @@ def capture_scenario_from_dict(
     refuse_model_file(data, source)
     data = _check_keys(data, _TOP_KEYS, source, "")
     if model_loader is not None and isinstance(data.get("model"), str):
-        loaded = model_loader(data["model"])
+        loaded = scenario_wheels(model_loader(data["model"]), data, source, base_dir)
     else:
         loaded = scenario_model(data, source, base_dir, end_effectors)[0]
     model = _with_limits(loaded, data, source)
@@ -287,6 +294,9 @@ def capture_scenario_from_dict(
             fix = "give the target's motion ([payload] velocity or angular_velocity) or drop [detumble]"
             raise ModelError(_where(source, "detumble"), "needs a moving target", fix)
         detumble = _detumble(data["detumble"], source)
+        if detumble.torque_by == "wheels" and not model.wheels:
+            fix = 'declare the spacecraft\'s [[wheels]] in the scenario or its model file (docs/wheels.md), or use "thrusters"'
+            raise ModelError(_where(source, "detumble.torque_by"), f"'wheels', but {model.name!r} has no reaction wheels", fix)
     description = description_of(data, source)
     return CaptureScenario(
         source=source,
@@ -329,6 +339,11 @@ def _detumble(table: Any, source: str) -> DetumbleSettings:
             fix = "write force = true (thrusters stop the CM) or false (torque only)"
             raise ModelError(_where(source, "detumble.force"), f"expected true or false, got {table['force']!r}", fix)
         values["force"] = table["force"]
+    if "torque_by" in table:
+        if table["torque_by"] not in TORQUE_BY:
+            fix = 'write torque_by = "thrusters" or "wheels" (the model\'s [[wheels]]: docs/wheels.md)'
+            raise ModelError(_where(source, "detumble.torque_by"), f"unknown {table['torque_by']!r}", fix)
+        values["torque_by"] = table["torque_by"]
     if "frames" in table:
         frames = table["frames"]
         if isinstance(frames, bool) or not isinstance(frames, int) or frames < 2:

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..control.detumble import Detumble, DetumbleCost, detumble_cost
-from ..mechanics.momentum import angular_momentum, linear_momentum
+from ..mechanics.momentum import angular_momentum, linear_momentum, wheel_spin_momentum
 from ..simulation.capture_event import Capture, CaptureRun
 from ..simulation.simulate import simulate
 
@@ -36,6 +36,8 @@ __all__ = ["CaptureSequence", "DetumbleSettings", "run_capture_sequence", "write
 #: What the sequence writes under ``--out`` (the animation unless ``--no-animation``).
 SEQUENCE_FILES = ("capture.md", "capture_detumble.npz", "capture_momentum.png", "capture_rates.png", "capture_actuation.png")
 ANIMATION_FILE = "capture_detumble.gif"
+#: The reaction wheels' figure, written when the model has wheels.
+WHEEL_FIGURE = "capture_wheels.png"
 
 
 @dataclass(frozen=True)
@@ -53,6 +55,7 @@ class DetumbleSettings:
     attitude: tuple[float, float, float, float] | None = None  # [x, y, z, w], spacecraft -> inertial
     force: bool = True
     frames: int = 40  # frames of the animation
+    torque_by: str = "thrusters"  # or "wheels": the spacecraft torque by the reaction wheels
 
 
 @dataclass(frozen=True, eq=False)
@@ -83,6 +86,7 @@ class CaptureSequence:
                 "rest_joint_rate": s.rest_joint_rate,
                 "attitude_xyzw": None if s.attitude is None else list(s.attitude),
                 "force": s.force,
+                "torque_by": s.torque_by,
             },
             "combined_mass": float(hit.model.total_mass),
             "impact": {
@@ -105,7 +109,16 @@ class CaptureSequence:
                 "time_to_rest": cost.time_to_rest,
                 "at_rest": cost.time_to_rest is not None,
                 "final_rates": {"v_cm": cost.final_rates[0], "omega": cost.final_rates[1], "qdot_max": cost.final_rates[2]},
-                "wheel_speeds": "not modelled",
+                "wheels": None
+                if cost.peak_wheel_speed is None
+                else {
+                    "names": [w.name for w in after.model.wheels] if after.model is not None else [],
+                    "peak_speed": cost.peak_wheel_speed.tolist(),
+                    "peak_momentum": cost.peak_wheel_momentum.tolist(),  # type: ignore[union-attr]
+                    "peak_torque": cost.peak_wheel_torque.tolist(),  # type: ignore[union-attr]
+                    "saturated": cost.wheel_saturated.tolist(),  # type: ignore[union-attr]
+                    "final_speed": after.wheel_speed[-1].tolist(),  # type: ignore[index]
+                },
             },
         }
 
@@ -132,22 +145,40 @@ class CaptureSequence:
             f"  thrusters        impulse {det['thruster_impulse']:.6g} N s, delta-v {det['delta_v']:.6g} m/s{isp}; "
             f"peak force {det['peak_force']:.6g} N, peak torque {det['peak_torque']:.6g} N m",
             f"  joint torques    peak {vec(det['peak_joint_torque'])} N m",
-            "  reaction wheels  not modelled (no wheel speeds)",
+            *_wheel_lines(det["wheels"]),
         ]
 
     def markdown(self, source: str, report: str, *, animation: bool = True) -> str:
         """``capture.md``: the whole report (``report``, the text of ``freefloat capture``) with the figures of the plan
         and of the sequence, and the animation."""
         names = ["capture_plan.png", "capture_tradeoff.png", *(n for n in SEQUENCE_FILES if n.endswith(".png"))]
+        if self.run.after is not None and self.run.after.wheel_speed is not None:
+            names.append(WHEEL_FIGURE)
         figures = [f"![{name[:-4].replace('_', ' ')}]({name})" for name in [*names, *([ANIMATION_FILE] if animation else [])]]
         text = report.rstrip("\n")
         return f"# Capture sequence: {source}\n\n```text\n{text}\n```\n\n" + "\n\n".join(figures) + "\n"
 
 
+def _wheel_lines(wheels: dict[str, Any] | None) -> list[str]:
+    if wheels is None:
+        return ["  reaction wheels  none (the model has no [[wheels]])"]
+
+    def vec(v: Any) -> str:
+        return "[" + ", ".join(f"{x:.6g}" for x in v) + "]"
+
+    limited = [n for n, hit in zip(wheels["names"], wheels["saturated"], strict=True) if hit]
+    return [
+        f"  reaction wheels  {', '.join(wheels['names'])}: peak speed {vec(wheels['peak_speed'])} rad/s, peak spin momentum "
+        f"{vec(wheels['peak_momentum'])} N m s, peak torque {vec(wheels['peak_torque'])} N m",
+        f"                   final speed {vec(wheels['final_speed'])} rad/s; limits acted on: {', '.join(limited) or 'none'}",
+    ]
+
+
 def _robot_momentum(model: Any, state: Any) -> np.ndarray:
-    """[linear; angular about the inertial origin] of a resolved state, inertial frame."""
+    """[linear; angular about the inertial origin] of a resolved state, inertial frame (the wheels' spin included)."""
     lin = linear_momentum(model, state.velocity)
-    ang = angular_momentum(model, state.q, state.velocity, attitude=state.attitude) + np.cross(state.r_cm, lin)
+    spin = state.wheel_speed if model.wheels else None
+    ang = angular_momentum(model, state.q, state.velocity, attitude=state.attitude, wheel_speed=spin) + np.cross(state.r_cm, lin)
     return np.concatenate([lin, ang])
 
 
@@ -156,7 +187,9 @@ def run_capture_sequence(plan: CapturePlan, settings: DetumbleSettings) -> Captu
     if plan.grasp_state is None or plan.target is None or plan.impact is None:
         raise ValueError("[detumble]: needs a moving target (give [payload] velocity or angular_velocity)")
     robot, target = plan.before, plan.target
-    controller = Detumble(robot, rate_gain=settings.rate_gain, attitude=settings.attitude, force=settings.force)
+    controller = Detumble(
+        robot, rate_gain=settings.rate_gain, attitude=settings.attitude, force=settings.force, torque_by=settings.torque_by
+    )
     capture = Capture(target, at=0.0, end_effector=plan.end_effector, joints=plan.impact.joints, controller_after=controller)
     period = settings.sample_period
     run = simulate(robot, plan.grasp_state, settings.duration, capture=capture, sample_period=period, output_period=period)
@@ -186,11 +219,10 @@ def write_sequence_outputs(
     assert after is not None
     written = [out / "capture.md", after.save(out / "capture_detumble.npz", overwrite=True)]
     written[0].write_text(sequence.markdown(source, report, animation=animation))
-    for name, draw in (
-        ("capture_momentum.png", _plot_momentum),
-        ("capture_rates.png", _plot_rates),
-        ("capture_actuation.png", _plot_actuation),
-    ):
+    figures = [("capture_momentum.png", _plot_momentum), ("capture_rates.png", _plot_rates), ("capture_actuation.png", _plot_actuation)]
+    if after.wheel_speed is not None:
+        figures.append((WHEEL_FIGURE, _plot_wheels))
+    for name, draw in figures:
         fig = Figure(figsize=(7.0, 7.0), layout="constrained")
         draw(sequence, fig.subplots(3, 1, sharex=True))
         fig.savefig(out / name, dpi=dpi)
@@ -268,4 +300,32 @@ def _plot_actuation(sequence: CaptureSequence, axes: Any) -> None:
         ax.set_ylabel(unit)
         ax.legend(fontsize="x-small", loc="upper right")
     axes[0].set_title("Thruster force and torque (spacecraft frame) and joint torques", fontsize="medium")
+    axes[2].set_xlabel("t (s)")
+
+
+def _plot_wheels(sequence: CaptureSequence, axes: Any) -> None:
+    """The reaction wheels: speed (relative to the spacecraft), motor torque applied, and the rotor's spin momentum,
+    with the limits dashed and the outputs where a limit acted marked."""
+    after = sequence.run.after
+    assert after is not None and after.model is not None and after.wheel_speed is not None
+    wheels = after.model.wheels
+    spin = wheel_spin_momentum(after.model, after.wheel_speed, after.omega)
+    limited = np.asarray(after.wheel_torque_saturated) | np.asarray(after.wheel_speed_saturated)
+    for i, wheel in enumerate(wheels):
+        (line,) = axes[0].plot(after.t, after.wheel_speed[:, i], label=f"Ω {wheel.name}")
+        axes[1].step(after.t, after.wheel_torque[:, i], where="post", color=line.get_color(), label=f"u {wheel.name}")  # type: ignore[index]
+        axes[2].plot(after.t, spin[:, i], color=line.get_color(), label=f"Js (Ω + a·ω0) {wheel.name}")
+        hits = limited[:, i]
+        if hits.any():
+            axes[1].plot(after.t[hits], after.wheel_torque[hits, i], "x", color=line.get_color(), ms=4)  # type: ignore[index]
+        for ax, bound in ((axes[0], wheel.max_speed), (axes[1], wheel.max_torque)):
+            if np.isfinite(bound):
+                for sign in (-1.0, 1.0):
+                    ax.axhline(sign * bound, color=line.get_color(), ls="--", lw=0.8)
+    for ax, unit in zip(axes, ("rad/s", "N m", "N m s"), strict=True):
+        ax.set_ylabel(unit)
+        ax.legend(fontsize="x-small", loc="upper right")
+    axes[0].set_title(
+        "Reaction wheels: speed, motor torque, spin momentum\n(dashed: the limits; x: an output where a limit acted)", fontsize="medium"
+    )
     axes[2].set_xlabel("t (s)")

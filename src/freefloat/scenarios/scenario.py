@@ -81,7 +81,7 @@ from ..core.errors import ModelError
 from ..core.model import Model
 from ..core.numbers import MAX_EFFORT, MAX_FREQUENCY, MAX_JOINT_VALUE, MAX_RATE, real_array, tolerance_problem
 from ..core.state import Actuation, ActuatorLimits, State
-from ..io.model_files import load, read_toml
+from ..io.model_files import load, read_toml, with_wheels
 from ..models import load_model
 from ..simulation._guard import RunEstimate, estimate_run
 from ..simulation.pd import JointPD
@@ -105,10 +105,10 @@ CONTROLLER_TYPES = ("joint_pd",)
 
 _TOP_KEYS = {
     "description", "model", "end_effectors", "strict", "duration", "initial", "integrator", "actuation", "controller", "limits",
-    "joint_limits", "passive", "outputs",
+    "joint_limits", "passive", "outputs", "wheels",
 }  # fmt: skip
 _JOINT_LIMIT_KEYS = {"mode", "restitution"}
-_INITIAL_KEYS = {"q", "q_deg", "qdot", "qdot_deg", "omega", "omega_deg", "attitude", "euler321_deg", "r_cm", "v_cm"}
+_INITIAL_KEYS = {"q", "q_deg", "qdot", "qdot_deg", "omega", "omega_deg", "attitude", "euler321_deg", "r_cm", "v_cm", "wheel_speed"}
 _INTEGRATOR_KEYS = {"method", "rtol", "atol", "fixed_step", "output_period", "sample_period", "max_wall_time"}
 _ACTUATION_KEYS = {
     "constant": {"type", "joint_torque", "spacecraft_force", "spacecraft_torque"},
@@ -276,6 +276,10 @@ def _initial_state(data: Any, model: Model, source: str) -> State:
     for key, what in (("r_cm", "m, inertial frame"), ("v_cm", "m/s, inertial frame")):
         if key in table:
             fields[key] = _array(table[key], (3,), source, f"initial.{key}", f"give [x, y, z] ({what})")
+    if "wheel_speed" in table:
+        names = ", ".join(w.name for w in model.wheels) or f"none: {model.name!r} has no [[wheels]]"
+        fix = f"give one speed per reaction wheel in rad/s, relative to the spacecraft ({names})"
+        fields["wheel_speed"] = _array(table["wheel_speed"], (model.n_wheels,), source, "initial.wheel_speed", fix)
     return _built(lambda: State(**fields), source, "initial")
 
 
@@ -510,13 +514,30 @@ def scenario_model(top: dict[str, Any], source: str, base: Path | None, end_effe
     if not isinstance(strict, bool):
         raise ModelError(_where(source, "strict"), f"expected true or false, got {strict!r}", "write strict = true or leave it out")
     spec = top["model"]
+    found: Path | None
     try:
         if base is not None and (base / spec).is_file():
-            return load(base / spec, end_effectors=chosen, strict=strict), (base / spec)
-        path = Path(spec)
-        return load_model(spec, end_effectors=chosen, strict=strict), (path if path.is_file() else None)
+            model, found = load(base / spec, end_effectors=chosen, strict=strict), (base / spec)
+        else:
+            path = Path(spec)
+            model, found = load_model(spec, end_effectors=chosen, strict=strict), (path if path.is_file() else None)
     except (ModelError, FileNotFoundError) as exc:
         raise ModelError(_where(source, "model"), str(exc), "fix the model name or path (relative to the scenario file)") from exc
+    return scenario_wheels(model, top, source, base), found
+
+
+def scenario_wheels(model: Model, top: dict[str, Any], source: str, base: Path | None) -> Model:
+    """``model`` with the scenario's reaction wheels (its ``[[wheels]]`` tables, or ``wheels = "FILE"``: a side file of
+    them, relative to the scenario's folder ``base``; docs/wheels.md), which replace the model's; ``model`` without."""
+    if "wheels" not in top:
+        return model
+    wheels = top["wheels"]
+    if isinstance(wheels, str) and base is not None and (base / wheels).is_file():
+        wheels = base / wheels
+    try:
+        return with_wheels(model, wheels)
+    except ModelError as exc:
+        raise ModelError(_where(source, exc.field), exc.problem, exc.fix) from None
 
 
 def refuse_model_file(data: Any, source: str) -> None:

@@ -19,7 +19,7 @@ from ..core.errors import SimulationError
 from ..simulation.trajectory import Trajectory
 from .scenario import Scenario, run_scenario
 
-__all__ = ["check_animation_target", "output_names", "simulate_scenario", "write_trajectory_outputs"]
+__all__ = ["check_animation_target", "output_names", "simulate_scenario", "trajectory_summary", "write_trajectory_outputs"]
 
 
 def check_animation_target(path: Path | str) -> Path:
@@ -83,7 +83,7 @@ def write_trajectory_outputs(traj: Trajectory, out: Path, scenario: Scenario) ->
             if target.suffix == ".csv":
                 written.append(target.with_name(target.name + ".json"))
         elif target.suffix == ".json":  # (the CSV's metadata sidecar NAME.csv.json is written by Trajectory.save)
-            target.write_text(json.dumps(_summary(traj, scenario), indent=2) + "\n", encoding="utf-8")
+            target.write_text(json.dumps(trajectory_summary(traj, scenario), indent=2) + "\n", encoding="utf-8")
         elif target.stem.endswith("_momentum"):
             _save_momentum_plot(traj, target)
         else:
@@ -117,7 +117,8 @@ def simulate_scenario(scenario: Scenario, out: Path, *, progress: Any = None, an
     return written
 
 
-def _summary(traj: Trajectory, scenario: Scenario) -> dict[str, Any]:
+def trajectory_summary(traj: Trajectory, scenario: Scenario) -> dict[str, Any]:
+    """The summary of a run (``NAME.json`` of ``freefloat simulate``): status, final state, momentum change, energies."""
     summary: dict[str, Any] = {
         "scenario": scenario.source,
         "description": scenario.description,

@@ -33,7 +33,12 @@ PER_TRAJECTORY = ("floats", "kp", "kd", "start", "goal", "zdot", "zddot", "rate_
 def law_of(controller: Any, batch: int | None) -> Any:
     """The compiled law of ``controller`` for a run of ``batch`` trajectories (None: one simulation), or None: it has
     none (a Python controller), or it needs Python (a desired motion given as a function). Raises the controller's
-    errors for per-trajectory values of another length than the batch."""
+    errors for per-trajectory values of another length than the batch. A controller that drives reaction wheels
+    (``torque_by="wheels"``) or a task controller with ``force_by="none"`` runs from Python: the compiled loops route
+    nothing to wheels and zero no force (the detumbling law's ``force=False`` is in the law itself)."""
+    torque_by, force_by = getattr(controller, "actuators", ("thrusters", "thrusters"))
+    if torque_by != "thrusters" or (force_by != "thrusters" and getattr(controller, "force", True)):
+        return None
     make = getattr(controller, "compiled_law", None)
     return make(batch) if callable(make) else None
 
@@ -59,6 +64,14 @@ def plant_models(model: Any, passive: str) -> tuple[Model, np.ndarray]:
     torques as ``passive`` says, and the floats of each (K, F))."""
     from .simulate import _passive_model
 
+    given = list(model) if isinstance(model, Sequence) and not isinstance(model, (str, bytes)) else [model]
+    for i, each in enumerate(given):
+        if isinstance(each, Model) and each.wheels:
+            where = f"model[{i}]" if len(given) > 1 or given[0] is not model else "model"
+            raise ValueError(
+                f"{where}: {each.name!r} has reaction wheels, which rollout does not simulate yet; run each trajectory with "
+                "freefloat.simulate, which integrates them (docs/wheels.md)"
+            )
     if isinstance(model, Sequence) and not isinstance(model, (str, bytes)):
         if not model:
             raise ValueError("model: an empty sequence of models; give one model or one per trajectory")

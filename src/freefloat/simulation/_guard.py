@@ -295,9 +295,15 @@ class Progress:
     """
 
     def __init__(
-        self, mode: bool | Callable[[float, float], Any] | None, duration: float, what: str = "simulating", unit: str = "s"
+        self,
+        mode: bool | Callable[[float, float], Any] | None,
+        duration: float,
+        what: str = "simulating",
+        unit: str = "s",
+        *,
+        rate: bool = False,
     ) -> None:
-        self.what, self.unit = what, unit
+        self.what, self.unit, self.rate = what, unit, rate
         self.logged = 0.0
         self.callback = mode if callable(mode) else None
         self.enabled = mode is not False
@@ -330,8 +336,8 @@ class Progress:
                     elapsed = now - self.start
                     left = f", about {_duration(elapsed * (self.duration - t) / t)} left" if t > 0 else ""
                     progress_log.info(
-                        "%s: %.4g / %.4g %s (%.0f%%), %s elapsed%s", self.what, t, self.duration, self.unit,
-                        100.0 * t / self.duration, _duration(elapsed), left,
+                        "%s: %.4g / %.4g %s (%.0f%%)%s, %s elapsed%s", self.what, t, self.duration, self.unit,
+                        100.0 * t / self.duration, self._rate(t, elapsed), _duration(elapsed), left,
                     )  # fmt: skip
                 return
             from rich.console import Console
@@ -341,14 +347,19 @@ class Progress:
                 TextColumn(self.what),
                 BarColumn(),
                 TextColumn("{task.completed:.4g} / {task.total:.4g} " + self.unit),
+                TextColumn("{task.fields[rate]}"),
                 TimeElapsedColumn(),
                 TimeRemainingColumn(),
                 console=Console(stderr=True),
                 transient=True,
             )
             self.bar.start()
-            self.bar.add_task(self.what, total=self.duration)
-        self.bar.update(self.bar.task_ids[0], completed=float(t))
+            self.bar.add_task(self.what, total=self.duration, rate="")
+        self.bar.update(self.bar.task_ids[0], completed=float(t), rate=self._rate(t, now - self.start))
+
+    def _rate(self, t: float, elapsed: float) -> str:
+        """``", 2.5 runs/s"`` with ``rate`` (the work done per second of wall time so far), else empty."""
+        return f", {t / elapsed:.3g} {self.unit}/s" if self.rate and elapsed > 0 else ""
 
     def close(self) -> None:
         """Remove the bar (if one appeared)."""
@@ -390,8 +401,12 @@ class DivergenceGuard:
         controller: Any = None,
         wall_limit: float | None = None,
         duration: float = 0.0,
+        wheels: int = 0,
     ) -> None:
         self.model = model
+        # the last ``wheels`` joints of ``model`` are reaction wheels (freefloat.core.wheels.wheel_joint_model): their speed is
+        # the actuator's, fast by design, so only the beyond-meaning test looks at it
+        self.robot = model.n_joints - wheels
         self.wall_limit = wall_limit  # independent of ``enabled``: divergence_guard=False still ends
         self.duration = duration
         self.started = time.perf_counter()
@@ -431,7 +446,7 @@ class DivergenceGuard:
     def _rates_grew(self, x: np.ndarray) -> bool:
         """Whether the fastest rate is 1.2x the one at the last energy test (the kinetic energy, an H+ evaluation,
         cannot have grown much without the rates growing: it is tested then, not at every step)."""
-        rates = x[13 + self.n : 13 + 2 * self.n]
+        rates = x[13 + self.n : 13 + self.n + self.robot]
         rate = max(float(np.abs(rates).max(initial=0.0)), float(np.abs(x[10:13]).max()), float(np.abs(x[3:6]).max()))
         if rate <= 1.2 * self.rate_checked:
             return False
@@ -441,7 +456,7 @@ class DivergenceGuard:
     def _fastest(self, x: np.ndarray) -> tuple[str, float, str]:
         """The fastest joint or the spacecraft: (who, rate, unit of the rate)."""
         n = self.n
-        rates = np.abs(x[13 + n : 13 + 2 * n])
+        rates = np.abs(x[13 + n : 13 + n + self.robot])
         spin = float(np.linalg.norm(x[10:13]))
         if n and rates.max() >= spin:
             i = int(np.argmax(rates))
@@ -455,6 +470,14 @@ class DivergenceGuard:
             return float("inf")
         return min(DIVERGENCE_ANGLE / self.h, MAX_RATE) if self.h else MAX_RATE
 
+    @property
+    def joint_rate_limits(self) -> np.ndarray:
+        """Per joint of ``model``, the rate above which :meth:`check` must look: :attr:`rate_limit` for the robot's joints,
+        :data:`MAX_RATE` for the reaction wheels' (inf: never)."""
+        out = np.full(self.n, MAX_RATE if self.enabled else np.inf)
+        out[: self.robot] = self.rate_limit
+        return out
+
     def quiet(self, values: list[float]) -> bool:
         """True when the flat state ``values`` (a list: plain floats are cheaper than numpy for a few joints)
         cannot fail :meth:`check`: no energy test to make and every rate too slow for the growth test."""
@@ -462,9 +485,13 @@ class DivergenceGuard:
             return True
         if self.budget is not None:
             return False
-        rates, spin = values[13 + self.n : 13 + 2 * self.n], values[10:13]
+        rates, spin = values[13 + self.n : 13 + self.n + self.robot], values[10:13]
         bound = max(max(rates, default=0.0), -min(rates, default=0.0), 1.7320508075688772 * max(max(spin), -min(spin)))
-        return bound <= self.rate_limit
+        return bound <= self.rate_limit and self._wheels_below(values)
+
+    def _wheels_below(self, x: Any) -> bool:
+        """True when every reaction wheel turns slower than :data:`MAX_RATE` (always, for a model without wheels)."""
+        return self.robot == self.n or float(np.abs(np.asarray(x[13 + self.n + self.robot : 13 + 2 * self.n])).max()) <= MAX_RATE
 
     def check(self, t: float, x: np.ndarray) -> None:
         """Raise if the state at ``t`` has grown without bound (the growth and energy tests)."""
@@ -481,8 +508,16 @@ class DivergenceGuard:
                     "or shorten the sample period"
                 )
         # fast path, every step: a bound on the fastest rate in plain floats (the spin norm <= sqrt(3) max |omega_i|)
-        rates, spin = x[13 + self.n : 13 + 2 * self.n].tolist(), x[10:13].tolist()
+        rates, spin = x[13 + self.n : 13 + self.n + self.robot].tolist(), x[10:13].tolist()
         bound = max(max(rates, default=0.0), -min(rates, default=0.0), 1.7320508075688772 * max(max(spin), -min(spin)))
+        if not self._wheels_below(x):
+            speeds = np.abs(x[13 + self.n + self.robot : 13 + 2 * self.n])
+            i = int(np.argmax(speeds))
+            raise SimulationError(
+                f"the simulation left what the model can mean at t = {t:.6g} s: reaction wheel "
+                f"{self.model.joint_names[self.robot + i]!r} turns at {speeds[i]:.3g} rad/s, beyond {MAX_RATE:g} rad/s. Give the "
+                "wheel its speed limit (max_speed, Basilisk's Omega_max) or check the controller's wheel torques"
+            )
         if bound <= self.rate_limit:
             return
         who, rate, unit = self._fastest(x)

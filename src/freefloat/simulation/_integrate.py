@@ -223,19 +223,24 @@ def _run_rk4(
     bar: Any,
     guard: Any,
     stops: Any,
+    view: Model | None = None,
 ) -> tuple[str, str]:
     """Fixed-step RK4 on the engine, in place: runs of steps between samples, outputs and events go without Python.
 
     With joint stops, a run of steps that ends beyond a limit is redone step by step and the stop
-    acts at the end of the step that crossed (:mod:`._stops`).
+    acts at the end of the step that crossed (:mod:`._stops`). ``view``: the model whose states the events see (the
+    user's model with reaction wheels when ``model`` integrates them as joints; default ``model``).
     """
+    view = view or model
     steps = round(duration / dt)  # simulate() checked that dt divides the duration
     stepper = _engine.Stepper(model, _engine_inputs(model, external))
     n = model.n_joints
     # the compiled steps stop where Python must look: a joint beyond a stop, a rate the guard must test
     quiet_guard = guard.budget is None  # no per-step energy test: the rate test is the kernel's
     rate = guard.rate_limit if quiet_guard else np.inf
-    stepper.watch(rate, stops.lower if stops.active else None, stops.upper if stops.active else None)
+    stepper.watch(
+        rate, stops.lower if stops.active else None, stops.upper if stops.active else None, guard.joint_rate_limits if quiet_guard else None
+    )
     # sample instants: every step without a sample period, else the steps nearest k * sample_period
     next_sample_time = sample_period or dt
     stride = max(1, round(period / dt))
@@ -247,7 +252,7 @@ def _run_rk4(
     _u(model, act[0], act[1], act[2], u)
     held = True
     rec.add(0.0, x, act)
-    prev_ev = _event_value(events, model, 0.0, x) if events else None
+    prev_ev = _event_value(events, view, 0.0, x) if events else None
     i = 0
     while i < steps:
         if events or sample_period is None:
@@ -285,7 +290,7 @@ def _run_rk4(
         bar.update(t)
         guard.clock(t)
         if events:
-            now = _event_value(events, model, t, x)
+            now = _event_value(events, view, t, x)
             for k, ev in enumerate(events):
                 direction = getattr(ev, "direction", 0)
                 crossed = (prev_ev[k] < 0 <= now[k] and direction >= 0) or (prev_ev[k] > 0 >= now[k] and direction <= 0)  # type: ignore[index]
@@ -342,8 +347,10 @@ def _run_adaptive(
     bar: Any,
     guard: Any,
     stops: Any,
+    view: Model | None = None,
 ) -> tuple[str, str]:
-    """Adaptive integration (scipy ``solve_ivp``) piece by piece between controller samples.
+    """Adaptive integration (scipy ``solve_ivp``) piece by piece between controller samples (``view``: as in
+    :func:`_run_rk4`).
 
     With joint stops, the pieces end at every output instant too, terminal events locate each
     crossing of a limit (the stop acts there and the piece goes on), and a joint resting on its
@@ -356,7 +363,7 @@ def _run_adaptive(
     for ev in events:
 
         def wrapped(t: float, y: np.ndarray, ev: Any = ev) -> float:
-            return _event(ev, model, t, y)
+            return _event(ev, view or model, t, y)
 
         wrapped.terminal = getattr(ev, "terminal", True)  # type: ignore[attr-defined]
         wrapped.direction = getattr(ev, "direction", 0)  # type: ignore[attr-defined]

@@ -32,6 +32,7 @@ from ..core.model import Model
 from ..core.numbers import MAX_EFFORT, tolerance_problem
 from ..core.resources import require_memory
 from ..core.state import Actuation, ActuatorLimits, State, dissipates, pack_state, unpack_state
+from ..core.wheels import wheel_joint_model
 from ..mechanics import _engine
 from ..mechanics._laws import actuator_bounds
 from ._compiled_runs import after_run, compiled_simulation, law_of, law_rows, plant_models
@@ -49,6 +50,7 @@ from ._guard import (
 )
 from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory, zero_thrust
 from ._stops import JointStops, limit_violations
+from ._wheels import limit_wheel_torque, user_trajectory
 from .capture_event import Capture, CaptureRun, simulate_capture
 from .pd import JointPD
 from .trajectory import Trajectory
@@ -61,23 +63,29 @@ Controller = Callable[[float, State], Any]
 METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
 
 
-def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Controller output -> (tau, f_S, n_S) arrays, with errors that name what is wrong."""
+def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+    """Controller output -> (tau, f_S, n_S) arrays, and the wheel torques last for a model with reaction wheels (zeros
+    when not given), with errors that name what is wrong."""
     n = model.n_joints
     if raw is None:
         raise TypeError(f"controller returned None; return joint torques of shape {(*batch, n)} or a freefloat.Actuation")
     if isinstance(raw, np.ndarray) and raw.shape == (*batch, n) and raw.dtype == np.float64:
         if _plain_torques(raw):  # the fast path of plain torques, finite and in range
             zeros = zero_thrust(batch)
-            return raw, zeros, zeros
+            return (raw, zeros, zeros, np.zeros((*batch, model.n_wheels))) if model.wheels else (raw, zeros, zeros)
     if not isinstance(raw, Actuation):
         raw = Actuation(joint_torque=raw)
+    if raw.wheel_torque is not None and not model.wheels:
+        raise ValueError(f"controller returned wheel torques, but {model.name!r} has no reaction wheels (model.wheels; docs/wheels.md)")
     parts = []
-    for name, size, what in (
+    fields = [
         ("joint_torque", n, f"one torque per joint: {', '.join(model.joint_names) or 'none'}"),
         ("spacecraft_force", 3, "thruster force, spacecraft frame"),
         ("spacecraft_torque", 3, "thruster torque, spacecraft frame"),
-    ):
+    ]
+    if model.wheels:
+        fields.append(("wheel_torque", model.n_wheels, f"one per wheel: {', '.join(w.name for w in model.wheels)}"))
+    for name, size, what in fields:
         value = getattr(raw, name)
         if value is None:
             parts.append(np.zeros((*batch, size)))
@@ -97,7 +105,7 @@ def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarr
                 "gains and units"
             )
         parts.append(arr)
-    return parts[0], parts[1], parts[2]
+    return tuple(parts)
 
 
 def _plain_torques(raw: np.ndarray) -> bool:
@@ -124,7 +132,8 @@ def _passive_model(model: Model, passive: Any) -> Model:
 
 
 def _call_controller(controller: Controller, model: Model, t: float, x: np.ndarray, batch: tuple[int, ...]) -> tuple[np.ndarray, ...]:
-    """Evaluate the controller at (t, x); any failure becomes a SimulationError that says when and what."""
+    """Evaluate the controller at (t, x); any failure becomes a SimulationError that says when and what. Returns
+    (tau, f_S, n_S), and the wheel torques last for a model with reaction wheels."""
     try:
         raw = controller(t, unpack_state(model, x))
     except Exception as exc:
@@ -304,19 +313,35 @@ def simulate(
     if controller is not None and not callable(controller):
         raise TypeError(f"controller: expected a callable (t, state) -> joint torques or Actuation, got {type(controller).__name__}")
     limits = limits or ActuatorLimits()
+    # the controller, the events and the trajectory see the user's model; the engine integrates its reaction wheels as
+    # joints (freefloat.core.wheels.wheel_joint_model: the flat state [..., q, wheel angles, qdot, wheel speeds])
+    user, n_wheels = model, model.n_wheels
+    model = wheel_joint_model(user) if passive == "model" else wheel_joint_model(user).without_passive()
     _engine_inputs(model, external)  # a clear error now for bad wrenches
-    stops = JointStops(model, joint_limits, restitution)
-    stops.check_initial(np.asarray(state.q, dtype=float))
-    period = output_period or max(0.01, fixed_step or 0.0)
     x0 = pack_state(state, 0.0 if dissipates(model) else None)  # with the dissipated energy's slot when there are passive torques
+    q0 = x0[13 : 13 + model.n_joints]
+    stops = JointStops(model, joint_limits, restitution)
+    stops.check_initial(q0)
+    period = output_period or max(0.01, fixed_step or 0.0)
     rec = _Recorder(model)
     zero = (np.zeros(model.n_joints), np.zeros(3), np.zeros(3))
+    unlimited = np.zeros(1 + 2 * n_wheels, dtype=bool) if n_wheels else np.array(False)
+    speeds = slice(13 + 2 * model.n_joints - n_wheels, 13 + 2 * model.n_joints)
 
     def command(t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         if controller is None:
-            return (*zero, np.array(False))
-        tau, force, torque = _call_controller(controller, model, t, x, ())
-        return limits.apply(tau, force, torque)
+            return (*zero, unlimited)
+        parts = _call_controller(controller, user, t, x, ())
+        tau, force, torque, saturated = limits.apply(*parts[:3])
+        if not n_wheels:
+            return tau, force, torque, saturated
+        wheel, torque_limited, speed_limited = limit_wheel_torque(user, parts[3], x[speeds])
+        flags = np.concatenate([[bool(saturated) or torque_limited.any() or speed_limited.any()], torque_limited, speed_limited])
+        return np.concatenate([tau, wheel]), force, torque, flags
+
+    def finish(traj: Trajectory) -> Trajectory:
+        traj = _with_limits(traj, stops)
+        return user_trajectory(user, traj) if n_wheels else traj
 
     estimate = estimate_run(model, duration, fixed_step=fixed_step, sample_period=sample_period, output_period=output_period)
     wall_limit = _wall_limit(max_wall_time, estimate.seconds)
@@ -329,12 +354,14 @@ def simulate(
                 stacklevel=2,
             )
     h = sample_period or fixed_step
-    check_pd_gains(model, controller, np.asarray(state.q, dtype=float), h)
-    check_passive_step(model, np.asarray(state.q, dtype=float), fixed_step)
-    pd = controller if not external else None  # the energy test of a joint PD holds without external wrenches
+    check_pd_gains(user, controller, np.asarray(state.q, dtype=float), h)
+    check_passive_step(model, q0, fixed_step)
+    pd = controller if not external and not n_wheels else None  # the energy test of a joint PD holds without external wrenches
     what = "controller sample" if sample_period else "RK4 step"
-    guard = DivergenceGuard(model, x0, min(duration, period), h, what, divergence_guard, pd, wall_limit, duration)
-    if fixed_step is not None and not events and not stops.active:  # the controller inside the compiled loop, when it can be
+    guard = DivergenceGuard(model, x0, min(duration, period), h, what, divergence_guard, pd, wall_limit, duration, n_wheels)
+    if (
+        fixed_step is not None and not events and not stops.active and not n_wheels
+    ):  # the controller inside the compiled loop, when it can be
         compiled = compiled_simulation(model, x0, duration, float(fixed_step), sample_period, period, controller, limits, external, guard)
         if compiled is not None:
             return _with_limits(compiled, stops)
@@ -343,25 +370,25 @@ def simulate(
         guard.check(0.0, x0)  # an initial rate beyond meaning: stopped now, named (its first step would be non-finite)
         if fixed_step is not None:
             status = _run_rk4(
-                model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar, guard, stops
+                model, x0, duration, float(fixed_step), sample_period, period, command, events, external, rec, bar, guard, stops, user
             )
         else:
             status = _run_adaptive(
-                model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar, guard, stops
+                model, x0, duration, method, rtol, atol, sample_period, period, command, events, external, rec, bar, guard, stops, user
             )
     except KeyboardInterrupt:
         t_stop = rec.t[-1] if rec.t else 0.0
-        return _with_limits(rec.trajectory("interrupted", f"interrupted (Ctrl-C) after t = {t_stop:.6g} s of {duration:g} s"), stops)
+        return finish(rec.trajectory("interrupted", f"interrupted (Ctrl-C) after t = {t_stop:.6g} s of {duration:g} s"))
     except SimulationError as exc:
-        exc.trajectory = _with_limits(rec.trajectory("failed", str(exc)), stops)
+        exc.trajectory = finish(rec.trajectory("failed", str(exc)))
         raise
     except (FreefloatError, ValueError, ArithmeticError, RuntimeError, TypeError, KeyError, IndexError) as exc:
         t_fail = rec.t[-1] if rec.t else 0.0
         message = f"simulation failed after t = {t_fail:.6g} s: {type(exc).__name__}: {exc}"
-        raise SimulationError(message, _with_limits(rec.trajectory("failed", message), stops)) from exc
+        raise SimulationError(message, finish(rec.trajectory("failed", message))) from exc
     finally:
         bar.close()
-    return _with_limits(rec.trajectory(*status), stops)
+    return finish(rec.trajectory(*status))
 
 
 def _with_limits(traj: Trajectory, stops: JointStops) -> Trajectory:

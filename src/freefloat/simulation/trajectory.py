@@ -26,6 +26,10 @@ from ..mechanics.momentum import angular_momentum, kinetic_energy
 
 __all__ = ["JointLimitEvent", "Trajectory"]
 
+#: The arrays of a run with reaction wheels (None without): angle and speed relative to the spacecraft, motor torque
+#: applied, and whether each wheel's torque or speed limit acted.
+_WHEEL_ARRAYS = ("wheel_angle", "wheel_speed", "wheel_torque", "wheel_torque_saturated", "wheel_speed_saturated")
+
 _ARRAYS = (
     "t",
     "q",
@@ -39,9 +43,11 @@ _ARRAYS = (
     "spacecraft_torque",
     "saturated",
     "dissipated_energy",
+    *_WHEEL_ARRAYS,
 )
-#: Arrays a file may lack: written by a freefloat before them (``dissipated_energy``: see :meth:`Trajectory.load`).
-_OPTIONAL = ("dissipated_energy",)
+#: Arrays a file may lack: written by a freefloat before them (``dissipated_energy``: see :meth:`Trajectory.load`), or
+#: of a model without reaction wheels.
+_OPTIONAL = ("dissipated_energy", *_WHEEL_ARRAYS)
 
 
 @dataclass(frozen=True)
@@ -86,6 +92,13 @@ class Trajectory:
     actuators (and of external wrenches), to that accuracy. Zeros for a model without damping and friction or a run
     with ``passive="ignore"``. None when unknown: a trajectory made without it, or a file of an older freefloat loaded
     without its model (:meth:`load`).
+
+    Reaction wheels (a model with ``model.wheels``; None otherwise), each (T, W), ``model.wheels`` order:
+    ``wheel_angle`` (rad) and ``wheel_speed`` (rad/s) relative to the spacecraft, ``wheel_torque`` the motor torque
+    applied (N m, after the limits), ``wheel_torque_saturated`` (the command was beyond ``max_torque`` and was
+    clipped) and ``wheel_speed_saturated`` (the wheel was at ``max_speed`` and the torque that would have spun it
+    faster was not applied), per output. ``saturated`` is true where any actuator, wheels included, was limited.
+    The momentum and kinetic energy include the wheels' spin.
     """
 
     t: np.ndarray
@@ -105,6 +118,11 @@ class Trajectory:
     model: Model | None = field(default=None, repr=False)
     joint_limit_events: tuple[JointLimitEvent, ...] = ()
     dissipated_energy: np.ndarray | None = None
+    wheel_angle: np.ndarray | None = None
+    wheel_speed: np.ndarray | None = None
+    wheel_torque: np.ndarray | None = None
+    wheel_torque_saturated: np.ndarray | None = None
+    wheel_speed_saturated: np.ndarray | None = None
 
     @property
     def joint_limits_violated(self) -> bool:
@@ -126,9 +144,10 @@ class Trajectory:
     def angular_momentum(self) -> np.ndarray:
         """Angular momentum about the system CM, inertial frame (T, 3): of the bodies (rows [omega0] of H+ zdot0, 1992
         eq. 12). It does not include the spin of the joints' rotors (``model.joint_armature``): that model, as MuJoCo's
-        and Pinocchio's armature, adds each rotor's inertia to its own joint and gives the spacecraft no reaction to it."""
+        and Pinocchio's armature, adds each rotor's inertia to its own joint and gives the spacecraft no reaction to it.
+        The reaction wheels' spin is included (:func:`freefloat.mechanics.momentum.wheel_momentum`)."""
         with computed_states():
-            return angular_momentum(self._need_model(), self.q, self.velocity, attitude=self.attitude)
+            return angular_momentum(self._need_model(), self.q, self.velocity, attitude=self.attitude, wheel_speed=self.wheel_speed)
 
     @cached_property
     def linear_momentum(self) -> np.ndarray:
@@ -137,9 +156,9 @@ class Trajectory:
 
     @cached_property
     def kinetic_energy(self) -> np.ndarray:
-        """1/2 zdot0^T H+ zdot0 (T,)."""
+        """1/2 zdot0^T H+ zdot0 (T,), with the reaction wheels' spin."""
         with computed_states():
-            return kinetic_energy(self._need_model(), self.q, self.velocity)
+            return kinetic_energy(self._need_model(), self.q, self.velocity, wheel_speed=self.wheel_speed)
 
     @cached_property
     def passive_torque(self) -> np.ndarray:
@@ -261,8 +280,11 @@ class Trajectory:
                 header.append(name)
                 continue
             last = arr.shape[-1]
+            wheels = [w.name for w in self.model.wheels] if self.model is not None else None
             if name in ("q", "qdot", "joint_torque") and joints is not None and len(joints) == last:
                 labels = joints
+            elif name in _WHEEL_ARRAYS and wheels is not None and len(wheels) == last:
+                labels = wheels
             elif name == "attitude":
                 labels = ["x", "y", "z", "w"]
             elif last == 3 and name != "q":
@@ -319,6 +341,7 @@ class Trajectory:
             attitude=self.attitude[index].copy(),
             r_cm=self.r_cm[index].copy(),
             v_cm=self.v_cm[index].copy(),
+            wheel_speed=None if self.wheel_speed is None else self.wheel_speed[index].copy(),
         )
 
     def __len__(self) -> int:
@@ -396,5 +419,7 @@ def _read_csv(path: Path) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
             raise ValueError(f"{path}: not a freefloat trajectory CSV: no column {name!r} (or {name}[...]); write it with Trajectory.save")
         shape = tuple(shapes.get(name, [] if header[cols[0]] == name else [len(cols)]))
         arrays[name] = table[:, cols].reshape((table.shape[0], *shape))
-    arrays["saturated"] = arrays["saturated"].astype(bool)
+    for name in ("saturated", "wheel_torque_saturated", "wheel_speed_saturated"):
+        if name in arrays:
+            arrays[name] = arrays[name].astype(bool)
     return arrays, meta

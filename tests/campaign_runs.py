@@ -1,0 +1,37 @@
+"""Run functions for the campaign tests (``function = "campaign_runs:NAME"``), imported by the Dask workers.
+
+The workers find this module on their PYTHONPATH (the tests' folder), which the cluster fixtures set.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: Seconds a gated run waits for its gate before it gives up (the test then fails on the missing results).
+GATE_TIMEOUT = 60.0
+
+
+def marked(parameters: dict[str, Any]) -> dict[str, Any]:
+    """Write ``start-I-PID`` in ``parameters["dir"]``, wait for the file ``gate`` there (when ``gated``), write
+    ``done-I-PID``: the files count how often run I was started and computed, and by which worker process."""
+    folder, i = Path(parameters["dir"]), int(parameters["i"])
+    (folder / f"start-{i}-{os.getpid()}").touch()
+    if parameters.get("gated", False):
+        give_up = time.monotonic() + GATE_TIMEOUT
+        while not (folder / "gate").exists():
+            if time.monotonic() > give_up:
+                raise TimeoutError("no gate")
+            time.sleep(0.01)
+    (folder / f"done-{i}-{os.getpid()}").touch()
+    return {"square": float(i * i), "steps": np.arange(i + 1, dtype=float)}
+
+
+def allocate(parameters: dict[str, Any]) -> dict[str, Any]:
+    """Take ``parameters["mib"]`` MiB, 32 MiB at a time (each page written), and hold it to the end."""
+    held = [np.ones(32 << 17) for _ in range(int(parameters["mib"]) // 32)]  # 32 MiB of float64 each
+    return {"held_mib": float(sum(a.nbytes for a in held) >> 20)}

@@ -1,0 +1,208 @@
+"""``freefloat campaign`` on real Dask clusters: a scheduler and workers started as separate processes on the loopback
+address (one for the module), and local clusters of the command itself.
+
+- the same campaign through ``--scheduler`` and on a local cluster: the same run ids and the same numbers;
+- a worker killed mid-campaign, and a runner interrupted (Ctrl-C to its process group, local workers included;
+  and ``--max-runs``) then resumed: every run stored once, and computed once (the ``done-I-PID`` files that each
+  run writes count the computations);
+- a worker that runs out of memory: its run is stored as failed with the reason, the others finish.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import tomli_w
+
+from freefloat.campaigns import load_campaign, plan_runs, read_runs, read_series
+
+ROOT = Path(__file__).resolve().parents[2]
+TESTS = ROOT / "tests"
+#: Seconds any wait in these tests may last before it fails the test.
+PATIENCE = 90.0
+
+
+def environment() -> dict[str, str]:
+    """The commands' environment: this checkout's freefloat and the tests' run functions (campaign_runs) importable,
+    and a scheduler that forgives a run one dead worker (as the command's local clusters do)."""
+    paths = [str(ROOT / "src"), str(TESTS), *filter(None, [os.environ.get("PYTHONPATH")])]
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(paths), "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "1"}
+
+
+def wait_for(condition: Callable[[], Any], what: str) -> Any:
+    """Poll ``condition`` until it is true (the processes run on their own: nothing to join on); fail after PATIENCE."""
+    give_up = time.monotonic() + PATIENCE
+    while not (value := condition()):
+        assert time.monotonic() < give_up, f"gave up waiting for {what}"
+        time.sleep(0.05)
+    return value
+
+
+@dataclass
+class Cluster:
+    address: str
+    folder: Path
+    processes: list[subprocess.Popen[bytes]]
+
+    def worker(self, name: str) -> subprocess.Popen[bytes]:
+        """A worker process of its own (no nanny: its pid is the worker's), registered with the scheduler."""
+        log = self.folder / f"{name}.log"
+        command = [sys.executable, "-m", "distributed.cli.dask_worker", self.address, "--nthreads", "1", "--no-nanny"]
+        with log.open("wb") as sink:  # the child keeps its own descriptor
+            process = subprocess.Popen(
+                [*command, "--no-dashboard", "--name", name], env=environment(), stdout=subprocess.DEVNULL, stderr=sink
+            )
+        self.processes.append(process)
+        wait_for(lambda: "Registered to" in log.read_text(errors="replace"), f"worker {name} to register")
+        return process
+
+
+@pytest.fixture(scope="module")
+def cluster(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Cluster]:
+    folder = tmp_path_factory.mktemp("dask")
+    file = folder / "scheduler.json"
+    command = [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard"]
+    with (folder / "scheduler.log").open("wb") as sink:
+        scheduler = subprocess.Popen([*command, "--scheduler-file", str(file)], env=environment(), stdout=subprocess.DEVNULL, stderr=sink)
+    running = Cluster("", folder, [scheduler])
+    try:
+        running.address = wait_for(lambda: file.is_file() and json.loads(file.read_text() or "{}").get("address"), "the scheduler file")
+        running.worker("w1")
+        running.worker("w2")
+        yield running
+    finally:  # the workers first (they say goodbye to the scheduler), then the scheduler; a process that lingers is killed
+        for group in (running.processes[1:], running.processes[:1]):
+            for process in group:
+                process.terminate()
+            for process in group:
+                try:
+                    process.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    process.kill()
+                    process.wait()
+
+
+def campaign(folder: Path, name: str = "campaign.toml", **tables: Any) -> Path:
+    path = folder / name
+    path.write_text(tomli_w.dumps(tables))
+    return path
+
+
+def freefloat(*args: str | Path, wait: bool = True) -> Any:
+    command = [sys.executable, "-m", "freefloat", "campaign", *map(str, args), "--no-progress"]
+    if not wait:  # a session of its own: a signal to its process group is a terminal's Ctrl-C
+        return subprocess.Popen(
+            command, env=environment(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+        )
+    return subprocess.run(command, env=environment(), capture_output=True, text=True, timeout=300)
+
+
+def marked_campaign(folder: Path, runs: int, *, gated: bool) -> Path:
+    """``runs`` runs of campaign_runs.marked, writing their files in ``folder/marks`` (gated: each waits for its gate)."""
+    (folder / "marks").mkdir()
+    parameters = {"i": {"values": list(range(runs))}, "dir": {"values": [str(folder / "marks")]}, "gated": {"values": [gated]}}
+    return campaign(folder, function="campaign_runs:marked", parameters=parameters, record={"scalars": ["square"], "series": ["steps"]})
+
+
+def marks(folder: Path, kind: str) -> list[int]:
+    """The run indices of the ``kind`` ("start" or "done") files, one entry per file."""
+    return sorted(int(p.name.split("-")[1]) for p in (folder / "marks").glob(f"{kind}-*"))
+
+
+def stored(out: Path) -> list[str]:
+    return read_runs(out).column("run_id").to_pylist()
+
+
+def test_scheduler_and_local_cluster_give_the_same_runs(cluster: Cluster, tmp_path: Path) -> None:
+    scenario = {
+        "model": "papadopoulos1992",
+        "duration": 0.2,
+        "initial": {"q_deg": [0.0, 90.0, 180.0, -90.0], "qdot": [0.0, 0.0, 0.0, 0.0]},
+        "integrator": {"method": "RK4", "fixed_step": 0.01, "sample_period": 0.01, "output_period": 0.05},
+        "controller": {"type": "joint_pd", "kp": 20.0, "kd": 30.0, "q_ref_deg": [40.0, 60.0, 170.0, -90.0]},
+    }
+    (tmp_path / "pd.toml").write_text(tomli_w.dumps(scenario))
+    spec = campaign(
+        tmp_path,
+        scenario="pd.toml",
+        runs={"count": 2, "seed": 11},
+        parameters={"controller.kp": {"values": [10.0, 20.0]}, "initial.qdot[0]": {"distribution": "normal", "mean": 0.0, "std": 0.05}},
+        record={"scalars": ["kinetic_energy.final", "angular_momentum_change", "final_state.q[1]"], "series": ["q", "omega"]},
+    )
+    # on the cluster: the first 3 runs (--max-runs), then the rest (--resume); here: all at once on a local cluster
+    first = freefloat(spec, "--out", tmp_path / "cluster", "--scheduler", cluster.address, "--max-runs", "3")
+    there = freefloat(spec, "--out", tmp_path / "cluster", "--scheduler", cluster.address, "--resume")
+    here = freefloat(spec, "--out", tmp_path / "local", "--workers", "1")
+    assert first.returncode == there.returncode == here.returncode == 0, first.stderr + there.stderr + here.stderr
+    assert "3 ok, 0 failed, 0 already stored, of 3 selected (4 planned)" in first.stdout
+    assert "1 ok, 0 failed, 3 already stored, of 4 selected" in there.stdout and "4 ok, 0 failed" in here.stdout
+    a, b = (read_runs(tmp_path / name).drop_columns(["seconds", "worker"]) for name in ("cluster", "local"))
+    assert a.equals(b)  # same ids, parameters and numbers, bit for bit
+    assert a.column("run_id").to_pylist() == [r.run_id for r in plan_runs(load_campaign(spec))]
+    for run_id in a.column("run_id").to_pylist():
+        there_series, here_series = read_series(tmp_path / "cluster", run_id), read_series(tmp_path / "local", run_id)
+        assert set(there_series) == {"t", "q", "omega"} and there_series["q"].shape == (5, 4)
+        assert all(np.array_equal(there_series[k], here_series[k]) for k in there_series)
+    assert (tmp_path / "cluster" / "report" / "summary.md").is_file()
+
+
+def test_a_worker_killed_mid_campaign_loses_nothing(cluster: Cluster, tmp_path: Path) -> None:
+    doomed = cluster.worker("doomed")
+    spec = marked_campaign(tmp_path, 6, gated=True)
+    runner = freefloat(spec, "--out", tmp_path / "out", "--scheduler", cluster.address, wait=False)
+    wait_for(lambda: list((tmp_path / "marks").glob(f"start-*-{doomed.pid}")), "a run on the doomed worker")
+    doomed.kill()
+    doomed.wait(timeout=30)
+    (tmp_path / "marks" / "gate").touch()
+    output, errors = runner.communicate(timeout=PATIENCE)
+    assert runner.returncode == 0, errors
+    assert "6 ok, 0 failed" in output
+    assert sorted(stored(tmp_path / "out")) == sorted(r.run_id for r in plan_runs(load_campaign(spec)))
+    assert marks(tmp_path, "done") == list(range(6))  # each run computed to the end once
+    assert len(marks(tmp_path, "start")) == 7  # the killed worker's run started again elsewhere
+
+
+def test_an_interrupted_runner_resumes_without_computing_twice(cluster: Cluster, tmp_path: Path) -> None:
+    spec = marked_campaign(tmp_path, 8, gated=True)
+    out = tmp_path / "out"
+    # on a local cluster of 2 workers, Ctrl-C as a terminal sends it: to the command and its workers alike
+    runner = freefloat(spec, "--out", out, "--workers", "2", wait=False)
+    wait_for(lambda: len(marks(tmp_path, "start")) >= 2, "two runs in progress")
+    os.killpg(runner.pid, signal.SIGINT)
+    assert runner.stderr is not None
+    wait_for(lambda: "stopping: waiting for the 4 runs in progress" in runner.stderr.readline(), "the runner to stop submitting")
+    (tmp_path / "marks" / "gate").touch()  # the runs in progress finish, and are stored
+    output, _ = runner.communicate(timeout=PATIENCE)
+    assert runner.returncode == 130 and "interrupted" in output
+    first = stored(out)
+    assert len(first) == 4  # the 4 runs submitted (2 running, 2 queued), none of the others
+    resumed = freefloat(spec, "--out", out, "--scheduler", cluster.address, "--resume")  # the same campaign on the cluster
+    assert resumed.returncode == 0, resumed.stderr
+    assert f"{8 - len(first)} ok, 0 failed, {len(first)} already stored" in resumed.stdout
+    ids = stored(out)
+    assert len(ids) == len(set(ids)) == 8 and set(first) < set(ids)
+    assert marks(tmp_path, "done") == marks(tmp_path, "start") == list(range(8))
+
+
+def test_a_worker_out_of_memory_fails_its_run_only(tmp_path: Path) -> None:
+    spec = campaign(
+        tmp_path, function="campaign_runs:allocate", parameters={"mib": {"values": [64, 8192]}}, record={"scalars": ["held_mib"]}
+    )
+    done = freefloat(spec, "--out", tmp_path / "out", "--workers", "1", "--memory-limit", "700MiB")
+    assert done.returncode == 0, done.stderr
+    assert "1 ok, 1 failed" in done.stdout
+    table = read_runs(tmp_path / "out").to_pylist()
+    assert (table[0]["mib"], table[0]["held_mib"], table[0]["status"]) == (64, 64.0, "ok")
+    assert table[1]["status"] == "failed" and table[1]["reason"].startswith("KilledWorker: the worker running it died")
+    assert "| 1 | KilledWorker" in (tmp_path / "out" / "report" / "summary.md").read_text()

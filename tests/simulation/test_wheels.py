@@ -1,0 +1,337 @@
+"""Reaction wheels (``Model.wheels``, :mod:`freefloat.core.wheels`): declared, simulated, limited, used by controllers.
+
+A wheel spun up on a free-floating spacecraft turns the spacecraft the other way by the split computed by hand; the
+momentum of the whole system, wheels included, is conserved over 1000 s to the integrator's tolerance; the torque
+and speed limits act and are recorded; a spacecraft with an arm and two offset wheels agrees with MuJoCo, where each
+wheel is a body of its own on a hinge (and a 1e-7 change of a wheel's inertia fails that bound); model files, the
+builder and the side file declare them, and bad ones are refused naming the field; the controllers send the
+spacecraft torque to them; a grasp keeps the momentum of robot, wheels and target.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import freefloat as ff
+from freefloat.core.wheels import reaction_wheel
+
+# ------------------------------------------------------------------ the MuJoCo model: hub, arm, two offset wheels
+HUB_MASS, HUB_INERTIA, HUB_CM = 300.0, np.diag([40.0, 50.0, 60.0]), np.array([0.05, -0.02, 0.01])
+#: name, spin axis, position in the bus frame (m), mass (kg), Js, Jt (kg m^2)
+WHEELS = [
+    ("rw_x", np.array([1.0, 0.0, 0.0]), np.array([0.3, 0.1, 0.0]), 4.0, 0.08, 0.045),
+    ("rw_z", np.array([0.0, 0.0, 1.0]), np.array([-0.2, 0.0, 0.25]), 5.0, 0.10, 0.06),
+]
+ARM_MASS, ARM_INERTIA, ARM_CM, ARM_ORIGIN = 20.0, np.diag([0.5, 2.0, 2.0]), np.array([0.6, 0.0, 0.0]), np.array([0.8, 0.0, 0.0])
+#: freefloat against MuJoCo, both RK4 at 1 ms for 5 s with the same torques held over each step: spacecraft rate,
+#: attitude, arm angle and rate, wheel speeds. Measured 2026-11-26 (2-core dev VM): at most 1.9e-15.
+MUJOCO_BOUND = 1e-12
+
+
+def locked_spacecraft() -> tuple[float, np.ndarray, np.ndarray]:
+    """Mass, CM and inertia about it of the hub with its wheels locked (what a freefloat spacecraft body holds)."""
+    mass = HUB_MASS + sum(w[3] for w in WHEELS)
+    cm = (HUB_MASS * HUB_CM + sum(w[3] * w[2] for w in WHEELS)) / mass
+
+    def about_cm(inertia: np.ndarray, m: float, at: np.ndarray) -> np.ndarray:
+        d = at - cm
+        return inertia + m * (d @ d * np.eye(3) - np.outer(d, d))
+
+    inertia = about_cm(HUB_INERTIA, HUB_MASS, HUB_CM)
+    for _, a, p, m, js, jt in WHEELS:
+        inertia = inertia + about_cm(js * np.outer(a, a) + jt * (np.eye(3) - np.outer(a, a)), m, p)
+    return mass, cm, inertia
+
+
+def wheeled_model(js_scale: float = 1.0) -> ff.Model:
+    mass, cm, inertia = locked_spacecraft()
+    b = ff.ModelBuilder("wheeled")
+    b.add_body("bus", mass=mass, inertia=inertia, com=cm)
+    b.add_body("arm", mass=ARM_MASS, inertia=ARM_INERTIA, com=ARM_CM)
+    b.add_joint("shoulder", parent="bus", child="arm", origin=ARM_ORIGIN, axis=[0.0, 0.0, 1.0])
+    for name, a, _, _, js, _ in WHEELS:
+        b.add_wheel(name, axis=a, inertia=js * js_scale)
+    return b.build()
+
+
+def mujoco_xml(dt: float) -> str:
+    def f(v: object) -> str:
+        return " ".join(f"{x:.17g}" for x in np.ravel(np.asarray(v, dtype=float)))
+
+    wheels = "".join(
+        f'<body name="{n}" pos="{f(p)}"><inertial pos="0 0 0" mass="{m!r}" diaginertia="{f(js * a + jt * (1 - a))}"/>'
+        f'<joint name="{n}" type="hinge" axis="{f(a)}"/></body>'
+        for n, a, p, m, js, jt in WHEELS
+    )
+    return (
+        f'<mujoco><option timestep="{dt}" integrator="RK4" gravity="0 0 0"/><worldbody>'
+        f'<body name="bus"><freejoint/><inertial pos="{f(HUB_CM)}" mass="{HUB_MASS!r}" diaginertia="{f(np.diag(HUB_INERTIA))}"/>'
+        f'<body name="arm" pos="{f(ARM_ORIGIN)}"><joint name="shoulder" type="hinge" axis="0 0 1"/>'
+        f'<inertial pos="{f(ARM_CM)}" mass="{ARM_MASS!r}" diaginertia="{f(np.diag(ARM_INERTIA))}"/></body>{wheels}</body>'
+        "</worldbody></mujoco>"
+    )
+
+
+def torques(t: float) -> tuple[float, np.ndarray]:
+    return 2.0 * np.sin(0.7 * t), np.array([0.05 * np.cos(0.5 * t), -0.04])
+
+
+def mujoco_difference(model: ff.Model, duration: float = 5.0, dt: float = 1e-3) -> float:
+    """Largest difference of spacecraft rate, attitude, arm angle and rate, and wheel speeds, at 0.5 s outputs."""
+    import mujoco  # an oracle: a missing one fails the test
+
+    mj = mujoco.MjModel.from_xml_string(mujoco_xml(dt))
+    data = mujoco.MjData(mj)
+    states = []
+    for i in range(round(duration / dt)):
+        tau, u = torques(i * dt)
+        data.qfrc_applied[:] = 0.0
+        data.qfrc_applied[6], data.qfrc_applied[7:9] = tau, u  # the wheel motors act between wheel and bus
+        mujoco.mj_step(mj, data)
+        if (i + 1) % 500 == 0:
+            states.append((data.qpos.copy(), data.qvel.copy()))
+
+    def controller(t: float, state: ff.State) -> ff.Actuation:
+        tau, u = torques(t)
+        return ff.Actuation(joint_torque=[tau], wheel_torque=u)
+
+    traj = ff.simulate(model, ff.State(), duration, controller, fixed_step=dt, output_period=0.5)
+    worst = 0.0
+    for i, (qpos, qvel) in enumerate(states, start=1):
+        quat = np.r_[qpos[4:7], qpos[3]]  # MuJoCo's [w, x, y, z]
+        quat = quat if quat @ traj.attitude[i] >= 0 else -quat
+        worst = max(
+            worst,
+            np.abs(qvel[3:6] - traj.omega[i]).max(),  # a free joint's angular velocity is in the body frame, as omega0
+            np.abs(quat - traj.attitude[i]).max(),
+            abs(qpos[7] - traj.q[i, 0]),
+            abs(qvel[6] - traj.qdot[i, 0]),
+            np.abs(qvel[7:9] - traj.wheel_speed[i]).max(),  # a hinge's rate is relative to its parent: the wheel speed
+        )
+    return float(worst)
+
+
+def test_a_spacecraft_with_an_arm_and_offset_wheels_agrees_with_mujoco() -> None:
+    assert mujoco_difference(wheeled_model()) < MUJOCO_BOUND
+
+
+def test_a_1e_7_error_in_a_wheels_inertia_fails_the_mujoco_bound() -> None:
+    assert mujoco_difference(wheeled_model(js_scale=1.0 + 1e-7)) > MUJOCO_BOUND
+
+
+# ------------------------------------------------------------------ the momentum split by hand
+def test_a_wheel_spun_up_turns_the_spacecraft_the_other_way_by_the_split_computed_by_hand() -> None:
+    """A bare spacecraft (inertia I about the axis, wheels locked) and a wheel Js driven by u for T seconds from rest:
+    the rotor's own spin Js (omega + Omega) = u T and the total I omega + Js Omega = 0, so Omega = u T / (Js (1 - Js / I))
+    and omega = -Js Omega / I. RK4 integrates this (constant torque, linear in t) exactly."""
+    inertia, js, u, duration = 100.0, 0.5, 0.1, 10.0
+    b = ff.ModelBuilder("bare")
+    b.add_body("bus", mass=500.0, inertia=[80.0, 90.0, inertia])
+    b.add_wheel("rw", axis=[0.0, 0.0, 1.0], inertia=js)
+    model = b.build()
+    traj = ff.simulate(model, ff.State(), duration, lambda t, s: ff.Actuation(wheel_torque=[u]), fixed_step=0.01)
+    speed = u * duration / (js * (1.0 - js / inertia))
+    assert traj.wheel_speed[-1, 0] == pytest.approx(speed, rel=1e-12)
+    assert traj.omega[-1] == pytest.approx([0.0, 0.0, -js * speed / inertia], rel=1e-12, abs=1e-15)
+    assert np.abs(traj.angular_momentum).max() < 1e-13  # zero throughout
+    assert traj.wheel_torque[:-1, 0] == pytest.approx(u)
+
+
+# ------------------------------------------------------------------ momentum over 1000 s
+def long_run_model() -> ff.Model:
+    wheels = (
+        reaction_wheel("rw_z", axis=[0.0, 0.0, 1.0], inertia=0.5, viscous=2e-3, coulomb=1e-3),
+        reaction_wheel("rw_y", axis=[0.0, 1.0, 0.0], inertia=0.4),
+    )
+    return dataclasses.replace(ff.models.papadopoulos1992(arms=2), wheels=wheels)
+
+
+#: Relative drift of the total angular momentum (arms, spacecraft, wheels) over 1000 s of arm and wheel torques,
+#: with wheel bearing friction. Measured 2026-11-26: 1.1e-12 (DOP853, rtol = atol = 1e-12), 4.1e-8 (RK4, 0.05 s).
+DRIFT_BOUND = {"DOP853": 5e-12, "RK4": 1.5e-7}
+
+
+@pytest.mark.parametrize("integrator", ["DOP853", "RK4"])
+def test_momentum_with_wheels_is_conserved_over_1000_s(integrator: str) -> None:
+    model = long_run_model()
+
+    def controller(t: float, s: ff.State) -> ff.Actuation:
+        wheel = [0.02 * np.sin(0.01 * t), 0.01 * np.cos(0.02 * t)]
+        return ff.Actuation(joint_torque=0.3 * np.sin(0.05 * t + np.arange(4)) - 0.5 * s.qdot, wheel_torque=wheel)
+
+    state = ff.State(q=[0.3, 0.5, -0.2, 0.4], omega=[0.001, 0.002, -0.003], wheel_speed=[20.0, -10.0], v_cm=[0.01, 0.0, 0.0])
+    options = dict(fixed_step=0.05, sample_period=0.05) if integrator == "RK4" else dict(rtol=1e-12, atol=1e-12, sample_period=0.5)
+    traj = ff.simulate(model, state, 1000.0, controller, output_period=10.0, **options)
+    h = traj.angular_momentum
+    assert np.abs(h - h[0]).max() / np.linalg.norm(h[0]) < DRIFT_BOUND[integrator]
+    assert np.abs(traj.wheel_speed[-1] - traj.wheel_speed[0]).max() > 1.0  # the wheels did exchange momentum
+    assert traj.dissipated_energy[-1] > 0.0  # the bearing friction dissipates
+    locked = ff.angular_momentum(model, traj.q, traj.velocity, attitude=traj.attitude)  # without the wheels' spin
+    assert np.abs(locked - locked[0]).max() > 100 * np.abs(h - h[0]).max()
+
+
+# ------------------------------------------------------------------ limits
+def test_torque_and_speed_limits_act_and_are_recorded() -> None:
+    b = ff.ModelBuilder("limited")
+    b.add_body("bus", mass=500.0, inertia=[80.0, 90.0, 100.0])
+    b.add_wheel("rw", axis=[0.0, 0.0, 1.0], inertia=0.5, max_torque=0.2, max_speed=10.0)
+    model = b.build()
+
+    # commands 0.5 N m (above the limit) for 40 s, then -0.1 N m: the speed reaches its limit at 25 s
+    def controller(t: float, s: ff.State) -> ff.Actuation:
+        return ff.Actuation(wheel_torque=[0.5 if t < 40.0 else -0.1])
+
+    traj = ff.simulate(model, ff.State(), 60.0, controller, fixed_step=0.1, output_period=0.1)
+    applied, speed = traj.wheel_torque[:, 0], traj.wheel_speed[:, 0]
+    assert np.abs(applied).max() == pytest.approx(0.2)  # clipped to max_torque
+    early = traj.t < 20.0
+    assert traj.wheel_torque_saturated[early, 0].all() and not traj.wheel_speed_saturated[early, 0].any()
+    limited = traj.wheel_speed_saturated[:, 0]
+    assert limited.any() and (applied[limited] == 0.0).all()  # at the speed limit: no torque that would spin it faster
+    assert speed.max() <= 10.0 + 0.2 / 0.5 * 0.1 * 1.01  # beyond it by at most one sample's worth
+    late = traj.t > 40.5
+    assert (applied[late][:-1] == pytest.approx(-0.1)) and not limited[late].any()  # slowing down is allowed
+    assert traj.saturated[early].all()
+    cost = ff.control.detumble_cost(traj)
+    assert cost.wheel_saturated.tolist() == [True] and cost.peak_wheel_speed[0] == pytest.approx(speed.max())
+
+
+# ------------------------------------------------------------------ files, builder, bad input
+def test_model_files_the_builder_and_the_side_file_declare_wheels(tmp_path: Path) -> None:
+    text = Path("examples/models/papadopoulos1991.toml").read_text(encoding="utf-8")
+    (tmp_path / "m.toml").write_text(text + '\n[[wheels]]\nname = "rw1"\naxis = [0, 0, 1]\ninertia = 0.3\nmax_torque = 0.1\n')
+    model = ff.load(tmp_path / "m.toml")
+    assert [w.name for w in model.wheels] == ["rw1"] and model.wheels[0].max_torque == 0.1 and model.wheels[0].max_speed == np.inf
+    ff.save(model, tmp_path / "again.toml")
+    assert ff.load(tmp_path / "again.toml").wheels == model.wheels
+    (tmp_path / "wheels.toml").write_text('[[wheels]]\nname = "rwx"\naxis = [1, 0, 0]\ninertia = 0.2\nmax_speed = 300\n')
+    urdf = ff.load("examples/models/six_dof_arm.urdf", wheels=tmp_path / "wheels.toml")
+    assert urdf.n_wheels == 1 and urdf.wheels[0].max_speed == 300.0 and urdf.wheels[0].axis.tolist() == [1.0, 0.0, 0.0]
+    assert ff.load("papadopoulos1992", wheels=[{"name": "a", "axis": [0, 1, 0], "inertia": 0.1}]).n_wheels == 1
+    from typer.testing import CliRunner
+
+    from freefloat.cli import app
+
+    shown = CliRunner().invoke(app, ["inspect", str(tmp_path / "m.toml")])  # what freefloat inspect says of them
+    assert (
+        shown.exit_code == 0
+        and "wheel rw1           axis [0, 0, 1] (spacecraft frame), Js 0.3 kg m², max torque 0.1 N m, max speed none" in shown.stdout
+    )
+
+
+@pytest.mark.parametrize(
+    ("wheel", "message"),
+    [
+        ({"name": "a", "axis": [1, 1, 0], "inertia": 0.1}, r"wheels\[0\] \(a\)\.axis: is not a unit vector"),
+        ({"name": "a", "axis": [1, 0, 0], "inertia": -0.1}, r"wheels\[0\] \(a\)\.inertia: must be positive"),
+        ({"name": "a", "axis": [1, 0, 0], "inertia": 0.1, "max_speed": 0}, r"\.max_speed: must be positive"),
+        ({"name": "a", "axis": [1, 0, 0], "inertia": 0.1, "coulomb": float("nan")}, r"\.coulomb: must be zero or positive"),
+        ({"name": "a", "axis": [1, 0, 0]}, r"wheels\[0\]\.inertia: is missing"),
+        ({"name": "a", "axis": [1, 0, 0], "inertia": 0.1, "Js": 0.1}, r"wheels\[0\]\.Js: unknown key 'Js'"),
+        ({"name": "a", "axis": [1, 0, 0], "inertia": 1e6}, r"wheels: the wheels' spin inertias .* not smaller than the spacecraft"),
+        ({"name": "arm1_q1", "axis": [1, 0, 0], "inertia": 0.1}, r"wheels\[0\]\.name: duplicate name 'arm1_q1'"),
+    ],
+)
+def test_bad_wheels_are_refused_naming_the_field(wheel: dict, message: str) -> None:
+    with pytest.raises(ff.ModelError, match=message):
+        ff.load("papadopoulos1992", wheels=[wheel])
+
+
+def test_wheel_inputs_the_model_does_not_have_are_refused() -> None:
+    plain = ff.models.papadopoulos1992(arms=1)
+    with pytest.raises(ff.ShapeError, match=r"State\.wheel_speed: expected shape .* has no reaction wheels"):
+        ff.State(wheel_speed=[1.0]).resolve(plain)
+    with pytest.raises(ff.SimulationError, match="has no reaction wheels"):
+        ff.simulate(plain, ff.State(), 0.1, lambda t, s: ff.Actuation(wheel_torque=[0.1]), fixed_step=0.01)
+    with pytest.raises(ValueError, match=r"torque_by: 'wheels', but .* has no reaction wheels"):
+        ff.control.Detumble(plain, torque_by="wheels")
+    wheeled = wheeled_model()
+    with pytest.raises(ff.SimulationError, match=r"wheel_torque of shape \(3,\); expected \(2,\)"):
+        ff.simulate(wheeled, ff.State(), 0.1, lambda t, s: ff.Actuation(wheel_torque=[0.1, 0.2, 0.3]), fixed_step=0.01)
+    with pytest.raises(ValueError, match="reaction wheels, which rollout does not simulate yet"):
+        ff.rollout(wheeled, ff.State(q=np.zeros((2, 1))), 0.1, dt=0.01)
+    with pytest.warns(ff.NearSingularWarning, match="span 2 axes of 3"):
+        ff.control.Detumble(wheeled, torque_by="wheels")
+
+
+def test_a_trajectory_with_wheels_is_saved_and_loaded(tmp_path: Path) -> None:
+    model = wheeled_model()
+    traj = ff.simulate(model, ff.State(wheel_speed=[5.0, -3.0]), 1.0, lambda t, s: ff.Actuation(wheel_torque=[0.1, 0.0]), fixed_step=0.01)
+    for name in ("t.npz", "t.csv"):
+        back = ff.Trajectory.load(traj.save(tmp_path / name), model=model)
+        assert back.equals(traj, rtol=1e-15) and back.wheel_speed_saturated.dtype == bool
+    assert traj.state().wheel_speed.tolist() == traj.wheel_speed[-1].tolist()
+
+
+# ------------------------------------------------------------------ controllers
+def test_the_detumbling_controller_brings_the_system_to_rest_with_wheels_alone() -> None:
+    model = dataclasses.replace(
+        ff.models.papadopoulos1992(arms=1),
+        wheels=tuple(reaction_wheel(f"rw{i}", axis=np.eye(3)[i], inertia=0.5, max_torque=1.0, max_speed=200.0) for i in range(3)),
+    )
+    controller = ff.control.Detumble(model, rate_gain=0.2, torque_by="wheels", force=False)
+    state = ff.State(q=[0.5, 1.0], qdot=[0.01, -0.02], omega=[0.02, -0.01, 0.03])
+    traj = ff.simulate(model, state, 60.0, controller, fixed_step=0.01, sample_period=0.1, output_period=0.1)
+    cost = ff.control.detumble_cost(traj, rest_velocity=None)
+    assert cost.time_to_rest is not None and cost.final_rates[1] < 1e-6 and cost.final_rates[2] < 1e-6
+    assert cost.thruster_impulse == 0.0 and cost.torque_impulse == 0.0  # no thruster: the wheels took the momentum
+    h_wheels = ff.mechanics.momentum.wheel_momentum(model, traj.wheel_speed[-1])
+    h0 = traj.angular_momentum[0]
+    assert np.linalg.norm(h_wheels) == pytest.approx(np.linalg.norm(h0), rel=1e-5)  # all of it, at rest
+    assert cost.peak_wheel_momentum.max() > 0.0 and cost.peak_wheel_torque.max() <= 1.0
+
+
+def test_the_1991_controllers_send_the_spacecraft_torque_to_the_wheels() -> None:
+    model = dataclasses.replace(
+        ff.models.papadopoulos1992(arms=1),
+        wheels=tuple(reaction_wheel(f"rw{i}", axis=np.eye(3)[i], inertia=0.5) for i in range(3)),
+    )
+    task = ff.control.TaskSpace.create(model, end_effectors=[])  # the spacecraft's position and attitude
+    state = ff.State(q=[0.5, 1.0], omega=[0.01, 0.02, -0.01], wheel_speed=[3.0, -2.0, 1.0]).resolve(model)
+    desired = task.evaluate(state)[0] + 0.05
+    by = {}
+    for torque_by in ("thrusters", "wheels"):
+        controller = ff.control.TransposedJacobianController(model, task, desired, kp=5.0, kd=20.0, torque_by=torque_by, force_by="none")
+        by[torque_by] = controller(0.0, state)
+    wanted = by["thrusters"].spacecraft_torque
+    wheel = by["wheels"].wheel_torque
+    axes = np.eye(3)
+    gyroscopic = np.cross(state.omega, 0.5 * state.wheel_speed)
+    assert -axes @ wheel == pytest.approx(wanted + gyroscopic, rel=1e-12)  # the reaction gives the torque, spin compensated
+    assert np.all(by["wheels"].spacecraft_torque == 0.0) and np.all(by["wheels"].spacecraft_force == 0.0)
+
+
+# ------------------------------------------------------------------ a grasp with spinning wheels
+@pytest.mark.parametrize("joints", ["free", "locked"])
+def test_a_grasp_keeps_the_momentum_of_robot_wheels_and_target(joints: str) -> None:
+    model = dataclasses.replace(ff.models.papadopoulos1992(arms=1), wheels=(reaction_wheel("rw", axis=[0.0, 0.6, 0.8], inertia=2.0),))
+    state = ff.State(q=[0.5, 1.0], qdot=[0.01, 0.0], omega=[0.0, 0.002, 0.01], wheel_speed=[30.0]).resolve(model)
+    tip = ff.end_effector_positions(model, state.q)[0]
+    target = ff.capture.Target(
+        mass=100.0,
+        inertia=[8.0, 10.0, 12.0],
+        position=tip + np.array([0.1, 0.05, 0.0]),
+        velocity=[0.0, 0.05, 0.01],
+        angular_velocity=[0.01, 0.0, 0.05],
+    )
+    result = ff.capture.impact(model, state, target, joints=joints)
+
+    def robot_momentum(m: ff.Model, s: ff.State) -> np.ndarray:
+        return ff.angular_momentum(m, s.q, s.velocity, attitude=s.attitude, wheel_speed=s.wheel_speed) + np.cross(
+            s.r_cm, m.total_mass * s.v_cm
+        )
+
+    before = robot_momentum(model, state) + target.momentum[3:] + np.cross(target.position, target.momentum[:3])
+    after = robot_momentum(result.model, result.state.resolve(result.model))
+    assert np.abs(after - before).max() < 1e-12 * np.abs(before).max()
+    spin = np.array([state.omega, result.state.omega]) @ model.wheels[0].axis  # a . omega before, after
+    if joints == "free":  # no motor impulse: each rotor keeps its own spin, its speed relative to the bus changes
+        assert result.wheel_impulse[0] == 0.0
+        assert result.state.wheel_speed[0] + spin[1] == pytest.approx(state.wheel_speed[0] + spin[0], rel=1e-14)
+    else:  # the motors hold the relative speed
+        assert result.state.wheel_speed[0] == state.wheel_speed[0] and result.wheel_impulse[0] != 0.0
+    assert result.model.wheels == model.wheels
