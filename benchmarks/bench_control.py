@@ -14,7 +14,8 @@
   the same controller called from Python every step (``simulate(..., lambda t, s: controller(t, s))``) and against
   MuJoCo with that Python controller (as ``steps``); ``rollouts``: 1024 trajectories of §V with the operational-space
   controller (per-trajectory set points) compiled (``rollout(..., controller=controller)``), against the same controller
-  in Python over a ``mujoco.rollout``-style loop: the whole batch's controls computed in Python each step, then the
+  in Python (called on one state or on the batch, it runs its numpy form, row by row) over a ``mujoco.rollout``-style
+  loop: the whole batch's controls computed in Python each step, then the
   batch stepped by compiled code (freefloat's batched RK4 step; MuJoCo's own batch stepper would need a Python
   conversion of each of the 1024 states per step, which would measure the conversion). Both with the largest
   difference of the recorded states between the compiled and the Python loop.

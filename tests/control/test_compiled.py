@@ -1,8 +1,9 @@
 """The built-in controllers inside the compiled loops equal their Python versions step for step (issue 23).
 
-``ff.simulate`` / ``ff.rollout`` run a built-in controller (its ``compiled_law``) inside the compiled RK4 loop; wrapped
-in a plain function the same controller runs from Python every sample. Both must record the same states and actuation
-to 1e-12 at every step, with limits, sample-and-hold, per-trajectory gains, set points and payload models; a gain moved
+``ff.simulate`` / ``ff.rollout`` run a built-in controller (its ``compiled_law``: the numba kernel of
+mechanics/_laws.py) inside the compiled RK4 loop; wrapped in a plain function the same controller runs from Python
+every sample, on one state in its numpy form (controllers.py, detumble.py: the readable reference of the law), on a
+batch of states through the compiled kernel. Both must record the same states and actuation to 1e-12 at every step, with limits, sample-and-hold, per-trajectory gains, set points and payload models; a gain moved
 by 1e-7 must break that bound (the comparison can fail). Small models and a few dozen steps: the kernels are compiled
 once per machine (mechanics/_numba_cache.py).
 """
@@ -91,8 +92,9 @@ def test_spatial_tasks_equal_the_python_loop(orientation: str) -> None:
 
 def test_rollouts_with_per_trajectory_parameters_equal_python(section5: Any) -> None:
     """A rollout of 4 with per-trajectory gains (B, d) and set points (B, size): the compiled loop equals the Python
-    loop over the batch (the controller's __call__ takes the batch, row b its parameters) at every step; and a gain
-    moved by 1e-7 breaks the bound."""
+    loop over the batch (the controller's __call__ takes the batch, row b its parameters) at every step, and row b
+    equals a single simulation with the numpy form of the law and the parameters of b; a gain moved by 1e-7 breaks the
+    bound."""
     model, task, state, target = section5
     batch = 4
     states = ff.State(q=np.tile(state.q, (batch, 1)) + np.linspace(0, 0.1, batch)[:, None], attitude=np.tile(state.attitude, (batch, 1)))
@@ -107,6 +109,11 @@ def test_rollouts_with_per_trajectory_parameters_equal_python(section5: Any) -> 
         assert gap(fast, slow) <= BOUND
         moved = law(model, task, targets, kp * (1.0 + 1e-7), 60.0)
         assert gap(ff.rollout(model, states, 0.2, dt=DT, controller=moved, sample_period=2 * DT), slow) > BOUND
+        for b in (0, batch - 1):  # row b against the numpy form of the law with the parameters of b, one simulation
+            own = law(model, task, targets[b], kp[b], 60.0)
+            start = ff.State(q=states.q[b], attitude=states.attitude[b])
+            single = ff.simulate(model, start, 0.2, python(own), fixed_step=DT, output_period=DT, sample_period=2 * DT)
+            assert gap(fast, single, b) <= BOUND
     assert np.ptp(fast.q[-1, :, 0]) > 1e-3  # the trajectories differ: each took its own parameters
 
 

@@ -9,19 +9,19 @@ leading axis of B: gains (B, d) or (B, d, d), set points (B, size), models (a se
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
-from ..core.errors import ShapeError
+from ..core.errors import NearSingularWarning, ShapeError
 from ..core.model import Model
-from ..core.state import State, pack_state
-from ..mechanics import _engine
+from ..core.state import Actuation, State, pack_state, unpack_state
 from ..mechanics._laws import DETUMBLE, OPERATIONAL_SPACE, PROFILES, TRANSPOSED_JACOBIAN, actuator_bounds, make_law, same_structure
 from ..mechanics._tree import tree
 
-__all__ = ["batch_of", "detumble_law", "evaluate", "gains", "models_of", "task_law"]
+__all__ = ["batch_call", "batch_of", "desired_row", "detumble_law", "gains", "models_of", "task_law"]
 
 LAW_CODES = {"transposed": TRANSPOSED_JACOBIAN, "operational": OPERATIONAL_SPACE}
 
@@ -171,11 +171,43 @@ def _law(models: Sequence[Model], floats: np.ndarray, batch: int | None, **given
     return make_law(np.array(tree(models[0]).ints, dtype=np.int64), floats, lowest=np.ones(batch or 1), **given)
 
 
-def evaluate(law: Any, model: Model, t: float, state: State) -> tuple[np.ndarray, ...]:
-    """The law at time t and a resolved state (one, or a batch (B, ...) whose row b takes the law's row b):
-    (u (..., N + 6) with the controller's own limits, e, edot, Q_c, sigma ratio), each with the state's batch shape."""
+def desired_row(desired: Any, b: int) -> Any:
+    """The desired motion of trajectory b: row b of a per-trajectory set point (B, size), else ``desired`` itself."""
+    from .desired import SetPoint
+
+    if isinstance(desired, SetPoint) and np.ndim(desired.z) == 2:
+        return SetPoint(np.asarray(desired.z, dtype=float)[b])
+    return desired
+
+
+def batch_call(controller: Any, t: float, state: State) -> Actuation:
+    """A built-in controller on a batch of B resolved states (..., one batch axis): row b by ``controller.row(b)`` (its
+    per-trajectory parameters' row b) in numpy, one state at a time; the outputs and extras stacked (B, ...). The
+    near-singular warning comes once for the batch, from ``controller``."""
     x = pack_state(state)
-    batch = x.shape[:-1]
-    flat = x.reshape(-1, x.shape[-1])
-    out = _engine.control_law(model, law, np.full(flat.shape[0], float(t)), flat)
-    return tuple(a.reshape((*batch, *a.shape[1:])) for a in out)
+    if x.ndim != 2:
+        raise ShapeError(f"state: expected one state or a batch with one leading axis (B, ...), got a batch of shape {x.shape[:-1]}")
+    count = x.shape[0]
+    for name, rows in controller.parameter_rows().items():
+        batch_of(name, rows, count)
+    acts = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NearSingularWarning)
+        for b in range(count):
+            acts.append(controller.row(b)(t, unpack_state(controller.model, x[b])))
+    extras: dict[str, Any] = {}
+    for key in acts[0].extras:
+        try:
+            extras[key] = np.stack([np.asarray(a.extras[key]) for a in acts])
+        except ValueError:  # entries of different shapes: kept per row
+            extras[key] = [a.extras[key] for a in acts]
+    if "sigma_ratio" in extras and hasattr(controller, "_warn_singular"):
+        controller._warn_singular(extras["sigma_ratio"])
+    wheel = None if acts[0].wheel_torque is None else np.stack([a.wheel_torque for a in acts])
+    return Actuation(
+        joint_torque=np.stack([a.joint_torque for a in acts]),
+        spacecraft_force=np.stack([a.spacecraft_force for a in acts]),
+        spacecraft_torque=np.stack([a.spacecraft_torque for a in acts]),
+        wheel_torque=wheel,
+        extras=extras,
+    )

@@ -42,11 +42,14 @@ force (1991 §II: wheels for the attitude, thrusters or nothing for the CM).
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import warnings
 from typing import Any
 
 import numpy as np
 
+from ..core.conventions import attitude_matrix
 from ..core.errors import NearSingularWarning, ShapeError
 from ..core.model import Model
 from ..core.state import Actuation, ActuatorLimits, State
@@ -54,7 +57,8 @@ from ..mechanics.dynamics import nonlinear_forces
 from ..mechanics.forces import _actuation_0
 from ..mechanics.momentum import system_inertia_matrix
 from . import _compiled
-from .desired import DesiredPoint, SetPoint, StraightLine, as_desired
+from ._compiled import batch_call
+from .desired import DesiredPoint, as_desired
 from .tasks import TaskSpace
 from .wheels import check_actuators, route_actuation
 
@@ -226,36 +230,56 @@ class _TaskController:
         self._near_singular = False
         self._warn_singular(law.lowest)
 
+    def parameter_rows(self) -> dict[str, int]:
+        """The number of rows of each parameter that may have one per trajectory (1: shared)."""
+        desired = [len(z) if np.ndim(z) == 2 else 1 for z in getattr(self.desired, "targets", list)()]
+        return {"kp": self.kp_rows.shape[0], "kd": self.kd_rows.shape[0], "model": len(self.models), "desired": max(desired, default=1)}
+
+    @property
+    def per_trajectory(self) -> bool:
+        """Whether a parameter has one row per trajectory (gains, set points, models): then it runs on a batch of states."""
+        return max(self.parameter_rows().values()) > 1
+
     def __call__(self, t: float, state: State) -> Actuation:
         """The actuation at time t (1991 eq. 30): thruster force and torque (spacecraft frame), joint torques.
 
-        ``state`` may hold a batch of B states (a rollout): row b takes the per-trajectory parameters' row b."""
+        The numpy form of the law (``_generalized_force``, then :func:`actuation_of`): the readable reference that the
+        compiled kernel of :mod:`freefloat.mechanics._laws` (run inside the compiled loops) is checked against,
+        tests/control/test_compiled.py. ``state`` may hold a batch of B states (a rollout): row b is computed with the
+        per-trajectory parameters' row b, one state at a time."""
         state = state.resolve(self.model)
-        q_c, u, extras = self._law(float(t), state)
-        n = self.model.n_joints
-        extras.update(generalized_force=q_c, joint_torque=u[..., :n], spacecraft_force=u[..., n : n + 3], spacecraft_torque=u[..., n + 3 :])
-        tau, force, torque = u[..., :n], u[..., n : n + 3], u[..., n + 3 :]
-        force, torque, wheel = route_actuation(self.model, state, force, torque, self.actuators, extras)
-        if self.limits is not None:
-            tau, force, torque, saturated = self.limits.apply(tau, force, torque)
-            extras["saturated"] = bool(saturated) if np.ndim(saturated) == 0 else saturated
-        return Actuation(joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque, wheel_torque=wheel, extras=extras)
+        if np.ndim(state.q) == 1:
+            if self.per_trajectory:
+                raise ShapeError(
+                    "state: one state, but the controller has per-trajectory parameters (gains, set points or models with a "
+                    "row per trajectory); give a batch of states, one per row, or run it in freefloat.rollout"
+                )
+            q_c, extras = self._generalized_force(float(t), state)
+            return actuation_of(self.model, state, q_c, self.limits, extras, self.actuators)
+        return batch_call(self, float(t), state)
 
     def generalized_force(self, t: float, state: State) -> np.ndarray:
-        """Q_c (6 + N) in the zdot0 coordinates (first block inertial)."""
-        return self._law(float(t), state.resolve(self.model))[0]
+        """Q_c (6 + N) in the zdot0 coordinates (first block inertial); (B, 6 + N) for a batch of states."""
+        return np.asarray(self(t, state).extras["generalized_force"])
 
-    def _law(self, t: float, state: State) -> tuple[np.ndarray, np.ndarray, dict[str, Any]]:
-        """(Q_c, u = [τ, f_S, n_S] before the limits, extras) of the compiled law at (t, a resolved state)."""
-        shape = np.shape(state.q)
-        batch = None if len(shape) == 1 else int(np.prod(shape[:-1]))
-        compiled = isinstance(self.desired, (SetPoint, StraightLine))
-        law = self.compiled_law(batch, None if compiled else self.desired_point(t))
-        if law is None:  # a straight line given without its task on a task with orientations: evaluated here
-            law = self.compiled_law(batch, self.desired_point(t))
-        u, e, edot, q_c, ratio = _compiled.evaluate(law, self.model, t, state)
-        self._warn_singular(ratio)
-        return q_c, u, {"error": e, "error_rate": edot, "sigma_ratio": float(ratio) if ratio.ndim == 0 else ratio}
+    def row(self, b: int) -> _TaskController:
+        """The controller of trajectory b: its row of every per-trajectory parameter (gains, set point, model)."""
+        one = copy.copy(self)
+        model = self.models[b if len(self.models) > 1 else 0]
+        one.models, one.model = (model,), model
+        one.task = self.task if model is self.task.model else dataclasses.replace(self.task, model=model)
+        one.kp_rows, one.kd_rows = (r[b if r.shape[0] > 1 else 0][None] for r in (self.kp_rows, self.kd_rows))
+        one.kp, one.kd = one.kp_rows[0], one.kd_rows[0]
+        one.desired = _compiled.desired_row(self.desired, b)
+        return one
+
+    def _check_singular(self, jac: np.ndarray) -> float:
+        ratio = _closeness(jac)
+        self._warn_singular(np.asarray(ratio))
+        return ratio
+
+    def _generalized_force(self, t: float, state: State) -> tuple[np.ndarray, dict[str, Any]]:
+        raise NotImplementedError
 
 
 class TransposedJacobianController(_TaskController):
@@ -269,6 +293,19 @@ class TransposedJacobianController(_TaskController):
     """
 
     law = "transposed-Jacobian controller (1991 eq. 29)"
+
+    def _generalized_force(self, t: float, state: State) -> tuple[np.ndarray, dict[str, Any]]:
+        des = self.desired_point(t)
+        z, jac, zdot, _ = self.task.evaluate(state)
+        e = self.task.error(des.z, z)
+        edot = des.zdot - zdot
+        q_c = jac.T @ (self.kp @ e + self.kd @ edot)
+        ratio = self._check_singular(jac)
+        if self.null_space_damping > 0.0:
+            velocity = np.asarray(state.velocity)
+            pinv = np.linalg.pinv(jac, rcond=self.singular_tolerance)
+            q_c -= self.null_space_damping * (velocity - pinv @ (jac @ velocity))
+        return q_c, {"error": e, "error_rate": edot, "sigma_ratio": ratio, "_t0": attitude_matrix(state.attitude)}
 
 
 class OperationalSpaceController(_TaskController):
@@ -301,3 +338,19 @@ class OperationalSpaceController(_TaskController):
         j_bar = h_inv_jt @ h_tilde
         c_tilde = j_bar.T @ c_plus - h_tilde @ bias
         return h_tilde, c_tilde, j_bar
+
+    def _generalized_force(self, t: float, state: State) -> tuple[np.ndarray, dict[str, Any]]:
+        des = self.desired_point(t)
+        z, jac, zdot, bias = self.task.evaluate(state, bias=True)
+        assert bias is not None
+        e = self.task.error(des.z, z)
+        edot = des.zdot - zdot
+        ratio = self._check_singular(jac)
+        h_tilde, c_tilde, j_bar = self._task_dynamics(state, jac, bias, ratio)
+        command = self.kp @ e + self.kd @ edot + des.zddot
+        q_c = jac.T @ (h_tilde @ command + c_tilde)
+        if self.null_space_damping > 0.0:
+            velocity = np.asarray(state.velocity)
+            q_c -= self.null_space_damping * (velocity - jac.T @ (j_bar.T @ velocity))
+        extras = {"error": e, "error_rate": edot, "sigma_ratio": ratio, "_t0": attitude_matrix(state.attitude)}
+        return q_c, extras

@@ -19,6 +19,7 @@ Reaction wheels are not modelled yet, so no wheel momentum or speed is reported.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 from typing import Any
 
@@ -29,9 +30,12 @@ from ..core.conventions import attitude_matrix
 from ..core.errors import ShapeError
 from ..core.model import Model
 from ..core.state import Actuation, State
-from ..mechanics.momentum import wheel_spin_momentum
+from ..mechanics.dynamics import nonlinear_forces
+from ..mechanics.momentum import system_inertia_matrix, wheel_spin_momentum
 from . import _compiled
-from .wheels import check_actuators, route_actuation
+from ._compiled import batch_call
+from .controllers import actuation_of
+from .wheels import check_actuators
 
 __all__ = ["STANDARD_GRAVITY", "Detumble", "DetumbleCost", "detumble_cost"]
 
@@ -125,18 +129,38 @@ class Detumble:
             acc[0:3] = 0.0
         return acc
 
+    def parameter_rows(self) -> dict[str, int]:
+        """The number of rows of each parameter that may have one per trajectory (1: shared)."""
+        return {"rate_gain": self.rate_gain_rows.shape[0], "model": len(self.models)}
+
+    def row(self, b: int) -> Detumble:
+        """The controller of trajectory b: its row of the rate gains and its model."""
+        one = copy.copy(self)
+        one.model = self.models[b if len(self.models) > 1 else 0]
+        one.models = (one.model,)
+        one.rate_gain_rows = self.rate_gain_rows[b if self.rate_gain_rows.shape[0] > 1 else 0][None].copy()
+        one.rate_gain = one.rate_gain_rows[0]
+        return one
+
     def __call__(self, t: float, state: State) -> Actuation:
-        """Thruster force and torque (spacecraft frame) and joint torques: Q_c = H+ zddot0,des + C+, then eq. 30 (the
-        compiled law of :mod:`freefloat.mechanics._laws`). ``state`` may hold a batch of B states (a rollout)."""
+        """Thruster force and torque (spacecraft frame) and joint torques: Q_c = H+ zddot0,des + C+, then eq. 30, in numpy
+        (the readable reference that the compiled kernel of :mod:`freefloat.mechanics._laws`, run inside the compiled
+        loops, is checked against). ``state`` may hold a batch of B states (a rollout): row b with its rate gains and
+        model."""
         state = state.resolve(self.model)
-        shape = np.shape(state.q)
-        law = self.compiled_law(None if len(shape) == 1 else int(np.prod(shape[:-1])))
-        u, _, _, q_c, _ = _compiled.evaluate(law, self.model, float(t), state)
-        n = self.model.n_joints
-        tau, force, torque = u[..., :n], u[..., n : n + 3], u[..., n + 3 :]
-        extras = {"generalized_force": q_c, "joint_torque": tau, "spacecraft_force": force, "spacecraft_torque": torque}
-        force, torque, wheel = route_actuation(self.model, state, force, torque, self.actuators, extras)
-        return Actuation(joint_torque=tau, spacecraft_force=force, spacecraft_torque=torque, wheel_torque=wheel, extras=extras)
+        if np.ndim(state.q) != 1:
+            return batch_call(self, float(t), state)
+        if max(self.parameter_rows().values()) > 1:
+            raise ShapeError(
+                "state: one state, but the controller has per-trajectory rate gains or models; give a batch of states, one "
+                "per row, or run it in freefloat.rollout"
+            )
+        acc = self.desired_acceleration(state)
+        q_c = system_inertia_matrix(self.model, state.q) @ acc + nonlinear_forces(self.model, state.q, state.velocity)
+        if not self.force:
+            q_c[0:3] = 0.0  # C+ has no r_cm rows: the CM is left alone
+        extras: dict[str, Any] = {"desired_acceleration": acc, "_t0": attitude_matrix(state.attitude)}
+        return actuation_of(self.model, state, q_c, None, extras, self.actuators)
 
 
 @dataclass(frozen=True)

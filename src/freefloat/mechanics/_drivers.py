@@ -38,7 +38,7 @@ from ._configuration import (
     state_derivative_one,
 )
 from ._lanes import LANES, rollout_loop
-from ._laws import Law, law_control, law_one
+from ._laws import Law, law_control
 from ._numba_cache import bind, kernel, unowned_floats, unowned_ints
 from ._recursions import kinematics, scratch
 from ._tree import Tree, arrays, buffer_lengths, work_size
@@ -54,7 +54,6 @@ __all__ = [
     "hplus_rate_batch",
     "inverse_batch",
     "jstar_batch",
-    "law_batch",
     "law_rollout_batch",
     "measure_batch",
     "point_bias_batch",
@@ -323,28 +322,26 @@ def _law_rollout_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cove
     _law_rollout_blocks((plant, ext_i, EXT[b], s), 1, b, b + 1, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, s.rows)
 
 
-@kernel(inline="always")
-def _law_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
-    """a = (L, T (C,), X (C, S), U (C, N + 6), E (C, d), ED (C, d), QC (C, 6 + N), RATIO (C,)): the control law L at
-    time T[i] and state X[i] (its per-trajectory parameters' row i): u, e, ė, Q_c, σ_min/σ_max of J_z."""
-    L, T, X, U, E, ED, QC, RATIO = a
-    RATIO[i] = law_one(L, i, T[i], X[i], s, U[i], E[i], ED[i], QC[i])
-
-
 def _rollout_parallel(size: int, ints: np.ndarray, floats: np.ndarray, WORK: np.ndarray, *a: Any) -> None:  # pragma: no cover
-    """The parallel rollout with a law: one trajectory per task on numba's threads (:func:`_rollout_task`). numba's threads take
-    no tuple of arrays, so the controller C = ((kp, kd, qref, vref, ff), law) arrives as its arrays, flat
-    (:meth:`RolloutBatched.__call__`), and each task makes it again."""
+    """The parallel rollout with a law: one trajectory per task on numba's threads (:func:`_rollout_task`). numba's threads
+    take no tuple of arrays, so the controller C = ((kp, kd, qref, vref, ff), law) arrives as its arrays, flat
+    (:meth:`RolloutBatched.__call__`), and each task makes it again, in a kernel of its own: built in the ``prange`` body,
+    the law's writes (its ``lowest``) through the inlined loop are lost (numba 0.68)."""
     for b in prange(size):
-        _rollout_task(b, ints, floats, WORK[_thread()], *a)
+        _rollout_task(np.int64(b), ints, floats, WORK[_thread()], *a)  # type: ignore[arg-type]  # prange's index is unsigned
 
 
 def _rollout_task(b: int, ints: np.ndarray, floats: np.ndarray, work: np.ndarray, *a: Any) -> None:  # pragma: no cover
     """Trajectory b of the parallel rollout with a law: the controller's tuples made from the flat arguments (:data:`ROLLOUT_FLAT`
-    of them after X0, dt, steps, hold, stride), then the serial rollout kernel."""
+    of them after X0, dt, steps, hold, stride), then the loop of :func:`_law_rollout_row`, inlined here (a serial kernel
+    called from here would be compiled, then linked and optimized again inside this one)."""
     pd = (a[5], a[6], a[7], a[8], a[9])
-    law = Law(a[10], a[11], a[12], a[13], a[14], a[15], a[16], a[17], a[18], a[19], a[20], a[21], a[22], a[23], a[24], a[25], a[26], a[27])  # type: ignore[call-arg]
-    LAW_ROLLOUT_SERIAL(b, b + 1, ints, floats, work, a[0], a[1], a[2], a[3], a[4], (pd, law), *a[28:])  # type: ignore[name-defined]  # noqa: F821
+    law = Law(  # type: ignore[call-arg]
+        a[10], a[11], a[12], a[13], a[14], a[15], a[16], a[17], a[18], a[19], a[20], a[21], a[22], a[23], a[24], a[25], a[26], a[27]
+    )
+    m = arrays(ints, floats)
+    s = scratch(work, m.parent.shape[0], m.ee_body.shape[0], m.n_joints)
+    _law_rollout_row(b, m, s, (a[0], a[1], a[2], a[3], a[4], (pd, law), *a[28:]))
 
 
 #: The arrays of a rollout's controller: the joint PD's five, then the fields of a control law.
@@ -373,11 +370,10 @@ inverse_batch = driver("inverse", _inverse_row)
 forward_batch = driver("forward", _forward_row)
 derivative_batch = driver("derivative", _derivative_row)
 rollout_batch = driver("rollout", _rollout_row, block=1, parallel_min=2)  # one trajectory is long work: threads pay from two
-_law_rollout_serial = kernel()(bind(_serial_template, "law_rollout_serial", ROW=_law_rollout_row))
-_rollout_task_kernel = kernel()(bind(_rollout_task, "law_rollout_task", LAW_ROLLOUT_SERIAL=_law_rollout_serial))
+# A rollout with a law runs on the threaded kernel from one trajectory on (a single compiled simulation too: one call
+# per run, so the threads' start costs once); the serial one only where numba has one thread.
 law_rollout_batch = RolloutBatched(
-    _law_rollout_serial,
-    kernel(parallel=True)(bind(_rollout_parallel, "law_rollout_parallel", _rollout_task=_rollout_task_kernel)),
-    parallel_min=2,
+    kernel()(bind(_serial_template, "law_rollout_serial", ROW=_law_rollout_row)),
+    kernel(parallel=True)(bind(_rollout_parallel, "law_rollout_parallel", _rollout_task=kernel()(bind(_rollout_task, "law_rollout_task")))),
+    parallel_min=1,
 )
-law_batch = driver("law", _law_row, parallel_min=2**62)  # serial: numba's threads take no tuple of arrays (the law)

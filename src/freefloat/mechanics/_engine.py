@@ -27,7 +27,6 @@ __all__ = [
     "NO_WRENCHES",
     "Stepper",
     "accelerations",
-    "control_law",
     "frames",
     "generalized_jacobian",
     "inertia_matrix",
@@ -469,20 +468,6 @@ def rollout(
     if k >= _SPECIALISED_ROLLOUTS_MIN and _drivers.rollout_batch.compiled:  # work they would take
         _specialise.account(t, "rollout", time.perf_counter() - start, wrenches)
     return xs, us, sat, done
-
-
-def control_law(model: Any, law: Any, t: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, ...]:
-    """The control law ``law`` (a :data:`~._laws.Law`; its per-trajectory rows are the rows of x) at the times t (C,)
-    and flat states x (C, S) of ``model`` (its structure: the law's model): (u (C, N + 6) = [tau, f_S, n_S] with the
-    controller's limits, e (C, d), edot (C, d), Q_c (C, 6 + N), sigma_min/sigma_max of J_z (C,))."""
-    t_ = tree(model)
-    n = t_.n_joints
-    size = x.shape[0]
-    dim = law.kp.shape[1]
-    u, e, edot = new_output((size, n + 6)), new_output((size, dim)), new_output((size, dim))
-    qc, ratio = new_output((size, 6 + n)), new_output((size,))
-    _drivers.law_batch(size, t_, law, _own(t), _own(x), u, e, edot, qc, ratio)
-    return u, e, edot, qc, ratio
 
 
 def law_rollout(

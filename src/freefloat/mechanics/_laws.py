@@ -470,7 +470,12 @@ def law_one(
     ratio = 1.0
     dim = e.shape[0]
     jq = np.empty((6, cols))  # J+ of the spacecraft CM: the top rows of J_q (eq. 21)
-    if code == DETUMBLE:
+    # the task (none for the detumbling: J_q only); one call site, so that task_one is compiled once, for one signature
+    tasked = code != DETUMBLE
+    size, rows = (L.start.shape[1], dim) if tasked else (0, 0)
+    z, jac, bias = np.empty(size), np.empty((rows, cols)), np.empty(rows)
+    task_one(L, L.items.shape[0] if tasked else 0, m, s, x, t0, code == OPERATIONAL_SPACE, z, jac, bias, jq)
+    if not tasked:
         acc = np.empty(cols)
         k_row = _row(L.rate_gain, b)
         for i in range(cols):
@@ -493,7 +498,6 @@ def law_one(
                 acc[i] = 0.0
         h = np.empty((cols, cols))
         dynamics_one(q, vel, t0, m, s, h, qc)  # H+, and C+ into Q_c
-        task_one(L, 0, m, s, x, t0, False, np.empty(0), np.empty((0, cols)), np.empty(0), jq)  # J_q only
         for i in range(cols):
             total = 0.0
             for j in range(cols):
@@ -503,11 +507,8 @@ def law_one(
             for i in range(3):
                 qc[i] = 0.0  # C+ has no r_cm rows: the CM is left alone
     else:
-        size = L.start.shape[1]
         zd, zdd, zddd = np.empty(size), np.empty(dim), np.empty(dim)
         desired_one(L, b, t, zd, zdd, zddd)
-        z, jac, bias = np.empty(size), np.empty((dim, cols)), np.empty(dim)
-        task_one(L, L.items.shape[0], m, s, x, t0, code == OPERATIONAL_SPACE, z, jac, bias, jq)
         task_error(L, zd, z, e)
         for i in range(dim):
             total = 0.0
