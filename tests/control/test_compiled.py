@@ -2,10 +2,10 @@
 
 ``ff.simulate`` / ``ff.rollout`` run a built-in controller (its ``compiled_law``: the numba kernel of
 mechanics/_laws.py) inside the compiled RK4 loop; wrapped in a plain function the same controller runs from Python
-every sample, on one state in its numpy form (controllers.py, detumble.py: the readable reference of the law), on a
-batch of states through the compiled kernel. Both must record the same states and actuation to 1e-12 at every step, with limits, sample-and-hold, per-trajectory gains, set points and payload models; a gain moved
-by 1e-7 must break that bound (the comparison can fail). Small models and a few dozen steps: the kernels are compiled
-once per machine (mechanics/_numba_cache.py).
+every sample in its numpy form (controllers.py, detumble.py: the readable reference of the law; on a batch of states,
+row by row). Both must record the same states and actuation to 1e-12 at every step, with limits, sample-and-hold,
+per-trajectory gains, set points and payload models; a gain moved by 1e-7 must break that bound (the comparison can
+fail). Small models and a few dozen steps: the kernels are compiled once per machine (mechanics/_numba_cache.py).
 """
 
 from __future__ import annotations

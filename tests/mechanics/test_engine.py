@@ -338,6 +338,8 @@ def test_scratch_buffers_are_always_kernel_arguments() -> None:
                     assert ok, f"{name}::{func.name}: {ast.unparse(call)}"
     assert sorted(sites) == [
         "_drivers.py::_law_rollout_row::arrays",  # the plant's mass properties per trajectory
+        "_drivers.py::_rollout_task::arrays",  # a trajectory of the threaded rollout with a law
+        "_drivers.py::_rollout_task::scratch",
         "_drivers.py::_serial_template::arrays",
         "_drivers.py::_serial_template::scratch",
         "_drivers.py::unpack::arrays",

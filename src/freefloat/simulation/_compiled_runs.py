@@ -9,7 +9,7 @@ Python loop (the same law, the same RK4 step, the same samples, limits and recor
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -19,7 +19,7 @@ from ..core.model import Model
 from ..core.state import ActuatorLimits
 from ..mechanics._laws import same_structure
 from ..mechanics._tree import tree
-from ._guard import Progress
+from ._guard import PROGRESS_DELAY, Progress, _derivative_cost
 from ._integrate import _trajectory
 from .pd import JointPD
 from .trajectory import Trajectory
@@ -28,6 +28,20 @@ __all__ = ["PER_TRAJECTORY", "after_run", "compiled_simulation", "law_of", "law_
 
 #: The fields of a control law with a row per trajectory (1 row: shared).
 PER_TRAJECTORY = ("floats", "kp", "kd", "start", "goal", "zdot", "zddot", "rate_gain", "attitude", "attitude_gain", "lowest")
+
+
+#: Seconds of one sample of a compiled control law (measured 10-20 µs for the §V OSC): a run's estimate.
+LAW_SAMPLE_COST = 2e-5
+PASSIVE = ("model", "ignore")
+
+
+def passive_model(model: Model, passive: Any) -> Model:
+    """The model a run simulates: ``model``, or without its joints' damping and friction for ``passive="ignore"``."""
+    if not isinstance(model, Model):
+        raise TypeError(f"model: expected a freefloat.Model, got {type(model).__name__}")
+    if not isinstance(passive, str) or passive not in PASSIVE:
+        raise ValueError(f"passive: {passive!r} is not one of {', '.join(map(repr, PASSIVE))} (the joints' damping and friction)")
+    return model if passive == "model" else model.without_passive()
 
 
 def law_of(controller: Any, batch: int | None) -> Any:
@@ -62,8 +76,6 @@ def plant_models(model: Any, passive: str) -> tuple[Model, np.ndarray]:
     """The model a rollout simulates and its mass properties per trajectory: ``model`` is one model, or a sequence of B
     payload variants of one structure (:meth:`~freefloat.Model.with_payload`): (the first, with the joints' passive
     torques as ``passive`` says, and the floats of each (K, F))."""
-    from .simulate import _passive_model
-
     given = list(model) if isinstance(model, Sequence) and not isinstance(model, (str, bytes)) else [model]
     for i, each in enumerate(given):
         if isinstance(each, Model) and each.wheels:
@@ -75,7 +87,7 @@ def plant_models(model: Any, passive: str) -> tuple[Model, np.ndarray]:
     if isinstance(model, Sequence) and not isinstance(model, (str, bytes)):
         if not model:
             raise ValueError("model: an empty sequence of models; give one model or one per trajectory")
-        models = [_passive_model(m, passive) for m in model]
+        models = [passive_model(m, passive) for m in model]
         for i, other in enumerate(models[1:], start=1):
             if not same_structure(tree(models[0]), tree(other)):
                 raise ValueError(
@@ -83,7 +95,7 @@ def plant_models(model: Any, passive: str) -> tuple[Model, np.ndarray]:
                     "models must be payload variants of one robot (model.with_payload(...)): the same bodies and joints"
                 )
         return models[0], np.stack([tree(m).floats for m in models])
-    single = _passive_model(model, passive)
+    single = passive_model(model, passive)
     return single, np.array(tree(single).floats)[None]
 
 
@@ -98,24 +110,35 @@ def compiled_simulation(
     limits: ActuatorLimits,
     external: Any,
     guard: Any,
+    wall_limit: float | None,
+    run_compiled: Callable[..., Any],
 ) -> Trajectory | None:
     """One fixed-step simulation with its controller inside the compiled loop: the trajectory, or None when the Python
     loop must run it (a Python controller, a sample period that is not a whole number of steps, a feed-forward on
     another period), or when it failed or its divergence guard (checked at the recorded outputs) stops it: the Python
-    loop then runs it again and reports the failure as it does."""
-    from .simulate import _rollout_pd
+    loop then runs it again and reports the failure as it does.
 
+    The run is one call of a compiled kernel, which shows no progress and defers Ctrl-C to its end: only a run estimated
+    to take under :data:`~._guard.PROGRESS_DELAY` (and under ``wall_limit``) goes there; a longer one runs in the
+    Python-stepped loop (compiled steps between the controller's samples), with progress and Ctrl-C.
+    ``run_compiled``: :func:`freefloat.simulation.simulate._rollout_pd` (the compiled rollout, one trajectory)."""
     law = law_of(controller, None)
     if law is None and not isinstance(controller, JointPD):
         return None
     steps = round(duration / dt)
-    hold = max(1, round((sample_period or dt) / dt))
+    ratio = (sample_period or dt) / dt
+    if ratio > steps + 1:  # sampled once, at the start (a period beyond the run): the Python loop holds it
+        return None
+    hold = max(1, round(ratio))
     if sample_period is not None and sample_period > dt and abs(hold * dt - sample_period) > 1e-12 * sample_period:
+        return None
+    seconds = steps * (4.0 * _derivative_cost(model) + (LAW_SAMPLE_COST if law is not None else 0.0) / hold)
+    if seconds > PROGRESS_DELAY or (wall_limit is not None and seconds > 0.5 * wall_limit):
         return None
     stride = max(1, round(period / dt))
     try:
         pd = controller if isinstance(controller, JointPD) else None
-        run = _rollout_pd(model, x0[None], dt, steps, hold, stride, pd, limits, external, Progress(False, duration), law)
+        run = run_compiled(model, x0[None], dt, steps, hold, stride, pd, limits, external, Progress(False, duration), law)
     except SimulationError:
         return None
     if run is None:

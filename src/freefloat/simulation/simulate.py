@@ -35,7 +35,8 @@ from ..core.state import Actuation, ActuatorLimits, State, dissipates, pack_stat
 from ..core.wheels import wheel_joint_model
 from ..mechanics import _engine
 from ..mechanics._laws import actuator_bounds
-from ._compiled_runs import after_run, compiled_simulation, law_of, law_rows, plant_models
+from ._compiled_runs import PASSIVE as PASSIVE
+from ._compiled_runs import after_run, compiled_simulation, law_of, law_rows, passive_model, plant_models
 from ._guard import (
     MAX_RATE,
     MIN_WALL_BUDGET,
@@ -119,18 +120,6 @@ def _plain_torques(raw: np.ndarray) -> bool:
 
 
 #: What ``simulate(passive=...)`` and ``rollout(passive=...)`` accept.
-PASSIVE = ("model", "ignore")
-
-
-def _passive_model(model: Model, passive: Any) -> Model:
-    """The model a run simulates: ``model``, or without its joints' damping and friction for ``passive="ignore"``."""
-    if not isinstance(model, Model):
-        raise TypeError(f"model: expected a freefloat.Model, got {type(model).__name__}")
-    if not isinstance(passive, str) or passive not in PASSIVE:
-        raise ValueError(f"passive: {passive!r} is not one of {', '.join(map(repr, PASSIVE))} (the joints' damping and friction)")
-    return model if passive == "model" else model.without_passive()
-
-
 def _call_controller(controller: Controller, model: Model, t: float, x: np.ndarray, batch: tuple[int, ...]) -> tuple[np.ndarray, ...]:
     """Evaluate the controller at (t, x); any failure becomes a SimulationError that says when and what. Returns
     (tau, f_S, n_S), and the wheel torques last for a model with reaction wheels."""
@@ -293,7 +282,7 @@ def simulate(
         return simulate_capture(simulate, model, initial_state, _positive("duration", duration), controller, capture, options)
     if not isinstance(initial_state, State):
         raise TypeError(f"initial_state: expected a freefloat.State, got {type(initial_state).__name__}")
-    model = _passive_model(model, passive)
+    model = passive_model(model, passive)
     state = initial_state.resolve(model)
     if np.asarray(state.q).ndim != 1:
         raise ShapeError("initial_state: simulate takes one state; use freefloat.rollout for a batch of states")
@@ -362,7 +351,9 @@ def simulate(
     if (
         fixed_step is not None and not events and not stops.active and not n_wheels
     ):  # the controller inside the compiled loop, when it can be
-        compiled = compiled_simulation(model, x0, duration, float(fixed_step), sample_period, period, controller, limits, external, guard)
+        compiled = compiled_simulation(
+            model, x0, duration, float(fixed_step), sample_period, period, controller, limits, external, guard, wall_limit, _rollout_pd
+        )
         if compiled is not None:
             return _with_limits(compiled, stops)
     bar = Progress(progress, duration)
