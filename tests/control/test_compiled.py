@@ -158,3 +158,18 @@ def test_bad_per_trajectory_inputs_are_named(section5: Any) -> None:
         ff.rollout([model, ff.models.papadopoulos1992()], states, 0.1, dt=DT, controller=ff.JointPD(kp=1.0, kd=1.0))
     with pytest.raises(ValueError, match=r"per-trajectory models run with the compiled controllers only"):
         ff.rollout([model] * 4, states, 0.1, dt=DT, controller=python(ff.JointPD(kp=1.0, kd=1.0)))
+
+
+def test_a_compiled_run_through_a_singular_configuration_warns_once_after_it(section5: Any) -> None:
+    """The OSC through q2 = 0 (J_z singular) inside the compiled loop: it finishes, finite, with the near-singular warning
+    once, after the run (the loop records the smallest σ_min/σ_max), and records what the numpy form does."""
+    model, task, _, target = section5
+    start = ff.State(q=[0.3, 1e-4], qdot=[0.0, -1.0], attitude=Rotation.from_euler("z", 0.2).as_quat()).resolve(model)
+    with pytest.warns(ff.NearSingularWarning) as seen:
+        fast = ff.simulate(model, start, 0.2, OperationalSpaceController(model, task, target, 30.0, 60.0), fixed_step=0.005)
+    assert len([w for w in seen if issubclass(w.category, ff.NearSingularWarning)]) == 1
+    assert fast.status == "finished" and np.all(np.isfinite(fast.q))
+    with pytest.warns(ff.NearSingularWarning):
+        slow = ff.simulate(model, start, 0.2, python(OperationalSpaceController(model, task, target, 30.0, 60.0)), fixed_step=0.005)
+    assert np.array_equal(fast.t, slow.t)
+    assert np.abs(fast.q - slow.q).max() <= 1e-9

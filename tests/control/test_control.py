@@ -300,7 +300,7 @@ def test_simulation_through_a_singular_configuration_keeps_running():
     start = State(q=[0.3, 1e-4], qdot=[0.0, -1.0], attitude=Rotation.from_euler("z", 0.2).as_quat()).resolve(model)
     ctrl = OperationalSpaceController(model, task, target, kp=30.0, kd=60.0)
     with pytest.warns(ff.NearSingularWarning):
-        traj = simulate(model, start, 0.2, ctrl, fixed_step=0.005)
+        traj = simulate(model, start, 0.2, lambda t, s: ctrl(t, s), fixed_step=0.005)  # the numpy form (compiled: test_compiled.py)
     assert traj.status == "finished"
     assert np.all(np.isfinite(traj.q))
 

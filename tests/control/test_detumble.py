@@ -3,6 +3,8 @@ commanded attitude, by the thrusters and the joint torques (1991 eq. 27 with the
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -27,6 +29,12 @@ def _captured(spin_deg: float = 3.0) -> tuple[ff.Model, ff.State, ff.Model]:
     return hit.model, hit.state, robot
 
 
+def numpy_form(controller: Any) -> Any:
+    """The controller called from Python at each sample: its numpy form, the law as written (given as itself, a
+    fixed-step run would take the compiled kernel, which tests/control/test_compiled.py checks against this form)."""
+    return lambda t, s: controller(t, s)
+
+
 def test_every_rate_decays_as_the_gain_says() -> None:
     """Exact model, no saturation: zdot0(t) = exp(-k t) zdot0(0) (eq. 28 with the task "zero rates") but for the
     controller's hold of each sample: the deviation is first order in the sample period h (measured 8.17e-5 of
@@ -35,7 +43,7 @@ def test_every_rate_decays_as_the_gain_says() -> None:
     k = 0.5
     errors = []
     for h in (1e-3, 5e-4):
-        traj = ff.simulate(model, state, 4.0, Detumble(model, rate_gain=k), fixed_step=h, sample_period=h, output_period=0.1)
+        traj = ff.simulate(model, state, 4.0, numpy_form(Detumble(model, rate_gain=k)), fixed_step=h, sample_period=h, output_period=0.1)
         start = traj.velocity[0]
         assert np.abs(start).max() > 1e-2, "the grasp should leave the system tumbling"
         errors.append(np.abs(traj.velocity - np.exp(-k * traj.t)[:, None] * start).max() / np.abs(start).max())
@@ -45,7 +53,9 @@ def test_every_rate_decays_as_the_gain_says() -> None:
 
 def test_the_run_ends_at_rest() -> None:
     model, state, _ = _captured()
-    traj = ff.simulate(model, state, 30.0, Detumble(model, rate_gain=0.5), fixed_step=1e-2, sample_period=0.05, output_period=0.05)
+    traj = ff.simulate(
+        model, state, 30.0, numpy_form(Detumble(model, rate_gain=0.5)), fixed_step=1e-2, sample_period=0.05, output_period=0.05
+    )
     cost = detumble_cost(traj)
     assert cost.time_to_rest is not None and 5.0 < cost.time_to_rest < 15.0
     assert max(cost.final_rates) < 1e-5
@@ -63,7 +73,9 @@ def test_the_reported_delta_v_is_the_velocity_the_thrusters_took_away() -> None:
     force's impulse over the total mass) equals the drop of |v_cm| the simulation shows, to rounding."""
     model = ff.models.papadopoulos1992()
     state = ff.State(q=[0.3, 1.2, -0.4, 0.9], v_cm=[0.02, -0.01, 0.0])
-    traj = ff.simulate(model, state, 8.0, Detumble(model, rate_gain=0.4), fixed_step=1e-2, sample_period=0.05, output_period=0.05)
+    traj = ff.simulate(
+        model, state, 8.0, numpy_form(Detumble(model, rate_gain=0.4)), fixed_step=1e-2, sample_period=0.05, output_period=0.05
+    )
     cost = detumble_cost(traj, specific_impulse=220.0)
     drop = np.linalg.norm(traj.v_cm[0]) - np.linalg.norm(traj.v_cm[-1])
     assert drop > 0.9 * np.linalg.norm(traj.v_cm[0])
@@ -78,7 +90,7 @@ def test_the_reported_delta_v_is_the_velocity_the_thrusters_took_away() -> None:
 def test_a_commanded_attitude_is_reached() -> None:
     model, state, _ = _captured()
     goal = Rotation.from_euler("z", 20.0, degrees=True)
-    traj = ff.simulate(model, state, 40.0, Detumble(model, rate_gain=0.6, attitude=goal), fixed_step=1e-2, sample_period=0.02)
+    traj = ff.simulate(model, state, 40.0, numpy_form(Detumble(model, rate_gain=0.6, attitude=goal)), fixed_step=1e-2, sample_period=0.02)
     final = Rotation.from_quat(traj.attitude[-1])
     assert (final.inv() * goal).magnitude() < 1e-4
     assert detumble_cost(traj).time_to_rest is not None
@@ -86,7 +98,7 @@ def test_a_commanded_attitude_is_reached() -> None:
 
 def test_without_thruster_force_the_cm_keeps_its_velocity_and_the_rest_comes_to_rest() -> None:
     model, state, _ = _captured()
-    traj = ff.simulate(model, state, 20.0, Detumble(model, rate_gain=0.5, force=False), fixed_step=1e-2, sample_period=0.05)
+    traj = ff.simulate(model, state, 20.0, numpy_form(Detumble(model, rate_gain=0.5, force=False)), fixed_step=1e-2, sample_period=0.05)
     np.testing.assert_allclose(traj.v_cm, np.broadcast_to(traj.v_cm[0], traj.v_cm.shape), rtol=0, atol=1e-15)
     assert np.linalg.norm(traj.v_cm[0]) > 1e-3
     assert np.abs(traj.spacecraft_force).max() == 0.0
@@ -97,8 +109,8 @@ def test_without_thruster_force_the_cm_keeps_its_velocity_and_the_rest_comes_to_
 def test_limits_slow_it_down_and_are_recorded() -> None:
     model, state, _ = _captured()
     limits = ff.ActuatorLimits(spacecraft_torque=2.0, spacecraft_force=1.0, joint_torque=0.5)
-    free = ff.simulate(model, state, 30.0, Detumble(model, rate_gain=0.5), fixed_step=1e-2, sample_period=0.05)
-    held = ff.simulate(model, state, 30.0, Detumble(model, rate_gain=0.5), fixed_step=1e-2, sample_period=0.05, limits=limits)
+    free = ff.simulate(model, state, 30.0, numpy_form(Detumble(model, rate_gain=0.5)), fixed_step=1e-2, sample_period=0.05)
+    held = ff.simulate(model, state, 30.0, numpy_form(Detumble(model, rate_gain=0.5)), fixed_step=1e-2, sample_period=0.05, limits=limits)
     assert held.saturated.any() and not free.saturated.any()
     cost = detumble_cost(held)
     assert cost.peak_torque <= 2.0 * np.sqrt(3) + 1e-12 and np.all(cost.peak_joint_torque <= 0.5 + 1e-12)
@@ -137,7 +149,7 @@ def test_bad_settings_name_the_field(kwargs: dict, error: type, match: str) -> N
 
 def test_bad_cost_requests_name_the_field() -> None:
     model, state, _ = _captured()
-    traj = ff.simulate(model, state, 0.1, Detumble(model), fixed_step=1e-2)
+    traj = ff.simulate(model, state, 0.1, numpy_form(Detumble(model)), fixed_step=1e-2)
     with pytest.raises(ValueError, match="specific_impulse: expected a positive"):
         detumble_cost(traj, specific_impulse=0.0)
     with pytest.raises(ValueError, match="rest_rate: expected a positive"):
