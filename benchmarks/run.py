@@ -67,9 +67,19 @@ def warm_up() -> float:
         ff.forward_dynamics(model, q, v)
         ff.inverse_dynamics(model, q, v, v)
     state = ff.State(q=np.zeros(n))
-    ff.simulate(model, state, 0.01, ff.JointPD(kp=1.0, kd=1.0), fixed_step=1e-3)
-    ff.simulate(model, state, 0.01, ff.JointPD(kp=1.0, kd=1.0))
-    ff.rollout(model, ff.State(q=np.zeros((2, n))), 0.01, dt=1e-3, controller=ff.JointPD(kp=1.0, kd=1.0))
+    pd = ff.JointPD(kp=1.0, kd=1.0)
+    ff.simulate(model, state, 0.01, pd, fixed_step=1e-3)  # the compiled loop
+    ff.simulate(model, state, 0.01, lambda t, s: pd(t, s), fixed_step=1e-3)  # the Python-stepped RK4
+    ff.simulate(model, state, 0.01, pd)
+    ff.rollout(model, ff.State(q=np.zeros((2, n))), 0.01, dt=1e-3, controller=pd)
+    # the 1991 controllers: their numpy form (task J_z and bias, H+, C+) and their compiled law in the loops
+    from freefloat.control import OperationalSpaceController
+    from freefloat.papers.paper1991 import section5_setup
+
+    robot, task, start, target = section5_setup()
+    osc = OperationalSpaceController(robot, task, target, 30.0, 60.0)
+    osc(0.0, start)
+    ff.simulate(robot, start, 0.02, osc, fixed_step=0.01)
     return time.perf_counter() - t0
 
 
