@@ -1483,6 +1483,54 @@ CASES += [
         ("gear", "{files}/geared.urdf", r"geared\.urdf: URDF <transmission> .*: is not .*'shoulder_yaw'\) mechanicalReduction=100"),
     )
 ]
+
+
+def _tj(kp: Any, model: Any = None) -> Any:
+    """The 1991 §V transposed-Jacobian controller with gains ``kp`` (one row per trajectory when (B, d))."""
+    from freefloat.papers.paper1991 import section5_setup
+
+    robot, task, _, target = section5_setup()
+    return ff.control.TransposedJacobianController(robot if model is None else model, task, target, kp, 60.0)
+
+
+def _s5() -> Any:
+    from freefloat.papers.paper1991 import section5_setup
+
+    return section5_setup()
+
+
+CASES += [  # the built-in controllers compiled: per-trajectory parameters (issue 23)
+    api(
+        "compiled-kp-rows-single-simulation",
+        lambda f: ff.simulate(_s5()[0], _s5()[2], 0.1, _tj(np.full((3, 5), 30.0)), fixed_step=0.01),
+        ShapeError,
+        r"kp: 3 per-trajectory values, but a single simulation has one trajectory; use freefloat\.rollout",
+    ),
+    api(
+        "compiled-kp-rows-vs-batch",
+        lambda f: ff.rollout(_s5()[0], ff.State(q=np.tile(_s5()[2].q, (4, 1))), 0.1, dt=0.01, controller=_tj(np.full((3, 5), 30.0))),
+        ShapeError,
+        r"kp: 3 per-trajectory values, but the rollout has 4 trajectories",
+    ),
+    api(
+        "controller-rows-one-state",
+        lambda f: _tj(np.full((3, 5), 30.0))(0.0, _s5()[2]),
+        ShapeError,
+        r"state: one state, but the controller has per-trajectory parameters",
+    ),
+    api(
+        "controller-models-of-two-structures",
+        lambda f: _tj(30.0, [_s5()[0], M()]),
+        ValueError,
+        r"model\[1\]: 'papadopoulos1992' has another structure than model\[0\]",
+    ),
+    api(
+        "rollout-models-count",
+        lambda f: ff.rollout([M(), M().with_payload(mass=10.0, inertia=1.0)], ff.State(q=np.zeros((4, 4))), 0.1, dt=0.01),
+        ShapeError,
+        r"model: 2 per-trajectory models, but initial_states has 4 trajectories",
+    ),
+]
 _SIM = f"simulate {SCENARIO} --out out"
 CASES += [
     # workspace: the end effectors to analyse and the samples of the PIW
