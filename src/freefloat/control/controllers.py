@@ -260,6 +260,9 @@ class _TaskController:
 
     def generalized_force(self, t: float, state: State) -> np.ndarray:
         """Q_c (6 + N) in the zdot0 coordinates (first block inertial); (B, 6 + N) for a batch of states."""
+        state = state.resolve(self.model)
+        if np.ndim(state.q) == 1 and not self.per_trajectory:
+            return self._generalized_force(float(t), state)[0]  # no J_q⁻ᵀ: Q_c is all that is asked
         return np.asarray(self(t, state).extras["generalized_force"])
 
     def row(self, b: int) -> _TaskController:
