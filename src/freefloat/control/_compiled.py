@@ -87,10 +87,10 @@ def _rows(value: Any, width: int, name: str) -> np.ndarray:
     return np.ascontiguousarray(arr).copy()
 
 
-def task_law(controller: Any, batch: int | None, point: Any = None) -> Any:
+def task_law(controller: Any, batch: int | None) -> Any:
     """The :data:`~freefloat.mechanics._laws.Law` of a task-space controller (eqs. 27, 29), or None when its desired
-    motion is a Python function (``point``: a desired point evaluated in Python, taken as the set point instead).
-    Per-trajectory values are checked against ``batch`` (ShapeError naming the parameter)."""
+    motion is a Python function (the simulation then calls the controller from Python). Per-trajectory values are
+    checked against ``batch`` (ShapeError naming the parameter)."""
     from .desired import SetPoint, StraightLine
 
     task = controller.task
@@ -98,10 +98,7 @@ def task_law(controller: Any, batch: int | None, point: Any = None) -> Any:
     profile, timing = -1, np.zeros(2)
     size, dim = task.size, task.dim
     zdot, zddot = np.zeros((1, dim)), np.zeros((1, dim))
-    if point is not None:
-        start = goal = _rows(point.z, size, "desired.z")
-        zdot, zddot = _rows(point.zdot, dim, "desired.zdot"), _rows(point.zddot, dim, "desired.zddot")
-    elif isinstance(desired, SetPoint):
+    if isinstance(desired, SetPoint):
         start = goal = _rows(desired.z, size, "desired")
     elif isinstance(desired, StraightLine) and (desired.task is task or (desired.task is None and size == dim)):
         start, goal = _rows(desired.start, size, "desired.start"), _rows(desired.goal, size, "desired.goal")

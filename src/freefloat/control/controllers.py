@@ -218,11 +218,11 @@ class _TaskController:
             )
         self._near_singular = near
 
-    def compiled_law(self, batch: int | None = None, point: DesiredPoint | None = None) -> Any:
+    def compiled_law(self, batch: int | None = None) -> Any:
         """The controller as a compiled law (:mod:`freefloat.mechanics._laws`) for a run of ``batch`` trajectories (None:
-        one simulation), or None when its desired motion is a Python function (``point``: that motion evaluated now).
-        :func:`freefloat.simulate` and :func:`freefloat.rollout` run it in their compiled loops."""
-        return _compiled.task_law(self, batch, point)
+        one simulation), or None when its desired motion is a Python function. :func:`freefloat.simulate` and
+        :func:`freefloat.rollout` run it in their compiled loops."""
+        return _compiled.task_law(self, batch)
 
     def compiled_run_done(self, law: Any) -> None:
         """After a compiled run of :meth:`compiled_law`: the near-singular warning, once, if J_z came near singular at a
