@@ -33,7 +33,7 @@ lint: $(VENV)/.test
 TEST_WORKERS ?= 2
 
 test: lint
-	$(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile
+	$(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
 
 bench: $(VENV)/.test
 	$(PY) benchmarks/run.py --out $(OUT)/bench

@@ -18,6 +18,38 @@ sys.path.insert(0, str(Path(__file__).parent))
 # folder of its own (tests/mechanics/test_specialise.py, test_auto_specialise.py, test_specialise_dynamics.py,
 # test_numba_cache.py).
 
+#: The test files that take longest on a fresh clone (their kernels compile; a wheel installs), longest first, in
+#: seconds of one worker on the 2-core VM, cold cache: they start first so that the workers of ``make test`` (pytest-xdist,
+#: ``--dist loadfile --no-loadscope-reorder``) finish together instead of one of them running a long file alone at the end.
+SLOWEST_FILES = (
+    "tests/control/test_compiled.py",  # 155
+    "tests/mechanics/test_specialise.py",  # 92
+    "tests/test_release.py",  # 80
+    "tests/mechanics/test_specialise_wrenches.py",  # 70
+    "tests/simulation/test_rotors_and_passive.py",  # 57
+    "tests/test_readme.py",  # 53
+    "tests/campaigns/test_campaign_cluster.py",  # 40
+    "tests/mechanics/test_measures.py",  # 33
+    "tests/mechanics/test_numba_cache.py",  # 33
+    "tests/mechanics/test_engine.py",  # 29
+    "tests/mechanics/test_auto_specialise.py",  # 24
+    "tests/mechanics/test_specialise_dynamics.py",  # 20
+    "tests/mechanics/test_mimic.py",  # 19
+    "tests/test_docs_site.py",  # 17
+    "tests/oracle/test_pinocchio_core.py",  # 16
+)
+
+
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """The files of :data:`SLOWEST_FILES` first, in that order; the others after them, in the order collected."""
+    root = Path(__file__).parent.parent
+    gone = [name for name in SLOWEST_FILES if not (root / name).is_file()]
+    if gone:
+        raise pytest.UsageError(f"tests/conftest.py: SLOWEST_FILES names files that do not exist: {gone}")
+    rank = {name: i for i, name in enumerate(SLOWEST_FILES)}
+    items.sort(key=lambda item: rank.get(item.nodeid.split("::")[0], len(rank)))
+
+
 settings.register_profile("freefloat", derandomize=True, deadline=None, print_blob=True)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "freefloat"))
 

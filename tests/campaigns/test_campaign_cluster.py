@@ -12,9 +12,11 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -40,11 +42,12 @@ def environment() -> dict[str, str]:
     return {**os.environ, "PYTHONPATH": os.pathsep.join(paths), "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "1"}
 
 
-def wait_for(condition: Callable[[], Any], what: str) -> Any:
-    """Poll ``condition`` until it is true (the processes run on their own: nothing to join on); fail after PATIENCE."""
+def wait_for(condition: Callable[[], Any], what: str, seen: Callable[[], str] = str) -> Any:
+    """Poll ``condition`` until it is true (the processes run on their own: nothing to join on); fail after PATIENCE,
+    with what ``seen`` shows (the output so far)."""
     give_up = time.monotonic() + PATIENCE
     while not (value := condition()):
-        assert time.monotonic() < give_up, f"gave up waiting for {what}"
+        assert time.monotonic() < give_up, f"gave up waiting for {what}; seen:\n{seen()}"
         time.sleep(0.05)
     return value
 
@@ -178,15 +181,29 @@ def test_an_interrupted_runner_resumes_without_computing_twice(cluster: Cluster,
     out = tmp_path / "out"
     # on a local cluster of 2 workers, Ctrl-C as a terminal sends it: to the command and its workers alike
     runner = freefloat(spec, "--out", out, "--workers", "2", wait=False)
-    wait_for(lambda: len(marks(tmp_path, "start")) >= 2, "two runs in progress")
-    os.killpg(runner.pid, signal.SIGINT)
-    assert runner.stderr is not None
-    wait_for(lambda: "stopping: waiting for the 4 runs in progress" in runner.stderr.readline(), "the runner to stop submitting")
-    (tmp_path / "marks" / "gate").touch()  # the runs in progress finish, and are stored
-    output, _ = runner.communicate(timeout=PATIENCE)
-    assert runner.returncode == 130 and "interrupted" in output
+    assert runner.stderr is not None and runner.stdout is not None
+    said: list[str] = []  # the runner's stderr, read as it comes (a blocking read would outlast PATIENCE)
+    reader = threading.Thread(target=lambda: said.extend(runner.stderr), daemon=True)
+    reader.start()
+    try:
+        wait_for(lambda: len(marks(tmp_path, "start")) >= 2, "two runs in progress")
+        os.killpg(runner.pid, signal.SIGINT)
+        waiting = wait_for(
+            lambda: re.search(r"stopping: waiting for the (\d+) runs in progress", "".join(said)),
+            "the runner to stop submitting",
+            lambda: "".join(said),
+        )
+    finally:
+        (tmp_path / "marks" / "gate").touch()  # the runs in progress finish, and are stored
+        output = runner.stdout.read()
+        runner.wait(timeout=PATIENCE)
+        reader.join(PATIENCE)
+        runner.stdout.close()
+        runner.stderr.close()
+    assert runner.returncode == 130 and "interrupted" in output, "".join(said)
     first = stored(out)
-    assert len(first) == 4  # the 4 runs submitted (2 running, 2 queued), none of the others
+    # the runs submitted when Ctrl-C came (2 running, 2 queued: the window of a 2-worker cluster), none of the others
+    assert len(first) == int(waiting[1]) == 4, "".join(said)
     resumed = freefloat(spec, "--out", out, "--scheduler", cluster.address, "--resume")  # the same campaign on the cluster
     assert resumed.returncode == 0, resumed.stderr
     assert f"{8 - len(first)} ok, 0 failed, {len(first)} already stored" in resumed.stdout

@@ -17,8 +17,8 @@ def test_the_first_compile_is_announced_once(monkeypatch: pytest.MonkeyPatch, ca
     _numba_cache._announce_compile("/somewhere/numba/0.68-abc/_drivers")
     err = capsys.readouterr().err.splitlines()
     assert err == [
-        "freefloat: compiling the engine's kernels for this machine: once, usually 30-60 s in all (the next uses load them "
-        "from /somewhere/numba/0.68-abc in under a second)"
+        "freefloat: compiling the engine's kernels for this machine as they are first used: once, seconds for one kind of "
+        "call, a few minutes for all of them (the next uses load them from /somewhere/numba/0.68-abc in under a second)"
     ]
 
 

@@ -142,7 +142,8 @@ def _announce_compile(folder: str) -> None:
         return
     _ANNOUNCED.append(True)
     notice(
-        "compiling the engine's kernels for this machine: once, usually 30-60 s in all (the next uses load them from "
+        "compiling the engine's kernels for this machine as they are first used: once, seconds for one kind of call, "
+        "a few minutes for all of them (the next uses load them from "
         f"{Path(folder).parent} in under a second)"
     )
 

@@ -518,10 +518,13 @@ def find(t: Tree, kind: str, wrenches: Layout = ()) -> types.ModuleType | None:
 
 # ----------------------------------------------------------------- automatic specialisation
 #: Seconds of generic-kernel work on one model structure (in this process) after which that structure is specialised
-#: in the background: about the compile time of each kind (J* 2-5 s, rollouts 9-18 s on the paper systems). Waiting
-#: until the work done equals the compile cost spends at most twice the best choice made knowing the future work
-#: (the ski-rental rule), and a one-off call never pays for a compile.
-AUTO_AFTER = {"jstar": 3.0, "rollout": 12.0, "hplus": 3.0, "forward": 8.0, "inverse": 5.0, "measure": 3.0}
+#: in the background: about half the compile time of each kind (J* 2-5 s, rollouts 9-18 s on the paper systems). Waiting
+#: until the work done equals the cost of the compile spends at most twice the best choice made knowing the future work
+#: (the ski-rental rule), and a one-off call never pays for a compile. The compile runs on one core while the calls go
+#: on, so on the 2-core machines this was measured on it costs them about half its time (less with more cores); and
+#: its result serves every later process on the machine. (At 3 s, the full compile time, the 10^8-configuration sweep of
+#: the 1992 system ran at 102x the Pinocchio loop, the 7-DOF arm's at 73x; benchmarks/bench_sweep.py.)
+AUTO_AFTER = {"jstar": 1.5, "rollout": 6.0, "hplus": 1.5, "forward": 4.0, "inverse": 2.5, "measure": 1.5}
 #: What each kind usually takes to compile (measured on the paper systems and the 7-DOF arm; docs/performance.md).
 COMPILE_TIME = {
     "jstar": "2-5 s",
