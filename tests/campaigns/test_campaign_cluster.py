@@ -103,7 +103,7 @@ def campaign(folder: Path, name: str = "campaign.toml", **tables: Any) -> Path:
 
 
 def freefloat(*args: str | Path, wait: bool = True) -> Any:
-    command = [sys.executable, "-m", "freefloat", "campaign", *map(str, args), "--no-progress"]
+    command = [sys.executable, "-X", "faulthandler", "-m", "freefloat", "campaign", *map(str, args), "--no-progress"]
     if not wait:  # a session of its own: a signal to its process group is a terminal's Ctrl-C
         return subprocess.Popen(
             command, env=environment(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
@@ -176,6 +176,19 @@ def test_a_worker_killed_mid_campaign_loses_nothing(cluster: Cluster, tmp_path: 
     assert len(marks(tmp_path, "start")) == 7  # the killed worker's run started again elsewhere
 
 
+def stuck(runner: subprocess.Popen[str], said: list[str]) -> str:
+    """What a runner that did not answer Ctrl-C was doing: its signal masks, then the stacks of its threads (SIGABRT
+    to a process run with ``-X faulthandler``) after what it had written on stderr."""
+    try:
+        status = Path(f"/proc/{runner.pid}/status").read_text().splitlines()
+        masks = "\n".join(line for line in status if line.startswith(("State", "SigPnd", "ShdPnd", "SigBlk", "SigIgn", "SigCgt")))
+    except OSError as exc:
+        masks = f"(no status: {exc})"
+    runner.send_signal(signal.SIGABRT)
+    time.sleep(3.0)  # the dump, read by the test's reader thread
+    return f"{masks}\n{''.join(said)}"
+
+
 def test_an_interrupted_runner_resumes_without_computing_twice(cluster: Cluster, tmp_path: Path) -> None:
     spec = marked_campaign(tmp_path, 8, gated=True)
     out = tmp_path / "out"
@@ -191,7 +204,7 @@ def test_an_interrupted_runner_resumes_without_computing_twice(cluster: Cluster,
         waiting = wait_for(
             lambda: re.search(r"stopping: waiting for the (\d+) runs in progress", "".join(said)),
             "the runner to stop submitting",
-            lambda: "".join(said),
+            lambda: stuck(runner, said),
         )
     finally:
         (tmp_path / "marks" / "gate").touch()  # the runs in progress finish, and are stored
