@@ -33,6 +33,7 @@ lint: $(VENV)/.test
 TEST_WORKERS ?= 2
 
 test: lint
+	$(PY) tests/warm_kernels.py
 	$(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
 
 bench: $(VENV)/.test

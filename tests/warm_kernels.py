@@ -1,0 +1,69 @@
+"""Compile the engine's generic kernels into the user's cache before ``make test`` runs the suite, in two processes
+with disjoint sets at once (the control laws' loops; every other kernel), so that the suite's two workers do not
+compile the same kernels side by side on a fresh clone. A warm cache makes this a second or two.
+
+``python tests/warm_kernels.py`` runs both parts and prints what each took; ``python tests/warm_kernels.py PART``
+runs one.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+
+
+def laws() -> None:
+    """The 1991 controllers' numpy form and their compiled laws in the fixed-step loop and the rollout."""
+    import numpy as np
+
+    import freefloat as ff
+    from freefloat.control import Detumble, OperationalSpaceController, TransposedJacobianController
+    from freefloat.papers.paper1991 import section5_setup
+
+    robot, task, start, target = section5_setup()
+    for law in (OperationalSpaceController(robot, task, target, 30.0, 60.0), TransposedJacobianController(robot, task, target, 30.0, 60.0)):
+        law(0.0, start)
+        ff.simulate(robot, start, 0.02, law, fixed_step=0.01)
+    ff.simulate(robot, start, 0.02, Detumble(robot), fixed_step=0.01)
+    n = robot.n_joints
+    ff.rollout(robot, ff.State(q=np.zeros((2, n))), 0.01, dt=1e-3, controller=OperationalSpaceController(robot, task, target, 30.0, 60.0))
+
+
+def engine() -> None:
+    """The maps (serial and threaded drivers), the dynamics, the simulations and the rollout with a joint PD."""
+    import numpy as np
+
+    import freefloat as ff
+
+    model = ff.models.papadopoulos1992()
+    n = model.n_joints
+    for size in (1, 300):
+        q = np.zeros((size, n))
+        v = np.zeros((size, 6 + n))
+        ff.generalized_jacobian(model, q)
+        ff.system_inertia_matrix(model, q)
+        ff.point_jacobian(model, q, 1)
+        ff.end_effector_positions(model, q)
+        ff.forward_kinematics(model, q)
+        ff.forward_dynamics(model, q, v)
+        ff.inverse_dynamics(model, q, v, v)
+    state = ff.State(q=np.zeros(n))
+    pd = ff.JointPD(kp=1.0, kd=1.0)
+    ff.simulate(model, state, 0.01, pd, fixed_step=1e-3)
+    ff.simulate(model, state, 0.01, lambda t, s: pd(t, s), fixed_step=1e-3)
+    ff.simulate(model, state, 0.01, pd)
+    ff.rollout(model, ff.State(q=np.zeros((2, n))), 0.01, dt=1e-3, controller=pd)
+
+
+PARTS = {"laws": laws, "engine": engine}
+
+if __name__ == "__main__":
+    if len(sys.argv) > 1:
+        PARTS[sys.argv[1]]()
+        sys.exit(0)
+    start = time.perf_counter()
+    running = {name: subprocess.Popen([sys.executable, __file__, name]) for name in PARTS}
+    failed = [name for name, process in running.items() if process.wait() != 0]
+    print(f"warm_kernels: the engine's kernels compiled or loaded in {time.perf_counter() - start:.0f} s", flush=True)
+    sys.exit(1 if failed else 0)
