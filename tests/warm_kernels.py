@@ -26,8 +26,8 @@ def laws() -> None:
         law(0.0, start)
         ff.simulate(robot, start, 0.02, law, fixed_step=0.01)
     ff.simulate(robot, start, 0.02, Detumble(robot), fixed_step=0.01)
-    n = robot.n_joints
-    ff.rollout(robot, ff.State(q=np.zeros((2, n))), 0.01, dt=1e-3, controller=OperationalSpaceController(robot, task, target, 30.0, 60.0))
+    states = ff.State(q=np.repeat(np.asarray(start.q)[None], 2, axis=0))  # the paper's start: J_z not singular
+    ff.rollout(robot, states, 0.01, dt=1e-3, controller=OperationalSpaceController(robot, task, target, 30.0, 60.0))
 
 
 def engine() -> None:

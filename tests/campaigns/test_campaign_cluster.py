@@ -102,11 +102,26 @@ def campaign(folder: Path, name: str = "campaign.toml", **tables: Any) -> Path:
     return path
 
 
+#: Starts a command with Ctrl-C (SIGINT) and SIGQUIT at their defaults, as a shell starts a foreground job: a process
+#: keeps an ignored signal across exec (Python then installs no KeyboardInterrupt), and the test's own process had both
+#: ignored at times on a fresh clone (the runner's /proc status showed SigIgn with SIGINT and SIGQUIT, which the C
+#: library's system() ignores in its caller while its child runs: some thread of the test process was in one).
+AS_A_SHELL = (
+    "import os, signal, sys; [signal.signal(s, signal.SIG_DFL) for s in (signal.SIGINT, signal.SIGQUIT)]; "
+    "os.execv(sys.argv[1], sys.argv[1:])"
+)
+
+
 def freefloat(*args: str | Path, wait: bool = True) -> Any:
     command = [sys.executable, "-X", "faulthandler", "-m", "freefloat", "campaign", *map(str, args), "--no-progress"]
     if not wait:  # a session of its own: a signal to its process group is a terminal's Ctrl-C
         return subprocess.Popen(
-            command, env=environment(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+            [sys.executable, "-c", AS_A_SHELL, *command],
+            env=environment(),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            start_new_session=True,
         )
     return subprocess.run(command, env=environment(), capture_output=True, text=True, timeout=300)
 
@@ -182,6 +197,8 @@ def stuck(runner: subprocess.Popen[str], said: list[str]) -> str:
     try:
         status = Path(f"/proc/{runner.pid}/status").read_text().splitlines()
         masks = "\n".join(line for line in status if line.startswith(("State", "SigPnd", "ShdPnd", "SigBlk", "SigIgn", "SigCgt")))
+        here = [line for line in Path("/proc/self/status").read_text().splitlines() if line.startswith("SigIgn")]
+        masks += f"\n(the test's process: {here[0] if here else '?'})"
     except OSError as exc:
         masks = f"(no status: {exc})"
     runner.send_signal(signal.SIGABRT)
