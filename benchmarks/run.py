@@ -43,43 +43,19 @@ NOISE_NOTE = (
 
 
 def warm_up() -> float:
-    """Call every engine kernel once (tiny sizes), so that no timing below includes a compile.
+    """Call every engine kernel once (tiny sizes), so that no timing below includes a compile: the two parts of
+    ``tests/warm_kernels.py`` (which ``make test`` runs before the suite), here in this process.
 
     The kernels are compiled once per machine and engine source (the cache is keyed by a hash of
     the engine's files: an edit, even a reformat, compiles them again); the start-up benchmark
     measures that cost on its own, in fresh processes.
     """
-    import numpy as np
-
-    import freefloat as ff
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+    from warm_kernels import PARTS
 
     t0 = time.perf_counter()
-    model = ff.models.papadopoulos1992()
-    n = model.n_joints
-    for size in (1, 300):  # serial and threaded drivers
-        q = np.zeros((size, n))
-        v = np.zeros((size, 6 + n))
-        ff.generalized_jacobian(model, q)
-        ff.system_inertia_matrix(model, q)
-        ff.point_jacobian(model, q, 1)
-        ff.end_effector_positions(model, q)
-        ff.forward_kinematics(model, q)
-        ff.forward_dynamics(model, q, v)
-        ff.inverse_dynamics(model, q, v, v)
-    state = ff.State(q=np.zeros(n))
-    pd = ff.JointPD(kp=1.0, kd=1.0)
-    ff.simulate(model, state, 0.01, pd, fixed_step=1e-3)  # the compiled loop
-    ff.simulate(model, state, 0.01, lambda t, s: pd(t, s), fixed_step=1e-3)  # the Python-stepped RK4
-    ff.simulate(model, state, 0.01, pd)
-    ff.rollout(model, ff.State(q=np.zeros((2, n))), 0.01, dt=1e-3, controller=pd)
-    # the 1991 controllers: their numpy form (task J_z and bias, H+, C+) and their compiled law in the loops
-    from freefloat.control import OperationalSpaceController
-    from freefloat.papers.paper1991 import section5_setup
-
-    robot, task, start, target = section5_setup()
-    osc = OperationalSpaceController(robot, task, target, 30.0, 60.0)
-    osc(0.0, start)
-    ff.simulate(robot, start, 0.02, osc, fixed_step=0.01)
+    for part in PARTS.values():
+        part()
     return time.perf_counter() - t0
 
 

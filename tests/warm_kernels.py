@@ -2,8 +2,8 @@
 with disjoint sets at once (the control laws' loops; every other kernel), so that the suite's two workers do not
 compile the same kernels side by side on a fresh clone. A warm cache makes this a second or two.
 
-``python tests/warm_kernels.py`` runs both parts and prints what each took; ``python tests/warm_kernels.py PART``
-runs one.
+``python tests/warm_kernels.py`` runs both parts and prints the time they took; ``python tests/warm_kernels.py PART``
+runs one. ``benchmarks/run.py`` calls both parts in its own process before it times anything.
 """
 
 from __future__ import annotations
