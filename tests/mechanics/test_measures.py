@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 
 import freefloat as ff
 from freefloat.mechanics import _drivers, _lanes, _specialise
+from freefloat.mechanics._configuration import MEASURE_CODES, jacobian_measure_lanes, measure_work
 from freefloat.mechanics._tree import tree
 from robots import REAL_ROBOTS, load_real, spacecraft_urdf
 from trees import random_trees
@@ -45,9 +46,11 @@ def numpy_measure(jac: np.ndarray, measure: str) -> np.ndarray:
         sv[..., -1] = np.linalg.norm(np.einsum("...ij,...j->...i", jac, vt[..., jac.shape[-1] - 1, :]), axis=-1)
     if measure == "sigma_min":
         return sv[..., -1]
+    if measure == "sigma_max":
+        return sv[..., 0]
     if measure == "manipulability":
         return np.prod(sv, axis=-1)
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):
         return sv[..., 0] / sv[..., -1]
 
 
@@ -73,13 +76,14 @@ def agree(ours: np.ndarray, jac: np.ndarray, measure: str) -> None:
     ref = numpy_measure(jac, measure)
     if measure in ("det", "manipulability"):
         allowed = RTOL * np.abs(ref) + FLOOR * others
-    elif measure == "sigma_min":
+    elif measure in ("sigma_min", "sigma_max"):
         allowed = RTOL * ref + FLOOR * sv[..., 0]
     else:
         keep = sv[..., -1] > 1e-6 * sv[..., 0]
         ours, ref = ours[keep], ref[keep]
         allowed = RTOL * ref
-    excess = np.abs(ours - ref) / allowed
+    with np.errstate(invalid="ignore", divide="ignore"):  # nothing allowed (a zero matrix): equal exactly
+        excess = np.where(allowed > 0.0, np.abs(ours - ref) / allowed, np.where(ours == ref, 0.0, np.inf))
     assert np.all(excess <= 1.0), (measure, float(np.max(excess)))
 
 
@@ -96,11 +100,11 @@ def panda() -> ff.Model:
 def test_measures_of_the_paper_systems_and_the_7dof_arm_at_every_batch_size(size: int) -> None:
     rng = np.random.default_rng(size)
     planar = ff.models.papadopoulos1992()
-    check(planar, rng.uniform(-3, 3, (size, 4)), np.array([0, 1, 6, 7]), ("det", "sigma_min", "manipulability", "condition"))
+    check(planar, rng.uniform(-3, 3, (size, 4)), np.array([0, 1, 6, 7]), ("det", "sigma_min", "manipulability", "condition", "sigma_max"))
     check(ff.models.papadopoulos1991(), rng.uniform(-3, 3, (size, 2)), np.array([0, 1]), ("det", "sigma_min", "condition"))
     arm = ff.models.spacecraft_7dof()
     q = rng.uniform(-3, 3, (size, 7))
-    check(arm, q, np.arange(6), ("sigma_min", "manipulability", "condition"))
+    check(arm, q, np.arange(6), ("sigma_min", "manipulability", "condition", "sigma_max"))
     check(arm, q, np.array([0, 1, 2]), ("sigma_min", "manipulability", "condition"))
 
 
@@ -109,7 +113,7 @@ def test_measures_of_the_panda() -> None:
     rng = np.random.default_rng(3)
     lo, hi = model.joint_lower, model.joint_upper
     q = rng.uniform(lo, hi, (300, model.n_joints))
-    check(model, q, np.arange(6), ("sigma_min", "manipulability", "condition"))
+    check(model, q, np.arange(6), ("sigma_min", "manipulability", "condition", "sigma_max"))
 
 
 def test_measures_near_singular_configurations() -> None:
@@ -155,8 +159,67 @@ def test_measures_of_random_trees(model: ff.Model, seed: int) -> None:
     rng = np.random.default_rng(seed)
     q = rng.uniform(-2, 2, (5, model.n_joints))
     rows = np.sort(rng.choice(6 * model.n_end_effectors, size=min(model.n_joints, 6 * model.n_end_effectors), replace=False))
-    measures = ("det", "sigma_min", "manipulability", "condition") if rows.size == model.n_joints else ("sigma_min", "manipulability")
+    measures = (
+        ("det", "sigma_min", "manipulability", "condition", "sigma_max")
+        if rows.size == model.n_joints
+        else ("sigma_min", "manipulability", "sigma_max")
+    )
     check(model, q, rows, measures)
+
+
+def hard_matrices(k: int, n: int, rng: np.random.Generator) -> np.ndarray:
+    """LANES K x N matrices with the singular values that are hardest for the measure kernel's iteration (a largest
+    eigenvalue of R^-1 R^-T that is multiple or nearly so) or its QR (a zero pivot): all equal, equal in pairs, the two
+    smallest 1e-9 apart, graded to 1e-12, exactly rank deficient, all within 1e-9 of each other, zero, and plain
+    Gaussian."""
+    r = min(k, n)
+    spectra = [
+        np.full(r, 2.5),
+        np.repeat(10.0 ** -np.arange(0, r, 2), 2)[:r],
+        np.r_[np.linspace(3.0, 1.0, r - 2), 1e-4 * (1 + 1e-9), 1e-4] if r >= 3 else np.array([1.0, 1.0 - 1e-9])[:r],
+        np.logspace(0, -12, r),
+        np.r_[np.ones(r - 1), 0.0],
+        0.7 * (1.0 + 1e-9 * np.arange(r)),
+    ]
+    mats = []
+    for i in range(LANES):
+        if i % 8 == 6:
+            mats.append(np.zeros((k, n)))
+        elif i % 8 == 7:
+            mats.append(rng.normal(size=(k, n)))
+        else:
+            u = np.linalg.qr(rng.normal(size=(k, k)))[0][:, :r]
+            v = np.linalg.qr(rng.normal(size=(n, n)))[0][:, :r]
+            mats.append(u @ np.diag(rng.permutation(spectra[i % 8])) @ v.T)
+    return np.array(mats)
+
+
+@numba.njit(cache=False, error_model="numpy")  # as the engine's kernels: 1/0 is inf
+def _measure_lane_block(mats: np.ndarray, kind: int, out: np.ndarray) -> None:  # pragma: no cover - compiled
+    """The engine's measure of LANES matrices (LANES, K, N) side by side, as the kernels lay out a block of J*s."""
+    width, k, n = mats.shape
+    W = np.empty(k * n * width)
+    for l in range(width):
+        for i in range(k):
+            for j in range(n):
+                W[(i * n + j) * width + l] = mats[l, i, j]
+    jacobian_measure_lanes(W, 0, width, n, np.arange(k), kind, np.empty(measure_work(n) * width), out, 0, width)
+
+
+@pytest.mark.parametrize("shape", [(6, 7), (4, 4), (3, 7), (7, 6), (1, 5), (2, 2)])
+def test_singular_values_of_hard_matrices(shape: tuple[int, int]) -> None:
+    """The singular-value measures of the kernel itself on :func:`hard_matrices` (multiple and nearly multiple
+    singular values, rank deficiency, zero) against numpy's refined SVD; the condition number is inf exactly where
+    sigma_min is 0."""
+    mats = hard_matrices(*shape, np.random.default_rng(sum(shape)))
+    results = {}
+    for measure in ("sigma_min", "sigma_max", "manipulability", "condition"):
+        out = np.full(LANES, np.nan)
+        _measure_lane_block(mats, MEASURE_CODES[measure], out)
+        agree(out, mats, measure)
+        results[measure] = out
+    zero = results["sigma_min"] == 0.0
+    assert zero.any() and np.all(np.isinf(results["condition"][zero])) and np.all(np.isfinite(results["condition"][~zero]))
 
 
 def test_the_map_and_search_paths_use_the_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -175,8 +238,10 @@ def test_the_map_and_search_paths_use_the_kernel(monkeypatch: pytest.MonkeyPatch
     ff.jacobian_determinant(model, [0.1, 0.2])
     ff.workspace.singularity_measure(model, np.zeros((3, 2)))
     ff.workspace.jacobian_determinant_map(model, n=5)
+    before = len(calls)
     ff.workspace.path_independent_workspace(model, 0, samples=256)
     assert calls.count("det") >= 4, calls
+    assert "sigma_max" in calls[before:], calls  # the search's test of "on the singular set" (|det J*| / sigma_max^m)
 
 
 def test_bad_rows_and_measures_are_refused() -> None:
@@ -220,10 +285,10 @@ def specialised(tmp_path_factory: pytest.TempPathFactory) -> Iterator[tuple[ff.M
 #: (model index in the fixture, rows, measures): square rows (det), K < N, K > N (all 12 rows of the planar system).
 CASES = (
     (0, np.array([0, 1, 6, 7]), ("det", "sigma_min", "manipulability", "condition")),
-    (0, np.arange(12), ("sigma_min", "manipulability")),
+    (0, np.arange(12), ("sigma_min", "manipulability", "sigma_max")),
     (1, np.arange(6), ("sigma_min", "manipulability", "condition")),
     (1, np.array([0, 1, 2]), ("sigma_min", "manipulability", "condition")),
-    (1, np.array([5, 3, 4, 0]), ("sigma_min", "condition")),
+    (1, np.array([5, 3, 4, 0]), ("sigma_min", "condition", "sigma_max")),
 )
 
 

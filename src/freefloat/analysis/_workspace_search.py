@@ -208,6 +208,7 @@ class Criterion:
     measure: str
     threshold: float
     measure_fun: Batch  # the measure at each row of q, computed without J (the engine's kernel)
+    residual_fun: Batch  # the relative distance to the exact singular set at each row of q (the engine's kernel)
 
     @property
     def signed(self) -> bool:
@@ -407,14 +408,11 @@ def _nonsquare_roots(crit: Criterion, q_lines: np.ndarray, values: np.ndarray, m
 
 
 def singularity_residual(crit: Criterion, q: np.ndarray) -> np.ndarray:
-    """Relative distance to the set's boundary at each row of q: |det J| / |J|^m (det), σ_min / σ_max, or |level| / threshold."""
+    """Relative distance to the set's boundary at each row of q: |det J| / σ_max^m (square J), σ_min / σ_max (another),
+    or |level| / threshold; from the engine's measures (:attr:`Criterion.residual_fun`), no J written."""
     if crit.threshold > 0.0:
         return np.abs(batched(crit.level, q)) / crit.threshold
-    jac = batched(crit.jac_fun, q)
-    s = np.linalg.svd(jac, compute_uv=False)
-    if jac.shape[-1] == jac.shape[-2]:
-        return np.prod(s, axis=-1) / np.maximum(s[..., 0] ** s.shape[-1], 1e-300)
-    return s[..., -1] / np.maximum(s[..., 0], 1e-300)
+    return batched(crit.residual_fun, q)
 
 
 def polish_extreme_radius(

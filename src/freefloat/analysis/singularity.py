@@ -227,7 +227,13 @@ class SingularityCriterion:
         def measure_fun(qq: np.ndarray) -> np.ndarray:
             return np.asarray(jacobian_measure(model, qq, rows, measure))
 
-        return search.Criterion(jac_fun, measure, self.threshold, measure_fun)
+        def residual_fun(qq: np.ndarray) -> np.ndarray:  # |det J| / σ_max^m (square J), else σ_min / σ_max
+            largest = jacobian_measure(model, qq, rows, "sigma_max")
+            if rows.size == model.n_joints:
+                return np.abs(jacobian_measure(model, qq, rows, "det")) / np.maximum(largest**rows.size, 1e-300)
+            return np.asarray(jacobian_measure(model, qq, rows, "sigma_min")) / np.maximum(largest, 1e-300)
+
+        return search.Criterion(jac_fun, measure, self.threshold, measure_fun, residual_fun)
 
     def describe(self, model: Model, end_effector: int | None = None) -> str:
         """One line for reports: the rows, the measure and the threshold."""

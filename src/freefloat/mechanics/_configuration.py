@@ -70,7 +70,19 @@ def jstar_one(q: np.ndarray, m: Any, s: Any, out: np.ndarray) -> None:  # pragma
 
 
 #: The measures of :func:`jacobian_measure_lanes`, by code.
-MEASURE_CODES = {"det": 0, "sigma_min": 1, "manipulability": 2, "condition": 3}
+MEASURE_CODES = {"det": 0, "sigma_min": 1, "manipulability": 2, "condition": 3, "sigma_max": 4}
+
+
+@kernel(inline="always")
+def measure_work(n: int) -> int:  # pragma: no cover - compiled
+    """Rows of work space (``width`` floats each) that :func:`jacobian_measure_lanes` needs for ``n`` joints."""
+    return 2 * n * n + 2 * n + 16
+
+
+@kernel(inline="always")
+def _b(rows: np.ndarray, n: int, by_rows: bool, i: int, j: int) -> int:  # pragma: no cover - compiled
+    """The row of the lane view holding B[i, j]: B = A^T when A (the chosen rows of J*) is wide (K <= N), else A."""
+    return rows[j] * n + i if by_rows else rows[i] * n + j
 
 
 @kernel(inline="always")
@@ -80,133 +92,330 @@ def jacobian_measure_lanes(
     """A measure of the rows ``rows`` (K distinct rows, N = ``n`` columns) of the J* of ``width`` configurations at
     once: out[o0 + l] for the configurations l < ``count``. Element (r, c) of configuration l's J* is
     ``W[at + (r n + c) width + l]`` (the generic kernels: one J*, width 1; the specialised ones: the rows of a lane
-    block, width :data:`~._lanes.LANES`); the chosen rows are overwritten. ``tmp``: at least 5 ``width`` floats.
+    block, width :data:`~._lanes.LANES`); the chosen rows are overwritten. ``tmp``: at least :func:`measure_work` (N)
+    ``width`` floats.
 
     ``kind`` (:data:`MEASURE_CODES`): 0 det (K = N; LU with partial pivoting, signed); 1 the smallest singular value;
     2 the product of the singular values (sqrt(det(A A^T)) for K <= N: Yoshikawa's manipulability); 3 the condition
-    number sigma_max / sigma_min (inf when sigma_min is 0). The singular values come from one-sided Jacobi
-    (Hestenes: plane rotations of the rows of A, or of its columns when K > N, until they are orthogonal; their norms):
-    backward stable, each within a few ulps of sigma_max (and of itself when the columns are merely badly scaled),
-    as accurate as numpy's SVD near a singularity. Every step is a loop over the configurations without branches (a
-    pivot row or a rotation skipped is a select), so that the compiler makes it SIMD across a lane block; a block
-    sweeps until none of its configurations rotates.
+    number sigma_max / sigma_min (inf when sigma_min is 0); 4 the largest singular value. The singular values come
+    from a Householder QR of B (A^T when K <= N, else A; backward stable), B = Q R with R r x r, r = min(K, N):
+
+    - the product of the singular values is prod |R_kk|;
+    - sigma_min^2 is 1 / (the largest eigenvalue of R^-1 R^-T) and sigma_max^2 the largest eigenvalue of R R^T. A
+      largest eigenvalue is exact to a few ulps of itself, so sigma_min is within a few ulps of sigma_max times the
+      conditioning of R (what numpy's SVD achieves: its error is eps sigma_max), not eps sigma_max^2 / sigma_min as
+      from the eigenvalues of A A^T. ``sigma_min`` is 0 where R has a zero pivot or its inverse overflows
+      (sigma_min < ~1e-150 sigma_max, far below that accuracy).
+    - The largest eigenvalue of a symmetric matrix: Householder reduction to a tridiagonal matrix, then Laguerre's
+      iteration on its characteristic polynomial p from above (from its Frobenius norm): for a polynomial with real
+      roots it decreases monotonically onto the largest root, cubically (linearly, ratio <= 0.4, onto a multiple
+      one), and p'/p and p''/p come from the LDL^T pivots of lambda I - T in one pass (Sturm's recurrence); it stops
+      when a step is under 4e-16 lambda. Where rounding makes a step land below the largest root (a multiple or nearly
+      multiple one; seen as a pivot <= 0) the root is bracketed: a try just above that point, then bisection, to
+      2e-14 of itself.
+
+    Each step is a loop over the ``width`` configurations without branches (a pivot row or a Laguerre step of a
+    converged configuration is a select) on 2-D views (row, configuration) of W and ``tmp``: SIMD across a lane block
+    (a flat index at a run-time offset is not vectorised: numba's negative-index wraparound makes it a gather).
     """
+    top = 0
+    for i in range(rows.shape[0]):
+        top = max(top, rows[i] + 1)
+    work = measure_work(n)
+    _measure_views(
+        W[at : at + top * n * width].reshape((top * n, width)), tmp[: work * width].reshape((work, width)), n, rows, kind, out, o0, count
+    )
+
+
+@kernel()
+def _measure_views(
+    V: np.ndarray, T: np.ndarray, n: int, rows: np.ndarray, kind: int, out: np.ndarray, o0: int, count: int
+) -> None:  # pragma: no cover
+    """:func:`jacobian_measure_lanes` on the 2-D views V (rows of J*, configurations) and T (work rows, configurations).
+    Not inlined: compiled once for every caller (the generic drivers, the specialised kernels, the control laws), its
+    loops SIMD across the configurations whether or not N is a constant (inlined into the specialised kernels, where N
+    is, it compiled 3.6 times slower and ran no faster)."""
+    width = V.shape[1]
     k_rows = rows.shape[0]
     if kind == 0:
-        det, piv, big, f = tmp[:width], tmp[width : 2 * width], tmp[2 * width : 3 * width], tmp[3 * width : 4 * width]
+        det, piv, big, f = 0, 1, 2, 3
         for l in range(width):
-            det[l] = 1.0
+            T[det, l] = 1.0
         for col in range(n):
-            top = at + (rows[col] * n + col) * width
+            top_row = rows[col] * n + col
             for l in range(width):
-                big[l] = abs(W[top + l])
-                piv[l] = col
+                T[big, l] = abs(V[top_row, l])
+                T[piv, l] = col
             for r in range(col + 1, n):  # the pivot: the first largest |a[r, col]|
-                o = at + (rows[r] * n + col) * width
+                o = rows[r] * n + col
                 for l in range(width):
-                    v = abs(W[o + l])
-                    better = v > big[l]
-                    big[l] = v if better else big[l]
-                    piv[l] = r if better else piv[l]
+                    v = abs(V[o, l])
+                    better = v > T[big, l]
+                    T[big, l] = v if better else T[big, l]
+                    T[piv, l] = r if better else T[piv, l]
             for r in range(col + 1, n):  # the pivot row swapped with row col where it is row r
                 for j in range(col, n):
-                    oc = at + (rows[col] * n + j) * width
-                    o = at + (rows[r] * n + j) * width
+                    oc = rows[col] * n + j
+                    o = rows[r] * n + j
                     for l in range(width):
-                        here = piv[l] == r
-                        a, b = W[oc + l], W[o + l]
-                        W[oc + l] = b if here else a
-                        W[o + l] = a if here else b
+                        here = T[piv, l] == r
+                        a, b = V[oc, l], V[o, l]
+                        V[oc, l] = b if here else a
+                        V[o, l] = a if here else b
             for l in range(width):
-                d = W[top + l]
-                det[l] = (-det[l] if piv[l] != col else det[l]) * d
-                big[l] = 1.0 / (d if d != 0.0 else 1.0)  # a zero column below the diagonal: det is 0, nothing to eliminate
+                d = V[top_row, l]
+                T[det, l] = (-T[det, l] if T[piv, l] != col else T[det, l]) * d
+                T[big, l] = 1.0 / (d if d != 0.0 else 1.0)  # a zero column below the diagonal: det is 0, nothing to eliminate
             for r in range(col + 1, n):
-                o = at + (rows[r] * n + col) * width
+                o = rows[r] * n + col
                 for l in range(width):
-                    f[l] = W[o + l] * big[l]
+                    T[f, l] = V[o, l] * T[big, l]
                 for j in range(col + 1, n):
-                    oc = at + (rows[col] * n + j) * width
-                    o = at + (rows[r] * n + j) * width
+                    oc = rows[col] * n + j
+                    o = rows[r] * n + j
                     for l in range(width):
-                        W[o + l] -= f[l] * W[oc + l]
+                        V[o, l] -= T[f, l] * V[oc, l]
         for l in range(count):
-            out[o0 + l] = det[l]
+            out[o0 + l] = T[det, l]
         return
-    # the vectors to orthogonalise: the K rows of A (K <= N), else its N columns; element i of vector p at
-    # W[at + off(p, i) width + l]
     by_rows = k_rows <= n
-    nc, nr = (k_rows, n) if by_rows else (n, k_rows)
-    alpha, beta, gamma = tmp[:width], tmp[width : 2 * width], tmp[2 * width : 3 * width]
-    cs, sn = tmp[3 * width : 4 * width], tmp[4 * width : 5 * width]
-    for _sweep in range(60):
-        rotated = False
-        for p in range(nc - 1):
-            for q in range(p + 1, nc):
-                for l in range(width):  # the sums in registers (the loop over i unrolls when n is a constant)
-                    a = 0.0
-                    b = 0.0
-                    g = 0.0
-                    for i in range(nr):
-                        bp = W[at + ((rows[p] * n + i) if by_rows else (rows[i] * n + p)) * width + l]
-                        bq = W[at + ((rows[q] * n + i) if by_rows else (rows[i] * n + q)) * width + l]
-                        a += bp * bp
-                        b += bq * bq
-                        g += bp * bq
-                    alpha[l] = a
-                    beta[l] = b
-                    gamma[l] = g
-                turns = 0  # an integer count: a float sum would not vectorise (no reassociation)
+    p, r = (n, k_rows) if by_rows else (k_rows, n)
+    X, G = 0, r * r  # the r x r matrices R^-1 (or R) and the Gram matrix: rows X + i r + j of T
+    e = 2 * r * r
+    v0, beta, acc, lam, prod, small, a, b = e, e + 1, e + 2, e + 3, e + 4, e + 5, e + 6, e + 6 + r
+    e = e + 6 + 2 * r  # then 10 rows for the eigenvalue
+    for k in range(r):  # Householder QR of B (p x r) in place: R in its upper triangle
+        for l in range(width):
+            T[acc, l] = 0.0
+        for i in range(k, p):
+            o = _b(rows, n, by_rows, i, k)
+            for l in range(width):
+                x = V[o, l]
+                T[acc, l] += x * x
+        d = _b(rows, n, by_rows, k, k)
+        for l in range(width):
+            s = T[acc, l]
+            x = V[d, l]
+            norm = math.sqrt(s)
+            alpha = -norm if x >= 0.0 else norm
+            vtv = 2.0 * (s - x * alpha)
+            T[beta, l] = 2.0 / vtv if vtv > 0.0 else 0.0  # a zero column: no reflection, R_kk = 0
+            V[d, l] = x - alpha  # the reflector v = B[k:, k] - alpha e_k, in place
+            T[v0, l] = alpha
+        for j in range(k + 1, r):
+            for l in range(width):
+                T[acc, l] = 0.0
+            for i in range(k, p):
+                oi, oj = _b(rows, n, by_rows, i, k), _b(rows, n, by_rows, i, j)
                 for l in range(width):
-                    # the rotation that makes them orthogonal: tan = t = 2 g sgn(d) / (|d| + sqrt(d^2 + 4 g^2)), d = beta - alpha
-                    # (Rutishauser's t = sgn(zeta) / (|zeta| + sqrt(1 + zeta^2)), zeta = d / 2g, times 2|g| / 2|g|), so
-                    # c = 1 / sqrt(1 + t^2) = den / sqrt(den^2 + 4 g^2) and s = c t: two roots and one division
-                    g = gamma[l]
-                    turn = g * g > 4e-32 * (alpha[l] * beta[l])  # else orthogonal to working precision: |g| <= 2e-16 sqrt(ab)
-                    d = beta[l] - alpha[l]
-                    g2 = (g + g) * (1.0 if d >= 0.0 else -1.0)
-                    den = abs(d) + math.sqrt(d * d + g2 * g2)
-                    inv = 1.0 / math.sqrt(den * den + g2 * g2)
-                    cs[l] = den * inv if turn else 1.0
-                    sn[l] = g2 * inv if turn else 0.0
-                    turns += 1 if turn else 0
-                if turns == 0:
-                    continue
-                rotated = True
+                    T[acc, l] += V[oi, l] * V[oj, l]
+            for l in range(width):
+                T[acc, l] *= T[beta, l]
+            for i in range(k, p):
+                oi, oj = _b(rows, n, by_rows, i, k), _b(rows, n, by_rows, i, j)
                 for l in range(width):
-                    c, s = cs[l], sn[l]
-                    for i in range(nr):
-                        op = at + ((rows[p] * n + i) if by_rows else (rows[i] * n + p)) * width + l
-                        oq = at + ((rows[q] * n + i) if by_rows else (rows[i] * n + q)) * width + l
-                        bp, bq = W[op], W[oq]
-                        W[op] = c * bp - s * bq
-                        W[oq] = s * bp + c * bq
-        if not rotated:
-            break
-    smallest, largest, product, norm = alpha, beta, gamma, cs
+                    V[oj, l] -= T[acc, l] * V[oi, l]
+        for l in range(width):
+            V[d, l] = T[v0, l]  # R_kk
     for l in range(width):
-        smallest[l] = math.inf
-        largest[l] = 0.0
-        product[l] = 1.0
-    for p in range(nc):
+        T[prod, l] = 1.0
+    for k in range(r):
+        d = _b(rows, n, by_rows, k, k)
         for l in range(width):
-            a = 0.0
-            for i in range(nr):
-                bp = W[at + ((rows[p] * n + i) if by_rows else (rows[i] * n + p)) * width + l]
-                a += bp * bp
-            norm[l] = a
+            T[prod, l] *= abs(V[d, l])
+    if kind == 2:
+        for l in range(count):
+            out[o0 + l] = T[prod, l]
+        return
+    for part in range(2):  # 0: sigma_min from R^-1 (kinds 1, 3); 1: sigma_max from R (kinds 3, 4)
+        if (part == 0 and kind == 4) or (part == 1 and kind == 1):
+            continue
+        for j in range(r):  # X = R^-1 (upper triangular, column by column), or R
+            d = _b(rows, n, by_rows, j, j)
+            xd = X + j * r + j
+            for l in range(width):
+                x = V[d, l]
+                T[xd, l] = x if part == 1 else (1.0 / x if x != 0.0 else 0.0)
+            for i in range(j - 1, -1, -1):
+                xo = X + i * r + j
+                if part == 1:
+                    o = _b(rows, n, by_rows, i, j)
+                    for l in range(width):
+                        T[xo, l] = V[o, l]
+                    continue
+                for l in range(width):
+                    T[xo, l] = 0.0
+                for k in range(i + 1, j + 1):
+                    o, xk = _b(rows, n, by_rows, i, k), X + k * r + j
+                    for l in range(width):
+                        T[xo, l] += V[o, l] * T[xk, l]
+                xi = X + i * r + i
+                for l in range(width):
+                    T[xo, l] *= -T[xi, l]
+        for i in range(r):  # G = X X^T
+            for j in range(i, r):
+                gij = G + i * r + j
+                for l in range(width):
+                    T[gij, l] = 0.0
+                for k in range(j, r):
+                    xi, xj = X + i * r + k, X + j * r + k
+                    for l in range(width):
+                        T[gij, l] += T[xi, l] * T[xj, l]
+                gji = G + j * r + i
+                for l in range(width):
+                    T[gji, l] = T[gij, l]
+        _largest_eigenvalue(T, G, r, width, a, b, e, lam)
         for l in range(width):
-            sv = math.sqrt(norm[l])
-            smallest[l] = min(smallest[l], sv)
-            largest[l] = max(largest[l], sv)
-            product[l] *= sv
+            x = T[lam, l]
+            if part == 0:
+                T[small, l] = 1.0 / math.sqrt(x) if T[prod, l] != 0.0 and x < math.inf else 0.0
+            else:
+                T[lam, l] = math.sqrt(x)
     for l in range(count):
         if kind == 1:
-            out[o0 + l] = smallest[l]
-        elif kind == 2:
-            out[o0 + l] = product[l]
+            out[o0 + l] = T[small, l]
+        elif kind == 4:
+            out[o0 + l] = T[lam, l]
         else:
-            out[o0 + l] = largest[l] / smallest[l] if smallest[l] > 0.0 else math.inf
+            out[o0 + l] = T[lam, l] / T[small, l] if T[small, l] > 0.0 else math.inf
+
+
+@kernel(inline="always")
+def _largest_eigenvalue(T: np.ndarray, G: int, r: int, width: int, a: int, b: int, e: int, lam: int) -> None:  # pragma: no cover
+    """T[lam, l] = the largest eigenvalue of the symmetric r x r matrices T[G + i r + j, l] (destroyed), for the
+    ``width`` configurations l: Householder tridiagonalisation (diagonal into rows a.., off-diagonal into rows b..),
+    then Laguerre's iteration from above (see :func:`jacobian_measure_lanes`); rows e .. e + 9 of T are work space."""
+    beta, half, acc = e, e + 1, e + 2
+    for k in range(r - 2):  # the reflector of column k below its diagonal, v stored over it; p, then w, in row k
+        for l in range(width):
+            T[acc, l] = 0.0
+        for i in range(k + 1, r):
+            o = G + i * r + k
+            for l in range(width):
+                x = T[o, l]
+                T[acc, l] += x * x
+        v = G + (k + 1) * r + k
+        for l in range(width):
+            s = T[acc, l]
+            x = T[v, l]
+            norm = math.sqrt(s)
+            alpha = -norm if x >= 0.0 else norm
+            vtv = 2.0 * (s - x * alpha)
+            T[beta, l] = 2.0 / vtv if vtv > 0.0 else 0.0
+            T[v, l] = x - alpha
+            T[a + k, l] = T[G + k * r + k, l]
+            T[b + k, l] = alpha
+        for i in range(k + 1, r):  # p = beta A v (A the trailing block)
+            po = G + k * r + i
+            for l in range(width):
+                T[po, l] = 0.0
+            for j in range(k + 1, r):
+                ao, vo = G + i * r + j, G + j * r + k
+                for l in range(width):
+                    T[po, l] += T[ao, l] * T[vo, l]
+            for l in range(width):
+                T[po, l] *= T[beta, l]
+        for l in range(width):
+            T[acc, l] = 0.0
+        for i in range(k + 1, r):
+            vo, po = G + i * r + k, G + k * r + i
+            for l in range(width):
+                T[acc, l] += T[vo, l] * T[po, l]
+        for l in range(width):
+            T[half, l] = 0.5 * T[beta, l] * T[acc, l]
+        for i in range(k + 1, r):  # w = p - (beta v^T p / 2) v
+            vo, po = G + i * r + k, G + k * r + i
+            for l in range(width):
+                T[po, l] -= T[half, l] * T[vo, l]
+        for i in range(k + 1, r):  # A -= v w^T + w v^T
+            for j in range(k + 1, i + 1):
+                vi, vj, wi, wj = G + i * r + k, G + j * r + k, G + k * r + i, G + k * r + j
+                ij, ji = G + i * r + j, G + j * r + i
+                for l in range(width):
+                    x = T[ij, l] - T[vi, l] * T[wj, l] - T[wi, l] * T[vj, l]
+                    T[ij, l] = x
+                    T[ji, l] = x
+    for k in range(max(r - 2, 0), r):
+        for l in range(width):
+            T[a + k, l] = T[G + k * r + k, l]
+    if r >= 2:
+        for l in range(width):
+            T[b + r - 2, l] = T[G + (r - 1) * r + r - 2, l]
+    d, dp, dpp, g1, h1, above, hi, lo, step, probed = e, e + 1, e + 2, e + 3, e + 4, e + 5, e + 6, e + 7, e + 8, e + 9
+    for l in range(width):
+        T[g1, l] = 0.0
+    for i in range(r):
+        for l in range(width):
+            x = T[a + i, l]
+            T[g1, l] += x * x
+    for i in range(r - 1):
+        for l in range(width):
+            x = T[b + i, l]
+            T[g1, l] += 2.0 * x * x
+    for l in range(width):
+        x = math.sqrt(T[g1, l]) * 1.0001  # above the Frobenius norm: above every eigenvalue
+        T[lam, l] = x  # the point tried
+        T[hi, l] = x  # the lowest point tried above the largest eigenvalue (all pivots positive)
+        T[lo, l] = 0.0  # the highest point tried at or below it (G is positive semidefinite)
+        T[step, l] = x  # Laguerre's step from hi (> 0 while the configuration iterates)
+        T[probed, l] = 0.0
+    for _step in range(120):
+        for l in range(width):  # the pivots d_i of lambda I - T and their derivatives; p'/p = sum d_i'/d_i, -(p'/p)'
+            x = T[lam, l] - T[a, l]
+            rn = 1.0 / x
+            T[d, l] = rn  # 1 / d_i
+            T[dp, l] = 1.0
+            T[dpp, l] = 0.0
+            T[g1, l] = rn
+            T[h1, l] = rn * rn
+            T[above, l] = 1.0 if x > 0.0 else 0.0
+        for i in range(1, r):
+            bo, ao = b + i - 1, a + i
+            for l in range(width):
+                bb = T[bo, l]
+                b2 = bb * bb
+                rr = T[d, l]
+                u = T[dp, l] * rr
+                x = T[lam, l] - T[ao, l] - b2 * rr
+                dpn = 1.0 + b2 * u * rr
+                dppn = b2 * rr * (T[dpp, l] * rr - 2.0 * u * u)
+                rn = 1.0 / x
+                un = dpn * rn
+                T[d, l] = rn
+                T[dp, l] = dpn
+                T[dpp, l] = dppn
+                T[g1, l] += un
+                T[h1, l] += un * un - dppn * rn
+                T[above, l] = T[above, l] if x > 0.0 else 0.0
+        moving = 0
+        for l in range(width):
+            # Laguerre's step from a point above. Near a multiple or nearly multiple largest eigenvalue its square root
+            # cancels to rounding, and a step may land below the largest eigenvalue (a pivot <= 0): that point bounds
+            # it from below; the next try is just above it (the eigenvalue within 2e-14 of itself), then bisection of
+            # [lo, hi] where Laguerre's step from hi does not land inside it
+            x = T[lam, l]
+            up = T[above, l] > 0.0
+            g = T[g1, l]
+            disc = (r - 1) * (r * T[h1, l] - g * g)
+            lag = r / (g + math.sqrt(disc if disc > 0.0 else 0.0))
+            going = T[step, l] > 0.0
+            top = x if up else T[hi, l]
+            bottom = T[lo, l] if up else x
+            stride = lag if up else T[step, l]
+            done = (up and lag <= 4e-16 * x) or top - bottom <= 2e-14 * top
+            probe = not up and T[probed, l] == 0.0
+            trial = top - stride
+            middle = 0.5 * (bottom + top)
+            trial = trial if up and trial > bottom else (bottom * (1.0 + 1e-14) if probe else middle)
+            trial = trial if bottom < trial < top else middle
+            T[hi, l] = top if going else T[hi, l]
+            T[lo, l] = bottom if going else T[lo, l]
+            T[step, l] = (0.0 if done else stride) if going else 0.0
+            T[lam, l] = (top if done else trial) if going else T[lam, l]
+            T[probed, l] = 1.0 if probe or T[probed, l] > 0.0 else 0.0
+            moving += 1 if going and not done else 0
+        if moving == 0:
+            break
 
 
 @kernel(inline="always")

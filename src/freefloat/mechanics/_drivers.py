@@ -30,6 +30,7 @@ from ._configuration import (
     inverse_one,
     jacobian_measure_lanes,
     jstar_one,
+    measure_work,
     point_bias_one,
     point_jacobian_one,
     points_one,
@@ -256,7 +257,7 @@ def _measure_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
     width = min(LANES, Q.shape[0] - c0)
     n = Q.shape[1]
     size = s.jac.shape[0] * n
-    W = np.empty((size + 5) * width)
+    W = np.empty((size + measure_work(n)) * width)
     for l in range(width):
         jstar_one(Q[c0 + l], m, s, s.jac)
         for r in range(s.jac.shape[0]):

@@ -128,13 +128,13 @@ def _measure_blocks(
     Q: np.ndarray, P: Any, rows: np.ndarray, kind: int, OUT: np.ndarray, W: np.ndarray, first: int, last: int
 ) -> None:  # pragma: no cover
     """OUT[b] = a measure of the rows ``rows`` of J*(Q[b]) for the blocks first..last: the lane kernel ``LANE`` writes the
-    J* of a block into W (inputs, then the 6E N rows of J*, then 5 rows of work space), and ``MEASURE`` (the engine's
+    J* of a block into W (inputs, then the 6E N rows of J*, then ``WORK`` rows of work space), and ``MEASURE`` (the engine's
     :func:`~._configuration.jacobian_measure_lanes`) reduces them, :data:`LANES` configurations at a time. ``LANE``,
-    ``MEASURE`` and ``N`` (the joints) are bound by :func:`measure_loop`: constants, so that the measure is inlined
+    ``MEASURE``, ``N`` (the joints) and ``WORK`` are bound by :func:`measure_loop`: constants, so that the measure is inlined
     and its loops over a row of J* unroll."""
     size = Q.shape[0]
     off = N * LANES  # type: ignore[name-defined]  # noqa: F821 (bound by measure_loop)
-    tmp = W[W.shape[0] - 5 * LANES :]
+    tmp = W[W.shape[0] - WORK * LANES :]  # type: ignore[name-defined]  # noqa: F821
     for block in range(first, last):
         b0 = block * LANES
         count = min(LANES, size - b0)
@@ -147,11 +147,12 @@ def _measure_blocks(
 
 
 @functools.cache
-def measure_loop(lane: Any, measure: Any, n: int, name: str) -> Any:
-    """The measure loop above for the lane kernel ``lane`` (J* of a block), the measure ``measure`` and ``n`` joints,
-    bound as globals (inlined where called): ``measure_blocks(Q, P, rows, kind, OUT, W, first, last)``."""
+def measure_loop(lane: Any, measure: Any, n: int, work: int, name: str) -> Any:
+    """The measure loop above for the lane kernel ``lane`` (J* of a block), the measure ``measure``, ``n`` joints and
+    ``work`` rows of the measure's work space at the end of W, bound as globals (inlined where called):
+    ``measure_blocks(Q, P, rows, kind, OUT, W, first, last)``."""
     return numba.njit(inline="always", nogil=True, error_model="numpy")(
-        bind(_measure_blocks, f"measure_blocks_{name}", LANE=lane, MEASURE=measure, N=n)
+        bind(_measure_blocks, f"measure_blocks_{name}", LANE=lane, MEASURE=measure, N=n, WORK=work)
     )
 
 

@@ -26,7 +26,15 @@ from typing import Any
 
 import numpy as np
 
-from ._configuration import hplus_one, inverse_one, jacobian_measure_lanes, point_bias_one, point_jacobian_one, quaternion_matrix
+from ._configuration import (
+    hplus_one,
+    inverse_one,
+    jacobian_measure_lanes,
+    measure_work,
+    point_bias_one,
+    point_jacobian_one,
+    quaternion_matrix,
+)
 from ._lanes import joint_pd
 from ._numba_cache import kernel
 from ._tree import BODY_FIELDS, arrays
@@ -425,11 +433,11 @@ def damped_inverse(a: np.ndarray, closeness: float, tolerance: float) -> np.ndar
 
 @kernel()
 def closeness(jac: np.ndarray) -> float:  # pragma: no cover - compiled
-    """σ_min/σ_max of J_z (0 when it has more rows than columns), by the engine's singular values (one-sided Jacobi)."""
+    """σ_min/σ_max of J_z (0 when it has more rows than columns), by the engine's singular values."""
     rows, cols = jac.shape
     if rows > cols:
         return 0.0
-    work = np.empty(rows * cols + 5)
+    work = np.empty(rows * cols + measure_work(cols))
     for r in range(rows):
         for c in range(cols):
             work[r * cols + c] = jac[r, c]

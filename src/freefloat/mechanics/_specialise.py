@@ -316,7 +316,7 @@ def parallel(parts, P, OUT, rows, WS):  # pragma: no cover - compiled
 from freefloat.mechanics._configuration import jacobian_measure_lanes  # the engine's measures, written once
 
 # the measure inlined after this lane kernel, with the joints a constant (its loops over a row of J* unroll)
-measure_blocks = _lanes.measure_loop(lane, jacobian_measure_lanes, {n}, "specialised")
+measure_blocks = _lanes.measure_loop(lane, jacobian_measure_lanes, {n}, {work}, "specialised")
 
 
 @kernel()
@@ -363,7 +363,7 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
     if kind in MAPS:
         rows = n_in + len(outputs) + 1  # then the guards' row (_lanes.map_blocks)
     elif kind == "measure":
-        rows = n_in + len(outputs) + 5  # the work space of the measure: 5 rows (_lanes.measure_loop)
+        rows = n_in + len(outputs) + _configuration.measure_work.py_func(t.n_joints)  # then the measure's work space
     else:
         size = t.state_size
         ext_at = _lanes.rollout_rows(size, t.n_joints + 6)  # the W layout of _lanes.rollout_blocks, then the wrenches
@@ -380,6 +380,7 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
     )
     guarded = f"GUARDED = {bool(g.guards)}\n\n\n"
     drivers = _DRIVERS["map" if kind in MAPS else kind].replace("{n}", str(t.n_joints))
+    drivers = drivers.replace("{work}", str(_configuration.measure_work.py_func(t.n_joints)))
     return (
         head.replace("\n\n\n@kernel()\n", "\n" + guarded + "@kernel()\n") + lane + "\n" + drivers,
         slots,

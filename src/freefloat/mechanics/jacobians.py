@@ -306,7 +306,7 @@ def manipulability(model: Model, q: Any) -> np.ndarray:
 
 
 #: The measures of :func:`jacobian_measure`.
-JACOBIAN_MEASURES = ("det", "sigma_min", "manipulability", "condition")
+JACOBIAN_MEASURES = ("det", "sigma_min", "manipulability", "condition", "sigma_max")
 
 
 def jacobian_measure(model: Model, q: Any, rows: Any = None, measure: str = "sigma_min") -> np.ndarray:
@@ -315,12 +315,13 @@ def jacobian_measure(model: Model, q: Any, rows: Any = None, measure: str = "sig
     ``rows``: distinct indices into the 6E rows of J* ([v; ω] per end effector); None: the rows of
     :func:`jacobian_determinant` (the plane's for a planar model, else all). ``measure``: ``"det"`` (square rows
     only, signed), ``"sigma_min"`` (the smallest singular value), ``"manipulability"`` (the product of the singular
-    values, sqrt(det(J Jᵀ))), ``"condition"`` (σ_max / σ_min, inf at a singularity). Computed per configuration
-    inside the engine's kernel (LU with partial pivoting; one-sided Jacobi for the singular values, as accurate as
-    numpy's det and SVD), 64 configurations at a time (SIMD across them): no batch of J* is written, so a map of millions
-    of configurations needs memory for the measures only. Batches of 64 or more run on the kernels specialised to the
-    model's structure when made (kind ``"measure"`` of :func:`~freefloat.mechanics.specialise`; automatic after a few
-    seconds of this work).
+    values, sqrt(det(J Jᵀ))), ``"condition"`` (σ_max / σ_min, inf at a singularity), ``"sigma_max"`` (the largest
+    singular value). Computed per configuration inside the engine's kernel (LU with partial pivoting for det; for the
+    others a Householder QR, then the largest eigenvalues of R⁻¹R⁻ᵀ and R Rᵀ: as accurate as numpy's det and SVD, σ_min
+    within a few ulps of σ_max near a singularity), 64 configurations at a time (SIMD across them): no batch of J* is
+    written, so a map of millions of configurations needs memory for the measures only. Batches of 64 or more run on
+    the kernels specialised to the model's structure when made (kind ``"measure"`` of
+    :func:`~freefloat.mechanics.specialise`; automatic after a few seconds of this work).
     """
     if measure not in JACOBIAN_MEASURES:
         raise ValueError(f"measure: expected one of {', '.join(JACOBIAN_MEASURES)}, got {measure!r}")
