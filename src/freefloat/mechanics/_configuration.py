@@ -127,6 +127,17 @@ def jacobian_measure_lanes(
     )
 
 
+@kernel(inline="always")
+def _reflector(s: float, x: float) -> tuple[float, float]:  # pragma: no cover - compiled
+    """The Householder reflection H = I - beta v v^T that maps a column with squared norm ``s`` and first entry ``x``
+    onto alpha e_1: (alpha, beta), v = the column - alpha e_1 (alpha of the sign opposite to x: no cancellation in
+    v_1); beta = 0 for a zero column (no reflection)."""
+    norm = math.sqrt(s)
+    alpha = -norm if x >= 0.0 else norm
+    vtv = 2.0 * (s - x * alpha)
+    return alpha, 2.0 / vtv if vtv > 0.0 else 0.0
+
+
 @kernel()
 def _measure_views(
     V: np.ndarray, T: np.ndarray, n: int, rows: np.ndarray, kind: int, out: np.ndarray, o0: int, count: int
@@ -194,12 +205,9 @@ def _measure_views(
                 T[acc, l] += x * x
         d = _b(rows, n, by_rows, k, k)
         for l in range(width):
-            s = T[acc, l]
             x = V[d, l]
-            norm = math.sqrt(s)
-            alpha = -norm if x >= 0.0 else norm
-            vtv = 2.0 * (s - x * alpha)
-            T[beta, l] = 2.0 / vtv if vtv > 0.0 else 0.0  # a zero column: no reflection, R_kk = 0
+            alpha, scale = _reflector(T[acc, l], x)
+            T[beta, l] = scale
             V[d, l] = x - alpha  # the reflector v = B[k:, k] - alpha e_k, in place
             T[v0, l] = alpha
         for j in range(k + 1, r):
@@ -296,12 +304,9 @@ def _largest_eigenvalue(T: np.ndarray, G: int, r: int, width: int, a: int, b: in
                 T[acc, l] += x * x
         v = G + (k + 1) * r + k
         for l in range(width):
-            s = T[acc, l]
             x = T[v, l]
-            norm = math.sqrt(s)
-            alpha = -norm if x >= 0.0 else norm
-            vtv = 2.0 * (s - x * alpha)
-            T[beta, l] = 2.0 / vtv if vtv > 0.0 else 0.0
+            alpha, scale = _reflector(T[acc, l], x)
+            T[beta, l] = scale
             T[v, l] = x - alpha
             T[a + k, l] = T[G + k * r + k, l]
             T[b + k, l] = alpha
