@@ -525,7 +525,7 @@ def find(t: Tree, kind: str, wrenches: Layout = ()) -> types.ModuleType | None:
 #: on, so on the 2-core machines this was measured on it costs them about half its time (less with more cores); and
 #: its result serves every later process on the machine. (At 3 s, the full compile time, the 10^8-configuration sweep of
 #: the 1992 system ran at 102x the Pinocchio loop, the 7-DOF arm's at 73x; benchmarks/bench_sweep.py.)
-AUTO_AFTER = {"jstar": 1.5, "rollout": 6.0, "hplus": 1.5, "forward": 4.0, "inverse": 2.5, "measure": 1.5}
+AUTO_AFTER = {"jstar": 1.5, "rollout": 6.0, "hplus": 1.5, "forward": 4.0, "inverse": 2.5, "measure": 6.0}
 #: What each kind usually takes to compile (measured on the paper systems and the 7-DOF arm; docs/performance.md).
 COMPILE_TIME = {
     "jstar": "2-5 s",
@@ -533,7 +533,7 @@ COMPILE_TIME = {
     "hplus": "a few seconds",
     "forward": "5-15 s",
     "inverse": "3-10 s",
-    "measure": "3-6 s",
+    "measure": "10-20 s",
 }
 #: The environment variable that turns automatic specialisation off ("0", "false", "no" or "off").
 AUTO_ENV = "FREEFLOAT_AUTO_SPECIALISE"
