@@ -919,6 +919,30 @@ CASES = [
     api("map-huge", lambda f: ff.workspace.jacobian_determinant_map(M(), n=100_000), MemoryBudgetError, r"a map of 100000 x 100000"),
     api("map-same-joint", lambda f: ff.workspace.jacobian_determinant_map(M(), (0, 0)), ValueError, r"two different joints"),
     api(
+        "measure-unknown",
+        lambda f: ff.mechanics.jacobian_measure(ff.models.spacecraft_7dof(), np.zeros(7), None, "smax"),
+        ValueError,
+        r"^measure: expected one of det, sigma_min, manipulability, condition, sigma_max, got 'smax'",
+    ),
+    api(
+        "measure-repeated-rows",
+        lambda f: ff.mechanics.jacobian_measure(ff.models.spacecraft_7dof(), np.zeros(7), [0, 1, 1], "sigma_max"),
+        ValueError,
+        r"^rows: expected distinct indices",
+    ),
+    api(
+        "measure-det-not-square",
+        lambda f: ff.mechanics.jacobian_measure(ff.models.spacecraft_7dof(), np.zeros(7), None, "det"),
+        ff.ShapeError,
+        r"not square; use 'sigma_min'",
+    ),
+    api(
+        "measure-nan-q",
+        lambda f: ff.mechanics.jacobian_measure(ff.models.spacecraft_7dof(), np.full(7, np.nan), None, "sigma_max"),
+        ValueError,
+        r"^q: has NaN or infinite entries",
+    ),
+    api(
         "reach-huge-samples",
         lambda f: ff.workspace.reachable_workspace(ff.models.spacecraft_7dof(), 0, samples=10**9),
         MemoryBudgetError,

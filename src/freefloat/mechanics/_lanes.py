@@ -130,8 +130,8 @@ def _measure_blocks(
     """OUT[b] = a measure of the rows ``rows`` of J*(Q[b]) for the blocks first..last: the lane kernel ``LANE`` writes the
     J* of a block into W (inputs, then the 6E N rows of J*, then ``WORK`` rows of work space), and ``MEASURE`` (the engine's
     :func:`~._configuration.jacobian_measure_lanes`) reduces them, :data:`LANES` configurations at a time. ``LANE``,
-    ``MEASURE``, ``N`` (the joints) and ``WORK`` are bound by :func:`measure_loop`: constants, so that the measure is inlined
-    and its loops over a row of J* unroll."""
+    ``MEASURE``, ``N`` (the joints) and ``WORK`` are bound by :func:`measure_loop` as constants; ``MEASURE`` hands the
+    block to the engine's one compiled measure (:func:`~._configuration._measure_views`, not inlined)."""
     size = Q.shape[0]
     off = N * LANES  # type: ignore[name-defined]  # noqa: F821 (bound by measure_loop)
     tmp = W[W.shape[0] - WORK * LANES :]  # type: ignore[name-defined]  # noqa: F821

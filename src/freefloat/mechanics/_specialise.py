@@ -315,7 +315,7 @@ def parallel(parts, P, OUT, rows, WS):  # pragma: no cover - compiled
     "measure": """
 from freefloat.mechanics._configuration import jacobian_measure_lanes  # the engine's measures, written once
 
-# the measure inlined after this lane kernel, with the joints a constant (its loops over a row of J* unroll)
+# the engine's measure after this lane kernel, on each block (compiled once for every structure: not inlined)
 measure_blocks = _lanes.measure_loop(lane, jacobian_measure_lanes, {n}, {work}, "specialised")
 
 
