@@ -72,3 +72,23 @@ def test_the_kept_buffers_stay_under_their_bound() -> None:
     assert all(any(np.shares_memory(a, b) for b in _arrays._RECYCLED) for a in again)  # the freed ones served them
     too_large = _arrays.new_output((_arrays.RECYCLE_MAX // 8 + 1,))
     assert not any(np.shares_memory(too_large, b) for b in _arrays._RECYCLED)
+
+
+def test_release_buffers_drops_the_free_buffers_and_keeps_the_held_ones() -> None:
+    """ff.mechanics.release_buffers gives back the kept buffers no result uses, and not the one under a held result."""
+    model = ff.models.papadopoulos1992()
+    rng = np.random.default_rng(5)
+    held = ff.generalized_jacobian(model, rng.uniform(-np.pi, np.pi, (SIZE, 4)))
+    copy_held = held.copy()
+    ff.generalized_jacobian(model, rng.uniform(-np.pi, np.pi, (SIZE + 100, 4)))  # dropped at once
+    gc.collect()
+    assert len(_arrays._RECYCLED) == 2
+    dropped = ff.mechanics.release_buffers()
+    assert dropped >= (SIZE + 100) * 12 * 4 * 8 and dropped < 2 * (SIZE + 100) * 12 * 4 * 8
+    assert len(_arrays._RECYCLED) == 1 and held.base is _arrays._RECYCLED[0]
+    assert ff.mechanics.release_buffers() == 0  # the held one stays while held
+    ff.generalized_jacobian(model, rng.uniform(-np.pi, np.pi, (SIZE, 4)))  # a new buffer: the held one is not free
+    np.testing.assert_array_equal(held, copy_held)
+    del held
+    gc.collect()
+    assert ff.mechanics.release_buffers() > 0 and _arrays._RECYCLED == []

@@ -23,6 +23,7 @@ Layer: imports :mod:`freefloat.core` only.
 from __future__ import annotations
 
 from . import planar
+from ._arrays import release_buffers
 from .dynamics import (
     forward_dynamics,
     inverse_dynamics,
@@ -99,6 +100,7 @@ __all__ = [
     "point_bias_acceleration",
     "point_jacobian",
     "point_positions",
+    "release_buffers",
     "spacecraft_fixed_dynamics",
     "specialise",
     "system_cm",

@@ -60,6 +60,21 @@ def _recycled(nbytes: int) -> np.ndarray:
         return buf
 
 
+def release_buffers() -> int:
+    """Drop the output buffers kept for reuse that no array uses any more (:func:`new_output`; at most
+    :data:`RECYCLE_HELD` bytes are ever kept): their memory goes back to the system now instead of serving the next
+    large call. Buffers under a result the caller still holds stay. Returns the bytes dropped."""
+    with _RECYCLE_LOCK:
+        dropped = 0
+        i = 0
+        while i < len(_RECYCLED):
+            if _free(i):
+                dropped += _RECYCLED.pop(i).nbytes
+            else:
+                i += 1
+        return dropped
+
+
 def new_output(shape: tuple[int, ...], dtype: Any = np.float64) -> np.ndarray:
     """``np.empty(shape)`` for a kernel's output, after a check that it fits in the free memory.
 
