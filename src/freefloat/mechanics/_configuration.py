@@ -331,6 +331,20 @@ def _measure_views(
 
 
 @kernel(inline="always")
+def _bracket(
+    T: np.ndarray, l: int, x_: int, lag: int, above: int, hi: int, lo: int, step: int, conv: int
+) -> tuple[float, float, bool, float, float, float, bool]:  # pragma: no cover - compiled
+    """Configuration l's point, Laguerre step, whether the point is above the largest eigenvalue, the bracket (top,
+    bottom) with the point in it, the last step and whether it has converged (:func:`_largest_eigenvalue`)."""
+    x, s = T[x_, l], T[lag, l]
+    up = T[above, l] > 0.0
+    top = x if up else T[hi, l]
+    bottom = T[lo, l] if up else x
+    done = T[conv, l] > 0.0 or top - bottom <= 2e-14 * top
+    return x, s, up, top, bottom, T[step, l], done
+
+
+@kernel(inline="always")
 def _largest_eigenvalue(T: np.ndarray, G: int, r: int, width: int, a: int, b: int, e: int, lam: int) -> None:  # pragma: no cover
     """T[lam, l] = the largest eigenvalue of the symmetric r x r matrices T[G + i r + j, l] (destroyed), for the
     ``width`` configurations l: Householder tridiagonalisation (diagonal into rows a.., off-diagonal into rows b..),
@@ -458,20 +472,10 @@ def _largest_eigenvalue(T: np.ndarray, G: int, r: int, width: int, a: int, b: in
         for l in range(active):
             T[nprobed, l] = 1.0 if T[above, l] <= 0.0 or T[probed, l] > 0.0 else 0.0
         for l in range(active):
-            x, s = T[x_, l], T[lag, l]
-            up = T[above, l] > 0.0
-            top = x if up else T[hi, l]
-            bottom = T[lo, l] if up else x
-            last = T[step, l]
-            done = T[conv, l] > 0.0 or top - bottom <= 2e-14 * top
+            x, s, up, top, bottom, last, done = _bracket(T, l, x_, lag, above, hi, lo, step, conv)
             T[nstep, l] = (0.0 if done else (s if up else last)) if last > 0.0 else 0.0
         for l in range(active):
-            x, s = T[x_, l], T[lag, l]
-            up = T[above, l] > 0.0
-            top = x if up else T[hi, l]
-            bottom = T[lo, l] if up else x
-            last = T[step, l]
-            done = T[conv, l] > 0.0 or top - bottom <= 2e-14 * top
+            x, s, up, top, bottom, last, done = _bracket(T, l, x_, lag, above, hi, lo, step, conv)
             probe = not up and T[probed, l] == 0.0
             trial = top - s if up else top - last
             middle = 0.5 * (bottom + top)
