@@ -222,6 +222,35 @@ def test_singular_values_of_hard_matrices(shape: tuple[int, int]) -> None:
     assert zero.any() and np.all(np.isinf(results["condition"][zero])) and np.all(np.isfinite(results["condition"][~zero]))
 
 
+@pytest.mark.parametrize("shape", [(6, 7), (3, 7), (7, 6), (2, 2)])
+def test_singular_values_with_close_pairs(shape: tuple[int, int]) -> None:
+    """The smallest two (and, in every other matrix, the largest two) singular values 1e-6 to 1e-9 apart, sigma_min
+    1e-3, to FLOOR sigma_max (a few ulps, as numpy's SVD; tighter than :func:`agree`): the iteration's early stop
+    (from the cubic rate) must wait until the point is far closer to the largest eigenvalue than to its neighbour
+    (with a looser test, 3 x 7 matrices with pairs 1e-7 apart were off by 1e-11 sigma_max)."""
+    k, n = shape
+    r = min(k, n)
+    rng = np.random.default_rng(11 + k * n)
+    for gap in (1e-6, 1e-7, 1e-8, 1e-9):
+        mats = []
+        for i in range(LANES):
+            u = np.linalg.qr(rng.normal(size=(k, k)))[0][:, :r]
+            v = np.linalg.qr(rng.normal(size=(n, n)))[0][:, :r]
+            spectrum = rng.uniform(0.5, 3.0, r)
+            spectrum[-1] = 1e-3
+            if r > 1:
+                spectrum[-2] = 1e-3 * (1.0 + gap)
+            if r > 2 and i % 2:
+                spectrum[0] = spectrum[1] * (1.0 + gap)
+            mats.append(u @ np.diag(spectrum) @ v.T)
+        sv = np.linalg.svd(np.array(mats), compute_uv=False)
+        for measure, ref in (("sigma_min", sv[:, -1]), ("sigma_max", sv[:, 0])):
+            out = np.full(LANES, np.nan)
+            _measure_lane_block(np.array(mats), MEASURE_CODES[measure], out)
+            excess = float(np.max(np.abs(out - ref) / (FLOOR * sv[:, 0])))  # as numpy's SVD: a few ulps of sigma_max
+            assert excess <= 1.0, (measure, gap, excess)
+
+
 def test_the_map_and_search_paths_use_the_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
     """Every public call that needs a measure reaches the measure kernel, not a J* batch and numpy."""
     from freefloat.mechanics import _engine

@@ -455,15 +455,16 @@ def _largest_eigenvalue(T: np.ndarray, G: int, r: int, width: int, a: int, b: in
         # cancels to rounding, and a step may land below the largest eigenvalue (a pivot <= 0): that point bounds it
         # from below; the next try is just above it (the eigenvalue within 2e-14 of itself), then bisection of
         # [lo, hi] where Laguerre's step from hi does not land inside it. Converged: a step under 4e-16 x, or, while
-        # the steps are Laguerre's and the root looks simple from x ((p'/p)^2 <= 1.5 (-(p'/p)'): not inside a cluster
-        # of roots, where the steps are not yet cubic), one whose cubic convergence predicts an error under 1e-17 x
-        # after it (the next error ~ step^4 / previous step^3); the point is then the one the step reaches.
+        # the steps are Laguerre's and the root looks simple from x ((p'/p)^2 <= 1.05 (-(p'/p)'): x is far closer to
+        # it than to any other root; near a pair or cluster the steps are not yet cubic, and with 1.5 a pair 1e-7
+        # apart left errors of 1e-11 sigma_max), one whose cubic convergence predicts an error under 1e-17 x after it
+        # (the next error ~ step^4 / previous step^3); the point is then the one the step reaches.
         # (one row written per pass, each reading at most eight: vectorised)
         for l in range(active):  # converged from above
             x, s, g = T[x_, l], T[lag, l], T[g1, l]
             last = T[step, l]
             up = g < math.inf
-            cubic = T[probed, l] == 0.0 and g * g <= 1.5 * T[h1, l] and s * s * s * s <= 1e-17 * last * last * last * x
+            cubic = T[probed, l] == 0.0 and g * g <= 1.05 * T[h1, l] and s * s * s * s <= 1e-17 * last * last * last * x
             T[conv, l] = 1.0 if up and (s <= 4e-16 * x or cubic) else 0.0
         for l in range(active):
             T[nhi, l] = T[x_, l] if T[step, l] > 0.0 and T[above, l] > 0.0 else T[hi, l]
