@@ -110,8 +110,10 @@ def jacobian_measure_lanes(
       iteration on its characteristic polynomial p from above (from the lower of its Frobenius norm and Gershgorin's
       bound): for a polynomial with real roots it decreases monotonically onto the largest root, cubically (linearly,
       ratio <= 0.4, onto a multiple one), and p'/p and p''/p come from the LDL^T pivots of lambda I - T (Sturm's
-      recurrence). It stops when a step is under 4e-16 lambda, or when the last two steps show the cubic rate and
-      predict an error under 1e-17 lambda after the step (step^4 / previous step^3; the step is then taken). Where
+      recurrence). It stops when a step is under 4e-16 lambda, or when the point is far closer to the largest root
+      than to any other ((p'/p)^2 <= 1.05 (-(p'/p)')) and the last two steps predict, at the cubic rate, an error
+      under 1e-17 lambda after the step (step^4 / previous step^3; the step is then taken). The configurations that
+      have converged leave the passes (the others move to the front of the block). Where
       rounding makes a step land below the largest root (a multiple or nearly multiple one; seen as a pivot <= 0) the
       root is bracketed: a try just above that point, then bisection, to 2e-14 of itself.
 
