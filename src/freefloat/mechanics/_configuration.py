@@ -117,9 +117,10 @@ def jacobian_measure_lanes(
       rounding makes a step land below the largest root (a multiple or nearly multiple one; seen as a pivot <= 0) the
       root is bracketed: a try just above that point, then bisection, to 2e-14 of itself.
 
-    Each step is a loop over the ``width`` configurations without branches (a pivot row or a Laguerre step of a
-    converged configuration is a select) on 2-D views (row, configuration) of W and ``tmp``: SIMD across a lane block
-    (a flat index at a run-time offset is not vectorised: numba's negative-index wraparound makes it a gather).
+    Each step is a loop over the ``width`` configurations without branches (a pivot row is a select) on 2-D views
+    (row, configuration) of W and ``tmp``, writing one row per pass: SIMD across a lane block (a flat index at a
+    run-time offset is not vectorised: numba's negative-index wraparound makes it a gather). Between Laguerre's
+    iterations one scalar pass moves the configurations still iterating to the front of the block.
     """
     top = 0
     for i in range(rows.shape[0]):
