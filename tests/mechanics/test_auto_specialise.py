@@ -123,3 +123,37 @@ def test_a_large_map_of_measures_triggers_the_measure_kernel(auto: None, monkeyp
     assert _specialise.find(t, "measure") is not None and _specialise.find(t, "jstar") is None
     fast = ff.jacobian_determinant(model, q)
     np.testing.assert_allclose(fast, generic, rtol=1e-11, atol=1e-14 * np.abs(generic).max())
+
+
+def test_calls_use_a_module_before_its_threaded_driver_is_compiled(auto: None, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Once the lane kernel and its driver ``blocks`` are compiled, the calls use them (``ready``), a large one on
+    ``blocks``; the threaded driver is compiled after, and from then on a large call runs on it. Both agree with the
+    generic kernel."""
+    model = two_arm_variant()
+    t = tree(model)
+    q = np.random.default_rng(3).uniform(-3, 3, (20000, model.n_joints))
+    generic = ff.generalized_jacobian(model, q)
+    drivers: list[str] = []
+    real = _specialise._run
+
+    def spy(module: object, size: int, args: tuple[object, ...], *, threaded: bool | None = None, threads_from: int = 256) -> None:
+        if threaded is not None and size == q.shape[0]:  # the driver each call of this batch ran (not the warm-ups)
+            drivers.append("parallel" if threaded else "blocks")
+        real(module, size, args, threaded=threaded, threads_from=threads_from)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(_specialise, "_run", spy)
+    seen: dict[str, object] = {}
+
+    def ready(kind: str) -> None:
+        module = _specialise.find(t, kind)
+        assert module is not None
+        seen["before"] = ff.generalized_jacobian(model, q)
+        seen["threaded_compiled"] = bool(module.parallel.signatures)
+
+    _specialise.specialise(t, ("jstar",), ready=ready)
+    assert seen["threaded_compiled"] is False and drivers == ["blocks"]
+    after = ff.generalized_jacobian(model, q)
+    assert drivers == ["blocks", "parallel" if _specialise.parallel_worth(q.shape[0]) else "blocks"]
+    scale = np.max(np.abs(generic), axis=(-1, -2), keepdims=True)
+    for fast in (seen["before"], after):
+        assert np.max(np.abs(np.asarray(fast) - generic) / scale) <= 1e-12

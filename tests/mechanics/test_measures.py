@@ -322,7 +322,7 @@ CASES = (
 
 
 def run_specialised(model: ff.Model, q: np.ndarray, rows: np.ndarray, measure: str, threads: bool) -> np.ndarray:
-    """The specialised kernel's serial or parallel driver called directly (any batch size, even below the engine's
+    """The specialised kernel's driver ``blocks`` or its threaded driver called directly (any batch size, even below the engine's
     minimum for it)."""
     from freefloat.mechanics._configuration import MEASURE_CODES
 
@@ -333,9 +333,9 @@ def run_specialised(model: ff.Model, q: np.ndarray, rows: np.ndarray, measure: s
     out = np.full(q.shape[0], np.nan)
     args = (np.ascontiguousarray(q), data, rows.astype(np.int64), MEASURE_CODES[measure], out)
     if threads:
-        module.parallel(*args, np.empty((numba.config.NUMBA_NUM_THREADS, module.ROWS * LANES)))
+        module.parallel(*args, np.empty((numba.get_num_threads(), module.ROWS * LANES)))
     else:
-        module.serial(*args, np.empty(module.ROWS * LANES))
+        module.blocks(*args, np.empty(module.ROWS * LANES), 0, (q.shape[0] + LANES - 1) // LANES)
     return out
 
 

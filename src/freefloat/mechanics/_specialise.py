@@ -15,9 +15,10 @@ beyond about 1e6 rad the reduction is no longer exact). :mod:`._lanes` drives th
 
 A structure is specialised when asked (:func:`specialise`, public as ``ff.mechanics.specialise``), or by
 itself in a background thread once a process has spent :data:`AUTO_AFTER` seconds on its generic kernels
-(:func:`account`; ``FREEFLOAT_AUTO_SPECIALISE=0`` turns that off): a structure takes 2-5 s (J*) and 9-18 s
+(:func:`account`; ``FREEFLOAT_AUTO_SPECIALISE=0`` turns that off): a structure takes 2-5 s (J*) and 6-18 s
 (rollouts) to compile once per machine, measured on the paper
-systems; the generated source and numba's machine code are then kept in the user's cache folder
+systems, and its calls use it once the lane kernel and the driver ``blocks`` are compiled (the threaded driver
+about a second later: :func:`specialise`); the generated source and numba's machine code are then kept in the user's cache folder
 (inside the generic kernels' folder for this numba version and engine source, keyed by the
 structure) and found by every later process, which then uses them for J*, H+ and dynamics batches and rollouts of
 every model of that structure (with external wrenches: of their layout, each layout apart). The kind "measure" is J*'s
@@ -300,54 +301,58 @@ def distinct(outputs: list[Any]) -> tuple[list[Any], list[int]]:
     return values, where
 
 
+#: Each kind's one driver, ``blocks(<its arguments>, W, first, last)``: the blocks first..last of a batch, W a scratch
+#: buffer (ROWS x LANES); (its arguments, the array whose rows are the batch, the body). The threaded driver is made
+#: from it (:data:`_THREADED`).
 _DRIVERS = {
-    "map": """
-@kernel()
-def serial(parts, P, OUT, rows, W):  # pragma: no cover - compiled
-    _lanes.map_blocks(lane, parts, P, OUT, rows, W, 0, (OUT.shape[0] + LANES - 1) // LANES)
-
-
-@kernel(parallel=True)
-def parallel(parts, P, OUT, rows, WS):  # pragma: no cover - compiled
-    for block in prange((OUT.shape[0] + LANES - 1) // LANES):
-        _lanes.map_blocks(lane, parts, P, OUT, rows, WS[get_thread_id()], block, block + 1)
-""",
+    "map": (
+        "parts, P, OUT, rows",
+        "OUT",
+        "    _lanes.map_blocks(lane, parts, P, OUT, rows, W, first, last)\n",
+    ),
+    "measure": (
+        "Q, P, rows, kind, OUT",
+        "Q",
+        "    measure_blocks(Q, P, rows, kind, OUT, W, first, last)\n",
+    ),
+    "rollout": (
+        "P, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, EXT",
+        "X0",
+        "    for block in range(first, last):\n"
+        "        _lanes.block_rows(EXT, W, EXT_AT, block)  # the block's external wrenches (EXT (K, 9W); W = 0: none)\n"
+        "        rollout_blocks(P, LANES, block, block + 1, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, W)\n",
+    ),
+}
+#: What a kind's module defines before its driver.
+_PRELUDE = {
+    "map": "",
     "measure": """
 from freefloat.mechanics._configuration import jacobian_measure_lanes  # the engine's measures, written once
 
 # the engine's measure after this lane kernel, on each block (compiled once for every structure: not inlined)
 measure_blocks = _lanes.measure_loop(lane, jacobian_measure_lanes, {n}, {work}, "specialised")
-
-
-@kernel()
-def serial(Q, P, rows, kind, OUT, W):  # pragma: no cover - compiled
-    measure_blocks(Q, P, rows, kind, OUT, W, 0, (Q.shape[0] + LANES - 1) // LANES)
-
-
-@kernel(parallel=True)
-def parallel(Q, P, rows, kind, OUT, WS):  # pragma: no cover - compiled
-    for block in prange((Q.shape[0] + LANES - 1) // LANES):
-        measure_blocks(Q, P, rows, kind, OUT, WS[get_thread_id()], block, block + 1)
 """,
     "rollout": """
 _, rollout_blocks = _lanes.bound_loops(lane, "specialised")  # the one rollout loop, with this lane kernel inlined
-
-
-@kernel()
-def serial(P, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, EXT, W):  # pragma: no cover - compiled
-    for block in range((X0.shape[0] + LANES - 1) // LANES):
-        _lanes.block_rows(EXT, W, EXT_AT, block)  # the block's external wrenches (EXT (K, 9W); W = 0: none)
-        rollout_blocks(P, LANES, block, block + 1, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, W)
-
-
-@kernel(parallel=True)
-def parallel(P, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, EXT, WS):  # pragma: no cover - compiled
-    for block in prange((X0.shape[0] + LANES - 1) // LANES):
-        W = WS[get_thread_id()]
-        _lanes.block_rows(EXT, W, EXT_AT, block)
-        rollout_blocks(P, LANES, block, block + 1, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, W)
 """,
 }
+_BLOCKS = """
+
+@kernel()
+def blocks({args}, W, first, last):  # pragma: no cover - compiled
+{body}"""
+#: The threaded driver, the same for every kind: the batch's blocks in WS.shape[0] contiguous ranges, one per thread,
+#: each run by ``blocks`` with its own row of WS (``blocks`` is called, not inlined: this compiles in 1.1 s instead
+#: of 1.7 s for the 7-DOF arm's J*, and runs as fast, measured).
+_THREADED = """
+
+@kernel(parallel=True)
+def parallel({args}, WS):  # pragma: no cover - compiled
+    count = ({size}.shape[0] + LANES - 1) // LANES
+    ranges = min(WS.shape[0], count)
+    for r in prange(ranges):
+        blocks({args}, WS[r], r * count // ranges, (r + 1) * count // ranges)
+"""
 
 
 def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], int]:
@@ -370,19 +375,21 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
         rows = ext_at + 9 * len(wrenches)
     head = (
         f'"""freefloat: {kind} specialised for one model structure (generated by freefloat.mechanics._specialise; do not edit)."""\n\n'
-        "import math\n\nimport numpy as np\nfrom numba import get_thread_id, prange\n\n"
+        "import math\n\nimport numpy as np\nfrom numba import prange\n\n"
         "from freefloat.mechanics import _lanes\nfrom freefloat.mechanics._lanes import LANES\n"
         "from freefloat.mechanics._numba_cache import kernel\n\n"
         f"SLOTS = {slots!r}\nROWS = {rows}\nWRENCHES = {wrenches!r}\nEXT_AT = {ext_at}\n"
         f"COLUMNS = np.array({columns!r}, dtype=np.int64)\n"
         + (f"STATE = {t.state_size}  # the flat state (13 + 2N; 14 + 2N with the dissipated energy)\n" if kind == "rollout" else "")
-        + "\n\n@kernel()\n"
+        + "\n\n@kernel(straight=True)\n"
     )
     guarded = f"GUARDED = {bool(g.guards)}\n\n\n"
-    drivers = _DRIVERS["map" if kind in MAPS else kind].replace("{n}", str(t.n_joints))
-    drivers = drivers.replace("{work}", str(_configuration.measure_work.py_func(t.n_joints)))
+    group = "map" if kind in MAPS else kind
+    arguments, batch, body = _DRIVERS[group]
+    drivers = _PRELUDE[group].replace("{n}", str(t.n_joints)).replace("{work}", str(_configuration.measure_work.py_func(t.n_joints)))
+    drivers += _BLOCKS.format(args=arguments, body=body) + _THREADED.format(args=arguments, size=batch)
     return (
-        head.replace("\n\n\n@kernel()\n", "\n" + guarded + "@kernel()\n") + lane + "\n" + drivers,
+        head.replace("\n\n\n@kernel(straight=True)\n", "\n" + guarded + "@kernel(straight=True)\n") + lane + drivers,
         slots,
         rows,
     )
@@ -421,6 +428,8 @@ def _folder() -> Path:
 
 
 _LOADED: dict[str, types.ModuleType] = {}
+#: The modules whose threaded driver is compiled (or on disk): until then their calls run ``blocks`` (:func:`_run`).
+_THREADED_READY: weakref.WeakSet[types.ModuleType] = weakref.WeakSet()
 _LOCK = threading.Lock()
 
 
@@ -483,6 +492,7 @@ def load(t: Tree, kind: str, *, build: bool, wrenches: Layout = ()) -> types.Mod
         if path.exists():
             try:
                 module = _import(path, key)
+                _THREADED_READY.add(module)  # made by a process that compiled both drivers (else: compiled at need)
             except Exception as exc:  # a broken cache file costs a warning, never a traceback
                 warnings.warn(
                     f"freefloat: the specialised kernel {path} is broken ({type(exc).__name__}: {exc}); "
@@ -519,7 +529,7 @@ def find(t: Tree, kind: str, wrenches: Layout = ()) -> types.ModuleType | None:
 
 # ----------------------------------------------------------------- automatic specialisation
 #: Seconds of generic-kernel work on one model structure (in this process) after which that structure is specialised
-#: in the background: about half the compile time of each kind (J* 2-5 s, rollouts 9-18 s on the paper systems). Waiting
+#: in the background: about half the compile time of each kind (J* 2-5 s, rollouts 6-18 s on the paper systems). Waiting
 #: until the work done equals the cost of the compile spends at most twice the best choice made knowing the future work
 #: (the ski-rental rule), and a one-off call never pays for a compile. The compile runs on one core while the calls go
 #: on, so on the 2-core machines this was measured on it costs them about half its time (less with more cores); and
@@ -529,7 +539,7 @@ AUTO_AFTER = {"jstar": 1.5, "rollout": 6.0, "hplus": 1.5, "forward": 4.0, "inver
 #: What each kind usually takes to compile (measured on the paper systems and the 7-DOF arm; docs/performance.md).
 COMPILE_TIME = {
     "jstar": "2-5 s",
-    "rollout": "9-18 s",
+    "rollout": "6-18 s",
     "hplus": "a few seconds",
     "forward": "5-15 s",
     "inverse": "3-10 s",
@@ -542,6 +552,26 @@ _AUTO = [True]
 _SPENT: weakref.WeakKeyDictionary[Tree, dict[tuple[str, Layout], float]] = weakref.WeakKeyDictionary()
 #: Structure keys compiling now or compiled by this process automatically (each is built once).
 _STARTED: dict[str, threading.Thread] = {}
+
+
+#: Automatic specialisations compiling now, in background threads (:func:`leave_a_core`).
+COMPILING = [0]
+
+
+@contextlib.contextmanager
+def leave_a_core() -> Iterator[None]:
+    """Within: this thread's numba calls run on one thread fewer (at least one), leaving a core to the background
+    compile (entered by the engine's calls while :data:`COMPILING`). On the 2-core machine, the 7-DOF arm's J*
+    compiled in 4.2 s instead of 5.2 s while generic calls of 10^5 went on, and the calls were as fast (1.4-1.5 M
+    configurations/s on one thread or two: the compile holds the GIL and a core either way; measured)."""
+    import numba
+
+    before = numba.get_num_threads()
+    numba.set_num_threads(max(1, before - 1))  # numba's thread count is per calling thread
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
 
 
 def auto_enabled() -> bool:
@@ -592,8 +622,14 @@ def _auto_build(t: Tree, kind: str, spent: float, wrenches: Layout = ()) -> None
         f"set {AUTO_ENV}=0 to turn this off"
     )
     start = time.perf_counter()
+
+    def ready(_: str) -> None:
+        logger.info("specialised %s for this model structure in %.3g s: later calls use it", what, time.perf_counter() - start)
+
+    with _LOCK:
+        COMPILING[0] += 1
     try:
-        specialise(t, (kind,), wrenches=wrenches)
+        specialise(t, (kind,), wrenches=wrenches, ready=ready)
     except Exception as exc:  # a failed background compile must never disturb the user's work: the generic kernels stay
         warnings.warn(
             f"freefloat: automatic specialisation of {what} failed ({type(exc).__name__}: {exc}); the generic kernels stay",
@@ -601,7 +637,10 @@ def _auto_build(t: Tree, kind: str, spent: float, wrenches: Layout = ()) -> None
             stacklevel=1,
         )
         return
-    logger.info("specialised %s for this model structure in %.3g s: later calls use it", what, time.perf_counter() - start)
+    finally:
+        with _LOCK:
+            COMPILING[0] -= 1
+    logger.debug("compiled the threaded driver of %s for this model structure (%.3g s in all)", what, time.perf_counter() - start)
 
 
 def wait_for_auto(timeout: float | None = None) -> bool:
@@ -625,44 +664,59 @@ def generic() -> Iterator[None]:
         _ENABLED[0] = before
 
 
-def _warm(module: types.ModuleType, t: Tree, kind: str, wrenches: Layout = ()) -> None:
-    """Compile (or load from numba's cache) both drivers of a module on a tiny batch."""
+def _warm(module: types.ModuleType, t: Tree, kind: str, wrenches: Layout = (), *, threaded: bool = False) -> None:
+    """Compile (or load from numba's cache) a module's driver ``blocks`` (``threaded``: its threaded driver) on a
+    tiny batch."""
     data = data_vector(t)[module.SLOTS]
     n = t.n_joints
     if kind in MAPS:
         parts = [np.zeros((1, width)) for width in map_parts(kind, n, wrenches)]
         if kind == "forward":
             parts[5][0, ::4] = 1.0  # T0 = 1
-        out = np.empty((1, module.COLUMNS.shape[0]))
-        module.serial(tuple(parts), data, out, module.COLUMNS, np.empty(module.ROWS * LANES))
-        module.parallel(tuple(parts), data, out, module.COLUMNS, np.empty((_threads(), module.ROWS * LANES)))
+        args: tuple[Any, ...] = (tuple(parts), data, np.empty((1, module.COLUMNS.shape[0])), module.COLUMNS)
     elif kind == "measure":
-        q, rows, out = np.zeros((1, n)), np.zeros(1, dtype=np.int64), np.empty(1)
-        module.serial(q, data, rows, 1, out, np.empty(module.ROWS * LANES))
-        module.parallel(q, data, rows, 1, out, np.empty((_threads(), module.ROWS * LANES)))
+        args = (np.zeros((1, n)), data, np.zeros(1, dtype=np.int64), 1, np.empty(1))
     else:
         size = module.STATE
         x0 = np.zeros((1, size))
         x0[0, 9] = 1.0
         zero = np.zeros((1, n))
         args = (data, x0, 1e-3, 1, 1, 1, (zero, zero, zero, zero, np.zeros((1, 1, n))), np.full(n + 6, np.inf))
-        outs = (np.empty((2, 1, size)), np.empty((2, 1, n + 6)), np.empty((2, 1), dtype=np.bool_), np.empty(1, dtype=np.int64))
-        ext = np.zeros((1, 9 * len(wrenches)))
-        module.serial(*args, *outs, ext, np.empty(module.ROWS * LANES))
-        module.parallel(*args, *outs, ext, np.empty((_threads(), module.ROWS * LANES)))
+        args += (np.empty((2, 1, size)), np.empty((2, 1, n + 6)), np.empty((2, 1), dtype=np.bool_), np.empty(1, dtype=np.int64))
+        args += (np.zeros((1, 9 * len(wrenches))),)
+    _run(module, 1, args, threaded=threaded)
 
 
-def _threads() -> int:
+def _run(
+    module: types.ModuleType, size: int, args: tuple[Any, ...], *, threaded: bool | None = None, threads_from: int = 4 * LANES
+) -> None:
+    """A module's driver on a batch of ``size`` (configurations or trajectories) with the arguments ``args``: the
+    threaded one where it pays (``threads_from`` rows or more and more than one thread, one fewer while a background
+    compile runs: :func:`leave_a_core`) and is compiled, else ``blocks`` on every block; the scratch buffers made here.
+    ``threaded``: that driver whatever the size (tests, warming)."""
     import numba
 
-    return int(numba.config.NUMBA_NUM_THREADS)  # type: ignore[attr-defined]  # every thread id is below it
+    if threaded is None:
+        with leave_a_core() if COMPILING[0] else contextlib.nullcontext():
+            _run(module, size, args, threaded=parallel_worth(size, threads_from) and module in _THREADED_READY)
+    elif threaded:
+        module.parallel(*args, np.empty((numba.get_num_threads(), module.ROWS * LANES)))
+    else:
+        module.blocks(*args, np.empty(module.ROWS * LANES), 0, (size + LANES - 1) // LANES)
 
 
 def specialise(
-    t: Tree, kinds: tuple[str, ...] = KINDS, progress: Callable[[str], None] | None = None, *, wrenches: Layout = ()
+    t: Tree,
+    kinds: tuple[str, ...] = KINDS,
+    progress: Callable[[str], None] | None = None,
+    *,
+    wrenches: Layout = (),
+    ready: Callable[[str], None] | None = None,
 ) -> dict[str, str]:
     """Generate and compile the specialised kernels of ``kinds`` for ``t``'s structure (kept on disk); the keys made.
 
+    Per kind: the lane kernel and the driver ``blocks``, from which on the calls use them (``ready(kind)`` is called
+    then), then the threaded driver, which the calls use where it pays once it is compiled (:func:`_run`).
     ``wrenches``: the layout of external wrenches (:func:`layout`) the kinds of :data:`WRENCH_KINDS` are made for (the
     other kinds take none: made without)."""
     made = {}
@@ -675,16 +729,21 @@ def specialise(
         module = load(t, kind, build=True, wrenches=layout_)
         assert module is not None
         _warm(module, t, kind, layout_)
+        _FOUND.clear()  # the calls use it from now on (the threaded driver once it is compiled too)
+        if ready is not None:
+            ready(kind)
+        _warm(module, t, kind, layout_, threaded=True)
+        _THREADED_READY.add(module)
         made[kind] = structure_key(t, kind, layout_)
-    _FOUND.clear()
     return made
 
 
 # ----------------------------------------------------------------- calls
-def parallel_worth(size: int) -> bool:
+def parallel_worth(size: int, threads_from: int = 4 * LANES) -> bool:
+    """Whether a batch of ``size`` runs on threads: ``threads_from`` rows or more, and more than one numba thread."""
     import numba
 
-    return size >= 4 * LANES and numba.get_num_threads() > 1
+    return size >= threads_from and numba.get_num_threads() > 1
 
 
 def map_parts(kind: str, n: int, wrenches: Layout = ()) -> tuple[int, ...]:
@@ -701,29 +760,17 @@ def mapped(module: types.ModuleType, t: Tree, parts: tuple[np.ndarray, ...], out
     else 0.0]) by the specialised kernel (J*: 6E * N of them, row-major; H+: (6 + N)^2). ``parts``: the inputs
     (:func:`map_parts`), each a C-contiguous float64 array (C, width), or (1, width) for a row that every configuration
     shares."""
-    data = data_vector(t)[module.SLOTS]
-    if parallel_worth(out.shape[0]):
-        module.parallel(parts, data, out, module.COLUMNS, np.empty((_threads(), module.ROWS * LANES)))
-    else:
-        module.serial(parts, data, out, module.COLUMNS, np.empty(module.ROWS * LANES))
+    _run(module, out.shape[0], (parts, data_vector(t)[module.SLOTS], out, module.COLUMNS))
 
 
 def measured(module: types.ModuleType, t: Tree, q: np.ndarray, rows: np.ndarray, code: int, out: np.ndarray) -> None:
     """out (C,) = the measure ``code`` (:data:`~._configuration.MEASURE_CODES`) of the distinct rows ``rows`` (K,) of J*
     at the rows of q (C, N), by the specialised "measure" kernel: J* of a lane block, then the engine's measure."""
-    data = data_vector(t)[module.SLOTS]
-    if parallel_worth(q.shape[0]):
-        module.parallel(q, data, rows, code, out, np.empty((_threads(), module.ROWS * LANES)))
-    else:
-        module.serial(q, data, rows, code, out, np.empty(module.ROWS * LANES))
+    _run(module, q.shape[0], (q, data_vector(t)[module.SLOTS], rows, code, out))
 
 
 def rollout(module: types.ModuleType, t: Tree, *args: Any) -> None:
     """:func:`~._lanes.rollout_blocks` (the generic rollout's loop) with the specialised lane kernel: the same
     arguments as the generic rollout, less the model, with the wrenches' values (K, 9W) after the outputs (W = 0:
     none; their layout is the module's)."""
-    data = data_vector(t)[module.SLOTS]
-    if args[0].shape[0] > LANES and parallel_worth(4 * LANES):  # threads pay from two blocks of trajectories
-        module.parallel(data, *args, np.empty((_threads(), module.ROWS * LANES)))
-    else:
-        module.serial(data, *args, np.empty(module.ROWS * LANES))
+    _run(module, args[0].shape[0], (data_vector(t)[module.SLOTS], *args), threads_from=LANES + 1)  # from two blocks
