@@ -62,11 +62,6 @@ def joint_pd(
     return sat
 
 
-#: Configurations whose outputs :func:`map_blocks` writes at a time: a group's value of one output is one 64-byte load
-#: from its lane row, stored into the group's output rows (AVX-512: eight float64).
-GROUP = 8
-
-
 @numba.njit(inline="always", nogil=True, error_model="numpy")
 def map_blocks(
     lane: Any, parts: Any, P: np.ndarray, OUT: np.ndarray, rows: np.ndarray, W: np.ndarray, first: int, last: int
@@ -77,6 +72,9 @@ def map_blocks(
     order into the input rows of W; a part of one row is written once per call. ``rows`` (OUT's columns,): the W row
     that holds each column (a module's outputs are distinct values, a value used twice is one row: H+'s symmetric
     entries). W's last row is reset to 1.0 before each block: the guards' row (a lane kernel with guards multiplies it).
+    The outputs are written a configuration's row at a time (contiguous stores, the values gathered from the lane
+    rows): J* of the 7-DOF arm 56 ns a configuration on one thread, against 72 ns with eight configurations' values
+    of one column at a time (one load, eight stores 42 values apart), 1992 system 37 against 43 ns (measured).
     """
     size = OUT.shape[0]
     n_out = OUT.shape[1]
@@ -100,14 +98,7 @@ def map_blocks(
         for lane_ in range(LANES):
             W[guard * LANES + lane_] = 1.0
         lane(W, P)
-        done = 0
-        while done + GROUP <= count:  # a group's value of each column: one load, GROUP stores
-            for r in range(n_out):
-                src = rows[r] * LANES + done
-                for k in range(GROUP):
-                    OUT[b0 + done + k, r] = W[src + k]
-            done += GROUP
-        for lane_ in range(done, count):
+        for lane_ in range(count):  # each configuration's row written whole, its values gathered from the lane rows
             for r in range(n_out):
                 OUT[b0 + lane_, r] = W[rows[r] * LANES + lane_]
 
