@@ -193,10 +193,7 @@ def _timed(t: Tree, kind: str, counted: int, driver: Any, *args: Any, wrenches: 
     """``driver(*args)`` on the generic kernels; its time is counted towards specialising ``kind`` (for the external
     wrenches' layout ``wrenches``) when ``counted`` (the batch size) is at least the specialised kernels' minimum."""
     start = time.perf_counter()
-    if _specialise.COMPILING[0]:  # a background compile: leave it a core
-        with _specialise.leave_a_core():
-            driver(*args)
-    else:
+    with _specialise.sharing():  # a background compile running: leave it a core
         driver(*args)
     if counted >= _SPECIALISED_MIN and driver.compiled:  # work they would take (not a first compile)
         _specialise.account(t, kind, time.perf_counter() - start, wrenches)

@@ -574,6 +574,15 @@ def leave_a_core() -> Iterator[None]:
         numba.set_num_threads(before)
 
 
+_NO_COMPILE = contextlib.nullcontext()
+
+
+def sharing() -> contextlib.AbstractContextManager[None]:
+    """:func:`leave_a_core` while a background compile runs (:data:`COMPILING`), else nothing: what every engine call
+    of a batch runs in."""
+    return leave_a_core() if COMPILING[0] else _NO_COMPILE
+
+
 def auto_enabled() -> bool:
     """Whether automatic specialisation is on: :func:`set_auto` and the environment variable :data:`AUTO_ENV`."""
     return _AUTO[0] and os.environ.get(AUTO_ENV, "1").strip().lower() not in ("0", "false", "no", "off")
@@ -697,7 +706,7 @@ def _run(
     import numba
 
     if threaded is None:
-        with leave_a_core() if COMPILING[0] else contextlib.nullcontext():
+        with sharing():
             _run(module, size, args, threaded=parallel_worth(size, threads_from) and module in _THREADED_READY)
     elif threaded:
         module.parallel(*args, np.empty((numba.get_num_threads(), module.ROWS * LANES)))
