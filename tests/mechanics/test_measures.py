@@ -383,6 +383,34 @@ def test_the_engine_uses_the_specialised_kernel(specialised: tuple[ff.Model, ...
     assert np.abs(fast - ff.jacobian_determinant(specialised[0], q)).max() > 1e-3
 
 
+def test_the_smallest_singular_value_of_all_rows_runs_the_traced_reduction(specialised: tuple[ff.Model, ...]) -> None:
+    """sigma_min of all the rows of J*, in order, runs the engine's reduction traced for the structure
+    (:func:`~freefloat.mechanics._specialise.trace_reduction`): the block's rows of J* stay as the lane kernel wrote
+    them. Other rows (the same ones in another order) or another measure run the compiled measure, which reduces the
+    chosen rows in place. Each agrees with numpy."""
+    from freefloat.mechanics._configuration import MEASURE_CODES
+
+    rng = np.random.default_rng(5)
+    for model in specialised:
+        t = tree(model)
+        module = _specialise.find(t, "measure")
+        assert module is not None
+        n, k = model.n_joints, 6 * model.n_end_effectors
+        q = rng.uniform(-3, 3, (LANES, n))
+        jac = ff.generalized_jacobian(model, q)
+        for rows, measure, traced in (
+            (np.arange(k), "sigma_min", True),
+            (np.arange(k)[::-1].copy(), "sigma_min", False),
+            (np.arange(k), "condition", False),
+        ):
+            work = np.zeros(module.ROWS * LANES)
+            out = np.full(LANES, np.nan)
+            module.blocks(q, _specialise.data_vector(t)[module.SLOTS], rows, MEASURE_CODES[measure], out, work, 0, 1)
+            block = work[n * LANES : (n + k * n) * LANES].reshape(k, n, LANES).transpose(2, 0, 1)  # J* of each lane
+            assert np.allclose(block, jac, rtol=1e-12, atol=1e-12) == traced, (n, rows, measure)
+            agree(out, jac[:, rows, :], measure)
+
+
 def near_singular() -> list[tuple[ff.Model, np.ndarray, np.ndarray, tuple[str, ...]]]:
     """Configurations 1e-3 .. 1e-9 rad from a singularity (located by numpy alone): det J* of the 1992 two-arm system
     (arm 2 held) on either side of a root, and the 7-DOF arm near a minimum of sigma_min found by scipy on numpy's SVD."""

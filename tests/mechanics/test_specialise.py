@@ -100,6 +100,26 @@ def test_branches_on_symbols_are_guards_or_errors() -> None:
         _ = x >= 1.0
 
 
+def test_a_select_on_data_is_one_pick_node() -> None:
+    """The engine's measures select on data only through ``_configuration._pick`` (a if x > y else b): traced, a pick of
+    numbers is chosen at once, one of a symbol is one node (the same choice made twice: one node), evaluated and emitted
+    as that select; a pick between two equal values is the value."""
+    from freefloat.mechanics._trace import _pick, traced
+
+    assert traced().configuration._reduce_views.__globals__["_pick"] is _pick
+    g = Graph()
+    x, y = g.input("W", 0), g.input("W", 1)
+    assert _pick(2.0, 1.0, x, y).index == x.index and _pick(1.0, 2.0, x, y).index == y.index
+    assert _pick(x, 0.0, y, y).index == y.index
+    chosen = _pick(x, 0.0, x, -x)  # |x|
+    assert g.ops[chosen.index] == "pick" and _pick(x, 0.0, x, -x).index == chosen.index
+    assert isinstance(_pick(x, 0.0, 0.0, -0.0), Sym)  # 0.0 and -0.0 are two values
+    for w0, expected in ((-3.0, 3.0), (2.5, 2.5)):
+        assert g.evaluate({"W": np.array([w0, 0.0])}, [chosen.index])[chosen.index] == expected
+        source, _ = _specialise.emit(g, [chosen], 2)
+        assert _run_emitted(source, np.repeat(np.array([w0, 0.0, np.nan]), LANES), np.empty(0))[2 * LANES] == expected
+
+
 # ----------------------------------------------------------------- emitted code, run as Python
 def _run_emitted(source: str, w: np.ndarray, data: np.ndarray) -> np.ndarray:
     namespace: dict = {"math": math}

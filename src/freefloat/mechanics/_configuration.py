@@ -86,6 +86,12 @@ def _b(rows: np.ndarray, n: int, by_rows: bool, i: int, j: int) -> int:  # pragm
 
 
 @kernel(inline="always")
+def _pick(x: float, y: float, a: float, b: float) -> float:  # pragma: no cover - compiled
+    """``a if x > y else b``: a select on data, which the specialiser traces as one (:mod:`._trace`)."""
+    return a if x > y else b
+
+
+@kernel(inline="always")
 def jacobian_measure_lanes(
     W: np.ndarray, at: int, width: int, n: int, rows: np.ndarray, kind: int, tmp: np.ndarray, out: np.ndarray, o0: int, count: int
 ) -> None:  # pragma: no cover - compiled
@@ -97,8 +103,11 @@ def jacobian_measure_lanes(
 
     ``kind`` (:data:`MEASURE_CODES`): 0 det (K = N; LU with partial pivoting, signed); 1 the smallest singular value;
     2 the product of the singular values (sqrt(det(A A^T)) for K <= N: Yoshikawa's manipulability); 3 the condition
-    number sigma_max / sigma_min (inf when sigma_min is 0); 4 the largest singular value. The singular values come
-    from a Householder QR of B (A^T when K <= N, else A; backward stable), B = Q R with R r x r, r = min(K, N):
+    number sigma_max / sigma_min (inf when sigma_min is 0); 4 the largest singular value. Two stages:
+    :func:`_reduce_views` (the matrices to a few rows: the determinant, or the product of the singular values and the
+    tridiagonal matrices whose largest eigenvalues give sigma_min and sigma_max) and :func:`_finish_views` (those
+    eigenvalues). The singular values come from a Householder QR of B (A^T when K <= N, else A; backward stable),
+    B = Q R with R r x r, r = min(K, N):
 
     - the product of the singular values is prod |R_kk|;
     - sigma_min^2 is 1 / (the largest eigenvalue of R^-1 R^-T) and sigma_max^2 the largest eigenvalue of R R^T. A
@@ -117,10 +126,13 @@ def jacobian_measure_lanes(
       rounding makes a step land below the largest root (a multiple or nearly multiple one; seen as a pivot <= 0) the
       root is bracketed: a try just above that point, then bisection, to 2e-14 of itself.
 
-    Each step is a loop over the ``width`` configurations without branches (a pivot row is a select) on 2-D views
-    (row, configuration) of W and ``tmp``, writing one row per pass: SIMD across a lane block (a flat index at a
+    Each step is a loop over the ``width`` configurations without branches (a select on data is :func:`_pick`) on 2-D
+    views (row, configuration) of W and ``tmp``, writing one row per pass: SIMD across a lane block (a flat index at a
     run-time offset is not vectorised: numba's negative-index wraparound makes it a gather). Between Laguerre's
-    iterations one scalar pass moves the configurations still iterating to the front of the block.
+    iterations one scalar pass moves the configurations still iterating to the front of the block. The specialised
+    kernels trace :func:`_reduce_views` for their structure's smallest singular value of all the rows of J* (one
+    configuration, the same source: straight-line code SIMD across a block, :func:`~._specialise.trace_reduction`) and
+    run :func:`_finish_views` after it (:func:`measure_finish_lanes`).
     """
     top = 0
     for i in range(rows.shape[0]):
@@ -132,14 +144,24 @@ def jacobian_measure_lanes(
 
 
 @kernel(inline="always")
+def measure_finish_lanes(
+    W: np.ndarray, at: int, width: int, r: int, kind: int, out: np.ndarray, o0: int, count: int
+) -> None:  # pragma: no cover - compiled
+    """:func:`_finish_views` on the rows of ``width`` floats from W[at]: the reduced rows of :func:`_reduce_views`
+    (written there by a specialised kernel's traced reduction), then :func:`measure_work` (r) rows of work space."""
+    work = measure_work(r)
+    _finish_views(W[at : at + work * width].reshape((work, width)), r, kind, out, o0, count)
+
+
+@kernel(inline="always")
 def _reflector(s: float, x: float) -> tuple[float, float]:  # pragma: no cover - compiled
     """The Householder reflection H = I - beta v v^T that maps a column with squared norm ``s`` and first entry ``x``
     onto alpha e_1: (alpha, beta), v = the column - alpha e_1 (alpha of the sign opposite to x: no cancellation in
     v_1); beta = 0 for a zero column (no reflection)."""
     norm = math.sqrt(s)
-    alpha = -norm if x >= 0.0 else norm
+    alpha = _pick(0.0, x, norm, -norm)
     vtv = 2.0 * (s - x * alpha)
-    return alpha, 2.0 / vtv if vtv > 0.0 else 0.0
+    return alpha, _pick(vtv, 0.0, 2.0 / vtv, 0.0)
 
 
 @kernel(inline="always")
@@ -195,6 +217,18 @@ def _measure_views(
     Not inlined: compiled once for every caller (the generic drivers, the specialised kernels, the control laws), its
     loops SIMD across the configurations whether or not N is a constant (inlined into the specialised kernels, where N
     is, it compiled 3.6 times slower and ran no faster)."""
+    _reduce_views(V, T, n, rows, kind)
+    _finish_views(T, min(rows.shape[0], n), kind, out, o0, count)
+
+
+@kernel()
+def _reduce_views(V: np.ndarray, T: np.ndarray, n: int, rows: np.ndarray, kind: int) -> None:  # pragma: no cover
+    """The first stage of :func:`jacobian_measure_lanes`: the chosen rows of J* in V to the reduced rows of T, r = min(K, N):
+    row 0 the determinant (``kind`` 0) or the product of the singular values; rows 1 .. 2r - 1 the diagonal (r rows)
+    and off-diagonal (r - 1) of a tridiagonal matrix whose largest eigenvalue is 1 / sigma_min^2 (kinds 1, 3); rows
+    2r .. 4r - 2 those of one whose largest eigenvalue is sigma_max^2 (kinds 3, 4). One configuration of it, traced
+    (``width`` 1, the structure as numbers), is the specialised kernels' reduction (:func:`~._specialise.trace_reduction`):
+    it branches on data only through :func:`_pick`."""
     width = V.shape[1]
     k_rows = rows.shape[0]
     if kind == 0:
@@ -235,15 +269,14 @@ def _measure_views(
                     o = rows[r] * n + j
                     for l in range(width):
                         V[o, l] -= T[f, l] * V[oc, l]
-        for l in range(count):
-            out[o0 + l] = T[det, l]
         return
     by_rows = k_rows <= n
     p, r = (n, k_rows) if by_rows else (k_rows, n)
-    X, G = 0, r * r  # the r x r matrices R^-1 (or R) and the Gram matrix: rows X + i r + j of T
-    e = 2 * r * r
-    v0, beta, acc, lam, prod, small, a, b = e, e + 1, e + 2, e + 3, e + 4, e + 5, e + 6, e + 6 + r
-    e = e + 6 + 2 * r  # then 16 + 3 r rows for the eigenvalue
+    prod = 0  # then the two tridiagonal matrices (rows 1 ..), then R^-1 (or R) and its Gram matrix: rows X + i r + j
+    X = 4 * r - 1
+    G = X + r * r
+    v0, beta, acc = G + r * r, G + r * r + 1, G + r * r + 2
+    e = G + r * r + 3  # then 3 rows for the tridiagonalisation
     for k in range(r):  # Householder QR of B (p x r) in place: R in its upper triangle
         _column_dot(V, T, acc, rows, n, by_rows, k, k, p)
         d = _b(rows, n, by_rows, k, k)
@@ -277,20 +310,17 @@ def _measure_views(
     for k in range(r):
         d = _b(rows, n, by_rows, k, k)
         for l in range(width):
-            T[prod, l] *= abs(V[d, l])
-    if kind == 2:
-        for l in range(count):
-            out[o0 + l] = T[prod, l]
-        return
+            x = V[d, l]
+            T[prod, l] *= _pick(x, 0.0, x, -x)
     for part in range(2):  # 0: sigma_min from R^-1 (kinds 1, 3); 1: sigma_max from R (kinds 3, 4)
-        if (part == 0 and kind == 4) or (part == 1 and kind == 1):
+        if kind == 2 or (part == 0 and kind == 4) or (part == 1 and kind == 1):
             continue
         for j in range(r):  # X = R^-1 (upper triangular, column by column), or R
             d = _b(rows, n, by_rows, j, j)
             xd = X + j * r + j
             for l in range(width):
                 x = V[d, l]
-                T[xd, l] = x if part == 1 else (1.0 / x if x != 0.0 else 0.0)
+                T[xd, l] = x if part == 1 else _pick(_pick(x, 0.0, x, -x), 0.0, 1.0 / x, 0.0)
             for i in range(j - 1, -1, -1):
                 xo = X + i * r + j
                 if part == 1:
@@ -317,11 +347,32 @@ def _measure_views(
         for i in range(r):  # G = X X^T, its lower triangle (all that the reduction reads)
             for j in range(i, r):
                 _strided_dot(T, G + j * r + i, X + i * r + j, 1, X + j * r + j, 1, r - j, False)
-        _largest_eigenvalue(T, G, r, width, a, b, e, lam)
+        a = 1 + part * (2 * r - 1)
+        _tridiagonal(T, G, r, width, a, a + r, e)
+
+
+@kernel()
+def _finish_views(T: np.ndarray, r: int, kind: int, out: np.ndarray, o0: int, count: int) -> None:  # pragma: no cover
+    """The second stage of :func:`jacobian_measure_lanes`: out[o0 + l] (l < ``count``) from the reduced rows of
+    :func:`_reduce_views` (r = min(K, N)) in T, the largest eigenvalues by Laguerre's iteration; rows 4r - 1 ..
+    7r + 16 of T are work space. Not inlined: compiled once for the generic and the specialised kernels."""
+    width = T.shape[1]
+    if kind == 0 or kind == 2:
+        for l in range(count):
+            out[o0 + l] = T[0, l]
+        return
+    e = 4 * r - 1
+    lam = e + 16 + 3 * r
+    small = lam + 1
+    for part in range(2):  # 0: sigma_min (kinds 1, 3); 1: sigma_max (kinds 3, 4)
+        if (part == 0 and kind == 4) or (part == 1 and kind == 1):
+            continue
+        a = 1 + part * (2 * r - 1)
+        _laguerre(T, r, width, a, a + r, e, lam)
         for l in range(width):
             x = T[lam, l]
             if part == 0:
-                T[small, l] = 1.0 / math.sqrt(x) if T[prod, l] != 0.0 and x < math.inf else 0.0
+                T[small, l] = 1.0 / math.sqrt(x) if T[0, l] != 0.0 and x < math.inf else 0.0
             else:
                 T[lam, l] = math.sqrt(x)
     for l in range(count):
@@ -338,7 +389,7 @@ def _bracket(
     T: np.ndarray, l: int, x_: int, lag: int, above: int, hi: int, lo: int, step: int, conv: int
 ) -> tuple[float, float, bool, float, float, float, bool]:  # pragma: no cover - compiled
     """Configuration l's point, Laguerre step, whether the point is above the largest eigenvalue, the bracket (top,
-    bottom) with the point in it, the last step and whether it has converged (:func:`_largest_eigenvalue`)."""
+    bottom) with the point in it, the last step and whether it has converged (:func:`_laguerre`)."""
     x, s = T[x_, l], T[lag, l]
     up = T[above, l] > 0.0
     top = x if up else T[hi, l]
@@ -348,10 +399,10 @@ def _bracket(
 
 
 @kernel(inline="always")
-def _largest_eigenvalue(T: np.ndarray, G: int, r: int, width: int, a: int, b: int, e: int, lam: int) -> None:  # pragma: no cover
-    """T[lam, l] = the largest eigenvalue of the symmetric r x r matrices T[G + i r + j, l] (destroyed), for the
-    ``width`` configurations l: Householder tridiagonalisation (diagonal into rows a.., off-diagonal into rows b..),
-    then Laguerre's iteration from above (see :func:`jacobian_measure_lanes`); rows e .. e + 15 + 3 r of T are work space."""
+def _tridiagonal(T: np.ndarray, G: int, r: int, width: int, a: int, b: int, e: int) -> None:  # pragma: no cover
+    """The symmetric r x r matrices T[G + i r + j, l] (their lower triangle read; destroyed) of the ``width``
+    configurations l to tridiagonal ones, by Householder reflections: the diagonal into rows a .. a + r - 1, the
+    off-diagonal into rows b .. b + r - 2 (same eigenvalues); rows e .. e + 2 of T are work space."""
     beta, half, acc = e, e + 1, e + 2
     for k in range(r - 2):  # the reflector of column k below its diagonal, v stored over it; p, then w, in row k
         v = G + (k + 1) * r + k
@@ -388,6 +439,13 @@ def _largest_eigenvalue(T: np.ndarray, G: int, r: int, width: int, a: int, b: in
     if r >= 2:
         for l in range(width):
             T[b + r - 2, l] = T[G + (r - 1) * r + r - 2, l]
+
+
+@kernel(inline="always")
+def _laguerre(T: np.ndarray, r: int, width: int, a: int, b: int, e: int, lam: int) -> None:  # pragma: no cover
+    """T[lam, l] = the largest eigenvalue of the symmetric tridiagonal r x r matrices of the ``width`` configurations l
+    (diagonal in rows a .., off-diagonal in rows b ..; both destroyed), by Laguerre's iteration from above (see
+    :func:`jacobian_measure_lanes`); rows e .. e + 15 + 3 r of T are work space."""
     # Laguerre's iteration. Each pass over the configurations writes one row (LLVM vectorises a loop only when its
     # run-time alias checks are few): the pivots' reciprocals rho_i, then u_i = d_i' / d_i and w_i = d_i'' / d_i row by
     # row, then p'/p = sum u_i and -(p'/p)' = sum u_i^2 - w_i; the step's state in two sets of rows, old and new.

@@ -119,13 +119,21 @@ def _measure_blocks(
     Q: np.ndarray, P: Any, rows: np.ndarray, kind: int, OUT: np.ndarray, W: np.ndarray, first: int, last: int
 ) -> None:  # pragma: no cover
     """OUT[b] = a measure of the rows ``rows`` of J*(Q[b]) for the blocks first..last: the lane kernel ``LANE`` writes the
-    J* of a block into W (inputs, then the 6E N rows of J*, then ``WORK`` rows of work space), and ``MEASURE`` (the engine's
-    :func:`~._configuration.jacobian_measure_lanes`) reduces them, :data:`LANES` configurations at a time. ``LANE``,
-    ``MEASURE``, ``N`` (the joints) and ``WORK`` are bound by :func:`measure_loop` as constants; ``MEASURE`` hands the
-    block to the engine's one compiled measure (:func:`~._configuration._measure_views`, not inlined)."""
+    J* of a block into W (inputs, then the K = 6E rows of J* (N each), then ``WORK`` rows of work space), and the engine's
+    measure reduces them, :data:`LANES` configurations at a time: the smallest singular value of all the rows, in
+    order (kind 1), by the traced reduction ``REDUCE`` (straight-line, the reduced rows written after J*, at the work
+    space) and ``FINISH`` (:func:`~._configuration.measure_finish_lanes`); any other measure or rows by ``MEASURE``
+    (:func:`~._configuration.jacobian_measure_lanes`). ``LANE``, ``MEASURE``, ``REDUCE``, ``FINISH``, ``N`` (the joints),
+    ``K``, ``R`` (min(K, N)) and ``WORK`` are bound by :func:`measure_loop` as constants; ``MEASURE`` and ``FINISH`` hand the
+    block to the engine's compiled measure (:func:`~._configuration._measure_views`, :func:`~._configuration._finish_views`,
+    not inlined)."""
     size = Q.shape[0]
     off = N * LANES  # type: ignore[name-defined]  # noqa: F821 (bound by measure_loop)
     tmp = W[W.shape[0] - WORK * LANES :]  # type: ignore[name-defined]  # noqa: F821
+    traced = kind == 1 and rows.shape[0] == K  # type: ignore[name-defined]  # noqa: F821
+    for j in range(rows.shape[0]):
+        traced = traced and rows[j] == j
+    jstar = W[off:]
     for block in range(first, last):
         b0 = block * LANES
         count = min(LANES, size - b0)
@@ -134,16 +142,32 @@ def _measure_blocks(
             for j in range(N):  # type: ignore[name-defined]  # noqa: F821
                 W[j * LANES + lane_] = Q[src, j]
         LANE(W, P)  # type: ignore[name-defined]  # noqa: F821
-        MEASURE(W, off, LANES, N, rows, kind, tmp, OUT, b0, count)  # type: ignore[name-defined]  # noqa: F821
+        if traced:
+            REDUCE(jstar, P)  # type: ignore[name-defined]  # noqa: F821
+            FINISH(tmp, 0, LANES, R, kind, OUT, b0, count)  # type: ignore[name-defined]  # noqa: F821
+        else:
+            MEASURE(W, off, LANES, N, rows, kind, tmp, OUT, b0, count)  # type: ignore[name-defined]  # noqa: F821
 
 
 @functools.cache
-def measure_loop(lane: Any, measure: Any, n: int, work: int, name: str) -> Any:
-    """The measure loop above for the lane kernel ``lane`` (J* of a block), the measure ``measure``, ``n`` joints and
-    ``work`` rows of the measure's work space at the end of W, bound as globals (inlined where called):
+def measure_loop(lane: Any, measure: Any, reduce: Any, finish: Any, n: int, k: int, work: int, name: str) -> Any:
+    """The measure loop above for the lane kernel ``lane`` (J* of a block, ``k`` rows of ``n``), the measure ``measure``,
+    the traced reduction ``reduce`` of the smallest singular value of all k rows and its finish ``finish``, and ``work``
+    rows of the measure's work space at the end of W, bound as globals (inlined where called):
     ``measure_blocks(Q, P, rows, kind, OUT, W, first, last)``."""
     return numba.njit(inline="always", nogil=True, error_model="numpy")(
-        bind(_measure_blocks, f"measure_blocks_{name}", LANE=lane, MEASURE=measure, N=n, WORK=work)
+        bind(
+            _measure_blocks,
+            f"measure_blocks_{name}",
+            LANE=lane,
+            MEASURE=measure,
+            REDUCE=reduce,
+            FINISH=finish,
+            N=n,
+            K=k,
+            R=min(k, n),
+            WORK=work,
+        )
     )
 
 

@@ -226,6 +226,19 @@ def trace(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[Graph, list[Any], 
     raise ValueError(f"freefloat: no specialised kernel of kind {kind!r}; the kinds are {KINDS}")
 
 
+def trace_reduction(k_rows: int, n: int) -> tuple[Graph, list[Any], int]:
+    """The graph of the engine's reduction (:func:`~._configuration._reduce_views`) for the smallest singular value of
+    K = ``k_rows`` rows of N = ``n`` columns, one configuration: (graph, outputs, inputs). Inputs "W": the K N entries,
+    row-major; outputs: the reduced rows that :func:`~._configuration._finish_views` reads for it (the product of the
+    singular values, the 2r - 1 rows of the tridiagonal matrix; r = min(K, N))."""
+    mod = traced()
+    g = Graph()
+    matrix = np.array([[g.input("W", i)] for i in range(k_rows * n)], dtype=object)
+    work = np.full((_configuration.measure_work.py_func(n), 1), 0.0, dtype=object)
+    mod.configuration._reduce_views(matrix, work, n, _ints(np.arange(k_rows)), _configuration.MEASURE_CODES["sigma_min"])
+    return g, [work[i, 0] for i in range(2 * min(k_rows, n))], k_rows * n
+
+
 # ----------------------------------------------------------------- code
 def emit(g: Graph, outputs: list[Any], n_in: int, name: str = "lane") -> tuple[str, list[int]]:
     """Python source of ``name(W, P)``: the live nodes of ``g`` over LANES configurations, and the data slots.
@@ -273,6 +286,8 @@ def emit(g: Graph, outputs: list[Any], n_in: int, name: str = "lane") -> tuple[s
             body.append(f"v{i} = math.{op}({ref(a[0])})")
         elif op == ">":
             body.append(f"v{i} = 1.0 if {ref(a[0])} > {ref(a[1])} else 0.0")
+        elif op == "pick":
+            body.append(f"v{i} = {ref(a[2])} if {ref(a[0])} > {ref(a[1])} else {ref(a[3])}")
         else:
             body.append(f"v{i} = {ref(a[0])} {op} {ref(a[1])}")
     for r, o in enumerate(outputs):
@@ -327,10 +342,11 @@ _DRIVERS = {
 _PRELUDE = {
     "map": "",
     "measure": """
-from freefloat.mechanics._configuration import jacobian_measure_lanes  # the engine's measures, written once
+from freefloat.mechanics._configuration import jacobian_measure_lanes, measure_finish_lanes  # the engine's measures, written once
 
-# the engine's measure after this lane kernel, on each block (compiled once for every structure: not inlined)
-measure_blocks = _lanes.measure_loop(lane, jacobian_measure_lanes, {n}, {work}, "specialised")
+# the engine's measure after this lane kernel, on each block (compiled once for every structure: not inlined), or
+# the traced reduction above and the engine's finish (the smallest singular value of all the rows of J*)
+measure_blocks = _lanes.measure_loop(lane, jacobian_measure_lanes, reduce, measure_finish_lanes, {n}, {k}, {work}, "specialised")
 """,
     "rollout": """
 _, rollout_blocks = _lanes.bound_loops(lane, "specialised")  # the one rollout loop, with this lane kernel inlined
@@ -364,6 +380,9 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
         outputs, where = distinct(outputs)
         columns = [n_in + k for k in where] + ([n_in + len(outputs)] if g.guards else [])
     lane, slots = emit(g, outputs, n_in)
+    if kind == "measure":  # the smallest singular value of all the rows of J*: the engine's reduction, traced
+        reduction, reduced, k_n = trace_reduction(len(outputs) // t.n_joints, t.n_joints)
+        lane += "\n\n@kernel(straight=True)\n" + emit(reduction, reduced, k_n, "reduce")[0]
     ext_at = 0
     if kind in MAPS:
         rows = n_in + len(outputs) + 1  # then the guards' row (_lanes.map_blocks)
@@ -387,6 +406,7 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
     group = "map" if kind in MAPS else kind
     arguments, batch, body = _DRIVERS[group]
     drivers = _PRELUDE[group].replace("{n}", str(t.n_joints)).replace("{work}", str(_configuration.measure_work.py_func(t.n_joints)))
+    drivers = drivers.replace("{k}", str(6 * t.ee_body.shape[0]))
     drivers += _BLOCKS.format(args=arguments, body=body) + _THREADED.format(args=arguments, size=batch)
     return (
         head.replace("\n\n\n@kernel(straight=True)\n", "\n" + guarded + "@kernel(straight=True)\n") + lane + drivers,

@@ -47,8 +47,8 @@ class Graph:
     """Nodes of one trace, in creation order (a topological order). Node i is ``ops[i]``, ``args[i]``.
 
     ops: ``"in"`` (args = (array name, flat index)), ``"+"``, ``"-"``, ``"*"``, ``"/"``, ``"neg"``,
-    ``"sqrt"``, ``"sin"``, ``"cos"``, ``"tanh"``, ``">"`` (a guard's comparison); an argument is a node index
-    (int) or a number (float).
+    ``"sqrt"``, ``"sin"``, ``"cos"``, ``"tanh"``, ``">"`` (a guard's comparison), ``"pick"`` (args (x, y, a, b):
+    a if x > y else b, a select); an argument is a node index (int) or a number (float).
     """
 
     def __init__(self) -> None:
@@ -105,6 +105,8 @@ class Graph:
                 val[i] = -arg(a[0])
             elif op in ("sqrt", "sin", "cos", "tanh"):
                 val[i] = getattr(math, op)(arg(a[0]))
+            elif op == "pick":
+                val[i] = arg(a[2]) if arg(a[0]) > arg(a[1]) else arg(a[3])
             else:
                 x, y = arg(a[0]), arg(a[1])
                 val[i] = _BINARY[op](x, y)
@@ -291,6 +293,17 @@ def _tanh(x: Any) -> Any:
     return x.graph.node("tanh", x.index) if isinstance(x, Sym) else math.tanh(x)
 
 
+def _pick(x: Any, y: Any, a: Any, b: Any) -> Any:
+    """The traced :func:`~._configuration._pick` (``a if x > y else b``): chosen while tracing when x and y are numbers,
+    else a "pick" node (the one select on data the engine's measures make)."""
+    if not isinstance(x, Sym) and not isinstance(y, Sym):
+        return a if x > y else b
+    if _key(a) == _key(b) and not (isinstance(a, float) and math.copysign(1.0, a) != math.copysign(1.0, b)):
+        return a
+    g = x.graph if isinstance(x, Sym) else y.graph
+    return g.node("pick", _raw(x), _raw(y), _raw(a), _raw(b))
+
+
 #: ``math`` as the traced kernels see it.
 _MATH = types.SimpleNamespace(sqrt=_sqrt, sin=_sin, cos=_cos, tanh=_tanh, isfinite=math.isfinite, pi=math.pi)
 
@@ -329,6 +342,6 @@ def traced() -> types.SimpleNamespace:
         if py_func is not None:
             twins[key] = types.FunctionType(py_func.__code__, names, key, py_func.__defaults__, py_func.__closure__)
     names.update(twins)
-    names.update(math=_MATH, unowned_floats=_identity, unowned_ints=_identity)
+    names.update(math=_MATH, unowned_floats=_identity, unowned_ints=_identity, _pick=_pick)
     space = types.SimpleNamespace(**twins)
     return types.SimpleNamespace(recursions=space, configuration=space)
