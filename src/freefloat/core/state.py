@@ -29,6 +29,7 @@ the state (its rate is the dissipated power), so that it is exact to the integra
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -311,12 +312,26 @@ def unpack_state(model: Model, x: np.ndarray) -> State:
             f"state vector: expected shape (..., {13 + 2 * (n + w)}) for {model.name!r} (13 + 2(N + W), N = {n} joints, "
             f"W = {w} wheels; or {14 + 2 * (n + w)} with the dissipated energy last), got {x.shape}"
         )
-    return State._trusted(
-        r_cm=x[..., 0:3],
-        v_cm=x[..., 3:6],
-        attitude=x[..., 6:10],
-        omega=x[..., 10:13],
-        q=x[..., 13 : 13 + n],
-        qdot=x[..., 13 + n + w : 13 + 2 * n + w],
-        wheel_speed=x[..., 13 + 2 * n + w : 13 + 2 * (n + w)],
+    a, b, c, d, e, f, g = _parts(n, w)
+    state = object.__new__(State)  # State._trusted, written out: a controller's every step reads one
+    if x.ndim == 1:
+        state.__dict__.update(r_cm=x[a], v_cm=x[b], attitude=x[c], omega=x[d], q=x[e], qdot=x[f], wheel_speed=x[g])
+    else:
+        fields = zip(("r_cm", "v_cm", "attitude", "omega", "q", "qdot", "wheel_speed"), (a, b, c, d, e, f, g), strict=True)
+        state.__dict__.update((name, x[..., part]) for name, part in fields)
+    return state
+
+
+@functools.lru_cache(maxsize=64)
+def _parts(n: int, w: int) -> tuple[slice, ...]:
+    """The slices of the flat state that hold r_cm, v_cm, the attitude, omega, q, qdot and the wheel speeds (N joints,
+    W wheels)."""
+    return (
+        slice(0, 3),
+        slice(3, 6),
+        slice(6, 10),
+        slice(10, 13),
+        slice(13, 13 + n),
+        slice(13 + n + w, 13 + 2 * n + w),
+        slice(13 + 2 * n + w, 13 + 2 * (n + w)),
     )

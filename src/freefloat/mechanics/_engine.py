@@ -571,8 +571,13 @@ class Stepper:
 
     @property
     def reason(self) -> int:
-        """Why the last :attr:`rk4` call stopped early under :meth:`watch` (0: it did not)."""
-        return int(self.ints[self._header + 2])
+        """Why the last :attr:`rk4` call stopped early under :meth:`watch` (0: it did not): :attr:`ints` [:attr:`reason_at`]."""
+        return int(self.ints[self.reason_at])
+
+    @property
+    def reason_at(self) -> int:
+        """Where in :attr:`ints` the kernel leaves :attr:`reason` (a loop that steps every few microseconds reads it there)."""
+        return self._header + 2
 
     def derivative(self, x: np.ndarray, u: np.ndarray, out: np.ndarray) -> bool:
         """out = d/dt x under u; False if H+ is not positive definite."""

@@ -68,12 +68,11 @@ def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarr
     """Controller output -> (tau, f_S, n_S) arrays, and the wheel torques last for a model with reaction wheels (zeros
     when not given), with errors that name what is wrong."""
     n = model.n_joints
+    if raw.__class__ is np.ndarray and raw.dtype == np.float64 and raw.shape == (*batch, n) and _plain_torques(raw):
+        zeros = zero_thrust(batch)  # the fast path of plain torques, finite and in range
+        return (raw, zeros, zeros, np.zeros((*batch, model.n_wheels))) if model.wheels else (raw, zeros, zeros)
     if raw is None:
         raise TypeError(f"controller returned None; return joint torques of shape {(*batch, n)} or a freefloat.Actuation")
-    if isinstance(raw, np.ndarray) and raw.shape == (*batch, n) and raw.dtype == np.float64:
-        if _plain_torques(raw):  # the fast path of plain torques, finite and in range
-            zeros = zero_thrust(batch)
-            return (raw, zeros, zeros, np.zeros((*batch, model.n_wheels))) if model.wheels else (raw, zeros, zeros)
     if not isinstance(raw, Actuation):
         raw = Actuation(joint_torque=raw)
     if raw.wheel_torque is not None and not model.wheels:
@@ -116,7 +115,7 @@ def _plain_torques(raw: np.ndarray) -> bool:
     if raw.ndim != 1:
         return bool(np.abs(raw).max(initial=0.0) <= MAX_EFFORT)  # NaN compares false
     values = raw.tolist()
-    return not values or (math.isfinite(sum(values)) and max(values) <= MAX_EFFORT and min(values) >= -MAX_EFFORT)
+    return not values or (-MAX_EFFORT <= min(values) and max(values) <= MAX_EFFORT and math.isfinite(sum(values)))
 
 
 #: What ``simulate(passive=...)`` and ``rollout(passive=...)`` accept.
@@ -317,13 +316,15 @@ def simulate(
     unlimited = np.zeros(1 + 2 * n_wheels, dtype=bool) if n_wheels else np.array(False)
     speeds = slice(13 + 2 * model.n_joints - n_wheels, 13 + 2 * model.n_joints)
 
+    no_limits = limits.joint_torque is None and limits.spacecraft_force is None and limits.spacecraft_torque is None
+
     def command(t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         if controller is None:
             return (*zero, unlimited)
         parts = _call_controller(controller, user, t, x, ())
-        tau, force, torque, saturated = limits.apply(*parts[:3])
         if not n_wheels:
-            return tau, force, torque, saturated
+            return (*parts, unlimited) if no_limits else limits.apply(*parts)
+        tau, force, torque, saturated = limits.apply(*parts[:3])
         wheel, torque_limited, speed_limited = limit_wheel_torque(user, parts[3], x[speeds])
         flags = np.concatenate([[bool(saturated) or torque_limited.any() or speed_limited.any()], torque_limited, speed_limited])
         return np.concatenate([tau, wheel]), force, torque, flags
