@@ -323,7 +323,7 @@ def simulate(
             return (*zero, unlimited)
         parts = _call_controller(controller, user, t, x, ())
         if not n_wheels:
-            return (*parts, unlimited) if no_limits else limits.apply(*parts)
+            return (parts[0], parts[1], parts[2], unlimited) if no_limits else limits.apply(*parts)
         tau, force, torque, saturated = limits.apply(*parts[:3])
         wheel, torque_limited, speed_limited = limit_wheel_torque(user, parts[3], x[speeds])
         flags = np.concatenate([[bool(saturated) or torque_limited.any() or speed_limited.any()], torque_limited, speed_limited])
