@@ -563,7 +563,7 @@ COMPILE_TIME = {
     "hplus": "a few seconds",
     "forward": "5-15 s",
     "inverse": "3-10 s",
-    "measure": "10-20 s",
+    "measure": "10-25 s",
 }
 #: The environment variable that turns automatic specialisation off ("0", "false", "no" or "off").
 AUTO_ENV = "FREEFLOAT_AUTO_SPECIALISE"
