@@ -92,6 +92,19 @@ def _pick(x: float, y: float, a: float, b: float) -> float:  # pragma: no cover 
 
 
 @kernel(inline="always")
+def _magnitude(x: float) -> float:  # pragma: no cover - compiled
+    """|x| by :func:`_pick` (traced as one select)."""
+    return _pick(x, 0.0, x, -x)
+
+
+@kernel(inline="always")
+def _needs(kind: int, part: int) -> bool:  # pragma: no cover - compiled
+    """Whether the measure ``kind`` needs the tridiagonal matrix ``part`` of :func:`_reduce_views` (0: sigma_min's, for
+    kinds 1 and 3; 1: sigma_max's, for kinds 3 and 4)."""
+    return kind == 3 or (part == 0 and kind == 1) or (part == 1 and kind == 4)
+
+
+@kernel(inline="always")
 def jacobian_measure_lanes(
     W: np.ndarray, at: int, width: int, n: int, rows: np.ndarray, kind: int, tmp: np.ndarray, out: np.ndarray, o0: int, count: int
 ) -> None:  # pragma: no cover - compiled
@@ -311,16 +324,16 @@ def _reduce_views(V: np.ndarray, T: np.ndarray, n: int, rows: np.ndarray, kind: 
         d = _b(rows, n, by_rows, k, k)
         for l in range(width):
             x = V[d, l]
-            T[prod, l] *= _pick(x, 0.0, x, -x)
+            T[prod, l] *= _magnitude(x)
     for part in range(2):  # 0: sigma_min from R^-1 (kinds 1, 3); 1: sigma_max from R (kinds 3, 4)
-        if kind == 2 or (part == 0 and kind == 4) or (part == 1 and kind == 1):
+        if not _needs(kind, part):
             continue
         for j in range(r):  # X = R^-1 (upper triangular, column by column), or R
             d = _b(rows, n, by_rows, j, j)
             xd = X + j * r + j
             for l in range(width):
                 x = V[d, l]
-                T[xd, l] = x if part == 1 else _pick(_pick(x, 0.0, x, -x), 0.0, 1.0 / x, 0.0)
+                T[xd, l] = x if part == 1 else _pick(_magnitude(x), 0.0, 1.0 / x, 0.0)
             for i in range(j - 1, -1, -1):
                 xo = X + i * r + j
                 if part == 1:
@@ -365,7 +378,7 @@ def _finish_views(T: np.ndarray, r: int, kind: int, out: np.ndarray, o0: int, co
     lam = e + 16 + 3 * r
     small = lam + 1
     for part in range(2):  # 0: sigma_min (kinds 1, 3); 1: sigma_max (kinds 3, 4)
-        if (part == 0 and kind == 4) or (part == 1 and kind == 1):
+        if not _needs(kind, part):
             continue
         a = 1 + part * (2 * r - 1)
         _laguerre(T, r, width, a, a + r, e, lam)

@@ -381,7 +381,7 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
         columns = [n_in + k for k in where] + ([n_in + len(outputs)] if g.guards else [])
     lane, slots = emit(g, outputs, n_in)
     if kind == "measure":  # the smallest singular value of all the rows of J*: the engine's reduction, traced
-        reduction, reduced, k_n = trace_reduction(len(outputs) // t.n_joints, t.n_joints)
+        reduction, reduced, k_n = trace_reduction(6 * t.ee_body.shape[0], t.n_joints)  # K = 6E rows: {k} below
         lane += "\n\n@kernel(straight=True)\n" + emit(reduction, reduced, k_n, "reduce")[0]
     ext_at = 0
     if kind in MAPS:

@@ -298,7 +298,7 @@ def _pick(x: Any, y: Any, a: Any, b: Any) -> Any:
     else a "pick" node (the one select on data the engine's measures make)."""
     if not isinstance(x, Sym) and not isinstance(y, Sym):
         return a if x > y else b
-    if _key(a) == _key(b) and not (isinstance(a, float) and math.copysign(1.0, a) != math.copysign(1.0, b)):
+    if _memo_key("pick", (_raw(a),)) == _memo_key("pick", (_raw(b),)):  # the same node or number (0.0 and -0.0 apart)
         return a
     g = x.graph if isinstance(x, Sym) else y.graph
     return g.node("pick", _raw(x), _raw(y), _raw(a), _raw(b))

@@ -316,14 +316,12 @@ def simulate(
     unlimited = np.zeros(1 + 2 * n_wheels, dtype=bool) if n_wheels else np.array(False)
     speeds = slice(13 + 2 * model.n_joints - n_wheels, 13 + 2 * model.n_joints)
 
-    no_limits = limits.joint_torque is None and limits.spacecraft_force is None and limits.spacecraft_torque is None
-
     def command(t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         if controller is None:
             return (*zero, unlimited)
         parts = _call_controller(controller, user, t, x, ())
         if not n_wheels:
-            return (parts[0], parts[1], parts[2], unlimited) if no_limits else limits.apply(*parts)
+            return limits.apply(*parts)
         tau, force, torque, saturated = limits.apply(*parts[:3])
         wheel, torque_limited, speed_limited = limit_wheel_torque(user, parts[3], x[speeds])
         flags = np.concatenate([[bool(saturated) or torque_limited.any() or speed_limited.any()], torque_limited, speed_limited])
