@@ -189,3 +189,19 @@ def test_a_python_controlled_rollout_beyond_meaning_fails_with_what_it_computed(
         model, ff.State(q=np.full((2, 4), 2e4), qdot=np.full((2, 4), 50.0)), 0.05, dt=1e-3, controller=lambda t, s: 0 * s.q
     )
     assert spinning.status == "finished" and np.isfinite(spinning.q).all()
+
+
+def test_an_interrupt_inside_a_record_leaves_a_whole_trajectory() -> None:
+    """Ctrl-C or SIGTERM between the appends of the recorder (a time without its state) leaves the records whole."""
+    from freefloat.core.state import pack_state
+    from freefloat.simulation._integrate import _Recorder
+
+    model = ff.models.papadopoulos1992()
+    x = pack_state(ff.State(q=[0.1, 0.2, 0.3, 0.4]).resolve(model), None)
+    act = (np.zeros(4), np.zeros(3), np.zeros(3), np.array(False))
+    rec = _Recorder(model)
+    rec.add(0.0, x, act)
+    rec.add(0.1, x, act)
+    rec.t.append(0.2)  # the interrupt came after the time was appended
+    traj = rec.trajectory("interrupted")
+    assert traj.t.tolist() == [0.0, 0.1] and traj.q.shape == (2, 4) and traj.joint_torque.shape == (2, 4)

@@ -133,14 +133,16 @@ class _Recorder:
     def trajectory(self, status: str = "finished", message: str = "") -> Trajectory:
         model = self.model
         n = model.n_joints
-        if self.x:
-            xs = np.stack(self.x)
+        # the records whole: an interrupt (Ctrl-C, SIGTERM) between the appends of :meth:`add` leaves one list longer
+        kept = min(len(self.t), len(self.x), len(self.act))
+        if kept:
+            xs = np.stack(self.x[:kept])
             xs[..., 6:10] /= np.linalg.norm(xs[..., 6:10], axis=-1, keepdims=True)
-            acts = [np.stack([a[i] for a in self.act]) for i in range(4)]
+            acts = [np.stack([a[i] for a in self.act[:kept]]) for i in range(4)]
         else:
             xs = np.zeros((0, 13 + 2 * n))  # (no slot: no dissipated energy either)
             acts = [np.zeros((0, n)), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0,), dtype=bool)]
-        return _trajectory(model, np.asarray(self.t), xs, (acts[0], acts[1], acts[2], acts[3]), status, message)
+        return _trajectory(model, np.asarray(self.t[:kept]), xs, (acts[0], acts[1], acts[2], acts[3]), status, message)
 
 
 def _trajectory(
