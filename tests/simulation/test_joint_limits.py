@@ -145,13 +145,17 @@ def test_scenario_joint_limits_table(tmp_path: Path) -> None:
 
 def test_rollouts_flag_each_trajectory_beyond_a_limit(arm: ff.Model) -> None:
     """Batched rollouts apply no stops; the violations are recorded with the trajectory index."""
-    tau = np.zeros((3, 6))
-    tau[1, ELBOW] = 20.0  # only trajectory 1 pushes its elbow
+    tau = np.zeros((4, 6))
+    tau[1, ELBOW] = 20.0  # trajectory 1 pushes its elbow up, trajectory 3 down; 0 and 2 stay inside
+    tau[3, ELBOW] = -20.0
     pd = ff.JointPD(kp=0.0, kd=0.0, feedforward=tau[None])
-    traj = ff.rollout(arm, ff.State(q=np.zeros((3, 6))), 2.0, dt=1e-3, controller=pd, output_period=0.01)
+    traj = ff.rollout(arm, ff.State(q=np.zeros((4, 6))), 2.0, dt=1e-3, controller=pd, output_period=0.01)
     elbow = [e for e in traj.joint_limit_events if e.joint == "elbow"]
-    assert elbow and {e.trajectory for e in traj.joint_limit_events} == {1} and elbow[0].kind == "violation"
-    assert elbow[0].t == traj.t[int(np.argmax(traj.q[:, 1, ELBOW] > 2.0))]
+    assert {(e.trajectory, e.bound) for e in elbow} == {(1, "upper"), (3, "lower")} and elbow[0].kind == "violation"
+    up = next(e for e in elbow if e.trajectory == 1)
+    assert up.t == traj.t[int(np.argmax(traj.q[:, 1, ELBOW] > 2.0))]
+    beyond = (traj.q > arm.joint_upper) | (traj.q < arm.joint_lower)  # the definition, sample by sample
+    assert {e.trajectory for e in traj.joint_limit_events} == set(np.flatnonzero(beyond.any(axis=(0, 2))).tolist())
 
 
 @pytest.mark.parametrize("restitution", [0.0, 0.7, 1.0])

@@ -557,7 +557,8 @@ def _batch_limits(traj: Trajectory) -> Trajectory:
     model = traj.model
     if model is None or not len(traj):
         return traj
-    beyond = np.any((traj.q > model.joint_upper) | (traj.q < model.joint_lower), axis=(0, 2))
+    # each trajectory's extremes first (fmax/fmin pass over a NaN, as the comparisons do): one pass over q, no (T, B, N) temporaries
+    beyond = np.any((np.fmax.reduce(traj.q, axis=0) > model.joint_upper) | (np.fmin.reduce(traj.q, axis=0) < model.joint_lower), axis=1)
     found = []
     for b in np.flatnonzero(beyond):
         found += [dataclasses.replace(e, trajectory=int(b)) for e in limit_violations(model, traj.t, traj.q[:, b])]
@@ -634,8 +635,11 @@ def _rollout_pd(
             raise
         finished = sum(p[0].shape[1] for p in parts)
         status, message = "interrupted", f"interrupted (Ctrl-C): the first {finished} of {batch} trajectories are complete"
-    xs, us, sat = (np.concatenate([p[i] for p in parts], axis=1) for i in range(3))
-    done = np.concatenate([p[3] for p in parts])
+    if len(parts) == 1:  # one chunk: its arrays as they are (a join would copy every output once)
+        xs, us, sat, done = parts[0]
+    else:
+        xs, us, sat = (np.concatenate([p[i] for p in parts], axis=1) for i in range(3))
+        done = np.concatenate([p[3] for p in parts])
     times = np.array([0.0] + [i * dt for i in range(1, steps + 1) if i % stride == 0 or i == steps])
     if np.any(done < steps):
         first = int(np.argmin(done))
