@@ -30,6 +30,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import numba
 import numpy as np
 
 import freefloat as ff
@@ -78,6 +79,27 @@ def rate(timing: dict[str, Any], items: float, unit: str) -> dict[str, Any]:
 
 
 # ----------------------------------------------------------------- 1. per configuration
+@numba.njit(parallel=True)
+def _write_all(block: np.ndarray) -> None:  # pragma: no cover - compiled
+    for i in numba.prange(block.shape[0]):
+        block[i] = 1.0
+
+
+def output_write_bound(per_config: int, configs: int, repeats: int) -> dict[str, Any]:
+    """What writing a batched call's output alone costs: a new float64 array of ``configs`` x ``per_config`` values (as
+    the public call returns one), every value written once by all of numba's threads (best of ``repeats``). No kernel
+    that returns that array can run faster than ``configs_per_s`` on this machine: the new pages are zeroed by the
+    kernel of the OS, then written (regular stores)."""
+    size = per_config * configs
+    _write_all(np.empty(8))
+    timing = best_of(lambda: _write_all(np.empty(size)), repeats)
+    return {
+        "bytes_per_config": 8 * per_config,
+        "GB_per_s": 8 * size / timing["best_wall_s"] / 1e9,
+        "configs_per_s": configs / timing["best_wall_s"],
+    }
+
+
 class PinocchioLoop:
     def __init__(self, model: ff.Model) -> None:
         import pinocchio as pin
@@ -158,6 +180,11 @@ def per_configuration(model: ff.Model, configs: int, pin_configs: int, repeats: 
         a = rate(best_of(ours[key], repeats), configs, "configs")
         out[key]["freefloat_specialised"] = a
         out[key]["ratio_specialised"] = a["configs_per_s"] / out[key]["pinocchio_loop"]["configs_per_s"]
+    # H+ writes (6 + N)^2 values a configuration, far more than C+ and FD (6 + N): the bound of its output alone
+    bound = output_write_bound((6 + model.n_joints) ** 2, configs, repeats)
+    bound["ratio"] = bound["configs_per_s"] / out["hplus"]["pinocchio_loop"]["configs_per_s"]
+    bound["specialised_share"] = out["hplus"]["freefloat_specialised"]["configs_per_s"] / bound["configs_per_s"]
+    out["hplus"]["output_write_bound"] = bound
     return out
 
 
@@ -343,6 +370,9 @@ def run(quick: bool, log: Callable[[str], None]) -> dict[str, Any]:
             "(JointPD compiled in the loop, trajectories on numba threads), both recording every state; threads_<k>: k threads each, "
             "the rollout kernel specialised to the model's structure (ff.mechanics.specialise; specialise_s its compile or load); "
             "generic_threads_<k>: the generic kernels, same run.",
+            "hplus.output_write_bound: a new float64 array of H+'s size (configs x (6 + N)^2) written once by all of numba's "
+            "threads, nothing computed: the fastest any H+ batch that returns a new array can run on this machine (its ratio "
+            "against the same Pinocchio loop), and the specialised H+'s share of it.",
         ],
         "systems": {},
     }
@@ -378,6 +408,13 @@ def table(report: dict[str, Any]) -> str:
                 lines.append(
                     f"{key:18s} {label + ' (specialised)':40s} {r['freefloat_specialised']['configs_per_s']:14,.0f} "
                     f"{r['pinocchio_loop']['configs_per_s']:14,.0f} {r['ratio_specialised']:7.1f}x"
+                )
+            if "output_write_bound" in r:
+                b = r["output_write_bound"]
+                lines.append(
+                    f"{key:18s} {'H+ output written alone (new array)':40s} {b['configs_per_s']:14,.0f} "
+                    f"{r['pinocchio_loop']['configs_per_s']:14,.0f} {b['ratio']:7.1f}x  ({b['GB_per_s']:.1f} GB/s; "
+                    f"specialised H+ at {100 * b['specialised_share']:.0f}% of it)"
                 )
         s = res["simulation"]
         lines.append(
