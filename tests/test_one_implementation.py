@@ -49,7 +49,7 @@ ENGINE_CALLERS = {
     "mechanics/_laws.py",  # the control laws: H+ and C+ of the engine (hplus_one), never their own
 }
 #: Modules allowed to import numba (the compiled engine and its cache).
-NUMBA_MODULES = {"mechanics/_numba_cache.py", "mechanics/_drivers.py", "mechanics/_lanes.py", "mechanics/_specialise.py"}
+NUMBA_MODULES = {"mechanics/_numba_cache.py", "mechanics/_threads.py", "mechanics/_lanes.py", "mechanics/_specialise.py"}
 
 
 def _functions() -> list[tuple[str, ast.FunctionDef, ast.Module]]:

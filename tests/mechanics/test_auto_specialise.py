@@ -8,14 +8,18 @@ here compiles into a temporary cache folder (never the user's).
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
+import numba
 import numpy as np
 import pytest
 
 import freefloat as ff
 from freefloat.mechanics import _specialise
+from freefloat.mechanics._lanes import LANES
 from freefloat.mechanics._tree import tree
 
 
@@ -125,35 +129,42 @@ def test_a_large_map_of_measures_triggers_the_measure_kernel(auto: None, monkeyp
     np.testing.assert_allclose(fast, generic, rtol=1e-11, atol=1e-14 * np.abs(generic).max())
 
 
-def test_calls_use_a_module_before_its_threaded_driver_is_compiled(auto: None, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Once the lane kernel and its driver ``blocks`` are compiled, the calls use them (``ready``), a large one on
-    ``blocks``; the threaded driver is compiled after, and from then on a large call runs on it. Both agree with the
-    generic kernel."""
+def test_a_large_call_runs_the_module_on_one_range_per_thread(auto: None, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Once its kernel is compiled (``ready``), the calls use a specialised module: one of THREADS_FROM configurations or
+    more on one contiguous range of lane blocks per numba thread at once (``_threads.run_ranges``: no threaded twin of
+    the kernel is compiled), a smaller one on the whole batch in the calling thread. Both agree with the generic kernel."""
     model = two_arm_variant()
     t = tree(model)
-    q = np.random.default_rng(3).uniform(-3, 3, (20000, model.n_joints))
-    generic = ff.generalized_jacobian(model, q)
-    drivers: list[str] = []
-    real = _specialise._run
+    big = np.random.default_rng(3).uniform(-3, 3, (_specialise.THREADS_FROM + 5, model.n_joints))
+    small = big[: _specialise.THREADS_FROM - 1]
+    generic = ff.generalized_jacobian(model, big)
+    seen: list[tuple[int, int, int]] = []
+    real = _specialise.run_ranges
 
-    def spy(module: object, size: int, args: tuple[object, ...], *, threaded: bool | None = None, threads_from: int = 256) -> None:
-        if threaded is not None and size == q.shape[0]:  # the driver each call of this batch ran (not the warm-ups)
-            drivers.append("parallel" if threaded else "blocks")
-        real(module, size, args, threaded=threaded, threads_from=threads_from)  # type: ignore[arg-type]
+    def spy(run: Any, count: int, parts: int) -> None:
+        threads: set[int] = set()
 
-    monkeypatch.setattr(_specialise, "_run", spy)
-    seen: dict[str, object] = {}
+        def tracked(r: int, first: int, last: int) -> object:
+            threads.add(threading.get_ident())
+            return run(r, first, last)
 
-    def ready(kind: str) -> None:
-        module = _specialise.find(t, kind)
-        assert module is not None
-        seen["before"] = ff.generalized_jacobian(model, q)
-        seen["threaded_compiled"] = bool(module.parallel.signatures)
+        real(tracked, count, parts)
+        seen.append((count, parts, len(threads)))
 
-    _specialise.specialise(t, ("jstar",), ready=ready)
-    assert seen["threaded_compiled"] is False and drivers == ["blocks"]
-    after = ff.generalized_jacobian(model, q)
-    assert drivers == ["blocks", "parallel" if _specialise.parallel_worth(q.shape[0]) else "blocks"]
+    monkeypatch.setattr(_specialise, "run_ranges", spy)
+    ready: list[str] = []
+    _specialise.specialise(t, ("jstar",), ready=ready.append)
+    assert ready == ["jstar"] and seen == [(1, 1, 1)]  # compiled on one block
+    seen.clear()
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))  # type: ignore[attr-defined]
+    try:
+        threads = numba.get_num_threads()
+        fast_big, fast_small = ff.generalized_jacobian(model, big), ff.generalized_jacobian(model, small)
+    finally:
+        numba.set_num_threads(before)
+    blocks = -(-big.shape[0] // LANES)
+    assert seen == [(blocks, threads, threads), (-(-small.shape[0] // LANES), 1, 1)]
     scale = np.max(np.abs(generic), axis=(-1, -2), keepdims=True)
-    for fast in (seen["before"], after):
-        assert np.max(np.abs(np.asarray(fast) - generic) / scale) <= 1e-12
+    for fast, ref in ((fast_big, generic), (fast_small, generic[: small.shape[0]])):
+        assert np.max(np.abs(fast - ref) / scale[: ref.shape[0]]) <= 1e-12

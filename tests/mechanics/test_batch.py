@@ -182,7 +182,7 @@ def test_batch_equals_loop_across_small_chunks(model: ff.Model, name: str, monke
 @pytest.mark.parametrize(("model", "name"), LARGE_PARAMS)
 def test_batch_larger_than_the_chunk_equals_loop(model: ff.Model, name: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """2 CHUNK + 7 configurations: the reference forms run in three chunks (asserted); the engine, which
-    does not chunk, runs the same batch on its threaded blocks."""
+    does not chunk, runs the same batch on one range per thread."""
     chunk = freefloat.mechanics._arrays.CHUNK  # 4096
     size = 2 * chunk + 7  # three chunks, the last one short
     x = make_inputs(model, (size,), seed=4)

@@ -3,8 +3,8 @@
 Each public quantity has two algorithms, each written once: the engine (``method="recursive"``,
 the default, every batch size) and the papers' barycentric forms (``method="barycentric"``,
 numpy). Here they check each other on random trees and the paper systems, at batch sizes that
-cross every internal threshold of the engine (serial below ``Batched.PARALLEL_MIN``, threads in
-blocks of ``BLOCK`` above); the simulations and rollouts on the engine are checked against an RK4
+cross every internal threshold of the engine (one range below ``Batched.PARALLEL_MIN``, one range
+per thread above, of unequal lengths for an odd batch); the simulations and rollouts on the engine are checked against an RK4
 written here on the barycentric forward dynamics. tests/oracle checks both against Pinocchio and
 MuJoCo.
 """
@@ -27,8 +27,8 @@ from freefloat.simulation.trajectory import Trajectory
 from trees import build_random_model, random_trees
 
 RTOL = 1e-10
-#: Batch sizes on both sides of every threshold of the drivers (serial / threaded, block edges).
-SIZES = (1, 3, _drivers.BLOCK + 1, _drivers.Batched.PARALLEL_MIN - 1, _drivers.Batched.PARALLEL_MIN, 2 * _drivers.Batched.PARALLEL_MIN + 7)
+#: Batch sizes on both sides of every threshold of the drivers (one range / one per thread, ranges of unequal length).
+SIZES = (1, 3, 65, _drivers.Batched.PARALLEL_MIN - 1, _drivers.Batched.PARALLEL_MIN, _drivers.Batched.PARALLEL_MIN + 7)
 
 MODELS = {
     "papadopoulos1991": ff.models.papadopoulos1991,
@@ -338,8 +338,6 @@ def test_scratch_buffers_are_always_kernel_arguments() -> None:
                     assert ok, f"{name}::{func.name}: {ast.unparse(call)}"
     assert sorted(sites) == [
         "_drivers.py::_law_rollout_row::arrays",  # the plant's mass properties per trajectory
-        "_drivers.py::_rollout_task::arrays",  # a trajectory of the threaded rollout with a law
-        "_drivers.py::_rollout_task::scratch",
         "_drivers.py::_serial_template::arrays",
         "_drivers.py::_serial_template::scratch",
         "_drivers.py::unpack::arrays",

@@ -322,8 +322,8 @@ CASES = (
 
 
 def run_specialised(model: ff.Model, q: np.ndarray, rows: np.ndarray, measure: str, threads: bool) -> np.ndarray:
-    """The specialised kernel's driver ``blocks`` or its threaded driver called directly (any batch size, even below the engine's
-    minimum for it)."""
+    """The specialised kernel's driver ``blocks`` on the whole batch, or on two ranges of blocks at once (two threads), called
+    directly (any batch size, even below the engine's minimum for threads)."""
     from freefloat.mechanics._configuration import MEASURE_CODES
 
     t = tree(model)
@@ -332,10 +332,7 @@ def run_specialised(model: ff.Model, q: np.ndarray, rows: np.ndarray, measure: s
     data = _specialise.data_vector(t)[module.SLOTS]
     out = np.full(q.shape[0], np.nan)
     args = (np.ascontiguousarray(q), data, rows.astype(np.int64), MEASURE_CODES[measure], out)
-    if threads:
-        module.parallel(*args, np.empty((numba.get_num_threads(), module.ROWS * LANES)))
-    else:
-        module.blocks(*args, np.empty(module.ROWS * LANES), 0, (q.shape[0] + LANES - 1) // LANES)
+    _specialise._run(module, q.shape[0], args, threads=2 if threads else 1)
     return out
 
 
@@ -351,7 +348,7 @@ def test_specialised_measures_equal_numpy_at_every_block_size(specialised: tuple
             agree(run_specialised(model, q, rows, measure, threads), jac, measure)
 
 
-@pytest.mark.parametrize("size", (LANES, LANES + 1, 4 * LANES + 3, 1000))
+@pytest.mark.parametrize("size", (LANES, LANES + 1, 4 * LANES + 3, _specialise.THREADS_FROM + 3))
 def test_the_engine_uses_the_specialised_kernel(specialised: tuple[ff.Model, ...], size: int, monkeypatch: pytest.MonkeyPatch) -> None:
     """The public measure runs on the specialised kernel from the engine's minimum batch (serial, then threaded), agrees
     with numpy and with the generic kernel; a payload variant shares the kernel and its mass is read, not folded."""

@@ -18,7 +18,7 @@ import pytest
 from scipy.linalg import block_diag
 
 import freefloat as ff
-from freefloat.mechanics import _specialise
+from freefloat.mechanics import _drivers, _specialise
 from mechanics.test_specialise import specialised  # noqa: F401 (the fixture: specialised kernels in a cache of their own)
 from simulation.test_simulate import bounded_random_torques, moving_state
 from trees import build_random_model
@@ -158,7 +158,7 @@ def answers(model: ff.Model, q: np.ndarray, v: np.ndarray, tau: np.ndarray, **me
     }
 
 
-@pytest.mark.parametrize("size", [1, 300])  # the serial and the threaded drivers
+@pytest.mark.parametrize("size", [1, _drivers.Batched.PARALLEL_MIN + 3])  # one range, and one range per thread
 def test_the_engine_equals_the_expanded_model_contracted(size: int) -> None:
     model = gripper()
     rng = np.random.default_rng(size)

@@ -9,7 +9,7 @@ namespace gathers all of them, including the less common ones
 (``ff.planar``). The physics is written once in the engine (private):
 :mod:`._tree` (the model as arrays), :mod:`._recursions` (the O(N) recursions
 of one configuration), :mod:`._configuration` (J*, J+, H+, forward dynamics,
-RK4), :mod:`._drivers` (batch loops, serial and threaded) and :mod:`._engine`
+RK4), :mod:`._drivers` (batch loops, on one thread or one range per thread) and :mod:`._engine`
 (the Python side), compiled once per machine (:mod:`._numba_cache`). For large
 batches on one robot, the library specialises J* and rollouts for the model's
 structure by itself once the work pays for the compile (:func:`auto_specialise`;

@@ -1,16 +1,15 @@
-"""Batch drivers of the engine: each one-configuration kernel, looped over a batch, serial or on threads.
+"""Batch drivers of the engine: each one-configuration kernel, looped over a batch, in one thread or on several.
 
 A driver is made from one *row* kernel, ``row(i, m, s, a)``: the work of row i of a batch, given the
 model ``m`` (:data:`~._tree.Arrays`), the scratch views ``s`` (:data:`~._recursions.Scratch`) and
 the call's arrays ``a`` (a tuple: inputs, outputs and scalars). :func:`driver` makes from it, by
-binding it into two templates written once below (:func:`_serial_template`,
-:func:`_parallel_template`), a serial kernel over a range ``[start, stop)`` of rows (one scratch
-buffer per range) and a parallel kernel that cuts the batch into blocks and runs the serial kernel
-on each block with ``prange``; :class:`Batched` chooses between them (small batches start no
-threads). The row kernels are inlined into the serial range kernels only, never into a
-``prange`` body. A new batched quantity is one row kernel and one line ``driver(...)``.
+binding it into the template written once below (:func:`_serial_template`), one range kernel over the rows
+``[start, stop)`` of a batch (one scratch buffer per range); :class:`Batched` runs it on the whole batch, or from
+:attr:`Batched.PARALLEL_MIN` rows on one contiguous range per thread at once (:func:`~._threads.run_ranges`: the
+kernel releases the GIL; no threaded twin is compiled). A new batched quantity is one row kernel and one line
+``driver(...)``.
 
-The templates are bound by copying their code with the row kernel as a global (not a closure), so
+The template is bound by copying its code with the row kernel as a global (not a closure), so
 numba's on-disk cache keeps one entry per driver (keyed by the driver's name) across processes.
 """
 
@@ -19,9 +18,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-import numba
 import numpy as np
-from numba import prange
 
 from ._configuration import (
     accelerations_one,
@@ -39,13 +36,13 @@ from ._configuration import (
     state_derivative_one,
 )
 from ._lanes import LANES, rollout_loop
-from ._laws import Law, law_control
+from ._laws import law_control
 from ._numba_cache import bind, kernel, unowned_floats, unowned_ints
 from ._recursions import kinematics, scratch
+from ._threads import run_ranges, thread_count
 from ._tree import Tree, arrays, buffer_lengths, work_size
 
 __all__ = [
-    "BLOCK",
     "Batched",
     "derivative_batch",
     "driver",
@@ -63,13 +60,8 @@ __all__ = [
     "rollout_batch",
 ]
 
-#: Rows per parallel block (one scratch buffer each).
-BLOCK = 64
-#: The index of the numba thread running a parallel block: its row of the scratch buffers.
-_thread = numba.get_thread_id
 
-
-# ----------------------------------------------------------------- the two templates, written once
+# ----------------------------------------------------------------- the template, written once
 def _serial_template(start: int, stop: int, ints: np.ndarray, floats: np.ndarray, work: np.ndarray, *a: Any) -> None:  # pragma: no cover
     """ROW over the rows start..stop of a batch of the model in (ints, floats); ``work`` one scratch buffer."""
     m = arrays(ints, floats)
@@ -78,45 +70,39 @@ def _serial_template(start: int, stop: int, ints: np.ndarray, floats: np.ndarray
         ROW(i, m, s, a)  # type: ignore[name-defined]  # noqa: F821 (bound by driver())
 
 
-def _parallel_template(size: int, ints: np.ndarray, floats: np.ndarray, WORK: np.ndarray, *a: Any) -> None:  # pragma: no cover
-    """SERIAL on blocks of STEP rows, one block per thread at a time; WORK one scratch buffer per thread."""
-    for b in prange((size + STEP - 1) // STEP):  # type: ignore[name-defined]  # noqa: F821 (bound by driver())
-        SERIAL(b * STEP, min(size, (b + 1) * STEP), ints, floats, WORK[_thread()], *a)  # type: ignore[name-defined]  # noqa: F821
-
-
 class Batched:
-    """A driver: the serial range kernel for small batches, its parallel twin from :attr:`PARALLEL_MIN` rows."""
+    """A driver: the range kernel on the whole batch in the calling thread, or from :attr:`PARALLEL_MIN` rows on one
+    contiguous range per thread (numba's thread count of the calling thread), each with its own scratch buffer."""
 
-    #: Batches at least this large run on numba's threads (when there is more than one).
-    PARALLEL_MIN = 256
+    #: Batches at least this large run on several threads (when numba has more than one). Handing a range to a pool
+    #: thread costs 50-120 us on the 2-core VM (waking a thread, and the caller again when it is done; numba's
+    #: ``prange``, whose threads spin, 2 us): J* of the 1992 system, 2 threads against 1, 256 rows 173 / 118 us, 512
+    #: 221 / 197, 1024 300 / 356, 4096 813 / 1372 (measured). Drivers of heavier rows start earlier (below).
+    PARALLEL_MIN = 1024
     #: Whether the last call found its kernel compiled (or loaded) already: its time was work, not compiling.
     compiled = False
 
-    def __init__(self, serial: Any, parallel: Any, parallel_min: int | None = None) -> None:
-        self.serial, self.parallel = serial, parallel
+    def __init__(self, serial: Any, parallel_min: int | None = None) -> None:
+        self.serial = serial
         if parallel_min is not None:
             self.PARALLEL_MIN = parallel_min
 
-    def __call__(self, size: int, t: Tree, *a: Any) -> Any:
+    def __call__(self, size: int, t: Tree, *a: Any) -> None:
         """Run on ``size`` rows of the model ``t`` with the call's arrays ``a``; the scratch buffers are made here.
 
         The kernels make views of their scratch without reference counting (cheaper), so the
         buffers must outlive the call: they are arguments, held by this frame.
         """
         length = work_size(t.n_bodies, t.ee_body.shape[0])
-        if size >= self.PARALLEL_MIN and numba.get_num_threads() > 1:
-            threads = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]  # every thread id is below it
-            self.compiled = bool(self.parallel.overloads)
-            return self.parallel(size, t.ints, t.floats, np.empty((threads, length)), *a)
         self.compiled = bool(self.serial.overloads)
-        return self.serial(0, size, t.ints, t.floats, np.empty(length), *a)
+        parts = thread_count() if size >= self.PARALLEL_MIN else 1
+        work = np.empty((max(1, min(parts, size)), length))
+        run_ranges(lambda r, start, stop: self.serial(start, stop, t.ints, t.floats, work[r], *a), size, parts)
 
 
-def driver(name: str, row: Any, *, block: int = BLOCK, parallel_min: int | None = None) -> Batched:
-    """The serial and parallel drivers of the row kernel ``row`` (``block`` rows per parallel task)."""
-    serial = kernel()(bind(_serial_template, f"{name}_serial", ROW=row))
-    parallel = kernel(parallel=True)(bind(_parallel_template, f"{name}_parallel", SERIAL=serial, STEP=block))
-    return Batched(serial, parallel, parallel_min)
+def driver(name: str, row: Any, *, parallel_min: int | None = None) -> Batched:
+    """The driver of the row kernel ``row``: its range kernel, compiled once, named ``<name>_serial`` in the cache."""
+    return Batched(kernel()(bind(_serial_template, f"{name}_serial", ROW=row)), parallel_min)
 
 
 # ----------------------------------------------------------------- one trajectory stepped from Python (the Stepper)
@@ -323,58 +309,16 @@ def _law_rollout_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cove
     _law_rollout_blocks((plant, ext_i, EXT[b], s), 1, b, b + 1, X0, dt, steps, hold, stride, C, lim, XS, US, SAT, DONE, s.rows)
 
 
-def _rollout_parallel(size: int, ints: np.ndarray, floats: np.ndarray, WORK: np.ndarray, *a: Any) -> None:  # pragma: no cover
-    """The parallel rollout with a law: one trajectory per task on numba's threads (:func:`_rollout_task`). numba's threads
-    take no tuple of arrays, so the controller C = ((kp, kd, qref, vref, ff), law) arrives as its arrays, flat
-    (:meth:`RolloutBatched.__call__`), and each task makes it again, in a kernel of its own: built in the ``prange`` body,
-    the law's writes (its ``lowest``) through the inlined loop are lost (numba 0.68)."""
-    for b in prange(size):
-        _rollout_task(np.int64(b), ints, floats, WORK[_thread()], *a)  # type: ignore[arg-type]  # prange's index is unsigned
-
-
-def _rollout_task(b: int, ints: np.ndarray, floats: np.ndarray, work: np.ndarray, *a: Any) -> None:  # pragma: no cover
-    """Trajectory b of the parallel rollout with a law: the controller's tuples made from the flat arguments (:data:`ROLLOUT_FLAT`
-    of them after X0, dt, steps, hold, stride), then the loop of :func:`_law_rollout_row`, inlined here (a serial kernel
-    called from here would be compiled, then linked and optimized again inside this one)."""
-    pd = (a[5], a[6], a[7], a[8], a[9])
-    law = Law(  # type: ignore[call-arg]
-        a[10], a[11], a[12], a[13], a[14], a[15], a[16], a[17], a[18], a[19], a[20], a[21], a[22], a[23], a[24], a[25], a[26], a[27]
-    )
-    m = arrays(ints, floats)
-    s = scratch(work, m.parent.shape[0], m.ee_body.shape[0], m.n_joints)
-    _law_rollout_row(b, m, s, (a[0], a[1], a[2], a[3], a[4], (pd, law), *a[28:]))
-
-
-#: The arrays of a rollout's controller: the joint PD's five, then the fields of a control law.
-ROLLOUT_FLAT = 5 + len(Law._fields)
-
-
-class RolloutBatched(Batched):
-    """The rollout's driver: the serial kernel with the controller as tuples, the parallel one with them flat."""
-
-    def __call__(self, size: int, t: Tree, *a: Any) -> Any:
-        if size >= self.PARALLEL_MIN and numba.get_num_threads() > 1:
-            pd, law = a[5]
-            return super().__call__(size, t, *a[:5], *pd, *law, *a[6:])
-        return super().__call__(size, t, *a)
-
-
 frames_batch = driver("frames", _frames_row)
 points_batch = driver("points", _points_row)
 point_jacobian_batch = driver("point_jacobian", _point_jacobian_row)
-point_bias_batch = driver("point_bias", _point_bias_row)
+point_bias_batch = driver("point_bias", _point_bias_row, parallel_min=256)  # rows 2-4 times J*'s work: threads pay sooner
 jstar_batch = driver("jstar", _jstar_row)
-measure_batch = driver("measure", _measure_row, block=1, parallel_min=4)  # rows: lane blocks of configurations
+measure_batch = driver("measure", _measure_row, parallel_min=4)  # rows: lane blocks of 64 configurations
 hplus_batch = driver("hplus", _hplus_row)
-hplus_rate_batch = driver("hplus_rate", _hplus_rate_row)
-inverse_batch = driver("inverse", _inverse_row)
-forward_batch = driver("forward", _forward_row)
-derivative_batch = driver("derivative", _derivative_row)
-rollout_batch = driver("rollout", _rollout_row, block=1, parallel_min=2)  # one trajectory is long work: threads pay from two
-# A rollout with a law runs on the threaded kernel from one trajectory on (a single compiled simulation too: one call
-# per run, so the threads' start costs once); the serial one only where numba has one thread.
-law_rollout_batch = RolloutBatched(
-    kernel()(bind(_serial_template, "law_rollout_serial", ROW=_law_rollout_row)),
-    kernel(parallel=True)(bind(_rollout_parallel, "law_rollout_parallel", _rollout_task=kernel()(bind(_rollout_task, "law_rollout_task")))),
-    parallel_min=1,
-)
+hplus_rate_batch = driver("hplus_rate", _hplus_rate_row, parallel_min=256)
+inverse_batch = driver("inverse", _inverse_row, parallel_min=256)
+forward_batch = driver("forward", _forward_row, parallel_min=256)
+derivative_batch = driver("derivative", _derivative_row, parallel_min=256)
+rollout_batch = driver("rollout", _rollout_row, parallel_min=2)  # one trajectory is long work: threads pay from two
+law_rollout_batch = driver("law_rollout", _law_rollout_row, parallel_min=2)  # with a control law (or the joint PD)

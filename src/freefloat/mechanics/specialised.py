@@ -8,7 +8,7 @@ batches of one model structure as their specialisation takes to compile (3 s of 
 for it. ``FREEFLOAT_AUTO_SPECIALISE=0`` or :func:`auto_specialise` (False) turns this off. :func:`specialise`
 does it up front: it compiles J* and the RK4 rollouts for the model's *structure* (its tree, joint types, joint placements and axes), from
 the same recursions, with the structure folded into the code and several configurations per SIMD
-instruction (eight on AVX-512, four on AVX2). It takes 2-5 s (J*) and 6-18 s (rollouts) once per
+instruction (eight on AVX-512, four on AVX2). It takes 2-5 s (J*) and 4-12 s (rollouts) once per
 machine on the paper systems (kept in the user's cache folder); from then on, in every process,
 :func:`~freefloat.generalized_jacobian` on batches of 64 configurations or more and
 :func:`~freefloat.rollout` of 8 trajectories or more use it for every model of that

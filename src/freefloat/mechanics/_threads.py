@@ -1,0 +1,72 @@
+"""The engine's threads: a batch cut into contiguous ranges, one per thread, each run by the same compiled kernel.
+
+Every batched kernel of the engine (:mod:`._drivers`' serial range kernels, a specialised module's ``blocks``) is
+compiled once, without ``parallel=True``, and releases the GIL (``nogil``). :func:`run_ranges` runs it on the ranges
+of a batch at once: the calling thread takes the first range, the threads of a pool kept for the process the others.
+There is no threaded twin to compile: numba's ``prange`` driver of a kernel links the kernel and everything it inlines
+into a module of its own and optimises it again (measured on the 2-core VM: J* of the 1992 system 10 s for its serial
+kernel, 14 s more for the threaded one; the specialised measure of the 7-DOF arm 8 s, 13 s more), and that twin is
+gone. The number of ranges is numba's thread count of the calling thread (``numba.set_num_threads``, the environment
+variable ``NUMBA_NUM_THREADS``), so a user limits the engine's threads as before.
+
+A kernel's ranges write into the call's outputs: :func:`run_ranges` returns, or raises, only when every range has
+finished, Ctrl-C included (an interrupt is raised once the ranges running have finished, as numba's threads did), so
+that no output is written after its call has ended (a recycled output buffer, :func:`~._arrays.new_output`, serves the
+next call).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor, wait
+
+import numba
+
+__all__ = ["run_ranges", "thread_count"]
+
+_POOL: list[ThreadPoolExecutor] = []
+_LOCK = threading.Lock()
+
+
+def thread_count() -> int:
+    """The threads a batch may run on: numba's thread count of the calling thread."""
+    return int(numba.get_num_threads())
+
+
+def _pool() -> ThreadPoolExecutor:
+    with _LOCK:
+        if not _POOL:  # as many threads as numba may use, less the calling thread's
+            _POOL.append(ThreadPoolExecutor(max(1, int(numba.config.NUMBA_NUM_THREADS) - 1), thread_name_prefix="freefloat"))  # type: ignore[attr-defined]
+        return _POOL[0]
+
+
+def _finish(futures: list[Future[object]]) -> None:
+    """Wait for every future, through Ctrl-C: an interrupt is raised again once all of them have finished."""
+    interrupt: KeyboardInterrupt | None = None
+    while True:
+        try:
+            wait(futures)
+            break
+        except KeyboardInterrupt as exc:
+            interrupt = exc
+    if interrupt is not None:
+        raise interrupt
+
+
+def run_ranges(run: Callable[[int, int, int], object], count: int, parts: int) -> None:
+    """``run(r, first, last)`` for the ``parts`` contiguous ranges r of ``[0, count)`` (at most ``count`` of them; their
+    lengths differ by one at most), at once: range 0 in the calling thread, the others on the pool's threads. Returns
+    when every range has finished; the first exception raised by a range is raised here."""
+    parts = max(1, min(parts, count))
+    if parts == 1:
+        run(0, 0, count)
+        return
+    pool = _pool()
+    futures = [pool.submit(run, r, r * count // parts, (r + 1) * count // parts) for r in range(1, parts)]
+    try:
+        run(0, 0, count // parts)
+    finally:
+        _finish(futures)
+    for future in futures:
+        future.result()
