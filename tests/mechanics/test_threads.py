@@ -5,8 +5,10 @@ them give the numbers of one thread."""
 from __future__ import annotations
 
 import itertools
+import multiprocessing
 import threading
 import time
+from typing import Any
 
 import numba
 import numpy as np
@@ -66,6 +68,27 @@ def test_ctrl_c_in_the_calling_thread_waits_for_the_other_ranges() -> None:
         _threads.run_ranges(run, 2, 2)
     caught = time.perf_counter()
     assert len(finished) == 1 and finished[0] <= caught
+
+
+def _ranges_in_a_child(queue: Any) -> None:
+    seen: list[int] = []
+    _threads.run_ranges(lambda r, first, last: seen.append(r), 4, 2)
+    queue.put(sorted(seen))
+
+
+def test_a_forked_child_makes_a_pool_of_its_own() -> None:
+    """After ``fork`` the parent's pool threads do not exist in the child: its ranges run on a pool of its own (they
+    would wait forever on the parent's)."""
+    _threads.run_ranges(lambda r, first, last: None, 2, 2)  # the parent's pool exists
+    context = multiprocessing.get_context("fork")
+    queue = context.Queue()
+    child = context.Process(target=_ranges_in_a_child, args=(queue,))
+    child.start()
+    child.join(60)
+    alive = child.is_alive()
+    if alive:
+        child.kill()
+    assert not alive and child.exitcode == 0 and queue.get(timeout=5) == [0, 1]
 
 
 def test_the_engine_on_two_threads_equals_one_thread(monkeypatch: pytest.MonkeyPatch) -> None:

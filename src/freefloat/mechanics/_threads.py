@@ -17,6 +17,7 @@ next call).
 
 from __future__ import annotations
 
+import os
 import threading
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor, wait
@@ -26,7 +27,17 @@ import numba
 __all__ = ["run_ranges", "thread_count"]
 
 _POOL: list[ThreadPoolExecutor] = []
-_LOCK = threading.Lock()
+_LOCK = [threading.Lock()]
+
+
+def _after_fork() -> None:
+    """In a child made by ``fork`` (``multiprocessing``'s default on Linux): none of the parent's threads exist there, so
+    a pool of its own is made at need (the parent's would take ranges that no thread runs: a hang)."""
+    _POOL.clear()
+    _LOCK[0] = threading.Lock()
+
+
+os.register_at_fork(after_in_child=_after_fork)
 
 
 def thread_count() -> int:
@@ -35,7 +46,7 @@ def thread_count() -> int:
 
 
 def _pool() -> ThreadPoolExecutor:
-    with _LOCK:
+    with _LOCK[0]:
         if not _POOL:  # as many threads as numba may use, less the calling thread's
             _POOL.append(ThreadPoolExecutor(max(1, int(numba.config.NUMBA_NUM_THREADS) - 1), thread_name_prefix="freefloat"))  # type: ignore[attr-defined]
         return _POOL[0]
