@@ -235,7 +235,7 @@ def test_specialised_jstar_matches_pinocchio_and_the_generic_kernels(specialised
     assert ff.mechanics.is_specialised(model, "jstar")
     rng = np.random.default_rng(5)
     n = model.n_joints
-    for size in (1, 63, 64, 65, 129, 700):  # around the block size; serial and threaded
+    for size in (1, 63, 64, 65, 129, _specialise.THREADS_FROM + 65):  # around the block size; one range, one per thread
         q = rng.uniform(-np.pi, np.pi, (size, n))
         fast = ff.generalized_jacobian(model, q)
         with _specialise.generic():

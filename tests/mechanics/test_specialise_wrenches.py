@@ -107,7 +107,8 @@ def _rollout(model: ff.Model, k: int, ext_i: np.ndarray, seed: int) -> tuple[np.
 def test_specialised_dynamics_and_rollouts_with_wrenches_equal_the_generic_kernels(own_cache: None, which: str) -> None:
     model = _model(which)
     ext_i = _layout(model)
-    sizes = (LANES - 1, LANES, 2 * LANES + 1, 300)  # below the maps' minimum (generic), one block, a short last block, threads
+    sizes = (LANES - 1, LANES, 2 * LANES + 1, _specialise.THREADS_FROM + 1)  # below the maps' minimum (generic), one block,
+    # a short last block, one range of blocks per thread
     trajectories = (7, 8, LANES + 6, 2 * LANES + 1)  # below the rollouts' minimum (generic), one block, two and three blocks
     with _specialise.generic():
         generic = [_dynamics(model, size, ext_i, size) for size in sizes]

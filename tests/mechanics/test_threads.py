@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import itertools
 import multiprocessing
+import subprocess
+import sys
 import threading
 import time
 from typing import Any
@@ -89,6 +91,23 @@ def test_a_forked_child_makes_a_pool_of_its_own() -> None:
     if alive:
         child.kill()
     assert not alive and child.exitcode == 0 and queue.get(timeout=5) == [0, 1]
+
+
+def test_ranges_run_while_the_interpreter_shuts_down() -> None:
+    """Once the interpreter is shutting down, a pool takes no more work ("cannot schedule new futures after interpreter
+    shutdown": a thread left running after the main script, an ``atexit`` handler): the ranges run in the calling thread."""
+    script = (
+        "import atexit\n"
+        "from freefloat.mechanics._threads import run_ranges\n"
+        "run_ranges(lambda r, first, last: None, 2, 2)  # the pool exists\n"
+        "def at_exit():\n"
+        "    seen = []\n"
+        "    run_ranges(lambda r, first, last: seen.append((r, first, last)), 4, 2)\n"
+        "    print(sorted(seen), flush=True)\n"
+        "atexit.register(at_exit)\n"
+    )
+    result = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert result.returncode == 0 and result.stdout.strip() == "[(0, 0, 2), (1, 2, 4)]", result.stdout + result.stderr
 
 
 def test_the_engine_on_two_threads_equals_one_thread(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -67,16 +67,25 @@ def _finish(futures: list[Future[object]]) -> None:
 
 def run_ranges(run: Callable[[int, int, int], object], count: int, parts: int) -> None:
     """``run(r, first, last)`` for the ``parts`` contiguous ranges r of ``[0, count)`` (at most ``count`` of them; their
-    lengths differ by one at most), at once: range 0 in the calling thread, the others on the pool's threads. Returns
-    when every range has finished; the first exception raised by a range is raised here."""
+    lengths differ by one at most), at once: range 0 in the calling thread, the others on the pool's threads (in the
+    calling thread too once the interpreter is shutting down, when a pool takes no more work: a thread left running
+    after the main script, an ``atexit`` handler). Returns when every range has finished; the first exception raised
+    by a range is raised here."""
     parts = max(1, min(parts, count))
     if parts == 1:
         run(0, 0, count)
         return
     pool = _pool()
-    futures = [pool.submit(run, r, r * count // parts, (r + 1) * count // parts) for r in range(1, parts)]
+    futures: list[Future[object]] = []
+    mine = [0]  # the ranges this thread runs: range 0, and any the pool no longer takes
     try:
-        run(0, 0, count // parts)
+        for r in range(1, parts):
+            try:
+                futures.append(pool.submit(run, r, r * count // parts, (r + 1) * count // parts))
+            except RuntimeError:  # the interpreter is shutting down ("cannot schedule new futures"): run it here
+                mine.append(r)
+        for r in mine:
+            run(r, r * count // parts, (r + 1) * count // parts)
     finally:
         _finish(futures)
     for future in futures:
