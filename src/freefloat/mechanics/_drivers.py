@@ -39,7 +39,7 @@ from ._lanes import LANES, rollout_loop
 from ._laws import law_control
 from ._numba_cache import bind, kernel, unowned_floats, unowned_ints
 from ._recursions import kinematics, scratch
-from ._threads import run_ranges, thread_count
+from ._threads import range_count, run_ranges, threads_for
 from ._tree import Tree, arrays, buffer_lengths, work_size
 
 __all__ = [
@@ -95,8 +95,8 @@ class Batched:
         """
         length = work_size(t.n_bodies, t.ee_body.shape[0])
         self.compiled = bool(self.serial.overloads)
-        parts = thread_count() if size >= self.PARALLEL_MIN else 1
-        work = np.empty((max(1, min(parts, size)), length))
+        parts = threads_for(size, self.PARALLEL_MIN)
+        work = np.empty((range_count(size, parts), length))
         run_ranges(lambda r, start, stop: self.serial(start, stop, t.ints, t.floats, work[r], *a), size, parts)
 
 

@@ -52,7 +52,7 @@ import numpy as np
 from . import _configuration, _lanes, _numba_cache, _recursions, _trace, _tree
 from ._lanes import LANES
 from ._numba_cache import CacheWarning, cache_dir
-from ._threads import run_ranges, thread_count
+from ._threads import range_count, run_ranges, threads_for
 from ._trace import ENTRY_POINTS, Graph, Sym, traced
 from ._tree import BODY_FIELDS, Arrays, Tree, work_size
 
@@ -713,10 +713,10 @@ def _run(
     scratch buffers made here. ``threads``: that many ranges whatever the size (tests, warming)."""
     if threads is None:
         with sharing():
-            _run(module, size, args, threads=thread_count() if size >= threads_from else 1)
+            _run(module, size, args, threads=threads_for(size, threads_from))
         return
     count = (size + LANES - 1) // LANES
-    work = np.empty((max(1, min(threads, count)), module.ROWS * LANES))
+    work = np.empty((range_count(count, threads), module.ROWS * LANES))
     run_ranges(lambda r, first, last: module.blocks(*args, work[r], first, last), count, threads)
 
 

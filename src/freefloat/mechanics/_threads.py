@@ -24,7 +24,7 @@ from concurrent.futures import Future, ThreadPoolExecutor, wait
 
 import numba
 
-__all__ = ["run_ranges", "thread_count"]
+__all__ = ["range_count", "run_ranges", "thread_count", "threads_for"]
 
 _POOL: list[ThreadPoolExecutor] = []
 _LOCK = [threading.Lock()]
@@ -43,6 +43,17 @@ os.register_at_fork(after_in_child=_after_fork)
 def thread_count() -> int:
     """The threads a batch may run on: numba's thread count of the calling thread."""
     return int(numba.get_num_threads())
+
+
+def threads_for(size: int, threshold: int) -> int:
+    """The ranges a batch of ``size`` asks for: numba's thread count of the calling thread from ``threshold`` on, else 1."""
+    return thread_count() if size >= threshold else 1
+
+
+def range_count(count: int, parts: int) -> int:
+    """How many ranges :func:`run_ranges` makes of ``[0, count)`` when asked for ``parts``: at least one, at most
+    ``count`` (a caller makes one scratch buffer per range)."""
+    return max(1, min(parts, count))
 
 
 def _pool() -> ThreadPoolExecutor:
@@ -71,21 +82,22 @@ def run_ranges(run: Callable[[int, int, int], object], count: int, parts: int) -
     calling thread too once the interpreter is shutting down, when a pool takes no more work: a thread left running
     after the main script, an ``atexit`` handler). Returns when every range has finished; the first exception raised
     by a range is raised here."""
-    parts = max(1, min(parts, count))
+    parts = range_count(count, parts)
     if parts == 1:
         run(0, 0, count)
         return
+    edges = [r * count // parts for r in range(parts + 1)]
     pool = _pool()
     futures: list[Future[object]] = []
     mine = [0]  # the ranges this thread runs: range 0, and any the pool no longer takes
     try:
         for r in range(1, parts):
             try:
-                futures.append(pool.submit(run, r, r * count // parts, (r + 1) * count // parts))
+                futures.append(pool.submit(run, r, edges[r], edges[r + 1]))
             except RuntimeError:  # the interpreter is shutting down ("cannot schedule new futures"): run it here
                 mine.append(r)
         for r in mine:
-            run(r, r * count // parts, (r + 1) * count // parts)
+            run(r, edges[r], edges[r + 1])
     finally:
         _finish(futures)
     for future in futures:
