@@ -320,11 +320,19 @@ def test_scratch_buffers_are_always_kernel_arguments() -> None:
                 for e in t.elts
                 if isinstance(e, ast.Name)
             }
-            sliced = {  # names assigned from a subscript of a parameter: work = floats[f:]
+            sliced = {  # names assigned from a subscript or a view of a parameter: work = floats_view(floats, f, ...)
                 t.id
                 for n in ast.walk(func)
-                if isinstance(n, ast.Assign) and isinstance(n.value, ast.Subscript) and isinstance(n.value.value, ast.Name)
-                if n.value.value.id in params
+                if isinstance(n, ast.Assign)
+                and (
+                    (isinstance(n.value, ast.Subscript) and isinstance(n.value.value, ast.Name) and n.value.value.id in params)
+                    or (
+                        isinstance(n.value, ast.Call)
+                        and getattr(n.value.func, "id", None) in ("floats_view", "ints_view")
+                        and isinstance(n.value.args[0], ast.Name)
+                        and n.value.args[0].id in params
+                    )
+                )
                 for t in n.targets
                 if isinstance(t, ast.Name)
             }
@@ -344,6 +352,56 @@ def test_scratch_buffers_are_always_kernel_arguments() -> None:
         "_drivers.py::unpack::scratch",
         "_laws.py::law_one::arrays",  # the controller's model (per trajectory)
     ]
+
+
+def stepper_and_state() -> tuple[object, np.ndarray]:
+    from freefloat.mechanics import _engine
+
+    model = ff.models.papadopoulos1992(arms=2)
+    return _engine.Stepper(model), flat(model, State(q=np.linspace(0.3, -0.2, model.n_joints), omega=[0.01, 0.0, 0.02]))
+
+
+@pytest.mark.parametrize("entry", [0, 3, -4, -1], ids=["torque-0", "torque-3", "force-z", "torque-z"])
+@pytest.mark.parametrize("value", [np.nan, np.inf, -2e19], ids=["nan", "inf", "minus-2e19"])
+def test_the_stepper_refuses_a_bad_actuation_before_any_step(entry: int, value: float) -> None:
+    """Stepper.rk4 checks u before it steps: an entry not finite or beyond MAX_EFFORT returns 0 with the reason
+    REFUSED and leaves x as it was, bit for bit; the same call with a good u steps."""
+    stepper, x0 = stepper_and_state()
+    n = stepper.tree.n_joints  # type: ignore[attr-defined]
+    u = np.zeros(n + 6)
+    u[entry] = value
+    x = x0.copy()
+    assert stepper.rk4(x, u, 1e-3, 5) == 0  # type: ignore[attr-defined]
+    assert stepper.reason == stepper.REFUSED  # type: ignore[attr-defined]
+    np.testing.assert_array_equal(x, x0)
+    u[entry] = 1e19  # MAX_EFFORT itself passes
+    assert stepper.rk4(x, u, 1e-6, 1) == 1 and stepper.reason == 0  # type: ignore[attr-defined]
+    assert not np.array_equal(x, x0)
+
+
+@pytest.mark.parametrize("short", ["model ints", "model floats", "work"])
+def test_kernel_views_of_a_short_buffer_raise_before_any_read(short: str) -> None:
+    """The model's and the scratch views neither count references nor check bounds (_numba_cache.floats_view): the
+    kernel that makes them checks each buffer's length once, and a short one raises instead of reading past its end."""
+    from freefloat.mechanics import _numba_cache
+
+    stepper, x0 = stepper_and_state()
+    ints, floats = stepper.ints.copy(), stepper.floats.copy()  # type: ignore[attr-defined]
+    tree = stepper.tree  # type: ignore[attr-defined]
+    if short == "model ints":  # the header says more bodies than the buffer holds
+        ints[0] += 5
+    elif short == "model floats":
+        floats = floats[: tree.floats.size - 1]
+    else:
+        floats = floats[:-1]
+    x, u = x0.copy(), np.zeros(tree.n_joints + 6)
+    with pytest.raises(ValueError, match="shorter than"):
+        _drivers.rk4_steps(ints, floats, x, u, 1e-3, 1)
+    np.testing.assert_array_equal(x, x0)
+    buffer = np.arange(10.0)  # the traced twin of the views: a checked slice
+    np.testing.assert_array_equal(_numba_cache.slice_view(buffer, 4, (2, 3)), buffer[4:].reshape(2, 3))
+    with pytest.raises(ValueError, match="runs past a buffer of 10"):
+        _numba_cache.slice_view(buffer, 5, (2, 3))
 
 
 def test_rollout_shows_progress_and_ctrl_c_keeps_the_finished_trajectories(monkeypatch: pytest.MonkeyPatch) -> None:

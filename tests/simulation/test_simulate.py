@@ -426,6 +426,78 @@ def test_bad_controller_output_fails_part_way_with_the_partial_trajectory(fixed_
     assert 0.3 <= partial.t[-1] <= 0.5 and len(partial) > 10
 
 
+def test_the_controllers_state_is_a_full_state_of_views_made_when_read() -> None:
+    """Every fixed step hands the controller a State (core.state._FlatState) whose q and qdot are made with it and the
+    other fields when first read: all of them equal the recorded state, it prints, copies, pickles and is replaced
+    like a State, and a controller that writes into it changes nothing in the run."""
+    import copy
+    import pickle
+
+    from freefloat.core.state import _FIELDS
+
+    model = two_arm()
+    seen: list[ff.State] = []
+
+    def keep(t: float, state: ff.State) -> np.ndarray:
+        seen.append(state)
+        return -0.5 * state.qdot
+
+    def meddle(t: float, state: ff.State) -> np.ndarray:
+        tau = -0.5 * state.qdot
+        state.q[:] = 9.0  # the controller's own copy: the run must not see it
+        state.omega[:] = 9.0
+        return tau
+
+    start = ff.State(q=[0.1, 0.2, 3.0, -0.2], qdot=[0.3, -0.1, 0.2, 0.1], omega=[0.01, 0.0, 0.02])
+    run = ff.simulate(model, start, 0.05, keep, fixed_step=0.01, output_period=0.01)
+    meddled = ff.simulate(model, start, 0.05, meddle, fixed_step=0.01, output_period=0.01)
+    np.testing.assert_array_equal(meddled.q, run.q)
+    np.testing.assert_array_equal(meddled.omega, run.omega)
+    assert len(seen) == 5
+    for k, state in enumerate(seen):
+        assert isinstance(state, ff.State)
+        assert "_flat" in vars(state) and "r_cm" not in vars(state)  # q and qdot made up front; the rest not read yet
+        recorded = {"q": run.q, "qdot": run.qdot, "omega": run.omega, "attitude": run.attitude, "r_cm": run.r_cm, "v_cm": run.v_cm}
+        for name, values in recorded.items():
+            np.testing.assert_allclose(getattr(state, name), values[k], rtol=0, atol=1e-15, err_msg=name)
+        assert state.wheel_speed.shape == (0,)
+        assert repr(state).startswith("State(q=array(")
+        for twin in (pickle.loads(pickle.dumps(state)), copy.deepcopy(state), dataclasses.replace(state)):
+            for name in _FIELDS:
+                np.testing.assert_array_equal(getattr(twin, name), getattr(state, name))
+        moved = dataclasses.replace(state, q=np.zeros(4))
+        np.testing.assert_array_equal(moved.q, np.zeros(4))
+        np.testing.assert_array_equal(moved.omega, state.omega)
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -1e20, 1e300], ids=["nan", "inf", "minus-1e20", "1e300"])
+@pytest.mark.parametrize("at", [0.0, 0.5], ids=["first-command", "later"])
+def test_bad_torques_every_step_are_refused_before_the_step_and_named(value: float, at: float) -> None:
+    """A controller called every fixed step hands its plain torques to the RK4 kernel unchecked in Python; the kernel
+    checks them before it steps (Stepper.REFUSED), and the error names the output as the Python checks name it. The
+    bad torque never moves the state: the partial trajectory is finite and ends at the last good step."""
+    model = two_arm()
+    n = model.n_joints
+
+    def controller(t: float, state: ff.State) -> np.ndarray:
+        tau = np.zeros(n)
+        if t >= at - 1e-12:
+            tau[2] = value
+        return tau
+
+    with pytest.raises(ff.SimulationError) as info:
+        ff.simulate(model, ff.State(q=[0.1, 0.2, 3.0, -0.2]), 1.0, controller, fixed_step=0.01, output_period=0.01)
+    message = str(info.value)
+    assert f"bad controller output at t = {at:g} s" in message
+    if np.isfinite(value):
+        assert f"controller returned a joint_torque of {abs(value):.3g}, beyond 1e+19 (N m or N)" in message
+    else:
+        assert "controller returned a non-finite joint_torque" in message
+    partial = info.value.trajectory
+    assert partial.status == "failed" and np.isfinite(partial.q).all()
+    assert partial.t[-1] == pytest.approx(at)  # the state at the bad command's instant, not a step past it
+
+
 def test_controller_that_raises_and_a_state_that_blows_up() -> None:
     model = two_arm()
 

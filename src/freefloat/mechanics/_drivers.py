@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.numbers import MAX_EFFORT
 from ._configuration import (
     accelerations_one,
     hplus_one,
@@ -37,7 +38,7 @@ from ._configuration import (
 )
 from ._lanes import LANES, rollout_loop
 from ._laws import law_control
-from ._numba_cache import bind, kernel, unowned_floats, unowned_ints
+from ._numba_cache import bind, floats_view, ints_view, kernel
 from ._recursions import kinematics, scratch
 from ._threads import range_count, run_ranges, threads_for
 from ._tree import Tree, arrays, buffer_lengths, work_size
@@ -112,6 +113,10 @@ _rollout_blocks = rollout_loop(rk4_step_rows, "generic")
 _law_rollout_blocks = rollout_loop(rk4_step_rows, "law", law_control)
 
 
+#: REASON of :func:`rk4_steps` when it refused u (an entry not finite, or beyond MAX_EFFORT); 1 and 2 are :func:`watched`'s.
+REFUSED = 4
+
+
 @kernel(inline="always")
 def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - compiled
     """The model, its external wrenches and the scratch of one trajectory from the two buffers of
@@ -123,18 +128,19 @@ def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     """
     m = arrays(ints, floats)
     o, f = buffer_lengths(ints)
-    ints = unowned_ints(ints)  # views without reference counting: the caller holds both buffers
-    floats = unowned_floats(floats)
     nb = m.parent.shape[0]
     nw = ints[o]
-    header = ints[o : o + 3]
-    ext_i = ints[o + 3 : o + 3 + 2 * nw].reshape((nw, 2))
-    ext_f = floats[f : f + 9 * nw].reshape((nw, 9))
+    n = m.n_joints
+    if ints.shape[0] < o + 3 + 2 * nw or floats.shape[0] < f + 9 * nw + 1 + 3 * n:
+        raise ValueError("freefloat: the stepper's buffers are shorter than their header says")
+    header = ints_view(ints, o, 3)  # views without reference counting or bounds checks: the caller holds both buffers
+    ext_i = ints_view(ints, o + 3, (nw, 2))
+    ext_f = floats_view(floats, f, (nw, 9))
     f += 9 * nw
-    watch = floats[f : f + 1 + 3 * m.n_joints]
-    f += 1 + 3 * m.n_joints
-    work = floats[f:]
-    return m, ext_i, ext_f, watch, header, scratch(work, nb, m.ee_body.shape[0], m.n_joints)
+    watch = floats_view(floats, f, 1 + 3 * n)
+    f += 1 + 3 * n
+    work = floats_view(floats, f, floats.shape[0] - f)  # (scratch checks its length)
+    return m, ext_i, ext_f, watch, header, scratch(work, nb, m.ee_body.shape[0], n)
 
 
 @kernel(inline="always")
@@ -168,10 +174,16 @@ def rk4_steps(
     Returns ``nsteps``; or k < nsteps when H+ was not positive definite in step k (k steps done);
     or -(k + 1) when x became non-finite in step k (k + 1 steps done). When the buffers say WATCH,
     it also stops after the step k whose state needs a look (:func:`watched`: a fast rate, a joint
-    beyond a limit), returns k + 1 and leaves the reason in ints[4] (0 otherwise).
+    beyond a limit), returns k + 1 and leaves the reason in REASON (0 otherwise). Before any step it checks u:
+    an entry that is not finite or beyond :data:`~freefloat.core.numbers.MAX_EFFORT` makes it return 0 with REASON 4
+    (the controller's output, checked here rather than in Python at every step of a simulation).
     """
     m, ext_i, ext_f, watch, header, s = unpack(ints, floats)
     header[2] = 0
+    for i in range(u.shape[0]):
+        if not abs(u[i]) <= MAX_EFFORT:  # NaN too
+            header[2] = REFUSED
+            return 0
     for step in range(nsteps):
         if not rk4_step(x, u, dt, m, ext_i, ext_f, s):
             return step

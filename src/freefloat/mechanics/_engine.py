@@ -574,6 +574,10 @@ class Stepper:
         """Why the last :attr:`rk4` call stopped early under :meth:`watch` (0: it did not): :attr:`ints` [:attr:`reason_at`]."""
         return int(self.ints[self.reason_at])
 
+    #: :attr:`reason` when :attr:`rk4` refused u before stepping (an entry not finite, or beyond MAX_EFFORT); 1 and 2 are
+    #: :meth:`watch`'s.
+    REFUSED = _drivers.REFUSED
+
     @property
     def reason_at(self) -> int:
         """Where in :attr:`ints` the kernel leaves :attr:`reason` (a loop that steps every few microseconds reads it there)."""

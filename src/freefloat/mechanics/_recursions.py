@@ -55,7 +55,7 @@ from typing import Any
 
 import numpy as np
 
-from ._numba_cache import kernel, unowned_floats
+from ._numba_cache import floats_view, kernel
 
 #: The joint speed (rad/s, m/s) over which Coulomb friction builds up: the friction torque of a joint is
 #: -F tanh(qdot / FRICTION_SPEED) (F = ``Model.joint_friction``), 76 % of F at this speed and 99.9 % at 4 times it.
@@ -135,58 +135,59 @@ def scratch(work: np.ndarray, nb: int, ne: int, n: int) -> Any:  # pragma: no co
     """The :data:`Scratch` views of ``work`` (length :func:`~._tree.work_size`) for ``nb`` bodies, ``ne`` end effectors
     and ``n`` joint coordinates (``m.n_joints``: B - 1 less the mimic joints).
 
-    The views do not count references to ``work`` (cheaper: no atomic operations), so ``work`` must
-    outlive them: it is always an argument of the calling kernel (or a slice of one), held by the
-    Python caller for the whole call; never a buffer made inside a kernel, which numba may free
-    after its last use (``tests/mechanics/test_engine.py`` checks every call).
+    The views neither count references to ``work`` nor check bounds (cheaper: :func:`~._numba_cache.floats_view`;
+    the length is checked here once), so ``work`` must outlive them: it is always an argument of the calling kernel
+    (or a contiguous slice of one), held by the Python caller for the whole call; never a buffer made inside a kernel,
+    which numba may free after its last use (``tests/mechanics/test_engine.py`` checks every call).
     """
     m = 3 + n
     size = 14 + 2 * n  # a flat state with its trailing slot (the dissipated energy), the longest a kernel steps
-    work = unowned_floats(work)  # views without reference counting: the caller holds work
     o = 0
-    rot = work[o : o + 9 * nb].reshape((nb, 3, 3))
+    rot = floats_view(work, o, (nb, 3, 3))
     o += 9 * nb
-    pos = work[o : o + 3 * nb].reshape((nb, 3))
+    pos = floats_view(work, o, (nb, 3))
     o += 3 * nb
-    axis = work[o : o + 3 * nb].reshape((nb, 3))
+    axis = floats_view(work, o, (nb, 3))
     o += 3 * nb
-    mom = work[o : o + 3 * nb].reshape((nb, 3))
+    mom = floats_view(work, o, (nb, 3))
     o += 3 * nb
-    own_f = work[o : o + 3 * nb].reshape((nb, 3))
+    own_f = floats_view(work, o, (nb, 3))
     o += 3 * nb
-    own_i = work[o : o + 9 * nb].reshape((nb, 3, 3))
+    own_i = floats_view(work, o, (nb, 3, 3))
     o += 9 * nb
-    cf = work[o : o + 3 * nb].reshape((nb, 3))
+    cf = floats_view(work, o, (nb, 3))
     o += 3 * nb
-    ci = work[o : o + 9 * nb].reshape((nb, 3, 3))
+    ci = floats_view(work, o, (nb, 3, 3))
     o += 9 * nb
-    six = work[o : o + 24 * nb].reshape((8, nb, 3))  # g, h, w, v, al, be, nf, ff
+    six = floats_view(work, o, (8, nb, 3))  # g, h, w, v, al, be, nf, ff
     o += 24 * nb
-    vec = work[o : o + 15].reshape((5, 3))
+    vec = floats_view(work, o, (5, 3))
     o += 15
-    a = work[o : o + m * m].reshape((m, m))
+    a = floats_view(work, o, (m, m))
     o += m * m
-    low = work[o : o + m * m].reshape((m, m))
+    low = floats_view(work, o, (m, m))
     o += m * m
-    b = work[o : o + m]
+    b = floats_view(work, o, m)
     o += m
-    x = work[o : o + 3 * n].reshape((3, n))
+    x = floats_view(work, o, (3, n))
     o += 3 * n
-    t0 = work[o : o + 9].reshape((3, 3))
+    t0 = floats_view(work, o, (3, 3))
     o += 9
-    vel = work[o : o + 6 + n]
+    vel = floats_view(work, o, 6 + n)
     o += 6 + n
-    acc = work[o : o + 6 + n]
+    acc = floats_view(work, o, 6 + n)
     o += 6 + n
-    stages = work[o : o + 5 * size].reshape((5, size))
+    stages = floats_view(work, o, (5, size))
     o += 5 * size
-    joints = work[o : o + n]
+    joints = floats_view(work, o, n)
     o += n
-    rows = work[o : o + 4 * size + n + 9]
+    rows = floats_view(work, o, 4 * size + n + 9)
     o += 4 * size + n + 9
-    jac = work[o : o + 6 * ne * n].reshape((6 * ne, n))
+    jac = floats_view(work, o, (6 * ne, n))
     o += 6 * ne * n
-    sel = work[o : o + 6 * ne * n]
+    sel = floats_view(work, o, 6 * ne * n)
+    if o + 6 * ne * n > work.shape[0]:
+        raise ValueError("freefloat: the scratch buffer is shorter than work_size")
     return Scratch(
         rot,
         pos,

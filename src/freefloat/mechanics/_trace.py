@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from . import _configuration, _recursions, _tree
+from ._numba_cache import slice_view
 
 __all__ = ["ENTRY_POINTS", "Graph", "Sym", "traced"]
 
@@ -308,10 +309,6 @@ def _pick(x: Any, y: Any, a: Any, b: Any) -> Any:
 _MATH = types.SimpleNamespace(sqrt=_sqrt, sin=_sin, cos=_cos, tanh=_tanh, isfinite=math.isfinite, pi=math.pi)
 
 
-def _identity(x: Any) -> Any:
-    return x
-
-
 #: The interface between the engine and the specialiser: the engine's one-configuration kernels the specialiser
 #: traces, by kind. Each is plain scalar Python over arrays (numba compiles it as written): arithmetic, ``math.sqrt``,
 #: ``math.sin``, ``math.cos``, ``math.tanh``, loops and branches on the model's *structure* (numbers while tracing), and branches on
@@ -330,7 +327,7 @@ def traced() -> types.SimpleNamespace:
     """The engine's kernels (:mod:`._tree`, :mod:`._recursions`, :mod:`._configuration`) as plain Python on :class:`Sym` values.
 
     Each kernel's Python function (``py_func``, the one source numba compiles) is rebound to a namespace in which
-    every kernel name is its traced twin, the views without reference counting are the identity and ``math`` is
+    every kernel name is its traced twin, the views without reference counting are checked slices and ``math`` is
     the shim above: the same code, run by the interpreter instead of numba (nothing is compiled, no file is read).
     """
     names: dict[str, Any] = {}
@@ -342,6 +339,6 @@ def traced() -> types.SimpleNamespace:
         if py_func is not None:
             twins[key] = types.FunctionType(py_func.__code__, names, key, py_func.__defaults__, py_func.__closure__)
     names.update(twins)
-    names.update(math=_MATH, unowned_floats=_identity, unowned_ints=_identity, _pick=_pick)
+    names.update(math=_MATH, floats_view=slice_view, ints_view=slice_view, _pick=_pick)
     space = types.SimpleNamespace(**twins)
     return types.SimpleNamespace(recursions=space, configuration=space)

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ._numba_cache import kernel, unowned_floats, unowned_ints
+from ._numba_cache import floats_view, ints_view, kernel
 
 __all__ = ["BODY_FIELDS", "Arrays", "Field", "Tree", "arrays", "tree", "work_size"]
 
@@ -187,54 +187,56 @@ def arrays(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     """The :data:`Arrays` of a model from its two buffers (:class:`Tree`; a buffer may continue past the model).
 
     ints = [B, E, N, parent (B), ancestor (B x B), ee_body (E)]; floats = [the body fields of :data:`BODY_FIELDS`,
-    each (B, *shape), total mass, ee_point (E x 3)]. The views count no references (cheaper): the buffers
-    must be arguments of the calling kernel, held by its caller.
+    each (B, *shape), total mass, ee_point (E x 3)]. The views count no references and check no bounds (cheaper:
+    :func:`~._numba_cache.floats_view`; the buffers' lengths are checked here once): the buffers must be arguments of
+    the calling kernel, held by its caller.
     """
-    ints = unowned_ints(ints)
-    floats = unowned_floats(floats)
     nb = ints[0]
     ne = ints[1]
+    ints_length, floats_length = buffer_lengths(ints)
+    if ints.shape[0] < ints_length or floats.shape[0] < floats_length:
+        raise ValueError("freefloat: the model's buffers are shorter than their header says")
     o = 3
-    parent = ints[o : o + nb]
+    parent = ints_view(ints, o, nb)
     o += nb
-    ancestor = ints[o : o + nb * nb].reshape((nb, nb))
+    ancestor = ints_view(ints, o, (nb, nb))
     o += nb * nb
-    ee_body = ints[o : o + ne]
+    ee_body = ints_view(ints, o, ne)
     f = 0
-    origin = floats[f : f + 3 * nb].reshape((nb, 3))
+    origin = floats_view(floats, f, (nb, 3))
     f += 3 * nb
-    place = floats[f : f + 9 * nb].reshape((nb, 3, 3))
+    place = floats_view(floats, f, (nb, 3, 3))
     f += 9 * nb
-    place_k = floats[f : f + 9 * nb].reshape((nb, 3, 3))
+    place_k = floats_view(floats, f, (nb, 3, 3))
     f += 9 * nb
-    place_k2 = floats[f : f + 9 * nb].reshape((nb, 3, 3))
+    place_k2 = floats_view(floats, f, (nb, 3, 3))
     f += 9 * nb
-    axis = floats[f : f + 3 * nb].reshape((nb, 3))
+    axis = floats_view(floats, f, (nb, 3))
     f += 3 * nb
-    prismatic = floats[f : f + nb]
+    prismatic = floats_view(floats, f, nb)
     f += nb
-    coordinate = floats[f : f + nb]
+    coordinate = floats_view(floats, f, nb)
     f += nb
-    multiplier = floats[f : f + nb]
+    multiplier = floats_view(floats, f, nb)
     f += nb
-    mass = floats[f : f + nb]
+    mass = floats_view(floats, f, nb)
     f += nb
-    com = floats[f : f + 3 * nb].reshape((nb, 3))
+    com = floats_view(floats, f, (nb, 3))
     f += 3 * nb
-    inertia = floats[f : f + 9 * nb].reshape((nb, 3, 3))
+    inertia = floats_view(floats, f, (nb, 3, 3))
     f += 9 * nb
-    armature = floats[f : f + nb]
+    armature = floats_view(floats, f, nb)
     f += nb
-    damping = floats[f : f + nb]
+    damping = floats_view(floats, f, nb)
     f += nb
-    friction = floats[f : f + nb]
+    friction = floats_view(floats, f, nb)
     f += nb
-    offset = floats[f : f + nb]
+    offset = floats_view(floats, f, nb)
     f += nb
-    subtree_mass = floats[f : f + nb]
+    subtree_mass = floats_view(floats, f, nb)
     f += nb
     total_mass = floats[f]
-    ee_point = floats[f + 1 : f + 1 + 3 * ne].reshape((ne, 3))
+    ee_point = floats_view(floats, f + 1, (ne, 3))
     return Arrays(
         parent,
         ancestor,

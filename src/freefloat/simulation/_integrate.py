@@ -73,6 +73,31 @@ def _check_effort(t: float | None, u: np.ndarray) -> None:
         )
 
 
+def check_output(name: str, arr: np.ndarray) -> None:
+    """A controller's output ``name`` (an array): a ValueError that says what is wrong when an entry is not finite or
+    beyond :data:`~freefloat.core.numbers.MAX_EFFORT` (N m or N)."""
+    if not np.isfinite(arr).all():
+        raise ValueError(f"controller returned a non-finite {name}: {arr}")
+    if np.abs(arr).max(initial=0.0) > MAX_EFFORT:
+        raise ValueError(
+            f"controller returned a {name} of {np.abs(arr).max():.3g}, beyond {MAX_EFFORT:.0e} (N m or N), more than any actuator "
+            "gives (it would spin the largest inertia a model may have beyond 1e4 rad/s within a second); check the controller's "
+            "gains and units"
+        )
+
+
+def _refused(t: float, act: Any, u: np.ndarray) -> None:
+    """The RK4 kernel refused the actuation u before stepping (``_drivers.REFUSED``): the controller's output named, as
+    the full checks of its output name it."""
+    try:
+        for name, value in zip(("joint_torque", "spacecraft_force", "spacecraft_torque"), act[:3], strict=True):
+            check_output(name, np.asarray(value, dtype=float))
+    except ValueError as exc:
+        raise SimulationError(f"bad controller output at t = {t:.6g} s: {exc}") from exc
+    _check_effort(t, u)
+    raise SimulationError(f"the engine refused the actuation at t = {t:.6g} s: {u}")  # (not reached: a check above names it)
+
+
 def _rhs(model: Model, external: Any) -> Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
     """The state derivative ``f(x, tau, force, torque)`` of one state (the engine, one compiled call)."""
     stepper = _engine.Stepper(model, _engine_inputs(model, external))
@@ -250,13 +275,14 @@ def _run_rk4(
     x[6:10] /= np.linalg.norm(x[6:10])
     u = np.empty(n + 6)
     quiet = zero_thrust(())  # read-only: a command that carries it has no thrust
-    act = command(0.0, x)
+    act = command(0.0, x.copy(), True)  # the kernel checks the plain torques before it steps (Stepper.REFUSED)
     _u(model, act[0], act[1], act[2], u)
     held = True
     rec.add(0.0, x, act)
     prev_ev = _event_value(events, view, 0.0, x) if events else None
-    rk4, ints, why = stepper.rk4, stepper.ints, stepper.reason_at  # the hot loop: a controller may run every step
+    rk4, ints, why, refused = stepper.rk4, stepper.ints, stepper.reason_at, stepper.REFUSED  # the hot loop: a controller may run every step
     every_step = bool(events) or sample_period is None
+    torques = u[:n]
     i = 0
     while i < steps:
         if every_step:
@@ -264,8 +290,10 @@ def _run_rk4(
         else:
             to_sample = max(1, round(next_sample_time / dt) - i)
             todo = min(to_sample, stride - i % stride, steps - i)
-        done = rk4(x, u, dt, todo)  # the kernel checks that x stays finite, and watches it
+        done = rk4(x, u, dt, todo)  # the kernel checks u, then that x stays finite, and watches it
         reason = ints.item(why)
+        if reason & refused:
+            _refused(i * dt, act, u)
         if done != todo and not reason:
             i += abs(done)
             t = i * dt
@@ -281,8 +309,8 @@ def _run_rk4(
         if done != todo:  # stopped early to look: go on to the planned sample or output
             continue
         if i < steps and (sample_period is None or t >= next_sample_time - 1e-9 * dt):
-            act = command(t, x.copy())  # a copy: x is advanced in place, the controller may keep its state
-            u[:n] = act[0]
+            act = command(t, x.copy(), True)  # a copy: x is advanced in place, the controller may keep its state
+            torques[...] = act[0]  # (a view made once: half the time of u[:n] = ...)
             thrust = act[1] is not quiet or act[2] is not quiet
             if thrust or held:  # the thrust held so far or the new one
                 u[n : n + 3], u[n + 3 :] = act[1], act[2]
@@ -374,8 +402,8 @@ def _run_adaptive(
         wrapped.direction = getattr(ev, "direction", 0)  # type: ignore[attr-defined]
         ivp_events.append(wrapped)
     x = x0.copy()
-    held = command(0.0, x) if sample_period is not None else None
-    rec.add(0.0, x, held if held is not None else command(0.0, x))
+    held = command(0.0, x.copy()) if sample_period is not None else None  # copies: a controller may keep its state
+    rec.add(0.0, x, held if held is not None else command(0.0, x.copy()))
     for a, b in _pieces(duration, sample_period, period):
         if stops.active:  # a resting joint is put back on its stop at the end of each piece: end them at the outputs too
             cuts = [float(c) for c in _outputs_in(a, b, period, n_out, duration if end_extra else None) if c < b - 1e-12]

@@ -50,7 +50,7 @@ from ._guard import (
     check_pd_gains,
     estimate_run,
 )
-from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory, zero_thrust
+from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory, check_output, zero_thrust
 from ._stops import JointStops, limit_violations
 from ._wheels import limit_wheel_torque, user_trajectory
 from .capture_event import Capture, CaptureRun, simulate_capture
@@ -65,12 +65,25 @@ Controller = Callable[[float, State], Any]
 METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
 
 
-def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+_FLOAT64 = np.dtype(np.float64)
+_QUIET = zero_thrust(())
+
+
+def _actuation(model: Model, raw: Any, batch: tuple[int, ...], kernel_checks: bool = False) -> tuple[np.ndarray, ...]:
     """Controller output -> (tau, f_S, n_S) arrays, and the wheel torques last for a model with reaction wheels (zeros
-    when not given), with errors that name what is wrong."""
+    when not given), with errors that name what is wrong.
+
+    ``kernel_checks``: plain torques (a float64 array of shape (*batch, N)) go through unchecked, because the caller's
+    kernel checks them before it steps (the RK4 loop of :func:`simulate`: ``_drivers.rk4_steps`` refuses an entry that is
+    not finite or beyond MAX_EFFORT, and the loop then names it with :func:`check_output`)."""
     n = model.n_joints
-    if raw.__class__ is np.ndarray and raw.dtype == np.float64 and raw.shape == (*batch, n) and _plain_torques(raw):
-        zeros = zero_thrust(batch)  # the fast path of plain torques, finite and in range
+    if (
+        raw.__class__ is np.ndarray
+        and (raw.dtype is _FLOAT64 or raw.dtype == _FLOAT64)
+        and raw.shape == (*batch, n)
+        and (kernel_checks or _plain_torques(raw))
+    ):
+        zeros = zero_thrust(batch) if batch else _QUIET  # the fast path of plain torques, finite and in range
         return (raw, zeros, zeros, np.zeros((*batch, model.n_wheels))) if model.wheels else (raw, zeros, zeros)
     if raw is None:
         raise TypeError(f"controller returned None; return joint torques of shape {(*batch, n)} or a freefloat.Actuation")
@@ -97,14 +110,7 @@ def _actuation(model: Model, raw: Any, batch: tuple[int, ...]) -> tuple[np.ndarr
             raise TypeError(f"controller returned a {name} that is not numbers: {value!r}") from exc
         if arr.shape != (*batch, size):
             raise ShapeError(f"controller returned {name} of shape {arr.shape}; expected {(*batch, size)} ({what})")
-        if not np.isfinite(arr).all():
-            raise ValueError(f"controller returned a non-finite {name}: {arr}")
-        if np.abs(arr).max(initial=0.0) > MAX_EFFORT:
-            raise ValueError(
-                f"controller returned a {name} of {np.abs(arr).max():.3g}, beyond {MAX_EFFORT:.0e} (N m or N), more than any actuator "
-                "gives (it would spin the largest inertia a model may have beyond 1e4 rad/s within a second); check the controller's "
-                "gains and units"
-            )
+        check_output(name, arr)
         parts.append(arr)
     return tuple(parts)
 
@@ -120,15 +126,18 @@ def _plain_torques(raw: np.ndarray) -> bool:
 
 
 #: What ``simulate(passive=...)`` and ``rollout(passive=...)`` accept.
-def _call_controller(controller: Controller, model: Model, t: float, x: np.ndarray, batch: tuple[int, ...]) -> tuple[np.ndarray, ...]:
+def _call_controller(
+    controller: Controller, model: Model, t: float, x: np.ndarray, batch: tuple[int, ...], kernel_checks: bool = False
+) -> tuple[np.ndarray, ...]:
     """Evaluate the controller at (t, x); any failure becomes a SimulationError that says when and what. Returns
-    (tau, f_S, n_S), and the wheel torques last for a model with reaction wheels."""
+    (tau, f_S, n_S), and the wheel torques last for a model with reaction wheels. ``kernel_checks``: see
+    :func:`_actuation`."""
     try:
         raw = controller(t, unpack_state(model, x))
     except Exception as exc:
         raise SimulationError(f"the controller raised {type(exc).__name__} at t = {t:.6g} s: {exc}") from exc
     try:
-        return _actuation(model, raw, batch)
+        return _actuation(model, raw, batch, kernel_checks)
     except (TypeError, ValueError) as exc:
         raise SimulationError(f"bad controller output at t = {t:.6g} s: {exc}") from exc
 
@@ -317,12 +326,14 @@ def simulate(
     unlimited = np.zeros(1 + 2 * n_wheels, dtype=bool) if n_wheels else np.array(False)
     speeds = slice(13 + 2 * model.n_joints - n_wheels, 13 + 2 * model.n_joints)
 
-    def command(t: float, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    clips = not limits.unlimited
+
+    def command(t: float, x: np.ndarray, kernel_checks: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         if controller is None:
             return (*zero, unlimited)
-        parts = _call_controller(controller, user, t, x, ())
+        parts = _call_controller(controller, user, t, x, (), kernel_checks)
         if not n_wheels:
-            return limits.apply(*parts)
+            return limits.apply(*parts) if clips else (parts[0], parts[1], parts[2], unlimited)
         tau, force, torque, saturated = limits.apply(*parts[:3])
         wheel, torque_limited, speed_limited = limit_wheel_torque(user, parts[3], x[speeds])
         flags = np.concatenate([[bool(saturated) or torque_limited.any() or speed_limited.any()], torque_limited, speed_limited])
