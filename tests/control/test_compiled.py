@@ -24,6 +24,11 @@ from freefloat.core.errors import ShapeError
 from freefloat.papers.paper1991 import section5_setup
 
 BOUND = 1e-12
+#: The payload variants' bound: their states agree to 4e-15, but the operational-space law's torques (up to 1.7e4 N m on
+#: the 200 kg payload) amplify the last bits of the two forms' different operation orders. Measured: 6.4e-13 with the
+#: engine's divisions by the total mass and the Cholesky pivots, 3.2e-12 with products by their reciprocals (the
+#: joint and spacecraft torques at step 5); a gain moved by 1e-7 moves them by 1e-7.
+PAYLOAD_BOUND = 1e-11
 DT = 0.01
 FIELDS = ("q", "qdot", "omega", "attitude", "r_cm", "v_cm", "joint_torque", "spacecraft_force", "spacecraft_torque")
 
@@ -138,7 +143,7 @@ def test_payload_models_per_trajectory_equal_single_python_runs(section5: Any) -
             else:
                 own, start = Detumble(m, rate_gain=float(rate[b, 0])), spinning
             slow = ff.simulate(m, start, 0.2, python(own), fixed_step=DT, output_period=DT)
-            assert gap(fast, slow, b) <= BOUND
+            assert gap(fast, slow, b) <= PAYLOAD_BOUND
     assert np.ptp(fast.omega[-1, :, 2]) > 1e-4  # the payloads (and gains) made the trajectories differ
 
 

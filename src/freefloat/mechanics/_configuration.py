@@ -39,7 +39,8 @@ def jstar_one(q: np.ndarray, m: Any, s: Any, out: np.ndarray) -> None:  # pragma
     unit_momenta(m, axis, mom, cf, s.ci, g, s.h, True)
     centroidal_blocks(m, axis, mom, cf, s.ci, g, s.h, s.a, False)
     solve3(s.a, x)
-    c0, c1, c2 = cf[0, 0] / total_mass, cf[0, 1] / total_mass, cf[0, 2] / total_mass
+    per_mass = 1.0 / total_mass  # one division: products below (a division costs about 16 products)
+    c0, c1, c2 = cf[0, 0] * per_mass, cf[0, 1] * per_mass, cf[0, 2] * per_mass
     for e in range(ee_body.shape[0]):
         k = ee_body[e]
         point_from_origin(s.rot, pos, k, ee_point, e, re)
@@ -55,7 +56,7 @@ def jstar_one(q: np.ndarray, m: Any, s: Any, out: np.ndarray) -> None:  # pragma
         for l in range(1, nb):  # each joint's own terms, in its column of q (a mimic joint's times its multiplier)
             c = int(m.coordinate[l])
             rl = m.multiplier[l]
-            v0, v1, v2 = -g[l, 0] / total_mass, -g[l, 1] / total_mass, -g[l, 2] / total_mass
+            v0, v1, v2 = -g[l, 0] * per_mass, -g[l, 1] * per_mass, -g[l, 2] * per_mass
             if ancestor[l, k]:
                 u0, u1, u2 = axis[l, 0], axis[l, 1], axis[l, 2]  # S_l = [u; m] moves r_E at m + u x r_E
                 v0 += mom[l, 0] + u1 * re[2] - u2 * re[1]
@@ -596,7 +597,8 @@ def point_jacobian_one(
     prepare(q, m, s, False)
     pos, axis, mom, cf, g, rp = s.pos, s.axis, s.mom, s.cf, s.g, s.re
     unit_momenta(m, axis, mom, cf, s.ci, g, s.h, False)
-    c0, c1, c2 = cf[0, 0] / total_mass, cf[0, 1] / total_mass, cf[0, 2] / total_mass
+    per_mass = 1.0 / total_mass  # one division: products below (a division costs about 16 products)
+    c0, c1, c2 = cf[0, 0] * per_mass, cf[0, 1] * per_mass, cf[0, 2] * per_mass
     for e in range(pbody.shape[0]):
         k = pbody[e]
         point_from_origin(s.rot, pos, k, ppoint, e, rp)
@@ -613,7 +615,7 @@ def point_jacobian_one(
         for l in range(1, nb):  # column 6 + coordinate: a mimic joint's terms times its multiplier, in its leader's column
             col = 6 + int(m.coordinate[l])
             rl = m.multiplier[l]
-            v0, v1, v2 = -g[l, 0] / total_mass, -g[l, 1] / total_mass, -g[l, 2] / total_mass
+            v0, v1, v2 = -g[l, 0] * per_mass, -g[l, 1] * per_mass, -g[l, 2] * per_mass
             if ancestor[l, k]:
                 u0, u1, u2 = axis[l, 0], axis[l, 1], axis[l, 2]  # S_l = [u; m] moves r_P at m + u x r_P
                 v0 += mom[l, 0] + u1 * rp[2] - u2 * rp[1]
@@ -632,14 +634,14 @@ def points_one(
     q: np.ndarray, m: Any, pbody: np.ndarray, ppoint: np.ndarray, s: Any, out: np.ndarray
 ) -> None:  # pragma: no cover - compiled
     """Positions (P, 3) of points (body frames of ``pbody``) relative to the system CM, spacecraft frame."""
-    total_mass = m.total_mass
+    per_mass = 1.0 / m.total_mass
     prepare(q, m, s, False)
     rot, pos, cf = s.rot, s.pos, s.cf
     for e in range(pbody.shape[0]):
         k = pbody[e]
         for i in range(3):
             out[e, i] = (
-                pos[k, i] + rot[k, i, 0] * ppoint[e, 0] + rot[k, i, 1] * ppoint[e, 1] + rot[k, i, 2] * ppoint[e, 2] - cf[0, i] / total_mass
+                pos[k, i] + rot[k, i, 0] * ppoint[e, 0] + rot[k, i, 1] * ppoint[e, 1] + rot[k, i, 2] * ppoint[e, 2] - cf[0, i] * per_mass
             )
 
 
@@ -672,7 +674,8 @@ def point_bias_one(
         none[i] = 0.0
     newton_euler(m, s, velocity, none, False, none, s.t0, ext_i, ext_f, s.b)
     total_mass = m.total_mass
-    d0, d1, d2 = -s.ff[0, 0] / total_mass, -s.ff[0, 1] / total_mass, -s.ff[0, 2] / total_mass
+    per_mass = 1.0 / total_mass
+    d0, d1, d2 = -s.ff[0, 0] * per_mass, -s.ff[0, 1] * per_mass, -s.ff[0, 2] * per_mass
     w, v, al, be, pt = s.w, s.v, s.al, s.be, s.re
     for e in range(pbody.shape[0]):
         k = pbody[e]
@@ -721,7 +724,7 @@ def hplus_rate_one(q: np.ndarray, qdot: np.ndarray, m: Any, s: Any, out: np.ndar
     g_l, h_l and the blocks D, D_q, D_qq (see :mod:`._recursions`).
     """
     nb = m.parent.shape[0]
-    parent, ancestor, big = m.parent, m.ancestor, m.total_mass
+    parent, ancestor, per_mass = m.parent, m.ancestor, 1.0 / m.total_mass  # products below, not divisions
     prepare(q, m, s, True)
     axis, mom, cf, ci, g, h = s.axis, s.mom, s.cf, s.ci, s.g, s.h
     unit_momenta(m, axis, mom, cf, ci, g, h, True)
@@ -812,15 +815,15 @@ def hplus_rate_one(q: np.ndarray, qdot: np.ndarray, m: Any, s: Any, out: np.ndar
         for j in range(3):
             fj = f0 if j == 0 else (f1 if j == 1 else f2)
             ej = e0 if j == 0 else (e1 if j == 1 else e2)
-            out[3 + i, 3 + j] = idot[0, i, j] + (ei * fj + fi * ej - (2.0 * fe if i == j else 0.0)) / big
+            out[3 + i, 3 + j] = idot[0, i, j] + (ei * fj + fi * ej - (2.0 * fe if i == j else 0.0)) * per_mass
     for l in range(1, nb):  # column 6 + coordinate (a mimic joint's terms times its multiplier, in its leader's column)
         col = 6 + int(m.coordinate[l])
         rl = m.multiplier[l]
         gl0, gl1, gl2 = g[l, 0], g[l, 1], g[l, 2]
         q0, q1, q2 = gdot[l, 0], gdot[l, 1], gdot[l, 2]
-        out[3, col] += rl * (hdot[l, 0] - ((e1 * gl2 - e2 * gl1) + (f1 * q2 - f2 * q1)) / big)
-        out[4, col] += rl * (hdot[l, 1] - ((e2 * gl0 - e0 * gl2) + (f2 * q0 - f0 * q2)) / big)
-        out[5, col] += rl * (hdot[l, 2] - ((e0 * gl1 - e1 * gl0) + (f0 * q1 - f1 * q0)) / big)
+        out[3, col] += rl * (hdot[l, 0] - ((e1 * gl2 - e2 * gl1) + (f1 * q2 - f2 * q1)) * per_mass)
+        out[4, col] += rl * (hdot[l, 1] - ((e2 * gl0 - e0 * gl2) + (f2 * q0 - f0 * q2)) * per_mass)
+        out[5, col] += rl * (hdot[l, 2] - ((e0 * gl1 - e1 * gl0) + (f0 * q1 - f1 * q0)) * per_mass)
     for col in range(6, size):
         for r in range(3):
             out[col, 3 + r] = out[3 + r, col]
@@ -835,7 +838,7 @@ def hplus_rate_one(q: np.ndarray, qdot: np.ndarray, m: Any, s: Any, out: np.ndar
                     + g[i, 1] * gdot[k, 1]
                     + g[i, 2] * gdot[k, 2]
                 )
-                / big
+                * per_mass
             )
             if ancestor[i, k]:
                 val += udot[i, 0] * h[k, 0] + udot[i, 1] * h[k, 1] + udot[i, 2] * h[k, 2]
@@ -922,8 +925,9 @@ def accelerations_one(
     f = s.total  # the external forces, summed by newton_euler
     for i in range(3):
         f[i] += u[n + i]
+    per_mass = 1.0 / total_mass
     for i in range(3):
-        out[i] = (t0[i, 0] * f[0] + t0[i, 1] * f[1] + t0[i, 2] * f[2]) / total_mass
+        out[i] = (t0[i, 0] * f[0] + t0[i, 1] * f[1] + t0[i, 2] * f[2]) * per_mass
     for i in range(rows):
         out[3 + i] = b[i]
     return ok
@@ -1007,3 +1011,4 @@ def rk4_step_rows(P: Any, W: np.ndarray, width: int, size: int, nu: int, dt: flo
     o_ok = 2 * size + nu
     ok = rk4_step(W[o_ok + 1 : o_ok + 1 + size], W[size : size + nu], dt, m, ext_i, ext_f, s)
     W[o_ok] = 1.0 if ok else 0.0
+

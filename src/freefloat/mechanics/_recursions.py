@@ -381,22 +381,22 @@ def centroidal_blocks(
     """The [omega0, q] block of H+ into a ((3 + N) x (3 + N)): D, D_q (and D_qq with ``joint_block``)."""
     nb = m.parent.shape[0]
     ancestor = m.ancestor
-    big = m.total_mass
+    per_mass = 1.0 / m.total_mass  # one division: a product per entry (a division costs about 16 products)
     f0, f1, f2 = cf[0, 0], cf[0, 1], cf[0, 2]
     sq = f0 * f0 + f1 * f1 + f2 * f2
     n = m.n_joints
     for i in range(3):
         for j in range(3):
-            a[i, j] = ci[0, i, j] + (cf[0, i] * cf[0, j] - (sq if i == j else 0.0)) / big
+            a[i, j] = ci[0, i, j] + (cf[0, i] * cf[0, j] - (sq if i == j else 0.0)) * per_mass
     for c in range(n):  # the columns of q gather their joints' terms (a mimic joint's, times its multiplier)
         for r in range(3):
             a[r, 3 + c] = 0.0
     for k in range(1, nb):
         col = 3 + int(m.coordinate[k])
         rk = m.multiplier[k]
-        a[0, col] += rk * (h[k, 0] - (f1 * g[k, 2] - f2 * g[k, 1]) / big)
-        a[1, col] += rk * (h[k, 1] - (f2 * g[k, 0] - f0 * g[k, 2]) / big)
-        a[2, col] += rk * (h[k, 2] - (f0 * g[k, 1] - f1 * g[k, 0]) / big)
+        a[0, col] += rk * (h[k, 0] - (f1 * g[k, 2] - f2 * g[k, 1]) * per_mass)
+        a[1, col] += rk * (h[k, 1] - (f2 * g[k, 0] - f0 * g[k, 2]) * per_mass)
+        a[2, col] += rk * (h[k, 2] - (f0 * g[k, 1] - f1 * g[k, 0]) * per_mass)
     for c in range(n):
         for r in range(3):
             a[3 + c, r] = a[r, 3 + c]
@@ -411,7 +411,7 @@ def centroidal_blocks(
             ck = 2 + k if plain else 3 + int(m.coordinate[k])
             rk = m.multiplier[k]
             for i in range(1, k + 1):
-                v = -(g[i, 0] * g[k, 0] + g[i, 1] * g[k, 1] + g[i, 2] * g[k, 2]) / big
+                v = -(g[i, 0] * g[k, 0] + g[i, 1] * g[k, 1] + g[i, 2] * g[k, 2]) * per_mass
                 if ancestor[i, k]:
                     v += axis[i, 0] * h[k, 0] + axis[i, 1] * h[k, 1] + axis[i, 2] * h[k, 2]
                     v += mom[i, 0] * g[k, 0] + mom[i, 1] * g[k, 1] + mom[i, 2] * g[k, 2]
@@ -446,7 +446,10 @@ def solve3(d: np.ndarray, out: np.ndarray) -> None:  # pragma: no cover - compil
 
 @kernel(inline="always")
 def cholesky_solve(a: np.ndarray, b: np.ndarray, low: np.ndarray) -> bool:  # pragma: no cover - compiled
-    """Solve a x = b in place in b (a symmetric positive definite, untouched); False if a is not."""
+    """Solve a x = b in place in b (a symmetric positive definite, untouched); False if a is not.
+
+    ``low`` gets L (a = L L^T) below its diagonal and 1 / L_jj on it: one division per column, products elsewhere
+    (a division costs about 16 products: n (n + 3) / 2 of them were most of a small solve)."""
     n = b.shape[0]
     for j in range(n):
         d = a[j, j]
@@ -454,23 +457,23 @@ def cholesky_solve(a: np.ndarray, b: np.ndarray, low: np.ndarray) -> bool:  # pr
             d -= low[j, k] * low[j, k]
         if not d > 0.0:
             return False
-        d = math.sqrt(d)
-        low[j, j] = d
+        inv = 1.0 / math.sqrt(d)
+        low[j, j] = inv
         for i in range(j + 1, n):
             s = a[i, j]
             for k in range(j):
                 s -= low[i, k] * low[j, k]
-            low[i, j] = s / d
+            low[i, j] = s * inv
     for i in range(n):
         s = b[i]
         for k in range(i):
             s -= low[i, k] * b[k]
-        b[i] = s / low[i, i]
+        b[i] = s * low[i, i]
     for i in range(n - 1, -1, -1):
         s = b[i]
         for k in range(i + 1, n):
             s -= low[k, i] * b[k]
-        b[i] = s / low[i, i]
+        b[i] = s * low[i, i]
     return True
 
 
@@ -588,7 +591,8 @@ def newton_euler(
         for i in range(3):
             nf[p, i] += nf[k, i]
             ff[p, i] += ff[k, i]
-    d0, d1, d2 = -ff[0, 0] / total_mass, -ff[0, 1] / total_mass, -ff[0, 2] / total_mass
+    per_mass = 1.0 / total_mass
+    d0, d1, d2 = -ff[0, 0] * per_mass, -ff[0, 1] * per_mass, -ff[0, 2] * per_mass
     out[0] = nf[0, 0] + (cf[0, 1] * d2 - cf[0, 2] * d1)
     out[1] = nf[0, 1] + (cf[0, 2] * d0 - cf[0, 0] * d2)
     out[2] = nf[0, 2] + (cf[0, 0] * d1 - cf[0, 1] * d0)
