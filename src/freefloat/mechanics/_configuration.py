@@ -1011,4 +1011,3 @@ def rk4_step_rows(P: Any, W: np.ndarray, width: int, size: int, nu: int, dt: flo
     o_ok = 2 * size + nu
     ok = rk4_step(W[o_ok + 1 : o_ok + 1 + size], W[size : size + nu], dt, m, ext_i, ext_f, s)
     W[o_ok] = 1.0 if ok else 0.0
-
