@@ -379,7 +379,7 @@ def test_the_stepper_refuses_a_bad_actuation_before_any_step(entry: int, value: 
     assert not np.array_equal(x, x0)
 
 
-@pytest.mark.parametrize("short", ["model ints", "model floats", "work"])
+@pytest.mark.parametrize("short", ["model ints", "model floats", "work", "no bodies", "negative wrenches", "no header"])
 def test_kernel_views_of_a_short_buffer_raise_before_any_read(short: str) -> None:
     """The model's and the scratch views neither count references nor check bounds (_numba_cache.floats_view): the
     kernel that makes them checks each buffer's length once, and a short one raises instead of reading past its end."""
@@ -392,10 +392,16 @@ def test_kernel_views_of_a_short_buffer_raise_before_any_read(short: str) -> Non
         ints[0] += 5
     elif short == "model floats":
         floats = floats[: tree.floats.size - 1]
-    else:
+    elif short == "work":
         floats = floats[:-1]
+    elif short == "no bodies":
+        ints[0] = 0
+    elif short == "negative wrenches":  # the stepper's count of external wrenches, after the model's ints
+        ints[tree.ints.size] = -1
+    else:
+        ints = ints[:2]
     x, u = x0.copy(), np.zeros(tree.n_joints + 6)
-    with pytest.raises(ValueError, match="shorter than"):
+    with pytest.raises(ValueError, match=r"shorter than|no valid header"):
         _drivers.rk4_steps(ints, floats, x, u, 1e-3, 1)
     np.testing.assert_array_equal(x, x0)
     buffer = np.arange(10.0)  # the traced twin of the views: a checked slice

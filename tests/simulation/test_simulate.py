@@ -465,6 +465,10 @@ def test_the_controllers_state_is_a_full_state_of_views_made_when_read() -> None
         for twin in (pickle.loads(pickle.dumps(state)), copy.deepcopy(state), dataclasses.replace(state)):
             for name in _FIELDS:
                 np.testing.assert_array_equal(getattr(twin, name), getattr(state, name))
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            state.q = np.zeros(4)  # type: ignore[misc]
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            state.gain = 3.0  # type: ignore[attr-defined]  # frozen as a State is: no new attributes either
         moved = dataclasses.replace(state, q=np.zeros(4))
         np.testing.assert_array_equal(moved.q, np.zeros(4))
         np.testing.assert_array_equal(moved.omega, state.omega)
@@ -472,10 +476,16 @@ def test_the_controllers_state_is_a_full_state_of_views_made_when_read() -> None
 
 @pytest.mark.parametrize("value", [np.nan, np.inf, -1e20, 1e300], ids=["nan", "inf", "minus-1e20", "1e300"])
 @pytest.mark.parametrize("at", [0.0, 0.5], ids=["first-command", "later"])
-def test_bad_torques_every_step_are_refused_before_the_step_and_named(value: float, at: float) -> None:
+@pytest.mark.parametrize("output_period", [0.01, 0.05], ids=["record-every-step", "record-every-5"])
+@pytest.mark.parametrize("limits", [None, ff.ActuatorLimits(joint_torque=50.0)], ids=["no-limits", "limits"])
+def test_bad_torques_every_step_are_refused_before_the_step_and_named(
+    value: float, at: float, output_period: float, limits: ff.ActuatorLimits | None
+) -> None:
     """A controller called every fixed step hands its plain torques to the RK4 kernel unchecked in Python; the kernel
-    checks them before it steps (Stepper.REFUSED), and the error names the output as the Python checks name it. The
-    bad torque never moves the state: the partial trajectory is finite and ends at the last good step."""
+    checks them before it steps (Stepper.REFUSED), a record checks them before it keeps them, and the error names the
+    output as the Python checks name it. The bad torque never moves the state nor reaches the partial trajectory (it ends
+    before the bad command's instant, finite), whether it is recorded at that instant or not. With actuator limits the
+    output is checked in Python before it is clipped (a clip would make inf or 1e300 finite)."""
     model = two_arm()
     n = model.n_joints
 
@@ -486,7 +496,7 @@ def test_bad_torques_every_step_are_refused_before_the_step_and_named(value: flo
         return tau
 
     with pytest.raises(ff.SimulationError) as info:
-        ff.simulate(model, ff.State(q=[0.1, 0.2, 3.0, -0.2]), 1.0, controller, fixed_step=0.01, output_period=0.01)
+        ff.simulate(model, ff.State(q=[0.1, 0.2, 3.0, -0.2]), 1.0, controller, fixed_step=0.01, output_period=output_period, limits=limits)
     message = str(info.value)
     assert f"bad controller output at t = {at:g} s" in message
     if np.isfinite(value):
@@ -494,8 +504,9 @@ def test_bad_torques_every_step_are_refused_before_the_step_and_named(value: flo
     else:
         assert "controller returned a non-finite joint_torque" in message
     partial = info.value.trajectory
-    assert partial.status == "failed" and np.isfinite(partial.q).all()
-    assert partial.t[-1] == pytest.approx(at)  # the state at the bad command's instant, not a step past it
+    assert partial.status == "failed"
+    assert np.isfinite(partial.q).all() and np.isfinite(partial.joint_torque).all()
+    assert len(partial) == 0 if at == 0.0 else at - output_period - 1e-9 <= partial.t[-1] < at
 
 
 def test_controller_that_raises_and_a_state_that_blows_up() -> None:

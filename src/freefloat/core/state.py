@@ -29,6 +29,7 @@ the state (its rate is the dissipated power), so that it is exact to the integra
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass, field
 from typing import Any
@@ -225,6 +226,12 @@ class _FlatState(State):
 
     def __repr__(self) -> str:
         return repr(State._trusted(**{name: getattr(self, name) for name in _FIELDS}))
+
+    def __setattr__(self, name: str, value: Any) -> None:  # frozen like State (its frozen check spares a subclass's new names)
+        raise dataclasses.FrozenInstanceError(f"cannot assign to field {name!r}")
+
+    def __delattr__(self, name: str) -> None:
+        raise dataclasses.FrozenInstanceError(f"cannot delete field {name!r}")
 
     r_cm = _View(0)
     v_cm = _View(1)

@@ -129,6 +129,8 @@ def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     m = arrays(ints, floats)
     o, f = buffer_lengths(ints)
     nb = m.parent.shape[0]
+    if ints.shape[0] < o + 3 or ints[o] < 0:
+        raise ValueError("freefloat: the stepper's buffers have no valid header")
     nw = ints[o]
     n = m.n_joints
     if ints.shape[0] < o + 3 + 2 * nw or floats.shape[0] < f + 9 * nw + 1 + 3 * n:

@@ -191,6 +191,8 @@ def arrays(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
     :func:`~._numba_cache.floats_view`; the buffers' lengths are checked here once): the buffers must be arguments of
     the calling kernel, held by its caller.
     """
+    if ints.shape[0] < 3 or ints[0] < 1 or ints[1] < 0:
+        raise ValueError("freefloat: the model's buffers have no valid header")
     nb = ints[0]
     ne = ints[1]
     ints_length, floats_length = buffer_lengths(ints)

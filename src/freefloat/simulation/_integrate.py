@@ -14,6 +14,7 @@ rate (the engine's dissipated power) with the state, so every loop here carries 
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Callable, Iterator, Sequence
 from types import SimpleNamespace
 from typing import Any
@@ -73,6 +74,16 @@ def _check_effort(t: float | None, u: np.ndarray) -> None:
         )
 
 
+def plain_torques(raw: np.ndarray) -> bool:
+    """True when every entry of ``raw`` is finite and within :data:`~freefloat.core.numbers.MAX_EFFORT` (N m or N).
+    For one configuration on Python floats (a third of numpy's reductions on a few values, every step of a
+    simulation); a NaN or inf makes the sum non-finite, a sum that overflows sends finite values to the full check."""
+    if raw.ndim != 1:
+        return bool(np.abs(raw).max(initial=0.0) <= MAX_EFFORT)  # NaN compares false
+    values = raw.tolist()
+    return not values or (-MAX_EFFORT <= min(values) and max(values) <= MAX_EFFORT and math.isfinite(sum(values)))
+
+
 def check_output(name: str, arr: np.ndarray) -> None:
     """A controller's output ``name`` (an array): a ValueError that says what is wrong when an entry is not finite or
     beyond :data:`~freefloat.core.numbers.MAX_EFFORT` (N m or N)."""
@@ -96,6 +107,15 @@ def _refused(t: float, act: Any, u: np.ndarray) -> None:
         raise SimulationError(f"bad controller output at t = {t:.6g} s: {exc}") from exc
     _check_effort(t, u)
     raise SimulationError(f"the engine refused the actuation at t = {t:.6g} s: {u}")  # (not reached: a check above names it)
+
+
+def _record(rec: _Recorder, t: float, x: np.ndarray, act: Any, u: np.ndarray) -> None:
+    """Record (t, x, act) in the fixed-step loop, whose plain torques the kernel checks only at its next step: a record
+    checks them first (:func:`plain_torques`, ~0.4 us; one in every output period), so that no trajectory, finished by
+    an event or failed, holds an actuation the run refused."""
+    if not plain_torques(act[0]):
+        _refused(t, act, u)
+    rec.add(t, x, act)
 
 
 def _rhs(model: Model, external: Any) -> Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
@@ -278,7 +298,7 @@ def _run_rk4(
     act = command(0.0, x.copy(), True)  # the kernel checks the plain torques before it steps (Stepper.REFUSED)
     _u(model, act[0], act[1], act[2], u)
     held = True
-    rec.add(0.0, x, act)
+    _record(rec, 0.0, x, act, u)
     prev_ev = _event_value(events, view, 0.0, x) if events else None
     rk4, ints, why, refused = stepper.rk4, stepper.ints, stepper.reason_at, stepper.REFUSED  # the hot loop: a controller may run every step
     every_step = bool(events) or sample_period is None
@@ -318,7 +338,7 @@ def _run_rk4(
             if sample_period is not None:
                 next_sample_time += sample_period
         if i % stride == 0 or i == steps:
-            rec.add(t, x, act)
+            _record(rec, t, x, act, u)
         if todo > 1 or not i & 7 or i == steps:  # the progress and the wall clock every 8 steps: each reads the clock
             bar.update(t)
             guard.clock(t)
@@ -329,7 +349,7 @@ def _run_rk4(
                 crossed = (prev_ev[k] < 0 <= now[k] and direction >= 0) or (prev_ev[k] > 0 >= now[k] and direction <= 0)  # type: ignore[index]
                 if crossed and getattr(ev, "terminal", True):
                     if rec.t[-1] != t:
-                        rec.add(t, x, act)
+                        _record(rec, t, x, act, u)
                     return "event", f"event {k} ({getattr(ev, '__name__', 'event')}) at t = {t:.6g} s"
             prev_ev = now
     return "finished", ""

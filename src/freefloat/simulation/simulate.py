@@ -19,7 +19,6 @@ without it, it is evaluated continuously (adaptive) or once per step (RK4).
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
 import warnings
 from collections.abc import Callable, Sequence
@@ -29,7 +28,7 @@ import numpy as np
 
 from ..core.errors import FreefloatError, LongRunWarning, ShapeError, SimulationError
 from ..core.model import Model
-from ..core.numbers import MAX_EFFORT, tolerance_problem
+from ..core.numbers import tolerance_problem
 from ..core.resources import require_memory
 from ..core.state import Actuation, ActuatorLimits, State, dissipates, pack_state, unpack_state
 from ..core.wheels import wheel_joint_model
@@ -50,7 +49,7 @@ from ._guard import (
     check_pd_gains,
     estimate_run,
 )
-from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory, check_output, zero_thrust
+from ._integrate import _engine_inputs, _Recorder, _run_adaptive, _run_rk4, _stepper, _trajectory, check_output, plain_torques, zero_thrust
 from ._stops import JointStops, limit_violations
 from ._wheels import limit_wheel_torque, user_trajectory
 from .capture_event import Capture, CaptureRun, simulate_capture
@@ -81,7 +80,7 @@ def _actuation(model: Model, raw: Any, batch: tuple[int, ...], kernel_checks: bo
         raw.__class__ is np.ndarray
         and (raw.dtype is _FLOAT64 or raw.dtype == _FLOAT64)
         and raw.shape == (*batch, n)
-        and (kernel_checks or _plain_torques(raw))
+        and (kernel_checks or plain_torques(raw))
     ):
         zeros = zero_thrust(batch) if batch else _QUIET  # the fast path of plain torques, finite and in range
         return (raw, zeros, zeros, np.zeros((*batch, model.n_wheels))) if model.wheels else (raw, zeros, zeros)
@@ -113,16 +112,6 @@ def _actuation(model: Model, raw: Any, batch: tuple[int, ...], kernel_checks: bo
         check_output(name, arr)
         parts.append(arr)
     return tuple(parts)
-
-
-def _plain_torques(raw: np.ndarray) -> bool:
-    """True when every entry of ``raw`` is finite and within :data:`~freefloat.core.numbers.MAX_EFFORT` (N m or N).
-    For one configuration on Python floats (a third of numpy's reductions on a few values, every step of a
-    simulation); a NaN or inf makes the sum non-finite, a sum that overflows sends finite values to the full check."""
-    if raw.ndim != 1:
-        return bool(np.abs(raw).max(initial=0.0) <= MAX_EFFORT)  # NaN compares false
-    values = raw.tolist()
-    return not values or (-MAX_EFFORT <= min(values) and max(values) <= MAX_EFFORT and math.isfinite(sum(values)))
 
 
 #: What ``simulate(passive=...)`` and ``rollout(passive=...)`` accept.
@@ -327,11 +316,14 @@ def simulate(
     speeds = slice(13 + 2 * model.n_joints - n_wheels, 13 + 2 * model.n_joints)
 
     clips = not limits.unlimited
+    # the compiled step may check plain torques only where they reach it unchanged: clipping would make an inf or a huge
+    # torque finite (np.clip), and a model's wheel torques are limited and joined to them in Python
+    unchanged = not clips and not n_wheels
 
     def command(t: float, x: np.ndarray, kernel_checks: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         if controller is None:
             return (*zero, unlimited)
-        parts = _call_controller(controller, user, t, x, (), kernel_checks)
+        parts = _call_controller(controller, user, t, x, (), kernel_checks and unchanged)
         if not n_wheels:
             return limits.apply(*parts) if clips else (parts[0], parts[1], parts[2], unlimited)
         tau, force, torque, saturated = limits.apply(*parts[:3])
