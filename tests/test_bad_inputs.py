@@ -1227,6 +1227,19 @@ CASES = [
         )
         for v in (1e20, 1e200, 1e300)
     ),
+    *(  # the fixed-step loop: the compiled step refuses the torques before it steps (Stepper.REFUSED), the same words
+        api(
+            f"simulate-rk4-controller-torque-{name}",
+            lambda f, v=v, lim=lim: ff.simulate(M(), S, 1.0, lambda t, s: np.full(4, v), fixed_step=0.01, limits=lim),
+            ff.SimulationError,
+            needle,
+        )
+        for name, v, lim, needle in (
+            ("1e20", 1e20, None, re.escape("controller returned a joint_torque of 1e+20, beyond 1e+19 (N m or N)")),
+            ("nan", np.nan, None, "controller returned a non-finite joint_torque"),
+            ("inf-with-limits", np.inf, ff.ActuatorLimits(joint_torque=5.0), "controller returned a non-finite joint_torque"),
+        )
+    ),
     api(
         "pd-huge-qdot-ref",
         lambda f: ff.JointPD(kp=1.0, kd=1.0, qdot_ref=[1e300, 0, 0, 0]),
