@@ -19,10 +19,13 @@ SIZE = 20_000
 @pytest.fixture(autouse=True)
 def _no_kept_buffers() -> Iterator[None]:
     """Each test starts with no buffer kept (the module's list, emptied; the process's other calls keep theirs after)."""
-    kept = list(_arrays._RECYCLED)
+    kept, reused = list(_arrays._RECYCLED), set(_arrays._REUSED)
     _arrays._RECYCLED.clear()
+    _arrays._REUSED.clear()
     yield
     _arrays._RECYCLED[:] = kept
+    _arrays._REUSED.clear()
+    _arrays._REUSED.update(reused)
 
 
 def _address(a: np.ndarray) -> int:
@@ -92,3 +95,22 @@ def test_release_buffers_drops_the_free_buffers_and_keeps_the_held_ones() -> Non
     del held
     gc.collect()
     assert ff.mechanics.release_buffers() > 0 and _arrays._RECYCLED == []
+
+
+def test_written_before_tells_a_reused_buffer_from_a_new_one() -> None:
+    """The streaming stores of the specialised maps are used only where the pages are mapped: in a kept buffer handed
+    out again, not in a new one, and not once it was dropped."""
+    shape = (SIZE, 12, 4)
+    first = _arrays.new_output(shape)
+    assert not _arrays.written_before(first)  # a new buffer: its pages are mapped at the first write
+    first[...] = 1.0
+    del first
+    gc.collect()
+    second = _arrays.new_output(shape)
+    assert _arrays.written_before(second) and _arrays.written_before(second[SIZE // 2 :])
+    assert not _arrays.written_before(np.empty(shape))  # not a kept buffer
+    del second
+    gc.collect()
+    assert _arrays.release_buffers() > 0
+    assert not _arrays._REUSED  # a dropped buffer's address is forgotten
+    assert not _arrays.written_before(_arrays.new_output(shape))

@@ -191,16 +191,15 @@ def test_random_trees_stay_within_their_limits_with_momentum_kept(case: int) -> 
 def test_each_trajectorys_extremes_on_threads_equal_one_pass(monkeypatch: pytest.MonkeyPatch) -> None:
     """The extremes a rollout's limit check takes, on one range of trajectories per thread (asserted), equal numpy's
     one pass over the whole batch; a NaN is passed over (fmax/fmin), a trajectory of NaN only stays NaN."""
-    import importlib
+    from freefloat.simulation import _stops as module
 
-    module = importlib.import_module("freefloat.simulation.simulate")  # the module (the package's name is the function)
     q = np.random.default_rng(3).normal(size=(300, 1001, 3))
     q[5, 7, 1] = np.nan
     q[:, 9, :] = np.nan
     parts: list[int] = []
     real = module.run_ranges
     monkeypatch.setattr(module, "run_ranges", lambda run, count, n: (parts.append(n), real(run, count, n))[1])
-    highest, lowest = module._extremes(q)
+    highest, lowest = module.extremes(q)
     assert parts == [module.thread_count()]
     np.testing.assert_array_equal(highest, np.fmax.reduce(q, axis=0))
     np.testing.assert_array_equal(lowest, np.fmin.reduce(q, axis=0))

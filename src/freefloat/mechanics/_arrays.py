@@ -35,6 +35,9 @@ RECYCLE_MAX = 256 << 20
 RECYCLE_HELD = 512 << 20
 _RECYCLED: list[np.ndarray] = []
 _RECYCLE_LOCK = threading.Lock()
+#: The addresses of the kept buffers handed out again: an output was written into them before, so their pages are
+#: mapped (a new buffer's pages are mapped and zeroed by the system at their first write).
+_REUSED: set[int] = set()
 
 
 def _free(i: int) -> bool:
@@ -50,17 +53,27 @@ def _recycled(nbytes: int) -> np.ndarray:
         for i in range(len(_RECYCLED)):
             if nbytes <= _RECYCLED[i].nbytes <= 2 * nbytes and _free(i):
                 _RECYCLED.append(_RECYCLED.pop(i))  # most recently used last
+                _REUSED.add(_RECYCLED[-1].ctypes.data)
                 return _RECYCLED[-1]
         buf = np.empty(-(-nbytes // 8))
         i = 0
         while i < len(_RECYCLED) and sum(b.nbytes for b in _RECYCLED) + buf.nbytes > RECYCLE_HELD:
             if _free(i):
-                _RECYCLED.pop(i)  # the oldest free buffer makes room
+                _REUSED.discard(_RECYCLED.pop(i).ctypes.data)  # the oldest free buffer makes room
             else:
                 i += 1
         if sum(b.nbytes for b in _RECYCLED) + buf.nbytes <= RECYCLE_HELD:
             _RECYCLED.append(buf)
         return buf
+
+
+def written_before(a: np.ndarray) -> bool:
+    """Whether ``a`` lies in a kept buffer that an earlier output was written into (:func:`new_output`): its pages are
+    mapped, and a kernel's stores meet no page fault (a new mapping's pages are zeroed by the system at the first
+    write, which leaves their lines in the caches)."""
+    start = a.ctypes.data
+    with _RECYCLE_LOCK:
+        return any(b.ctypes.data in _REUSED and b.ctypes.data <= start < b.ctypes.data + b.nbytes for b in _RECYCLED)
 
 
 def release_buffers() -> int:
@@ -72,7 +85,9 @@ def release_buffers() -> int:
         i = 0
         while i < len(_RECYCLED):
             if _free(i):
-                dropped += _RECYCLED.pop(i).nbytes
+                buf = _RECYCLED.pop(i)
+                _REUSED.discard(buf.ctypes.data)
+                dropped += buf.nbytes
             else:
                 i += 1
         return dropped
