@@ -212,7 +212,7 @@ def per_configuration(model: ff.Model, configs: int, pin_configs: int, repeats: 
         out[key]["ratio_specialised"] = a["configs_per_s"] / out[key]["pinocchio_loop"]["configs_per_s"]
     # H+ writes (6 + N)^2 values a configuration, far more than C+ and FD (6 + N): the bound of its output alone
     bound = output_write_bound((6 + model.n_joints) ** 2, configs, repeats)
-    for name in ("fresh", "reused"):
+    for name in ("fresh", "reused", "streamed"):
         bound[name]["ratio"] = bound[name]["configs_per_s"] / out["hplus"]["pinocchio_loop"]["configs_per_s"]
         bound[name]["specialised_share"] = out["hplus"]["freefloat_specialised"]["configs_per_s"] / bound[name]["configs_per_s"]
     out["hplus"]["output_write_bound"] = bound

@@ -19,13 +19,13 @@ SIZE = 20_000
 @pytest.fixture(autouse=True)
 def _no_kept_buffers() -> Iterator[None]:
     """Each test starts with no buffer kept (the module's list, emptied; the process's other calls keep theirs after)."""
-    kept, reused = list(_arrays._RECYCLED), set(_arrays._REUSED)
+    kept, written = list(_arrays._RECYCLED), dict(_arrays._WRITTEN)
     _arrays._RECYCLED.clear()
-    _arrays._REUSED.clear()
+    _arrays._WRITTEN.clear()
     yield
     _arrays._RECYCLED[:] = kept
-    _arrays._REUSED.clear()
-    _arrays._REUSED.update(reused)
+    _arrays._WRITTEN.clear()
+    _arrays._WRITTEN.update(written)
 
 
 def _address(a: np.ndarray) -> int:
@@ -97,20 +97,27 @@ def test_release_buffers_drops_the_free_buffers_and_keeps_the_held_ones() -> Non
     assert ff.mechanics.release_buffers() > 0 and _arrays._RECYCLED == []
 
 
-def test_written_before_tells_a_reused_buffer_from_a_new_one() -> None:
-    """The streaming stores of the specialised maps are used only where the pages are mapped: in a kept buffer handed
-    out again, not in a new one, and not once it was dropped."""
+def test_written_before_tells_a_filled_buffer_from_a_new_one() -> None:
+    """The streaming stores of the specialised maps are used only where the pages are mapped: in the part of a kept
+    buffer that a kernel has filled (``mark_written``), not in a new one, not in one handed out again but never filled,
+    not past the part filled, and not once the buffer was dropped."""
     shape = (SIZE, 12, 4)
     first = _arrays.new_output(shape)
     assert not _arrays.written_before(first)  # a new buffer: its pages are mapped at the first write
-    first[...] = 1.0
     del first
     gc.collect()
     second = _arrays.new_output(shape)
-    assert _arrays.written_before(second) and _arrays.written_before(second[SIZE // 2 :])
+    assert not _arrays.written_before(second)  # handed out again, but nothing marked it filled
+    _arrays.mark_written(second[: SIZE // 2])
+    assert _arrays.written_before(second[: SIZE // 2]) and _arrays.written_before(second[SIZE // 4 : SIZE // 2])
+    assert not _arrays.written_before(second) and not _arrays.written_before(second[SIZE // 2 :])
+    _arrays.mark_written(second[SIZE // 2 + 1 :])  # not from within the filled part: not recorded
+    assert not _arrays.written_before(second)
+    _arrays.mark_written(second)
+    assert _arrays.written_before(second)
     assert not _arrays.written_before(np.empty(shape))  # not a kept buffer
     del second
     gc.collect()
     assert _arrays.release_buffers() > 0
-    assert not _arrays._REUSED  # a dropped buffer's address is forgotten
+    assert not _arrays._WRITTEN  # a dropped buffer's record is forgotten
     assert not _arrays.written_before(_arrays.new_output(shape))

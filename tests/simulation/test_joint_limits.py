@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 import freefloat as ff
-from freefloat.simulation._stops import JointStops
+from freefloat.simulation._stops import JointStops, limit_violations
+from freefloat.simulation.trajectory import JointLimitEvent
 
 ARM = Path(__file__).parents[2] / "examples" / "models" / "six_dof_arm.urdf"
 ELBOW = 2
@@ -188,19 +189,82 @@ def test_random_trees_stay_within_their_limits_with_momentum_kept(case: int) -> 
     assert np.abs(h - h[0]).max() < 1e-9  # measured: 1e-13 adaptive, 1e-11 RK4 at 1 ms
 
 
-def test_each_trajectorys_extremes_on_threads_equal_one_pass(monkeypatch: pytest.MonkeyPatch) -> None:
-    """The extremes a rollout's limit check takes, on one range of trajectories per thread (asserted), equal numpy's
-    one pass over the whole batch; a NaN is passed over (fmax/fmin), a trajectory of NaN only stays NaN."""
-    from freefloat.simulation import _stops as module
+def _spans_one_joint_at_a_time(model: ff.Model, t: np.ndarray, q: np.ndarray) -> list[JointLimitEvent]:
+    """The definition, one run (q (T, N)), as a readable loop: per joint, its upper then its lower limit, each span of
+    consecutive outputs beyond it in time order (its furthest value; its end the first output back inside, None if
+    none), then all of them ordered by start (stably)."""
+    events = []
+    for i, name in enumerate(model.joint_names):
+        for side, limit in (("upper", float(model.joint_upper[i])), ("lower", float(model.joint_lower[i]))):
+            k = 0
+            while k < len(t):
+                if not (q[k, i] > limit if side == "upper" else q[k, i] < limit):
+                    k += 1
+                    continue
+                start = k
+                while k < len(t) and (q[k, i] > limit if side == "upper" else q[k, i] < limit):
+                    k += 1
+                span = q[start:k, i]
+                worst = float(span.max() if side == "upper" else span.min())
+                end = float(t[k]) if k < len(t) else None
+                events.append(JointLimitEvent(name, side, limit, "violation", float(t[start]), end, worst))
+    return sorted(events, key=lambda e: e.t)
 
-    q = np.random.default_rng(3).normal(size=(300, 1001, 3))
-    q[5, 7, 1] = np.nan
-    q[:, 9, :] = np.nan
-    parts: list[int] = []
-    real = module.run_ranges
-    monkeypatch.setattr(module, "run_ranges", lambda run, count, n: (parts.append(n), real(run, count, n))[1])
-    highest, lowest = module.extremes(q)
-    assert parts == [module.thread_count()]
-    np.testing.assert_array_equal(highest, np.fmax.reduce(q, axis=0))
-    np.testing.assert_array_equal(lowest, np.fmin.reduce(q, axis=0))
-    assert np.isnan(highest[9]).all() and highest[7, 1] == np.nanmax(q[:, 7, 1])
+
+@pytest.mark.parametrize("seed", range(4))
+def test_limit_spans_of_runs_and_batches_equal_the_definition(seed: int) -> None:
+    """``limit_violations`` (array operations over the columns that go beyond) against the loop above: random walks
+    across both limits, NaN gaps, spans from the first output and to the last, one-sided and infinite limits; a batch
+    (T, B, N) gives each trajectory's events, in trajectory order, with its index."""
+    import dataclasses
+
+    model = ff.models.papadopoulos1992()
+    model = dataclasses.replace(model, joint_lower=np.array([-1.0, -0.5, -np.inf, -0.2]), joint_upper=np.array([1.0, 0.5, np.inf, 0.3]))
+    rng = np.random.default_rng(seed)
+    checked = 0
+    for _ in range(60):
+        steps, batch = int(rng.integers(1, 40)), int(rng.integers(1, 6))
+        q = np.cumsum(rng.normal(scale=0.3, size=(steps, batch, 4)), axis=0)
+        q[0, 0, 0] = 1.5  # beyond from the first output
+        q[-1, -1, 1] = -0.9  # beyond at the last
+        gaps = rng.random(q.shape) < 0.05
+        q[gaps] = np.nan
+        t = np.cumsum(rng.uniform(0.01, 1.0, steps))
+        expected = [dataclasses.replace(e, trajectory=b) for b in range(batch) for e in _spans_one_joint_at_a_time(model, t, q[:, b])]
+        assert limit_violations(model, t, q) == expected
+        assert limit_violations(model, t, q[:, 0]) == _spans_one_joint_at_a_time(model, t, q[:, 0])
+        checked += len(expected)
+    assert checked > 500  # spans were found, of both bounds
+
+
+def test_limit_spans_on_threads_and_with_more_spans_than_the_first_room(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A batch large enough for a range per thread (asserted), in a strided view as a rollout's q is (its states), with
+    more spans than a range's first room (2 per joint and trajectory: the range runs again, asserted): the events of
+    the definition, trajectory by trajectory."""
+    import dataclasses
+
+    from freefloat.mechanics import _drivers
+    from freefloat.mechanics._threads import thread_count
+
+    model = ff.models.papadopoulos1992()
+    model = dataclasses.replace(model, joint_lower=np.full(4, -0.2), joint_upper=np.full(4, 0.2))
+    rng = np.random.default_rng(7)
+    steps, batch = 300, 40
+    states = np.zeros((steps, batch, 11))
+    states[:, :, 3:7] = np.cumsum(rng.normal(scale=0.15, size=(steps, batch, 4)), axis=0) % 1.0 - 0.5  # many crossings
+    q = states[:, :, 3:7]
+    t = np.linspace(0.0, 3.0, steps)
+    calls: list[tuple[int, int]] = []
+    kernel = _drivers.limit_spans
+
+    def spy(*args: object) -> int:
+        calls.append((int(args[3]), int(args[4])))  # type: ignore[call-overload]
+        return int(kernel(*args))
+
+    monkeypatch.setattr(_drivers, "limit_spans", spy)
+    got = limit_violations(model, t, q)
+    expected = [dataclasses.replace(e, trajectory=b) for b in range(batch) for e in _spans_one_joint_at_a_time(model, t, q[:, b])]
+    assert got == expected and len(expected) > 2 * 4 * batch
+    ranges = set(calls)
+    assert len(ranges) == thread_count() > 1  # one range per thread
+    assert len(calls) > len(ranges)  # a range ran again with more room

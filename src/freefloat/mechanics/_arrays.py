@@ -35,9 +35,9 @@ RECYCLE_MAX = 256 << 20
 RECYCLE_HELD = 512 << 20
 _RECYCLED: list[np.ndarray] = []
 _RECYCLE_LOCK = threading.Lock()
-#: The addresses of the kept buffers handed out again: an output was written into them before, so their pages are
-#: mapped (a new buffer's pages are mapped and zeroed by the system at their first write).
-_REUSED: set[int] = set()
+#: Per kept buffer (its address): how many of its bytes, from its start, a kernel has written (:func:`mark_written`):
+#: their pages are mapped (a new buffer's pages are mapped and zeroed by the system at their first write).
+_WRITTEN: dict[int, int] = {}
 
 
 def _free(i: int) -> bool:
@@ -53,13 +53,12 @@ def _recycled(nbytes: int) -> np.ndarray:
         for i in range(len(_RECYCLED)):
             if nbytes <= _RECYCLED[i].nbytes <= 2 * nbytes and _free(i):
                 _RECYCLED.append(_RECYCLED.pop(i))  # most recently used last
-                _REUSED.add(_RECYCLED[-1].ctypes.data)
                 return _RECYCLED[-1]
         buf = np.empty(-(-nbytes // 8))
         i = 0
         while i < len(_RECYCLED) and sum(b.nbytes for b in _RECYCLED) + buf.nbytes > RECYCLE_HELD:
             if _free(i):
-                _REUSED.discard(_RECYCLED.pop(i).ctypes.data)  # the oldest free buffer makes room
+                _WRITTEN.pop(_RECYCLED.pop(i).ctypes.data, None)  # the oldest free buffer makes room
             else:
                 i += 1
         if sum(b.nbytes for b in _RECYCLED) + buf.nbytes <= RECYCLE_HELD:
@@ -67,13 +66,32 @@ def _recycled(nbytes: int) -> np.ndarray:
         return buf
 
 
-def written_before(a: np.ndarray) -> bool:
-    """Whether ``a`` lies in a kept buffer that an earlier output was written into (:func:`new_output`): its pages are
-    mapped, and a kernel's stores meet no page fault (a new mapping's pages are zeroed by the system at the first
-    write, which leaves their lines in the caches)."""
+def _holder(start: int) -> np.ndarray | None:
+    """The kept buffer whose memory holds the address ``start`` (under the lock)."""
+    for b in _RECYCLED:
+        if b.ctypes.data <= start < b.ctypes.data + b.nbytes:
+            return b
+    return None
+
+
+def mark_written(a: np.ndarray) -> None:
+    """Record that a kernel has written every byte of ``a`` (C-contiguous): when it lies in a kept buffer from within
+    the part already written, that part now reaches ``a``'s end. Anything else is left as it was."""
     start = a.ctypes.data
     with _RECYCLE_LOCK:
-        return any(b.ctypes.data in _REUSED and b.ctypes.data <= start < b.ctypes.data + b.nbytes for b in _RECYCLED)
+        b = _holder(start)
+        if b is not None and start - b.ctypes.data <= _WRITTEN.get(b.ctypes.data, 0):
+            _WRITTEN[b.ctypes.data] = max(_WRITTEN.get(b.ctypes.data, 0), start + a.nbytes - b.ctypes.data)
+
+
+def written_before(a: np.ndarray) -> bool:
+    """Whether all of ``a`` lies in the written part of a kept buffer (:func:`mark_written`): its pages are mapped, and a
+    kernel's stores meet no page fault (a new mapping's pages are zeroed by the system at the first write, which
+    leaves their lines in the caches). A buffer handed out again but never filled by a kernel is not."""
+    start = a.ctypes.data
+    with _RECYCLE_LOCK:
+        b = _holder(start)
+        return b is not None and start + a.nbytes - b.ctypes.data <= _WRITTEN.get(b.ctypes.data, 0)
 
 
 def release_buffers() -> int:
@@ -86,7 +104,7 @@ def release_buffers() -> int:
         while i < len(_RECYCLED):
             if _free(i):
                 buf = _RECYCLED.pop(i)
-                _REUSED.discard(buf.ctypes.data)
+                _WRITTEN.pop(buf.ctypes.data, None)
                 dropped += buf.nbytes
             else:
                 i += 1

@@ -220,11 +220,12 @@ def task_one(
             jq[i, c] = jp[count, i, c]
     rot, pos, cf = s.rot, s.pos, s.cf
     rho = np.empty((count, 3))
+    per_mass = 1.0 / m.total_mass  # one division, as in the engine's recursions
     for p in range(count):
         k = bodies[p]
         for i in range(3):
             rho[p, i] = (
-                pos[k, i] + rot[k, i, 0] * where[p, 0] + rot[k, i, 1] * where[p, 1] + rot[k, i, 2] * where[p, 2] - cf[0, i] / m.total_mass
+                pos[k, i] + rot[k, i, 0] * where[p, 0] + rot[k, i, 1] * where[p, 1] + rot[k, i, 2] * where[p, 2] - cf[0, i] * per_mass
             )
     r_body = np.empty((count, 3, 3))
     for p in range(count):

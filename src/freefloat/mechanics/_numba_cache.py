@@ -262,6 +262,15 @@ def stream_line(typingctx: Any, address: Any, src: Any, k: Any) -> Any:  # pragm
     measured). The stores are weakly ordered: :func:`store_fence` after the last one, before another thread reads.
     """
 
+    if not (
+        isinstance(address, nbtypes.Integer)
+        and isinstance(k, nbtypes.Integer)
+        and isinstance(src, nbtypes.Array)
+        and src.dtype == nbtypes.float64
+        and src.layout == "C"
+    ):
+        return None  # a typing error: an integer address, a C-contiguous float64 source and an integer start only
+
     def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
         line = ir.VectorType(ir.DoubleType(), LINE)
         source = context.make_array(signature.args[1])(context, builder, args[1])

@@ -36,6 +36,7 @@ import hashlib
 import importlib.util
 import logging
 import os
+import platform
 import sys
 import tempfile
 import threading
@@ -50,7 +51,7 @@ from typing import Any
 import numpy as np
 
 from . import _configuration, _lanes, _numba_cache, _recursions, _trace, _tree
-from ._arrays import written_before
+from ._arrays import mark_written, written_before
 from ._lanes import LANES
 from ._numba_cache import CacheWarning, cache_dir
 from ._threads import range_count, run_ranges, threads_for
@@ -727,6 +728,9 @@ THREADS_FROM = 64 * LANES
 #: where the caller reads them next. In a new mapping streamed stores lose (H+ of 270 MB: 0.71x): the system zeroes
 #: each page at its first write, through the caches.
 STREAM_FROM = 48 << 20
+#: Streaming stores on this machine's CPU: x86-64, where STREAM_FROM was measured (other CPUs may treat the stores'
+#: hint differently; they write as before).
+STREAMS = platform.machine().lower() in ("x86_64", "amd64")
 
 
 def _run(
@@ -793,8 +797,9 @@ def mapped(module: types.ModuleType, t: Tree, parts: tuple[np.ndarray, ...], out
     configuration shares. Outputs of :data:`STREAM_FROM` bytes or more are streamed past the caches."""
     if not (out.flags.c_contiguous and out.dtype == np.float64 and out.ctypes.data % 8 == 0):
         raise ValueError("freefloat: a specialised map writes into a C-contiguous, aligned float64 array")
-    stream = out.nbytes >= STREAM_FROM and written_before(out)
+    stream = STREAMS and out.nbytes >= STREAM_FROM and written_before(out)
     _run(module, out.shape[0], (parts, data_vector(t)[module.SLOTS], out.reshape(-1), module.COLUMNS, stream))
+    mark_written(out)
 
 
 def measured(module: types.ModuleType, t: Tree, q: np.ndarray, rows: np.ndarray, code: int, out: np.ndarray) -> None:
