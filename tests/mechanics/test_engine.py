@@ -286,6 +286,35 @@ def test_rollout_failure_names_the_trajectory_and_keeps_the_others() -> None:
     assert traj is not None and np.isfinite(traj.q[:, 0]).all() and np.isnan(traj.q[-1, 1]).all()
 
 
+def test_a_feed_forward_is_read_in_place_in_any_layout() -> None:
+    """_engine.feed: the joint PD's feed-forward (S, K, W) as the compiled rollouts read it (values at sample * sample
+    stride + trajectory * trajectory stride + j): in place for the layouts users pass (C, per-trajectory series swapped
+    from (K, S, W), one series shared by every trajectory, a chunk of the trajectories), a copy for the others; read-only
+    always (one compiled signature)."""
+    from freefloat.mechanics import _engine
+
+    per = np.random.default_rng(0).normal(size=(5, 7, 3))  # (K, S, W)
+    swapped = per.swapaxes(0, 1)
+    cases = {
+        "C": (np.ascontiguousarray(swapped), True),
+        "swapped": (swapped, True),
+        "shared": (np.broadcast_to(per[0][:, None, :], (7, 5, 3)), True),
+        "chunk": (swapped[:, 1:4], True),
+        "one sample": (swapped[:1], True),
+        "reversed": (swapped[::-1], False),
+        "every other value": (np.ascontiguousarray(swapped.repeat(2, axis=2))[:, :, ::2], False),
+    }
+    for name, (ff_, in_place) in cases.items():
+        flat, samples, sample_stride, trajectory_stride, width = _engine.feed(ff_)
+        assert flat.ndim == 1 and flat.dtype == np.float64 and not flat.flags.writeable, name
+        assert np.shares_memory(flat, ff_) == in_place, name
+        assert (samples, width) == (ff_.shape[0], ff_.shape[2]), name
+        for k in range(samples):
+            for b in range(ff_.shape[1]):
+                at = k * sample_stride + b * trajectory_stride
+                np.testing.assert_array_equal(flat[at : at + width], ff_[k, b], err_msg=name)
+
+
 def test_joint_pd_checks_its_inputs() -> None:
     with pytest.raises(ShapeError, match="feedforward"):
         JointPD(kp=1.0, kd=1.0, feedforward=[1.0, 2.0])

@@ -341,7 +341,8 @@ def test_specialised_rollouts_match_the_generic_kernels(specialised: Path, which
     rng = np.random.default_rng(4)
     k = 70  # two blocks, the second short
     state = ff.State(q=rng.uniform(-1, 1, (k, n)), qdot=rng.uniform(-0.3, 0.3, (k, n)), omega=rng.normal(scale=0.05, size=(k, 3)))
-    ctrl = ff.JointPD(kp=rng.uniform(1, 5, (k, n)), kd=1.0, q_ref=0.2)
+    series = rng.normal(scale=0.5, size=(k, 60, n))  # per-trajectory feed-forward (K, S, N), passed swapped: read in place
+    ctrl = ff.JointPD(kp=rng.uniform(1, 5, (k, n)), kd=1.0, q_ref=0.2, feedforward=series.swapaxes(0, 1), feedforward_period=5e-3)
     limits = ff.ActuatorLimits(joint_torque=np.full(n, 3.0))
     fast = ff.rollout(model, state, 0.3, dt=1e-3, controller=ctrl, sample_period=5e-3, limits=limits, output_period=7e-3)
     with _specialise.generic():
@@ -350,6 +351,10 @@ def test_specialised_rollouts_match_the_generic_kernels(specialised: Path, which
     np.testing.assert_allclose(fast.joint_torque, slow.joint_torque, rtol=0, atol=1e-9)
     np.testing.assert_array_equal(fast.saturated, slow.saturated)
     assert fast.saturated.any() and not fast.saturated.all()
+    copied = ff.JointPD(kp=ctrl.kp, kd=1.0, q_ref=0.2, feedforward=np.ascontiguousarray(series.swapaxes(0, 1)), feedforward_period=5e-3)
+    same = ff.rollout(model, state, 0.3, dt=1e-3, controller=copied, sample_period=5e-3, limits=limits, output_period=7e-3)
+    np.testing.assert_array_equal(same.q, fast.q)  # the same run, whatever the layout of the feed-forward
+    np.testing.assert_array_equal(same.joint_torque, fast.joint_torque)
 
 
 def test_a_failing_trajectory_stops_alone_as_in_the_generic_kernel(specialised: Path) -> None:

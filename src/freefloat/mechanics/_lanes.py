@@ -54,19 +54,20 @@ def joint_pd(
     C: Any, P: Any, sample: int, t: float, b: int, lim: np.ndarray, x: np.ndarray, x0: int, u: np.ndarray, u0: int, step: int
 ) -> bool:  # pragma: no cover
     """The joint PD of the rollouts at sample ``sample`` (time t) of trajectory b: C = (kp, kd, qref, vref, ff) (each
-    (K, N), ff (S, K, W)), u = ff[sample, b] (its last sample held) + kp (qref - q) + kd (vref - qdot), clipped to +-lim.
+    (K, N); ff the feed-forward (S, K, W) as (values, S, sample stride, trajectory stride, W): the values read at
+    sample * sample stride + b * trajectory stride + j, so that any layout of the caller's array is read in place:
+    ``_engine.feed``), u = ff[sample, b] (its last sample held) + kp (qref - q) + kd (vref - qdot), clipped to +-lim.
 
     The state is x[x0 + i * step] (i = 0 .. 13 + 2N) and u is written to u[u0 + j * step] (j = 0 .. N + 6):
     step 1 for one trajectory, LANES for a lane of a block (:func:`rollout_blocks`). True if any
     component was clipped. A controller of the rollout loop has this signature (``P``: the lane kernel's data).
     """
-    kp, kd, qref, vref, ff = C
-    sample = min(sample, ff.shape[0] - 1)
+    kp, kd, qref, vref, (ff, samples, sample_stride, trajectory_stride, width) = C
+    at = min(sample, samples - 1) * sample_stride + b * trajectory_stride
     n = kp.shape[1]
-    width = ff.shape[2]
     sat = False
     for j in range(n + 6):
-        val = ff[sample, b, j] if j < width else 0.0
+        val = ff[at + j] if j < width else 0.0
         if j < n:
             val += kp[b, j] * (qref[b, j] - x[x0 + (13 + j) * step]) + kd[b, j] * (vref[b, j] - x[x0 + (13 + n + j) * step])
         if val > lim[j]:

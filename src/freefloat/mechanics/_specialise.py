@@ -706,7 +706,9 @@ def _warm(module: types.ModuleType, t: Tree, kind: str, wrenches: Layout = ()) -
         x0 = np.zeros((1, size))
         x0[0, 9] = 1.0
         zero = np.zeros((1, n))
-        args = (data, x0, 1e-3, 1, 1, 1, (zero, zero, zero, zero, np.zeros((1, 1, n))), np.full(n + 6, np.inf))
+        still = (np.zeros(n), 1, 0, 0, n)  # the feed-forward as _engine.feed makes it: read-only, flat
+        still[0].flags.writeable = False
+        args = (data, x0, 1e-3, 1, 1, 1, (zero, zero, zero, zero, still), np.full(n + 6, np.inf))
         args += (np.empty((2, 1, size)), np.empty((2, 1, n + 6)), np.empty((2, 1), dtype=np.bool_), np.empty(1, dtype=np.int64))
         args += (np.zeros((1, 9 * len(wrenches))),)
     _run(module, 1, args, threads=1)
