@@ -303,16 +303,25 @@ def test_a_feed_forward_is_read_in_place_in_any_layout() -> None:
         "one sample": (swapped[:1], True),
         "reversed": (swapped[::-1], False),
         "every other value": (np.ascontiguousarray(swapped.repeat(2, axis=2))[:, :, ::2], False),
+        "misaligned": (np.frombuffer(bytearray(7 * 5 * 3 * 8 + 1), dtype=np.float64, offset=1).reshape(7, 5, 3), False),
     }
     for name, (ff_, in_place) in cases.items():
         flat, samples, sample_stride, trajectory_stride, width = _engine.feed(ff_)
-        assert flat.ndim == 1 and flat.dtype == np.float64 and not flat.flags.writeable, name
+        assert flat.ndim == 1 and flat.dtype == np.float64 and not flat.flags.writeable and flat.flags.aligned, name
         assert np.shares_memory(flat, ff_) == in_place, name
+        if in_place:  # the view stays within the array's memory
+            low, high = np.lib.array_utils.byte_bounds(ff_)
+            assert low <= flat.ctypes.data and flat.ctypes.data + flat.nbytes <= high, name
         assert (samples, width) == (ff_.shape[0], ff_.shape[2]), name
         for k in range(samples):
             for b in range(ff_.shape[1]):
                 at = k * sample_stride + b * trajectory_stride
                 np.testing.assert_array_equal(flat[at : at + width], ff_[k, b], err_msg=name)
+    for empty in (np.zeros((0, 5, 3)), np.zeros((7, 0, 3))):  # no samples, no trajectories: nothing is read
+        flat, samples, _, _, width = _engine.feed(empty)
+        assert flat.size == 0 and width == 0 and samples == 1 and not flat.flags.writeable
+    with pytest.raises(ShapeError, match="K >= 1"):
+        ff.JointPD(kp=1.0, kd=1.0, feedforward=np.zeros((0, 4)))
 
 
 def test_joint_pd_checks_its_inputs() -> None:

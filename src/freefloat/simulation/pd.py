@@ -58,8 +58,11 @@ class JointPD:
                 )
         if self.feedforward is not None:
             ff = real_array(self.feedforward, "JointPD.feedforward")
-            if ff.ndim < 2:
-                raise ShapeError(f"JointPD.feedforward: expected (K, N) or (K, B, N) torques per sample, got shape {ff.shape}")
+            if ff.ndim < 2 or ff.shape[0] == 0:
+                raise ShapeError(
+                    f"JointPD.feedforward: expected (K, N) or (K, B, N) torques per sample, K >= 1, got shape {ff.shape} "
+                    "(no feed-forward: leave it None)"
+                )
             if not np.all(np.isfinite(ff)):
                 raise ValueError("JointPD.feedforward: has NaN or infinite entries")
             check_largest(
