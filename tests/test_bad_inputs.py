@@ -1253,6 +1253,13 @@ CASES = [
         r"^JointPD\.feedforward: 1e\+300 is beyond 1e\+19 \(N m or N\)",
     ),
     api(
+        "pd-empty-feedforward",
+        lambda f: ff.JointPD(kp=1.0, kd=1.0, feedforward=np.zeros((0, 4))),
+        ShapeError,
+        r"^JointPD\.feedforward: expected \(K, N\) or \(K, B, N\) torques per sample, K >= 1, got shape \(0, 4\) "
+        r"\(no feed-forward: leave it None\)",
+    ),
+    api(
         "pd-text-feedforward-period",
         lambda f: ff.JointPD(kp=1.0, kd=1.0, feedforward=np.zeros((2, 4)), feedforward_period="fast"),
         ValueError,
