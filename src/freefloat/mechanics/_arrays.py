@@ -80,8 +80,12 @@ def mark_written(a: np.ndarray) -> None:
     start = a.ctypes.data
     with _RECYCLE_LOCK:
         b = _holder(start)
-        if b is not None and start - b.ctypes.data <= _WRITTEN.get(b.ctypes.data, 0):
-            _WRITTEN[b.ctypes.data] = max(_WRITTEN.get(b.ctypes.data, 0), start + a.nbytes - b.ctypes.data)
+        if b is None:
+            return
+        base = b.ctypes.data
+        done = _WRITTEN.get(base, 0)
+        if start - base <= done:
+            _WRITTEN[base] = max(done, start + a.nbytes - base)
 
 
 def written_before(a: np.ndarray) -> bool:

@@ -20,7 +20,7 @@ import numpy as np
 
 from . import _configuration, _drivers, _laws, _specialise
 from ._arrays import new_output
-from ._lanes import LANES
+from ._lanes import LANES, feed
 from ._tree import Tree, tree, work_size
 
 __all__ = [
@@ -51,34 +51,6 @@ NO_WRENCHES: tuple[np.ndarray, np.ndarray] = (np.zeros((0, 2), dtype=np.int64), 
 _SPECIALISED_MIN = 64
 #: Rollouts of at least this many trajectories use them (a lane block computes 64; about 8 pay for it).
 _SPECIALISED_ROLLOUTS_MIN = 8
-
-
-#: A joint PD's feed-forward as the compiled rollouts read it (:func:`~._lanes.joint_pd`): (values, samples, sample
-#: stride, trajectory stride, width).
-Feed = tuple[np.ndarray, int, int, int, int]
-
-
-def feed(ff: np.ndarray) -> Feed:
-    """A joint PD's feed-forward ff (S, K, W) as the compiled rollouts read it: a flat read-only float64 view of its
-    memory with the strides of its first two axes (in values), read in place whatever its layout: a series that every
-    trajectory shares (broadcast: trajectory stride 0), per-trajectory series laid out (K, S, W) (as
-    ``mujoco.rollout`` takes them) and swapped to (S, K, W), a chunk of the trajectories. A copy only when its values
-    are not float64 a stride apart along W, or a stride is negative. (The Panda's 500 x 1,024 x 9 swapped series: a 37 MB
-    copy, 21 ms of a 0.32 s rollout, before.) Always read-only: numba compiles one signature for it."""
-    a = np.asarray(ff, dtype=np.float64)
-    item = a.itemsize
-    if a.size == 0:  # no samples (or no trajectories): no feed-forward, width 0 (joint_pd reads none of it)
-        empty = np.zeros(0)
-        empty.flags.writeable = False
-        return empty, 1, 0, 0, 0
-    if a.strides[2] != item or min(a.strides) < 0 or any(s % item for s in a.strides) or a.ctypes.data % item:
-        a = np.array(a, order="C", copy=True)  # a new, aligned array (ascontiguousarray keeps a misaligned C array)
-    samples, trajectories, width = a.shape
-    sample_stride = a.strides[0] // item if samples > 1 else 0
-    trajectory_stride = a.strides[1] // item if trajectories > 1 else 0
-    extent = (samples - 1) * sample_stride + (trajectories - 1) * trajectory_stride + width
-    flat = np.lib.stride_tricks.as_strided(a, shape=(extent,), strides=(item,), writeable=False)
-    return flat, samples, sample_stride, trajectory_stride, width
 
 
 def _own(arr: Any, dtype: Any = np.float64) -> np.ndarray:

@@ -43,7 +43,6 @@ from numba.core.compiler_machinery import PassManager
 from numba.extending import intrinsic
 
 from ..core.feedback import notice
-from ..core.numbers import MAX_EFFORT
 
 __all__ = ["CacheWarning", "bind", "cache_dir", "floats_view", "ints_view", "kernel", "slice_view", "store_fence", "stream_line"]
 
@@ -63,7 +62,7 @@ def _source_key() -> str:
     here = Path(__file__).parent
     for name in KERNEL_MODULES:
         digest.update((here / name).read_bytes())
-    digest.update(repr(MAX_EFFORT).encode())  # the constants of core the kernels compile in (rk4_steps' check of u)
+    digest.update((here.parent / "core" / "numbers.py").read_bytes())  # core's constants the kernels compile in (MAX_EFFORT)
     return digest.hexdigest()[:16]
 
 

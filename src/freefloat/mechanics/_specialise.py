@@ -51,7 +51,7 @@ from typing import Any
 import numpy as np
 
 from . import _configuration, _lanes, _numba_cache, _recursions, _trace, _tree
-from ._arrays import mark_written, written_before
+from ._arrays import RECYCLE_MIN, mark_written, written_before
 from ._lanes import LANES
 from ._numba_cache import CacheWarning, cache_dir
 from ._threads import range_count, run_ranges, threads_for
@@ -706,9 +706,7 @@ def _warm(module: types.ModuleType, t: Tree, kind: str, wrenches: Layout = ()) -
         x0 = np.zeros((1, size))
         x0[0, 9] = 1.0
         zero = np.zeros((1, n))
-        still = (np.zeros(n), 1, 0, 0, n)  # the feed-forward as _engine.feed makes it: read-only, flat
-        still[0].flags.writeable = False
-        args = (data, x0, 1e-3, 1, 1, 1, (zero, zero, zero, zero, still), np.full(n + 6, np.inf))
+        args = (data, x0, 1e-3, 1, 1, 1, (zero, zero, zero, zero, _lanes.feed(np.zeros((1, 1, n)))), np.full(n + 6, np.inf))
         args += (np.empty((2, 1, size)), np.empty((2, 1, n + 6)), np.empty((2, 1), dtype=np.bool_), np.empty(1, dtype=np.int64))
         args += (np.zeros((1, 9 * len(wrenches))),)
     _run(module, 1, args, threads=1)
@@ -797,11 +795,12 @@ def mapped(module: types.ModuleType, t: Tree, parts: tuple[np.ndarray, ...], out
     else 0.0]; C-contiguous) by the specialised kernel (J*: 6E * N of them, row-major; H+: (6 + N)^2). ``parts``: the
     inputs (:func:`map_parts`), each a C-contiguous float64 array (C, width), or (1, width) for a row that every
     configuration shares. Outputs of :data:`STREAM_FROM` bytes or more are streamed past the caches."""
-    if not (out.flags.c_contiguous and out.dtype == np.float64 and out.ctypes.data % 8 == 0):
+    if not (out.flags.c_contiguous and out.dtype == np.float64 and out.flags.aligned):
         raise ValueError("freefloat: a specialised map writes into a C-contiguous, aligned float64 array")
     stream = STREAMS and out.nbytes >= STREAM_FROM and written_before(out)
     _run(module, out.shape[0], (parts, data_vector(t)[module.SLOTS], out.reshape(-1), module.COLUMNS, stream))
-    mark_written(out)
+    if STREAMS and out.nbytes >= RECYCLE_MIN:  # smaller outputs are never in a kept buffer; only streaming reads this
+        mark_written(out)
 
 
 def measured(module: types.ModuleType, t: Tree, q: np.ndarray, rows: np.ndarray, code: int, out: np.ndarray) -> None:

@@ -142,8 +142,8 @@ def limit_violations(model: Model, t: np.ndarray, q: np.ndarray) -> list[JointLi
     """
     batched = q.ndim == 3
     q3 = q if batched else q[:, None, :]
-    lower = _drivers_arg(model.joint_lower)
-    upper = _drivers_arg(model.joint_upper)
+    lower = _engine._own(model.joint_lower)  # C-contiguous, writable float64: one compiled signature
+    upper = _engine._own(model.joint_upper)
     spans, value = _drivers.limit_spans_batch(q3, lower, upper)  # (S, 5): trajectory, joint, bound, start, stop
     order = np.lexsort((spans[:, 2], spans[:, 1], spans[:, 3], spans[:, 0]))
     times = [*np.asarray(t, dtype=float).tolist(), None]  # a span still beyond at the end stops at None
@@ -153,8 +153,3 @@ def limit_violations(model: Model, t: np.ndarray, q: np.ndarray) -> list[JointLi
         JointLimitEvent(names[j], sides[c], at_limit[c][j], "violation", times[a], times[z], v, w if batched else None)
         for (w, j, c, a, z), v in zip(spans[order].tolist(), value[order].tolist(), strict=True)
     ]
-
-
-def _drivers_arg(limits: np.ndarray) -> np.ndarray:
-    """A model's joint limits as the kernel's argument: C-contiguous float64 (one compiled signature)."""
-    return np.ascontiguousarray(limits, dtype=np.float64)
