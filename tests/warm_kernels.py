@@ -35,15 +35,17 @@ def laws() -> None:
 
 def engine() -> None:
     """The maps, forward and inverse dynamics, the simulations and the rollout with a joint PD
-    (one kernel per driver: a batch on threads runs the same one)."""
+    (one kernel per driver: a batch on threads runs the same one, from the small parallel loop that calls it,
+    ``_threads._fan_out``, compiled here for each driver's signature by a batch of the drivers' threshold)."""
     import numpy as np
 
     import freefloat as ff
+    from freefloat.mechanics._drivers import Batched
 
     model = ff.models.papadopoulos1992()
     n = model.n_joints
-    q = np.zeros((1, n))
-    v = np.zeros((1, 6 + n))
+    q = np.zeros((Batched.PARALLEL_MIN, n))
+    v = np.zeros((Batched.PARALLEL_MIN, 6 + n))
     ff.generalized_jacobian(model, q)
     ff.system_inertia_matrix(model, q)
     ff.point_jacobian(model, q, 1)

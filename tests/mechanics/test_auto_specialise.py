@@ -8,7 +8,6 @@ here compiles into a temporary cache folder (never the user's).
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -18,7 +17,7 @@ import numpy as np
 import pytest
 
 import freefloat as ff
-from freefloat.mechanics import _specialise
+from freefloat.mechanics import _specialise, _threads
 from freefloat.mechanics._lanes import LANES
 from freefloat.mechanics._tree import tree
 
@@ -131,27 +130,29 @@ def test_a_large_map_of_measures_triggers_the_measure_kernel(auto: None, monkeyp
 
 def test_a_large_call_runs_the_module_on_one_range_per_thread(auto: None, monkeypatch: pytest.MonkeyPatch) -> None:
     """Once its kernel is compiled (``ready``), the calls use a specialised module: one of THREADS_FROM configurations or
-    more on one contiguous range of lane blocks per numba thread at once (``_threads.run_ranges``: no threaded twin of
-    the kernel is compiled), a smaller one on the whole batch in the calling thread. Both agree with the generic kernel."""
+    more on one contiguous range of lane blocks per numba thread at once (``_threads.run_kernel``: numba's threads call
+    the module's machine code; no threaded twin of the kernel is compiled), a smaller one on the whole batch in the
+    calling thread. Both agree with the generic kernel."""
     model = two_arm_variant()
     t = tree(model)
     big = np.random.default_rng(3).uniform(-3, 3, (_specialise.THREADS_FROM + 5, model.n_joints))
     small = big[: _specialise.THREADS_FROM - 1]
     generic = ff.generalized_jacobian(model, big)
     seen: list[tuple[int, int, int]] = []
-    real = _specialise.run_ranges
+    real, fan_out = _specialise.run_kernel, _threads._fan_out
+    fanned: list[int] = []
 
-    def spy(run: Any, count: int, parts: int) -> None:
-        threads: set[int] = set()
+    def counted(*args: Any) -> int:
+        fanned.append(args[-1].shape[0])  # the ranges handed to numba's threads
+        return int(fan_out(*args))
 
-        def tracked(r: int, first: int, last: int) -> object:
-            threads.add(threading.get_ident())
-            return run(r, first, last)
+    def spy(run: Any, pre: Any, work: np.ndarray, post: Any, count: int, parts: int) -> None:
+        fanned.clear()
+        real(run, pre, work, post, count, parts)
+        seen.append((count, parts, fanned[0] if fanned else 1))
 
-        real(tracked, count, parts)
-        seen.append((count, parts, len(threads)))
-
-    monkeypatch.setattr(_specialise, "run_ranges", spy)
+    monkeypatch.setattr(_specialise, "run_kernel", spy)
+    monkeypatch.setattr(_threads, "_fan_out", counted)
     ready: list[str] = []
     _specialise.specialise(t, ("jstar",), ready=ready.append)
     assert ready == ["jstar"] and seen == [(1, 1, 1)]  # compiled on one block

@@ -117,13 +117,13 @@ def test_the_engine_on_two_threads_equals_one_thread(monkeypatch: pytest.MonkeyP
     size = _drivers.jstar_batch.PARALLEL_MIN + 1
     q = np.random.default_rng(0).uniform(-3, 3, (size, model.n_joints))
     calls: list[tuple[int, int]] = []
-    real = _drivers.run_ranges
+    real = _drivers.run_kernel
 
-    def spy(run: object, count: int, parts: int) -> None:
+    def spy(run: Any, pre: Any, work: np.ndarray, post: Any, count: int, parts: int) -> None:
         calls.append((count, parts))
-        real(run, count, parts)  # type: ignore[arg-type]
+        real(run, pre, work, post, count, parts)
 
-    monkeypatch.setattr(_drivers, "run_ranges", spy)
+    monkeypatch.setattr(_drivers, "run_kernel", spy)
     before = numba.get_num_threads()
     try:
         numba.set_num_threads(1)
@@ -136,3 +136,133 @@ def test_the_engine_on_two_threads_equals_one_thread(monkeypatch: pytest.MonkeyP
         numba.set_num_threads(before)
     assert calls == [(size, 1), (size, threads), (size - 2, 1)]
     assert np.array_equal(one, two)
+
+
+# ----------------------------------------------------------------- compiled kernels on numba's threads (run_kernel)
+@numba.njit(nogil=True)
+def _record(ids: np.ndarray, work: np.ndarray, first: int, last: int, scale: float) -> None:  # pragma: no cover - compiled
+    """ids[i] = scale * (numba's thread of row i + 1); the range in its scratch row."""
+    for i in range(first, last):
+        ids[i] = scale * (numba.get_thread_id() + 1)
+    work[0], work[1] = first, last
+
+
+@numba.njit(nogil=True)
+def _refuse_past(ids: np.ndarray, work: np.ndarray, first: int, last: int, limit: int) -> None:  # pragma: no cover - compiled
+    for i in range(first, last):
+        if i >= limit:
+            raise ValueError("row past the limit")
+        ids[i] = 1.0
+
+
+@numba.njit(nogil=True)
+def _nested(pair: Any, flag: bool, work: np.ndarray, first: int, last: int, *rest: Any) -> None:  # pragma: no cover - compiled
+    """Tuples at the front and ``*args`` at the back: out[i] = a[i] + b[i] (+ c[i] where flag), into rest's last array."""
+    a, b = pair
+    c, out = rest
+    for i in range(first, last):
+        out[i] = a[i] + b[i] + (c[i] if flag else 0.0)
+
+
+@numba.njit(nogil=True)
+def _returns(ids: np.ndarray, work: np.ndarray, first: int, last: int) -> int:  # pragma: no cover - compiled
+    return last - first
+
+
+@pytest.fixture
+def two_threads() -> Any:
+    before = numba.get_num_threads()
+    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))  # type: ignore[attr-defined]
+    try:
+        yield numba.get_num_threads()
+    finally:
+        numba.set_num_threads(before)
+
+
+def test_a_kernel_runs_on_one_range_per_numba_thread(two_threads: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each range is run once, by numba's threads (one range per thread, contiguous, lengths one apart at most), through
+    the kernel's machine code (no Python in between: the pool's threads are not used)."""
+    assert two_threads == 2, "the test machine has at least 2 cores"
+    monkeypatch.setattr(_threads, "run_ranges", lambda *a: pytest.fail("the pool ran the ranges"))
+    for count, parts in ((2, 2), (7, 2), (1001, 2), (5, 9)):
+        ids = np.zeros(count)
+        work = np.full((_threads.range_count(count, parts), 2), -1.0)
+        _threads.run_kernel(_record, (ids,), work, (2.0,), count, parts)
+        used = min(count, parts, two_threads) if parts <= two_threads else min(count, parts)
+        bounds = sorted((int(a), int(b)) for a, b in work)
+        assert bounds[0][0] == 0 and bounds[-1][1] == count and all(x[1] == y[0] for x, y in itertools.pairwise(bounds))
+        assert max(b - a for a, b in bounds) - min(b - a for a, b in bounds) <= 1
+        assert set(np.unique(ids)) <= {2.0 * (k + 1) for k in range(two_threads)}  # every row written, by numba's threads
+        for a, b in bounds:
+            assert len(np.unique(ids[a:b])) == 1  # a range is one thread's
+        assert len(np.unique(ids)) == min(used, two_threads)
+
+
+def test_a_range_that_raises_is_raised_in_the_calling_thread(two_threads: int) -> None:
+    """A kernel's exception in a range on numba's threads is not lost: that range runs again in the calling thread,
+    which raises it; the other range's rows are written."""
+    ids = np.zeros(100)
+    work = np.zeros((2, 1))
+    with pytest.raises(ValueError, match="row past the limit"):
+        _threads.run_kernel(_refuse_past, (ids,), work, (70,), 100, 2)
+    assert np.all(ids[:50] == 1.0) and np.all(ids[50:70] == 1.0)
+    _threads.run_kernel(_refuse_past, (ids,), work, (100,), 100, 2)  # and the same kernel runs on
+    assert np.all(ids == 1.0)
+
+
+def test_tuples_and_star_arguments_reach_the_kernel(two_threads: int) -> None:
+    """A tuple argument and a kernel's ``*args`` (one tuple, as numba compiles them) are passed field by field to its
+    machine code: the values arrive in place."""
+    rng = np.random.default_rng(0)
+    a, b, c = rng.normal(size=(3, 501))
+    for flag in (True, False):
+        out = np.zeros(501)
+        _threads.run_kernel(_nested, ((a, b), flag), np.zeros((2, 1)), (c, out), 501, 2)
+        assert np.array_equal(out, a + b + (c if flag else 0.0))
+
+
+def test_a_kernel_that_returns_a_value_is_refused(two_threads: int) -> None:
+    with pytest.raises(TypeError, match="return nothing"):
+        _threads.run_kernel(_returns, (np.zeros(4),), np.zeros((2, 1)), (), 4, 2)
+
+
+def test_while_the_workqueue_layer_is_busy_the_pool_runs_the_ranges(two_threads: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """numba's ``workqueue`` layer takes one parallel loop at a time (a second one at once ends the process): while one
+    runs, another thread's call runs its ranges on the pool."""
+    monkeypatch.setattr(_threads, "_layer", lambda: "workqueue")
+    pooled: list[int] = []
+    real = _threads.run_ranges
+
+    def spy(run: Any, count: int, parts: int) -> None:
+        pooled.append(count)
+        real(run, count, parts)
+
+    monkeypatch.setattr(_threads, "run_ranges", spy)
+    ids = np.zeros(300)
+    _threads.run_kernel(_record, (ids,), np.zeros((2, 2)), (1.0,), 300, 2)
+    assert pooled == [] and set(np.unique(ids)) <= {1.0, 2.0}
+    with _threads._WORKQUEUE:  # another loop is running
+        _threads.run_kernel(_record, (ids,), np.zeros((2, 2)), (1.0,), 301 - 1, 2)
+    assert pooled == [300] and not _threads._WORKQUEUE.locked()
+
+
+def _kernel_in_a_child(queue: Any) -> None:
+    ids = np.zeros(64)
+    _threads.run_kernel(_record, (ids,), np.zeros((2, 2)), (1.0,), 64, 2)
+    queue.put((_threads._NUMBA_THREADS[0], float(ids.min())))
+
+
+def test_a_child_forked_after_numba_threads_ran_uses_the_pool(two_threads: int) -> None:
+    """GNU OpenMP (numba's threading layer on Linux) ends a child forked after the parent used it, at its first
+    parallel loop: in such a child the ranges run on the pool, and the child lives."""
+    _threads.run_kernel(_record, (np.zeros(8),), np.zeros((2, 2)), (1.0,), 8, 2)  # the parent's numba threads ran
+    context = multiprocessing.get_context("fork")
+    queue = context.Queue()
+    child = context.Process(target=_kernel_in_a_child, args=(queue,))
+    child.start()
+    child.join(120)
+    alive = child.is_alive()
+    if alive:
+        child.kill()
+    assert not alive and child.exitcode == 0
+    assert queue.get(timeout=5) == (False, 1.0)

@@ -8,7 +8,7 @@ and are refused with an error that names the field, the bound and the fix.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -72,26 +72,29 @@ def real_array(value: Any, name: str) -> np.ndarray:
     raise TypeError(f"{name}: expected real numbers, got {what} ({value!r:.80})")
 
 
-def check_largest(arr: np.ndarray, name: str, limit: float, unit: str, why: str, fix: str, labels: Sequence[str] | None = None) -> None:
+def check_largest(
+    arr: np.ndarray, name: str, limit: float, unit: str, why: str, fix: str, labels: Callable[[int], str] | Sequence[str] | None = None
+) -> None:
     """Refuse finite values (..., K) whose magnitude exceeds ``limit``: a ValueError
     ``"{name}: {value}[ for {label}] is beyond {limit} ({unit}), {why}; {fix}"`` naming the largest one
-    (and its label, ``labels[k]`` for the last axis, when given)."""
+    (and its label, ``labels[k]`` (or ``labels(k)``) for the last axis, when given)."""
     if not arr.size or max(float(arr.max()), -float(arr.min())) <= limit:
         return
     index = np.unravel_index(int(np.argmax(np.abs(arr))), arr.shape)
-    label = f" for {labels[int(index[-1])]}" if labels is not None and arr.ndim else ""
+    k = int(index[-1]) if arr.ndim else 0
+    label = "" if labels is None or not arr.ndim else f" for {labels(k) if callable(labels) else labels[k]}"
     raise ValueError(f"{name}: {float(arr[index]):.3g}{label} is beyond {limit:g} ({unit}), {why}; {fix}")
 
 
 def check_joint_values(arr: np.ndarray, name: str, joint_names: Sequence[str] | None = None) -> None:
     """Refuse joint values (..., N) beyond :data:`MAX_JOINT_VALUE`, naming the largest and its joint."""
-    labels = None if joint_names is None else [f"joint {j!r}" for j in joint_names]
+    labels = None if joint_names is None else lambda k: f"joint {joint_names[k]!r}"  # made only for the error
     check_largest(arr, name, MAX_JOINT_VALUE, "rad or m", "which no joint reaches", "check the units (radians, metres)", labels)
 
 
 def check_joint_rates(arr: np.ndarray, name: str, joint_names: Sequence[str] | None = None) -> None:
     """Refuse joint rates (..., N) beyond :data:`MAX_RATE`, naming the largest and its joint."""
-    labels = None if joint_names is None else [f"joint {j!r}" for j in joint_names]
+    labels = None if joint_names is None else lambda k: f"joint {joint_names[k]!r}"  # made only for the error
     check_largest(arr, name, MAX_RATE, "rad/s or m/s", "which no joint of a space robot reaches", "check the units (rad/s, m/s)", labels)
 
 

@@ -5,8 +5,8 @@ model ``m`` (:data:`~._tree.Arrays`), the scratch views ``s`` (:data:`~._recursi
 the call's arrays ``a`` (a tuple: inputs, outputs and scalars). :func:`driver` makes from it, by
 binding it into the template written once below (:func:`_serial_template`), one range kernel over the rows
 ``[start, stop)`` of a batch (one scratch buffer per range); :class:`Batched` runs it on the whole batch, or from
-:attr:`Batched.PARALLEL_MIN` rows on one contiguous range per thread at once (:func:`~._threads.run_ranges`: the
-kernel releases the GIL; no threaded twin is compiled). A new batched quantity is one row kernel and one line
+:attr:`Batched.PARALLEL_MIN` rows on one contiguous range per thread at once (:func:`~._threads.run_kernel`: numba's
+threads call the kernel's machine code; no threaded twin is compiled). A new batched quantity is one row kernel and one line
 ``driver(...)``.
 
 The template is bound by copying its code with the row kernel as a global (not a closure), so
@@ -40,7 +40,7 @@ from ._lanes import LANES, rollout_loop
 from ._laws import law_control
 from ._numba_cache import bind, floats_view, ints_view, kernel
 from ._recursions import kinematics, scratch
-from ._threads import range_count, run_ranges, threads_for
+from ._threads import range_count, run_kernel, run_ranges, threads_for
 from ._tree import Tree, arrays, buffer_lengths, work_size
 
 __all__ = [
@@ -65,7 +65,7 @@ __all__ = [
 
 
 # ----------------------------------------------------------------- the template, written once
-def _serial_template(start: int, stop: int, ints: np.ndarray, floats: np.ndarray, work: np.ndarray, *a: Any) -> None:  # pragma: no cover
+def _serial_template(ints: np.ndarray, floats: np.ndarray, work: np.ndarray, start: int, stop: int, *a: Any) -> None:  # pragma: no cover
     """ROW over the rows start..stop of a batch of the model in (ints, floats); ``work`` one scratch buffer."""
     m = arrays(ints, floats)
     s = scratch(work, m.parent.shape[0], m.ee_body.shape[0], m.n_joints)
@@ -77,11 +77,12 @@ class Batched:
     """A driver: the range kernel on the whole batch in the calling thread, or from :attr:`PARALLEL_MIN` rows on one
     contiguous range per thread (numba's thread count of the calling thread), each with its own scratch buffer."""
 
-    #: Batches at least this large run on several threads (when numba has more than one). Handing a range to a pool
-    #: thread costs 50-120 us on the 2-core VM (waking a thread, and the caller again when it is done; numba's
-    #: ``prange``, whose threads spin, 2 us): J* of the 1992 system, 2 threads against 1, 256 rows 173 / 118 us, 512
-    #: 221 / 197, 1024 300 / 356, 4096 813 / 1372 (measured). Drivers of heavier rows start earlier (below).
-    PARALLEL_MIN = 1024
+    #: Batches at least this large run on several threads (when numba has more than one). Handing the ranges to numba's
+    #: threads costs 1-3 us (:func:`~._threads.run_kernel`); a call of 2 threads against 1 on the 2-core VM, in us
+    #: (measured): J* of the 1992 system 32 rows 34 / 30, 64 41 / 41, 128 50 / 56, 256 69 / 88; of the 7-DOF arm 64
+    #: 45 / 54, 256 88 / 137; H+ of the 7-DOF arm 64 54 / 58, 256 115 / 159; forward dynamics of the 1992 system 32
+    #: 133 / 136, 64 146 / 151, 256 195 / 237. (On a pool's threads, woken at each call, it cost 50-120 us.)
+    PARALLEL_MIN = 64
     #: Whether the last call found its kernel compiled (or loaded) already: its time was work, not compiling.
     compiled = False
 
@@ -100,7 +101,7 @@ class Batched:
         self.compiled = bool(self.serial.overloads)
         parts = threads_for(size, self.PARALLEL_MIN)
         work = np.empty((range_count(size, parts), length))
-        run_ranges(lambda r, start, stop: self.serial(start, stop, t.ints, t.floats, work[r], *a), size, parts)
+        run_kernel(self.serial, (t.ints, t.floats), work, a, size, parts)
 
 
 def driver(name: str, row: Any, *, parallel_min: int | None = None) -> Batched:
@@ -328,14 +329,14 @@ def _law_rollout_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cove
 frames_batch = driver("frames", _frames_row)
 points_batch = driver("points", _points_row)
 point_jacobian_batch = driver("point_jacobian", _point_jacobian_row)
-point_bias_batch = driver("point_bias", _point_bias_row, parallel_min=256)  # rows 2-4 times J*'s work: threads pay sooner
+point_bias_batch = driver("point_bias", _point_bias_row)
 jstar_batch = driver("jstar", _jstar_row)
-measure_batch = driver("measure", _measure_row, parallel_min=4)  # rows: lane blocks of 64 configurations
+measure_batch = driver("measure", _measure_row, parallel_min=2)  # rows: lane blocks of 64 configurations
 hplus_batch = driver("hplus", _hplus_row)
-hplus_rate_batch = driver("hplus_rate", _hplus_rate_row, parallel_min=256)
-inverse_batch = driver("inverse", _inverse_row, parallel_min=256)
-forward_batch = driver("forward", _forward_row, parallel_min=256)
-derivative_batch = driver("derivative", _derivative_row, parallel_min=256)
+hplus_rate_batch = driver("hplus_rate", _hplus_rate_row)
+inverse_batch = driver("inverse", _inverse_row)
+forward_batch = driver("forward", _forward_row)
+derivative_batch = driver("derivative", _derivative_row)
 rollout_batch = driver("rollout", _rollout_row, parallel_min=2)  # one trajectory is long work: threads pay from two
 law_rollout_batch = driver("law_rollout", _law_rollout_row, parallel_min=2)  # with a control law (or the joint PD)
 

@@ -12,6 +12,7 @@ contiguous float64.
 from __future__ import annotations
 
 import functools
+import math
 import time
 from collections.abc import Callable
 from typing import Any
@@ -65,7 +66,7 @@ def _own(arr: Any, dtype: Any = np.float64) -> np.ndarray:
 
 def _flat(arr: np.ndarray, batch: tuple[int, ...], core: tuple[int, ...]) -> np.ndarray:
     """arr broadcast to batch + core, as a C-contiguous, writable float64 (C, *core) array."""
-    size = int(np.prod(batch, dtype=np.int64))
+    size = math.prod(map(int, batch))
     target = batch + core
     arr = np.asarray(arr)
     return _own(arr if arr.shape == target else np.broadcast_to(arr, target)).reshape((size, *core))
@@ -229,7 +230,7 @@ Actuation = np.ndarray | tuple[np.ndarray | None, ...] | None
 
 def _actuation(u: Actuation, t: Tree, batch: tuple[int, ...]) -> np.ndarray:
     """u = [tau (N), f_S (3), n_S (3)] flat (C, N + 6); None is zero."""
-    size = int(np.prod(batch, dtype=np.int64))
+    size = math.prod(map(int, batch))
     if u is None:
         return np.zeros((size, t.n_joints + 6))
     if isinstance(u, tuple):
@@ -308,7 +309,7 @@ def residual_rows(
     acc_in = np.zeros(6 + n) if acceleration is None else acceleration
     wrenches = _specialise.layout(ext[0])
     batch = _dynamics_batch(q, velocity, u, t0, ext, acc_in)
-    out = new_output((int(np.prod(batch, dtype=np.int64)), 6 + n))
+    out = new_output((math.prod(map(int, batch)), 6 + n))
 
     def parts() -> list[np.ndarray]:  # the specialised kernel's inputs: q, zdot0, zddot0, u, T0 and with wrenches ext_f
         rows = [_part(q, batch, n), _part(velocity, batch, 6 + n), _part(acceleration, batch, 6 + n), _part(u, batch, n + 6)]
@@ -355,7 +356,7 @@ def accelerations(
     n = t.n_joints
     wrenches = _specialise.layout(ext[0])
     batch = _dynamics_batch(q, velocity, u, t0, ext)
-    both = new_output((int(np.prod(batch, dtype=np.int64)), 7 + n))  # zddot0 and the guards' flag
+    both = new_output((math.prod(map(int, batch)), 7 + n))  # zddot0 and the guards' flag
 
     def parts() -> list[np.ndarray]:  # the specialised kernel's inputs: q, zdot0, tau, f_S, n_S, T0 and with wrenches ext_f
         rows = [_part(q, batch, n), _part(velocity, batch, 6 + n)]

@@ -53,7 +53,16 @@ class CacheWarning(UserWarning):
 
 #: The modules whose kernels are cached; numba does not track calls across files, so the
 #: cache folder is keyed by a hash of all of them (an edit or an upgrade starts a fresh folder).
-KERNEL_MODULES = ("_numba_cache.py", "_tree.py", "_recursions.py", "_configuration.py", "_drivers.py", "_lanes.py", "_laws.py")
+KERNEL_MODULES = (
+    "_numba_cache.py",
+    "_tree.py",
+    "_recursions.py",
+    "_configuration.py",
+    "_drivers.py",
+    "_lanes.py",
+    "_laws.py",
+    "_threads.py",
+)
 
 
 @functools.cache

@@ -54,7 +54,7 @@ from . import _configuration, _lanes, _numba_cache, _recursions, _trace, _tree
 from ._arrays import RECYCLE_MIN, mark_written, written_before
 from ._lanes import LANES
 from ._numba_cache import CacheWarning, cache_dir
-from ._threads import range_count, run_ranges, threads_for
+from ._threads import range_count, run_kernel, threads_for
 from ._trace import ENTRY_POINTS, Graph, Sym, traced
 from ._tree import BODY_FIELDS, Arrays, Tree, work_size
 
@@ -332,7 +332,7 @@ def distinct(outputs: list[Any]) -> tuple[list[Any], list[int]]:
 
 #: Each kind's one driver, ``blocks(<its arguments>, W, first, last)``: the blocks first..last of a batch, W a scratch
 #: buffer (ROWS x LANES); (its arguments, the body). A large batch runs it on one
-#: contiguous range of blocks per thread (:func:`_run`, :func:`~._threads.run_ranges`): no threaded twin is compiled.
+#: contiguous range of blocks per thread (:func:`_run`, :func:`~._threads.run_kernel`): no threaded twin is compiled.
 _DRIVERS = {
     "map": (
         "parts, P, OUT, rows, stream",
@@ -713,10 +713,13 @@ def _warm(module: types.ModuleType, t: Tree, kind: str, wrenches: Layout = ()) -
 
 
 #: A specialised module's calls of this many configurations or more run on several threads: a block of LANES of them
-#: takes 3-15 us, and handing a range to a pool thread 50-120 us on the 2-core VM (J* of the 7-DOF arm, 2 threads
-#: against 1: 1024 configurations 180 / 140 us, 2048 257 / 243, 4096 374 / 447, 16384 1146 / 1635; H+ 4096 664 / 800;
-#: measured). Rollouts: from two blocks of trajectories (each a long run).
-THREADS_FROM = 64 * LANES
+#: takes 2-15 us, and handing the ranges to numba's threads costs about 5-10 us here (:func:`~._threads.run_kernel`).
+#: 2 threads against 1 on the 2-core VM, in us (measured): J* of the 1992 system 256 configurations 42 / 34, 512 50 / 44,
+#: 1024 63 / 63, 2048 81 / 109; of the 7-DOF arm 256 49 / 46, 512 63 / 68, 1024 79 / 106; H+ of the 7-DOF arm 256
+#: 60 / 63, 512 75 / 101; forward dynamics of the 7-DOF arm 256 115 / 102, 512 124 / 139. (On a pool's threads, woken
+#: at each call, it cost 50-120 us: the threshold was 4096.) Rollouts: from two blocks of trajectories (each a long
+#: run).
+THREADS_FROM = 8 * LANES
 
 
 #: Outputs of a map of this many bytes or more, in memory that an earlier output used (:func:`~._arrays.written_before`:
@@ -746,7 +749,7 @@ def _run(
         return
     count = (size + LANES - 1) // LANES
     work = np.empty((range_count(count, threads), module.ROWS * LANES))
-    run_ranges(lambda r, first, last: module.blocks(*args, work[r], first, last), count, threads)
+    run_kernel(module.blocks, args, work, (), count, threads)
 
 
 def specialise(

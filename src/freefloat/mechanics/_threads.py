@@ -1,13 +1,22 @@
 """The engine's threads: a batch cut into contiguous ranges, one per thread, each run by the same compiled kernel.
 
 Every batched kernel of the engine (:mod:`._drivers`' serial range kernels, a specialised module's ``blocks``) is
-compiled once, without ``parallel=True``, and releases the GIL (``nogil``). :func:`run_ranges` runs it on the ranges
-of a batch at once: the calling thread takes the first range, the threads of a pool kept for the process the others.
-There is no threaded twin to compile: numba's ``prange`` driver of a kernel links the kernel and everything it inlines
-into a module of its own and optimises it again (measured on the 2-core VM: J* of the 1992 system 10 s for its serial
-kernel, 14 s more for the threaded one; the specialised measure of the 7-DOF arm 8 s, 13 s more), and that twin is
-gone. The number of ranges is numba's thread count of the calling thread (``numba.set_num_threads``, the environment
-variable ``NUMBA_NUM_THREADS``), so a user limits the engine's threads as before.
+compiled once, without ``parallel=True``, and releases the GIL (``nogil``). :func:`run_kernel` runs it on the ranges of
+a batch at once on numba's own threads (its threading layer, as a ``prange`` would): one small parallel loop,
+:func:`_fan_out`, calls the kernel's machine code through its address, so that no kernel is compiled twice. A
+``prange`` driver of the kernel itself would link the kernel and everything it inlines into a module of its own and
+optimise it again (measured on the 2-core VM: J* of the 1992 system 10 s for its serial kernel, 14 s more for the
+threaded one; the specialised measure of the 7-DOF arm 8 s, 13 s more); :func:`_fan_out` compiles in 0.3 s per
+signature of the kernels it calls, once per machine (numba's cache). numba's threads wait for work spinning a while
+before they sleep: a hand-over costs 1-3 us, where waking a thread of a pool (:func:`run_ranges`, which runs a Python
+callable on the ranges: the calling thread takes the first, the threads of a pool kept for the process the others)
+costs 50-120 us on the 2-core VM. The number of ranges is numba's thread count of the calling thread
+(``numba.set_num_threads``, the environment variable ``NUMBA_NUM_THREADS``), so a user limits the engine's threads as
+before.
+
+Where numba's threads cannot serve, :func:`run_kernel` runs the ranges on the pool instead: in a child made by
+``fork`` after the parent launched them (GNU OpenMP, numba's usual layer on Linux, ends such a child at its first
+parallel loop), and while another thread of the process has a loop on the ``workqueue`` layer (it takes one at a time).
 
 A kernel's ranges write into the call's outputs: :func:`run_ranges` returns, or raises, only when every range has
 finished, Ctrl-C included (an interrupt is raised once the ranges running have finished, as numba's threads did), so
@@ -17,24 +26,42 @@ next call).
 
 from __future__ import annotations
 
+import functools
 import os
 import threading
 from collections.abc import Callable
 from concurrent.futures import Future, ThreadPoolExecutor, wait
+from typing import Any
 
 import numba
+import numpy as np
+from numba import types as nbtypes
+from numba._dispatcher import compute_fingerprint
+from numba.core import cgutils
+from numba.extending import intrinsic
+from numba.np.ufunc import parallel as numba_parallel
 
-__all__ = ["range_count", "run_ranges", "thread_count", "threads_for"]
+from ._numba_cache import kernel
+
+__all__ = ["range_count", "run_kernel", "run_ranges", "thread_count", "threads_for"]
 
 _POOL: list[ThreadPoolExecutor] = []
 _LOCK = [threading.Lock()]
+#: Whether numba's threads may run the ranges in this process (:func:`run_kernel`): not in a child forked after its
+#: parent launched them.
+_NUMBA_THREADS = [True]
+#: Held while a loop runs on numba's ``workqueue`` layer, which takes one loop at a time.
+_WORKQUEUE = threading.Lock()
 
 
 def _after_fork() -> None:
     """In a child made by ``fork`` (``multiprocessing``'s default on Linux): none of the parent's threads exist there, so
-    a pool of its own is made at need (the parent's would take ranges that no thread runs: a hang)."""
+    a pool of its own is made at need (the parent's would take ranges that no thread runs: a hang); numba's threads,
+    if the parent had launched them, are not used (GNU OpenMP ends the child at its first parallel loop)."""
     _POOL.clear()
     _LOCK[0] = threading.Lock()
+    if numba_parallel._is_initialized:
+        _NUMBA_THREADS[0] = False
 
 
 os.register_at_fork(after_in_child=_after_fork)
@@ -102,3 +129,103 @@ def run_ranges(run: Callable[[int, int, int], object], count: int, parts: int) -
         _finish(futures)
     for future in futures:
         future.result()
+
+
+# ----------------------------------------------------------------- a compiled kernel on numba's threads
+@intrinsic
+def _call_range(typingctx: Any, address: Any, pre: Any, work: Any, first: Any, last: Any, post: Any) -> Any:  # pragma: no cover - compiled
+    """Call the compiled function at the integer ``address`` (numba's calling convention, returning nothing) with the
+    arguments ``(*pre, work, first, last, *post)``: 0 when it returned, 1 when it raised (its exception is dropped:
+    :func:`run_kernel` runs that range again in the calling thread, where it is raised). An argument that is a tuple (a
+    function's ``*args`` are one) is given as its items one after another: numba's calling convention passes every
+    argument as its fields, flattened, so the machine code takes the same values either way (:func:`_flat`)."""
+    if not (isinstance(address, nbtypes.Integer) and isinstance(pre, nbtypes.BaseTuple) and isinstance(post, nbtypes.BaseTuple)):
+        return None  # a typing error
+    argtypes = [*pre.types, work, first, last, *post.types]  # type: ignore[attr-defined]
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        function = context.call_conv.get_function_type(nbtypes.none, argtypes)
+        callee = builder.inttoptr(args[0], function.as_pointer())
+        values = [*cgutils.unpack_tuple(builder, args[1]), args[2], args[3], args[4], *cgutils.unpack_tuple(builder, args[5])]
+        status, _ = context.call_conv.call_function(builder, callee, nbtypes.none, argtypes, values)
+        return builder.select(status.is_ok, context.get_constant(nbtypes.int64, 0), context.get_constant(nbtypes.int64, 1))
+
+    return nbtypes.int64(address, pre, work, first, last, post), codegen
+
+
+@kernel(parallel=True)
+def _fan_out(address: int, pre: Any, work: np.ndarray, post: Any, count: int, failed: np.ndarray) -> int:  # pragma: no cover - compiled
+    """The kernel at ``address`` on the ``failed.shape[0]`` ranges r of ``[0, count)``, each on a thread of numba's with
+    the scratch row ``work[r]``; ``failed[r]`` 1 where range r raised, 0 where it returned; how many raised."""
+    parts = failed.shape[0]
+    for r in numba.prange(parts):
+        first = np.int64(r) * count // parts
+        last = (np.int64(r) + 1) * count // parts
+        failed[r] = _call_range(address, pre, work[r], first, last, post)  # type: ignore[call-arg]
+    return failed.sum()
+
+
+#: The machine code's address of each (kernel, argument types) that :func:`run_kernel` has called, keyed by numba's
+#: fingerprints of the arguments (what its dispatcher keys its own types by: 0.1 us an argument, where typing them is
+#: 5 us).
+_ADDRESSES: dict[tuple[Any, ...], int] = {}
+
+
+def _address(run: Any, args: tuple[Any, ...]) -> int:
+    """The address of the machine code that ``run`` (a numba dispatcher of a kernel that returns nothing) runs for
+    ``args``; compiled (or loaded from the cache) here if it has not run yet."""
+    key = (run, *(compute_fingerprint(a) for a in args))
+    found = _ADDRESSES.get(key)
+    if found is None:
+        _, types = run.fold_argument_types(tuple(run.typeof_pyval(a) for a in args), {})  # *args: one tuple, as compiled
+        result = run.overloads.get(tuple(types))
+        if result is None:
+            run.compile(tuple(types))
+            result = run.overloads[tuple(types)]
+        if result.signature.return_type != nbtypes.none:
+            raise TypeError(f"freefloat: run_kernel calls kernels that return nothing, not {result.signature.return_type}")
+        found = _ADDRESSES[key] = int(result.library.get_pointer_to_function(result.fndesc.llvm_func_name))
+    return found
+
+
+def _flat(values: tuple[Any, ...]) -> tuple[Any, ...]:
+    """``values`` with every tuple in it replaced by its items, at any depth: what :func:`_fan_out` passes (a tuple in a
+    tuple cannot enter a ``prange`` loop; the kernel's machine code takes a tuple's fields one by one either way)."""
+    if not any(isinstance(v, tuple) for v in values):
+        return values
+    return tuple(item for v in values for item in (_flat(v) if isinstance(v, tuple) else (v,)))
+
+
+@functools.cache
+def _layer() -> str:
+    """numba's threading layer, its threads launched here if they were not yet."""
+    numba_parallel._launch_threads()
+    return str(numba.threading_layer())
+
+
+def run_kernel(run: Any, pre: tuple[Any, ...], work: np.ndarray, post: tuple[Any, ...], count: int, parts: int) -> None:
+    """``run(*pre, work[r], first, last, *post)`` for the ``parts`` contiguous ranges r of ``[0, count)`` (at most
+    ``count`` of them, their lengths differ by one at most) at once, on numba's threads (see the module docstring);
+    ``run`` a compiled kernel (a numba dispatcher) that returns nothing, ``work`` one scratch row per range. Returns when
+    every range has finished; a range that raised is run again in the calling thread, which raises its error."""
+    parts = range_count(count, parts)
+    if parts == 1:
+        run(*pre, work[0], 0, count, *post)
+        return
+    if not _NUMBA_THREADS[0]:
+        run_ranges(lambda r, first, last: run(*pre, work[r], first, last, *post), count, parts)
+        return
+    address = _address(run, (*pre, work[0], 0, count, *post))
+    failed = np.empty(parts, dtype=np.int64)
+    queue = _layer() == "workqueue"
+    if queue and not _WORKQUEUE.acquire(blocking=False):  # another thread's loop is on it
+        run_ranges(lambda r, first, last: run(*pre, work[r], first, last, *post), count, parts)
+        return
+    try:
+        raised = _fan_out(address, _flat(pre), work, _flat(post), count, failed)
+    finally:
+        if queue:
+            _WORKQUEUE.release()
+    if raised:
+        for r in np.flatnonzero(failed):
+            run(*pre, work[r], r * count // parts, (r + 1) * count // parts, *post)
