@@ -78,19 +78,26 @@ def _ranges_in_a_child(queue: Any) -> None:
     queue.put(sorted(seen))
 
 
+def _in_a_forked_child(target: Any) -> Any:
+    """What ``target(queue)`` puts in its queue, run in a child made by ``fork``; the child must end by itself, with
+    exit code 0."""
+    context = multiprocessing.get_context("fork")
+    queue = context.Queue()
+    child = context.Process(target=target, args=(queue,))
+    child.start()
+    child.join(120)
+    alive = child.is_alive()
+    if alive:
+        child.kill()
+    assert not alive and child.exitcode == 0
+    return queue.get(timeout=5)
+
+
 def test_a_forked_child_makes_a_pool_of_its_own() -> None:
     """After ``fork`` the parent's pool threads do not exist in the child: its ranges run on a pool of its own (they
     would wait forever on the parent's)."""
     _threads.run_ranges(lambda r, first, last: None, 2, 2)  # the parent's pool exists
-    context = multiprocessing.get_context("fork")
-    queue = context.Queue()
-    child = context.Process(target=_ranges_in_a_child, args=(queue,))
-    child.start()
-    child.join(60)
-    alive = child.is_alive()
-    if alive:
-        child.kill()
-    assert not alive and child.exitcode == 0 and queue.get(timeout=5) == [0, 1]
+    assert _in_a_forked_child(_ranges_in_a_child) == [0, 1]
 
 
 def test_ranges_run_while_the_interpreter_shuts_down() -> None:
@@ -198,27 +205,57 @@ def test_a_kernel_runs_on_one_range_per_numba_thread(two_threads: int, monkeypat
         assert len(np.unique(ids)) == min(used, two_threads)
 
 
-def test_a_range_that_raises_is_raised_in_the_calling_thread(two_threads: int) -> None:
+@pytest.fixture
+def fanned(monkeypatch: pytest.MonkeyPatch) -> list[tuple[int, int]]:
+    """(ranges, ranges that raised) of each parallel loop that numba's threads ran (``_threads._fan_out``)."""
+    seen: list[tuple[int, int]] = []
+    real = _threads._fan_out
+
+    def spy(*args: Any) -> int:
+        raised = int(real(*args))
+        seen.append((args[-1].shape[0], raised))
+        return raised
+
+    monkeypatch.setattr(_threads, "_fan_out", spy)
+    return seen
+
+
+def test_a_range_that_raises_is_raised_in_the_calling_thread(two_threads: int, fanned: list[tuple[int, int]]) -> None:
     """A kernel's exception in a range on numba's threads is not lost: that range runs again in the calling thread,
     which raises it; the other range's rows are written."""
     ids = np.zeros(100)
     work = np.zeros((2, 1))
     with pytest.raises(ValueError, match="row past the limit"):
         _threads.run_kernel(_refuse_past, (ids,), work, (70,), 100, 2)
+    assert fanned == [(2, 1)]  # raised on numba's threads, in range 1 only
     assert np.all(ids[:50] == 1.0) and np.all(ids[50:70] == 1.0)
     _threads.run_kernel(_refuse_past, (ids,), work, (100,), 100, 2)  # and the same kernel runs on
-    assert np.all(ids == 1.0)
+    assert np.all(ids == 1.0) and fanned[1:] == [(2, 0)]
+    with pytest.raises(ValueError, match="a scratch row per range"):
+        _threads.run_kernel(_refuse_past, (ids,), work[:1], (100,), 100, 2)
 
 
-def test_tuples_and_star_arguments_reach_the_kernel(two_threads: int) -> None:
+def test_tuples_and_star_arguments_reach_the_kernel(two_threads: int, fanned: list[tuple[int, int]]) -> None:
     """A tuple argument and a kernel's ``*args`` (one tuple, as numba compiles them) are passed field by field to its
-    machine code: the values arrive in place."""
+    machine code: the values arrive in place; and the kernel is compiled once, for a call in the calling thread and on
+    numba's threads alike (the ``*args`` typed as numba's dispatcher types them)."""
     rng = np.random.default_rng(0)
     a, b, c = rng.normal(size=(3, 501))
     for flag in (True, False):
-        out = np.zeros(501)
-        _threads.run_kernel(_nested, ((a, b), flag), np.zeros((2, 1)), (c, out), 501, 2)
-        assert np.array_equal(out, a + b + (c if flag else 0.0))
+        for parts in (1, 2):
+            out = np.zeros(501)
+            _threads.run_kernel(_nested, ((a, b), flag), np.zeros((2, 1)), (c, out), 501, parts)
+            assert np.array_equal(out, a + b + (c if flag else 0.0))
+    assert fanned == [(2, 0), (2, 0)] and len(_nested.overloads) == 1
+
+
+def test_each_engine_driver_is_compiled_once(two_threads: int) -> None:
+    """A driver's range kernel serves a batch in the calling thread and one on threads alike: one overload."""
+    model = ff.models.papadopoulos1992()
+    q = np.zeros((_drivers.jstar_batch.PARALLEL_MIN + 1, model.n_joints))
+    ff.generalized_jacobian(model, q[:1])
+    ff.generalized_jacobian(model, q)
+    assert len(_drivers.jstar_batch.serial.overloads) == 1
 
 
 def test_a_kernel_that_returns_a_value_is_refused(two_threads: int) -> None:
@@ -256,13 +293,18 @@ def test_a_child_forked_after_numba_threads_ran_uses_the_pool(two_threads: int) 
     """GNU OpenMP (numba's threading layer on Linux) ends a child forked after the parent used it, at its first
     parallel loop: in such a child the ranges run on the pool, and the child lives."""
     _threads.run_kernel(_record, (np.zeros(8),), np.zeros((2, 2)), (1.0,), 8, 2)  # the parent's numba threads ran
-    context = multiprocessing.get_context("fork")
-    queue = context.Queue()
-    child = context.Process(target=_kernel_in_a_child, args=(queue,))
-    child.start()
-    child.join(120)
-    alive = child.is_alive()
-    if alive:
-        child.kill()
-    assert not alive and child.exitcode == 0
-    assert queue.get(timeout=5) == (False, 1.0)
+    assert _in_a_forked_child(_kernel_in_a_child) == (False, 1.0)
+
+
+def test_a_driver_call_that_compiled_its_parallel_loop_is_not_work(two_threads: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The time a driver's call took counts towards specialising only when it compiled nothing (``Batched.compiled``):
+    neither its kernel nor the parallel loop that calls it on threads (``_threads.compiled_count``)."""
+    model = ff.models.papadopoulos1992()
+    q = np.zeros((_drivers.jstar_batch.PARALLEL_MIN + 1, model.n_joints))
+    ff.generalized_jacobian(model, q)
+    ff.generalized_jacobian(model, q)
+    assert _drivers.jstar_batch.compiled
+    counts = itertools.count()
+    monkeypatch.setattr(_drivers, "compiled_count", lambda: next(counts))  # as if the call compiled a signature
+    ff.generalized_jacobian(model, q)
+    assert not _drivers.jstar_batch.compiled

@@ -40,7 +40,7 @@ from ._lanes import LANES, rollout_loop
 from ._laws import law_control
 from ._numba_cache import bind, floats_view, ints_view, kernel
 from ._recursions import kinematics, scratch
-from ._threads import range_count, run_kernel, run_ranges, threads_for
+from ._threads import compiled_count, range_count, run_kernel, run_ranges, threads_for
 from ._tree import Tree, arrays, buffer_lengths, work_size
 
 __all__ = [
@@ -83,7 +83,8 @@ class Batched:
     #: 45 / 54, 256 88 / 137; H+ of the 7-DOF arm 64 54 / 58, 256 115 / 159; forward dynamics of the 1992 system 32
     #: 133 / 136, 64 146 / 151, 256 195 / 237. (On a pool's threads, woken at each call, it cost 50-120 us.)
     PARALLEL_MIN = 64
-    #: Whether the last call found its kernel compiled (or loaded) already: its time was work, not compiling.
+    #: Whether the last call compiled nothing (its kernel, and the parallel loop that calls it on threads, were compiled
+    #: or loaded already): its time was work, not compiling.
     compiled = False
 
     def __init__(self, serial: Any, parallel_min: int | None = None) -> None:
@@ -98,10 +99,11 @@ class Batched:
         buffers must outlive the call: they are arguments, held by this frame.
         """
         length = work_size(t.n_bodies, t.ee_body.shape[0])
-        self.compiled = bool(self.serial.overloads)
+        before = (len(self.serial.overloads), compiled_count())
         parts = threads_for(size, self.PARALLEL_MIN)
         work = np.empty((range_count(size, parts), length))
         run_kernel(self.serial, (t.ints, t.floats), work, a, size, parts)
+        self.compiled = before[0] > 0 and before == (len(self.serial.overloads), compiled_count())
 
 
 def driver(name: str, row: Any, *, parallel_min: int | None = None) -> Batched:

@@ -16,9 +16,12 @@ before.
 
 Where numba's threads cannot serve, :func:`run_kernel` runs the ranges on the pool instead: in a child made by
 ``fork`` after the parent launched them (GNU OpenMP, numba's usual layer on Linux, ends such a child at its first
-parallel loop), and while another thread of the process has a loop on the ``workqueue`` layer (it takes one at a time).
+parallel loop), and while another thread of the process has a loop of the engine's on the ``workqueue`` layer (it takes
+one at a time; numba falls back to it where neither TBB nor an OpenMP runtime is installed; a user's own ``prange``
+running at once in another thread on that layer still ends the process, as numba documents). On GNU OpenMP each
+calling thread gets a team of numba's threads of its own (many threads calling at once: more threads than cores).
 
-A kernel's ranges write into the call's outputs: :func:`run_ranges` returns, or raises, only when every range has
+A kernel's ranges write into the call's outputs: :func:`run_kernel` and :func:`run_ranges` return, or raise, only when every range has
 finished, Ctrl-C included (an interrupt is raised once the ranges running have finished, as numba's threads did), so
 that no output is written after its call has ended (a recycled output buffer, :func:`~._arrays.new_output`, serves the
 next call).
@@ -43,7 +46,7 @@ from numba.np.ufunc import parallel as numba_parallel
 
 from ._numba_cache import kernel
 
-__all__ = ["range_count", "run_kernel", "run_ranges", "thread_count", "threads_for"]
+__all__ = ["compiled_count", "range_count", "run_kernel", "run_ranges", "thread_count", "threads_for"]
 
 _POOL: list[ThreadPoolExecutor] = []
 _LOCK = [threading.Lock()]
@@ -165,6 +168,12 @@ def _fan_out(address: int, pre: Any, work: np.ndarray, post: Any, count: int, fa
     return failed.sum()
 
 
+def compiled_count() -> int:
+    """How many signatures of :func:`_fan_out` this process has compiled or loaded (one per signature of the kernels it
+    has called on threads): a call that raised it compiled one."""
+    return len(_fan_out.overloads)
+
+
 #: The machine code's address of each (kernel, argument types) that :func:`run_kernel` has called, keyed by numba's
 #: fingerprints of the arguments (what its dispatcher keys its own types by: 0.1 us an argument, where typing them is
 #: 5 us).
@@ -173,15 +182,21 @@ _ADDRESSES: dict[tuple[Any, ...], int] = {}
 
 def _address(run: Any, args: tuple[Any, ...]) -> int:
     """The address of the machine code that ``run`` (a numba dispatcher of a kernel that returns nothing) runs for
-    ``args``; compiled (or loaded from the cache) here if it has not run yet."""
+    ``args``: the overload that a call from Python compiles (or loads from the cache), compiled here if it has not run
+    yet. A kernel's ``*args`` are one tuple: numba's dispatcher types them as the tuple of their types (``Tuple``,
+    ``UniTuple``), not as the ``StarArgTuple`` that ``fold_argument_types`` makes, so they are typed as it does (else
+    the kernel would be compiled a second time, and kept twice on disk)."""
     key = (run, *(compute_fingerprint(a) for a in args))
     found = _ADDRESSES.get(key)
     if found is None:
-        _, types = run.fold_argument_types(tuple(run.typeof_pyval(a) for a in args), {})  # *args: one tuple, as compiled
-        result = run.overloads.get(tuple(types))
+        _, folded = run.fold_argument_types(tuple(run.typeof_pyval(a) for a in args), {})
+        types = tuple(
+            nbtypes.BaseTuple.from_types(t.types) if isinstance(t, (nbtypes.StarArgTuple, nbtypes.StarArgUniTuple)) else t for t in folded
+        )
+        result = run.overloads.get(types)
         if result is None:
-            run.compile(tuple(types))
-            result = run.overloads[tuple(types)]
+            run.compile(types)
+            result = run.overloads[types]
         if result.signature.return_type != nbtypes.none:
             raise TypeError(f"freefloat: run_kernel calls kernels that return nothing, not {result.signature.return_type}")
         found = _ADDRESSES[key] = int(result.library.get_pointer_to_function(result.fndesc.llvm_func_name))
@@ -206,9 +221,14 @@ def _layer() -> str:
 def run_kernel(run: Any, pre: tuple[Any, ...], work: np.ndarray, post: tuple[Any, ...], count: int, parts: int) -> None:
     """``run(*pre, work[r], first, last, *post)`` for the ``parts`` contiguous ranges r of ``[0, count)`` (at most
     ``count`` of them, their lengths differ by one at most) at once, on numba's threads (see the module docstring);
-    ``run`` a compiled kernel (a numba dispatcher) that returns nothing, ``work`` one scratch row per range. Returns when
-    every range has finished; a range that raised is run again in the calling thread, which raises its error."""
+    ``run`` a compiled kernel (a numba dispatcher) that returns nothing, ``work`` one scratch row per range; the arrays
+    of native byte order, as the engine's are (``_engine._own``: numba's fingerprints of arrays, the key of
+    :func:`_address`, do not tell byte orders apart). Returns when every range has finished; a range that raised is
+    run again in the calling thread, which raises its error."""
+    count = int(count)
     parts = range_count(count, parts)
+    if work.shape[0] < parts:
+        raise ValueError(f"freefloat: run_kernel needs a scratch row per range: {parts} ranges, {work.shape[0]} rows")
     if parts == 1:
         run(*pre, work[0], 0, count, *post)
         return
