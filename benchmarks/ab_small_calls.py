@@ -99,6 +99,16 @@ def main() -> None:
         side: {name: {call: {s: min(r[name][call][s] for r in runs) for s in map(str, SIZES)} for call in CALLS} for name in SYSTEMS}
         for side, runs in rounds.items()
     }
+    spread = {  # each revision's slowest round over its fastest, per cell: the noise the ratios sit in
+        side: {
+            name: {
+                call: {s: max(r[name][call][s] for r in runs) / min(r[name][call][s] for r in runs) for s in map(str, SIZES)}
+                for call in CALLS
+            }
+            for name in SYSTEMS
+        }
+        for side, runs in rounds.items()
+    }
     ratio = {
         name: {call: {s: best["this"][name][call][s] / best["base"][name][call][s] for s in map(str, SIZES)} for call in CALLS}
         for name in SYSTEMS
@@ -108,6 +118,8 @@ def main() -> None:
         "rounds": args.rounds,
         "seconds": best,
         "this_over_base": ratio,
+        "slowest_over_fastest_round": spread,
+        "rounds_seconds": rounds,
         "load_average_at_start": load_start,
         "load_average_at_end": os.getloadavg(),
         "notes": "best over the rounds of each revision's best of 3 x N calls; automatic specialisation off in both",
@@ -118,6 +130,11 @@ def main() -> None:
     for name in SYSTEMS:
         for call in CALLS:
             print(f"{name + ' ' + call:30s}" + "".join(f"{ratio[name][call][str(s)]:7.2f}" for s in SIZES))
+    print("each revision's slowest round over its fastest, base | this:")
+    for name in SYSTEMS:
+        for call in CALLS:
+            cells = (f"{spread['base'][name][call][str(s)]:.2f}|{spread['this'][name][call][str(s)]:.2f}" for s in SIZES)
+            print(f"{name + ' ' + call:30s}" + "".join(f"{c:>10s}" for c in cells))
 
 
 if __name__ == "__main__":
