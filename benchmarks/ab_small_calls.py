@@ -7,8 +7,9 @@ Issue 20 asks that "a one-off small call is never slower than today's generic pa
 before the issue's work: a call that runs no specialised kernel (automatic specialisation off in both) of 1 to 4,096
 configurations, the sizes whose time is mostly the call's fixed cost and the hand-over to threads. The earlier code
 is not in this checkout, so the comparison runs it: ``git worktree`` of ``--base`` in a temporary folder, imported
-from there (its own kernel cache under ``$FREEFLOAT_CACHE_DIR``-style folder ``<out>/ab-cache-<rev>``: its first round
-compiles its kernels), one process per revision per round, alternated, each the best of 3 x 300 calls per size (fewer
+from there; each revision has a kernel cache of its own, ``<out>/ab-cache-<rev>`` and ``<out>/ab-cache-this`` (a first
+round compiles its kernels; the user's cache may hold specialised modules of these systems, which a call uses even
+with automatic specialisation off), one process per revision per round, alternated, each the best of 3 x 300 calls per size (fewer
 for the large sizes). The report has each revision's best over the rounds and the ratio this / base; the load average
 at start and end. Not part of ``make bench`` (the first run compiles the base's kernels: minutes).
 """
@@ -63,10 +64,10 @@ print(json.dumps(out))
 """
 
 
-def _run(src: Path, cache: Path | None, spec: str) -> dict:
-    env = {**os.environ, "FREEFLOAT_AUTO_SPECIALISE": "0", "PYTHONPATH": str(src)}
-    if cache is not None:
-        env["FREEFLOAT_CACHE_DIR"] = str(cache)
+def _run(src: Path, cache: Path, spec: str) -> dict:
+    """One revision's process: ``src`` imported, its kernels in ``cache`` (a folder of this benchmark's own: the user's
+    cache may hold specialised modules of these systems, which a call uses even with automatic specialisation off)."""
+    env = {**os.environ, "FREEFLOAT_AUTO_SPECIALISE": "0", "PYTHONPATH": str(src), "FREEFLOAT_CACHE_DIR": str(cache)}
     done = subprocess.run([sys.executable, "-c", MEASURE, spec], env=env, capture_output=True, text=True, check=True)
     return json.loads(done.stdout.strip().splitlines()[-1])
 
@@ -91,7 +92,7 @@ def main() -> None:
             rounds: dict[str, list[dict]] = {"base": [], "this": []}
             for k in range(args.rounds):
                 rounds["base"].append(_run(tree / "src", args.out / f"ab-cache-{rev}", spec))
-                rounds["this"].append(_run(root / "src", None, spec))
+                rounds["this"].append(_run(root / "src", args.out / "ab-cache-this", spec))
                 print(f"round {k + 1} of {args.rounds} done", flush=True)
         finally:
             subprocess.run(["git", "-C", str(root), "worktree", "remove", "--force", str(tree)], capture_output=True, check=False)
