@@ -232,20 +232,20 @@ def run_kernel(run: Any, pre: tuple[Any, ...], work: np.ndarray, post: tuple[Any
     if parts == 1:
         run(*pre, work[0], 0, count, *post)
         return
-    if not _NUMBA_THREADS[0]:
-        run_ranges(lambda r, first, last: run(*pre, work[r], first, last, *post), count, parts)
+
+    def one(r: int, first: int, last: int) -> None:  # range r in the calling thread, a Python call of the kernel
+        run(*pre, work[r], first, last, *post)
+
+    queue = _NUMBA_THREADS[0] and _layer() == "workqueue"
+    if not _NUMBA_THREADS[0] or (queue and not _WORKQUEUE.acquire(blocking=False)):  # forked, or the layer is busy
+        run_ranges(one, count, parts)
         return
-    address = _address(run, (*pre, work[0], 0, count, *post))
     failed = np.empty(parts, dtype=np.int64)
-    queue = _layer() == "workqueue"
-    if queue and not _WORKQUEUE.acquire(blocking=False):  # another thread's loop is on it
-        run_ranges(lambda r, first, last: run(*pre, work[r], first, last, *post), count, parts)
-        return
     try:
-        raised = _fan_out(address, _flat(pre), work, _flat(post), count, failed)
+        raised = _fan_out(_address(run, (*pre, work[0], 0, count, *post)), _flat(pre), work, _flat(post), count, failed)
     finally:
         if queue:
             _WORKQUEUE.release()
     if raised:
-        for r in np.flatnonzero(failed):
-            run(*pre, work[r], r * count // parts, (r + 1) * count // parts, *post)
+        for r in map(int, np.flatnonzero(failed)):
+            one(r, r * count // parts, (r + 1) * count // parts)
