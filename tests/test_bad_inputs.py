@@ -36,7 +36,12 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+import bad_inputs_campaigns
+import bad_inputs_capture
+import bad_inputs_models
 import freefloat as ff
+from bad_case import SCENARIO_FILES, Case, api, cli
+from bad_case import add_file as _add
 from freefloat.cli import app
 from freefloat.core.errors import MemoryBudgetError, ModelCorrectionWarning, ModelError, ShapeError, UnknownNameError
 
@@ -257,17 +262,13 @@ BAD_MODELS = [
 
 
 # scenario files that one case reads each ("files/sim/NAME", "files/cap/NAME"): made only for the case that names them
-SCENARIO_FILES: dict[str, str] = {
-    "sim/arm.toml": f'model = "{ARM_URDF.as_posix()}"\nduration = 1.0\n',  # valid: the six-DOF arm file, for -e
-    "cap/arm.toml": f'model = "{ARM_URDF.as_posix()}"\n[payload]\nmass = 10.0\ninertia = 1.0\n'
-    "[path]\npoints = [[1.0, 0.0, 0.0], [1.0, 0.1, 0.0]]\n",
-}
-
-
-def _add(name: str, text: str) -> None:
-    if name in SCENARIO_FILES:
-        raise ValueError(f"two cases make files/{name}")
-    SCENARIO_FILES[name] = text
+SCENARIO_FILES.update(
+    {
+        "sim/arm.toml": f'model = "{ARM_URDF.as_posix()}"\nduration = 1.0\n',  # valid: the six-DOF arm file, for -e
+        "cap/arm.toml": f'model = "{ARM_URDF.as_posix()}"\n[payload]\nmass = 10.0\ninertia = 1.0\n'
+        "[path]\npoints = [[1.0, 0.0, 0.0], [1.0, 0.1, 0.0]]\n",
+    }
+)
 
 
 for _id, _, _name, _ in BAD_MODELS:
@@ -773,24 +774,6 @@ for _id, _, _changes in SIMULATION_EDITS:
     _add(f"sim/{_id}.toml", _edit(SIM, *_changes))
 for _id, _, _changes in CAPTURE_EDITS:
     _add(f"cap/{_id}.toml", _edit(CAP, *_changes))
-
-
-@dataclass(frozen=True)
-class Case:
-    id: str
-    run: Callable[[Path], Any] | list[str]  # an API call (given the files folder) or a CLI argv ("{files}" is replaced)
-    expect: Any  # exception class (or a tuple of them); CLI exit code; or a warning class
-    match: str
-    files: tuple[str, ...] = ()  # the SCENARIO_FILES it reads
-
-
-def api(id: str, run: Callable[[Path], Any], expect: Any, match: str) -> Case:
-    return Case(id, run, expect, match)
-
-
-def cli(id: str, argv: str, match: str, code: int = 1) -> Case:
-    args = argv.split()
-    return Case(id, args, code, match, tuple(name for a in args if (name := a.removeprefix("{files}/")) in SCENARIO_FILES))
 
 
 M = ff.models.papadopoulos1992
@@ -1655,6 +1638,10 @@ CASES += [
     cli("cli-unknown-option", "inspect papadopoulos1992 --colour red", r"No such option: --colour", code=2),
     cli("cli-unknown-command", "simulat x.toml", r"No such command 'simulat'", code=2),
 ]
+
+# The classes of issue 40 (campaign specs and storage, the cluster, the capture sequence, targets, detumbling, wheels,
+# per-trajectory parameters, relative paths), one module each.
+CASES += bad_inputs_campaigns.CASES + bad_inputs_capture.CASES + bad_inputs_models.CASES
 
 
 class Hang(BaseException):
