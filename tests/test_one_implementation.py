@@ -33,6 +33,7 @@ READS_INERTIA = {
     "simulation/coast.py::Coast.__init__": "a target's own torque-free motion before a grasp (Euler's equations of one body)",
     "simulation/coast.py::Coast.at": "the same: the coasting target's angular velocity R I⁻¹ Rᵀ L (no H+, C+ or J*)",
     "analysis/_capture_ranking.py::grasp_setup": "the planned payload handed to the Target of the grasp (data; the impact is mechanics')",
+    "mechanics/impact.py::_check_reach": "the target's radius of gyration: is the hand on it (a bound, no dynamics)",
 }
 #: Functions allowed to use the pair inertias (each one quantity).
 USES_PAIRS = {

@@ -3,6 +3,7 @@ commanded attitude, by the thrusters and the joint torques (1991 eq. 27 with the
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -157,3 +158,18 @@ def test_bad_cost_requests_name_the_field() -> None:
     batch = ff.rollout(model, ff.State(q=np.tile(state.q, (2, 1))), 0.02, dt=1e-2)
     with pytest.raises(ff.ShapeError, match="expected one run"):
         detumble_cost(batch)
+
+
+def test_detumble_takes_a_model_name_or_a_model_file() -> None:
+    """As everywhere a model is taken (README): a built-in name or a model file path gives the controller of that
+    model, the same actuation as the Model itself."""
+    state = ff.State(q=[0.3, 1.2, -0.4, 0.9], qdot=[0.02, -0.01, 0.03, 0.0], omega=[0.0, 0.0, 0.01], v_cm=[0.01, 0.0, 0.0])
+    path = Path(__file__).resolve().parents[2] / "examples" / "models" / "papadopoulos1992_two_arm.toml"
+    for given, model in (("papadopoulos1992", ff.models.papadopoulos1992()), (path, ff.load(path)), (str(path), ff.load(path))):
+        by_name, by_model = Detumble(given, rate_gain=0.5)(0.0, state), Detumble(model, rate_gain=0.5)(0.0, state)
+        assert by_name.joint_torque is not None and by_model.joint_torque is not None
+        np.testing.assert_array_equal(by_name.joint_torque, by_model.joint_torque)
+        np.testing.assert_array_equal(by_name.spacecraft_force, by_model.spacecraft_force)
+        np.testing.assert_array_equal(by_name.spacecraft_torque, by_model.spacecraft_torque)
+    with pytest.raises(ff.ModelError, match="is neither a model file nor a built-in model; did you mean 'papadopoulos1992'"):
+        Detumble("papadopoulos1993")

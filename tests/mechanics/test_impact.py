@@ -246,3 +246,31 @@ def test_bad_impact_arguments() -> None:
         impact(model, [0.3, 1.1, -0.4, 0.9], target)  # type: ignore[arg-type]
     with pytest.raises(ff.ShapeError, match="do not broadcast"):
         impact(model, ff.State(q=np.zeros((2, 4))), Target(**{**GOOD, "mass": [1.0, 2.0, 3.0]}))
+
+
+def test_a_target_the_hand_is_not_on_is_refused() -> None:
+    """The end-effector point must lie within GRASP_REACH of the target's largest radii of gyration from its CM: just
+    inside is an impact, just outside (and the issue's target 50 m away) is refused, naming the distance."""
+    from freefloat.mechanics.impact import GRASP_REACH
+
+    model = ff.models.papadopoulos1992(arms=2)
+    state = ff.State(q=[0.3, 1.1, -0.4, 0.9], r_cm=[1.0, -2.0, 0.5], attitude=Rotation.from_euler("z", 0.4))
+    s = state.resolve(model)
+    tip = s.r_cm + s.rotation.apply(ff.end_effector_positions(model, s.q)[1])
+    inertia = np.diag([20.0, 30.0, 45.0])
+    r_g = np.sqrt(45.0 / 200.0)
+    along = np.array([0.6, 0.0, 0.8])
+    for factor, refused in ((0.999, False), (1.001, True)):
+        target = Target(mass=200.0, inertia=inertia, position=tip + factor * GRASP_REACH * r_g * along, velocity=[0.0, 0.02, 0.0])
+        if refused:
+            with pytest.raises(ValueError, match=rf"^target: its CM at .* is {factor * GRASP_REACH * r_g:.6g} m from the grasping"):
+                impact(model, state, target, end_effector=1)
+        else:
+            assert impact(model, state, target, end_effector=1).energy_lost >= 0.0
+    far = Target(mass=200.0, inertia=inertia, position=tip + np.array([50.0, 0.0, 0.0]))
+    with pytest.raises(ValueError, match=r"is 50 m from the grasping end effector 'arm2_ee' at \[.*\] m \(inertial\), more than 10 of its"):
+        impact(model, state, far, end_effector=1)
+    # in a batch, the target the hand is farthest from is named by its index
+    batch = Target(mass=[200.0, 200.0, 200.0], inertia=inertia, position=np.stack([tip, tip + np.array([50.0, 0.0, 0.0]), tip]))
+    with pytest.raises(ValueError, match=r"^target\[1\]: its CM"):
+        impact(model, state, batch, end_effector=1)

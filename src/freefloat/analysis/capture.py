@@ -75,6 +75,7 @@ __all__ = [
     "CapturePlan",
     "CapturePosture",
     "CaptureRanking",
+    "FixedCapturePlan",
     "Impact",
     "PathDoesNotFitError",
     "PathMotion",
@@ -83,6 +84,7 @@ __all__ = [
     "approach_distance",
     "capture_families",
     "draw_system",
+    "fixed_capture_plan",
     "free_floating_path_motion",
     "impact",
     "optimal_capture_posture",
@@ -328,13 +330,72 @@ def plan_capture(
     (configurations; stages: one per candidate R+, then the batch integration) on a terminal, and log the same to the
     ``freefloat.progress`` logger elsewhere.
     """
+    grasp = _grasp_options(target_velocity, target_angular_velocity, joints, rank_by)
+    fixed = fixed_capture_plan(
+        model, end_effector, path, mass=mass, inertia=inertia, offset=offset, rule=rule, R_plus=R_plus, samples=samples,
+        criterion=criterion, strategy=strategy,
+    )  # fmt: skip
+    return fixed.plan if grasp is None else fixed.grasped(grasp)
+
+
+@dataclass(frozen=True, eq=False)
+class FixedCapturePlan:
+    """The part of :func:`plan_capture` that the target's motion does not change (:func:`fixed_capture_plan`): the
+    plan of a payload at rest, the checked candidates of a path-checked plan, and the inputs of the ranking.
+    :meth:`moving` adds a target's motion (the candidates' impacts and the ranking), which is cheap beside it."""
+
+    plan: CapturePlan
+    checked: tuple[CheckedCandidate, ...]
+    path: np.ndarray
+    payload: Payload
+    end_effector: int
+
+    def moving(
+        self, target_velocity: Any = None, target_angular_velocity: Any = None, joints: str | None = None, rank_by: str = "measure"
+    ) -> CapturePlan:
+        """The plan for a target with this motion (the arguments of :func:`plan_capture`): ``plan_capture``'s result."""
+        grasp = _grasp_options(target_velocity, target_angular_velocity, joints, rank_by)
+        return self.plan if grasp is None else self.grasped(grasp)
+
+    def candidates(self) -> tuple[list[CheckedCandidate], np.ndarray, int]:
+        """The candidate captures (their path checks done once, kept: they do not depend on the target's motion), their
+        eq. 21 families (-1: none) and the planner's index among them."""
+        found = self.__dict__.get("_candidates")
+        if found is None:
+            with status("checking the candidate capture postures along the path"):
+                found = _candidates(self.plan, self.end_effector, self.path, list(self.checked))
+            object.__setattr__(self, "_candidates", found)
+        return found
+
+    def grasped(self, grasp: Grasp) -> CapturePlan:
+        """The plan for checked moving-target options (:class:`Grasp`): the candidates ranked, the chosen one's impact."""
+        candidates = self.candidates()
+        with status(f"the grasp of the moving target at each candidate capture posture (ranked by {grasp.rank_by})"):
+            return _ranked_plan(self.plan, self.end_effector, self.path, candidates, grasp, self.payload)
+
+
+def fixed_capture_plan(
+    model: Model,
+    end_effector: str | int,
+    path: Any,
+    *,
+    mass: float,
+    inertia: Any,
+    offset: Sequence[float] = (0.0, 0.0, 0.0),
+    rule: str = "perpendicular",
+    R_plus: float | None = None,
+    samples: int = 1 << 18,
+    criterion: SingularityCriterion | None = None,
+    strategy: str = "auto",
+) -> FixedCapturePlan:
+    """:func:`plan_capture` without the target's motion (the same arguments): the PIW, the placement, the posture and
+    the path checks, kept with what :meth:`FixedCapturePlan.moving` needs to rank the candidates for a moving target."""
     if strategy not in STRATEGIES:
         raise ValueError(f"strategy: expected one of {', '.join(STRATEGIES)}, got {strategy!r}")
     if R_plus is not None and (
         isinstance(R_plus, bool) or not isinstance(R_plus, (int, float, np.number)) or not np.isfinite(R_plus) or R_plus <= 0
     ):
         raise ValueError(f"R_plus: expected a positive distance (m) from CM+ to A, got {R_plus!r}")
-    grasp = _grasp_options(target_velocity, target_angular_velocity, joints, rank_by)
     crit = criterion if criterion is not None else SingularityCriterion()
     e = model.end_effector_index(end_effector)
     captured = model.with_payload(e, mass=mass, inertia=inertia, offset=offset)
@@ -392,47 +453,41 @@ def plan_capture(
         criterion=crit,
         why_path=why_path if method == "path" else "",
     )
-    if grasp is None:
-        return plan
-    with status(f"the grasp of the moving target at each candidate capture posture (ranked by {grasp.rank_by})"):
-        payload = Payload(float(mass), inertia_matrix(inertia, "inertia"), np.asarray(offset, dtype=float))
-        return _ranked_plan(plan, e, pts, checked, grasp, payload)
+    payload = Payload(float(mass), inertia_matrix(inertia, "inertia"), np.asarray(offset, dtype=float))
+    return FixedCapturePlan(plan=plan, checked=tuple(checked), path=pts, payload=payload, end_effector=e)
+
+
+def _candidates(
+    plan: CapturePlan, e: int, path: np.ndarray, checked: list[CheckedCandidate]
+) -> tuple[list[CheckedCandidate], np.ndarray, int]:
+    """The candidate captures of :meth:`FixedCapturePlan.candidates`: a PIW plan's posture and the eq. 21 families'
+    (or sampled postures), each checked along the path; a path-checked plan's checked placements."""
+    motion = plan.motion
+    assert motion is not None
+    if plan.method == "piw":
+        posture = plan.posture
+        others, family = piw_candidates(plan.captured, e, path, posture, plan.placement.cm_plus, plan.criterion)
+        candidates = [CheckedCandidate(plan.placement.cm_plus, posture.R_plus, posture.q, posture.attitude, motion), *others]
+        return candidates, np.concatenate([[-1 if posture.family is None else posture.family], family]), 0
+    best = best_candidate(checked)
+    assert best is not None  # the plan was made from it
+    return checked, np.full(len(checked), -1), best
 
 
 def _ranked_plan(
-    plan: CapturePlan, e: int, path: np.ndarray, checked: list[CheckedCandidate], grasp: Grasp, payload: Payload
+    plan: CapturePlan, e: int, path: np.ndarray, found: tuple[list[CheckedCandidate], np.ndarray, int], grasp: Grasp, payload: Payload
 ) -> CapturePlan:
-    """The plan with the grasp of a moving target: the candidates ranked, the chosen one's placement, posture and motion,
-    and the impact there."""
-    captured, crit, posture, motion = plan.captured, plan.criterion, plan.posture, plan.motion
-    assert motion is not None
-    if plan.method == "piw":
-        cm = plan.placement.cm_plus
-        others, family = piw_candidates(captured, e, path, posture, cm, crit)
-        candidates = [CheckedCandidate(cm, posture.R_plus, posture.q, posture.attitude, motion), *others]
-        families = np.concatenate([[-1 if posture.family is None else posture.family], family])
-        planner = 0
-    else:
-        candidates, families = checked, np.full(len(checked), -1)
-        best = best_candidate(checked)
-        assert best is not None  # the plan was made from it
-        planner = best
+    """The plan with the grasp of a moving target: the candidates (:func:`_candidates`) ranked, the chosen one's
+    placement, posture and motion, and the impact there."""
+    captured, crit, posture = plan.captured, plan.criterion, plan.posture
+    candidates, families, planner = found
     ranking = rank_candidates(plan.before, captured, e, candidates, families, planner, payload=payload, grasp=grasp, criterion=crit)
     chosen = candidates[ranking.chosen]
     placement = plan.placement
     if ranking.chosen != planner:
         if plan.method == "piw":
-            posture = posture_at(
-                captured,
-                e,
-                chosen.q,
-                chosen.attitude,
-                posture.R_plus,
-                posture.direction,
-                crit,
-                int(families[ranking.chosen]),
-                len(candidates),
-            )
+            family, count = int(families[ranking.chosen]), len(candidates)
+            posture = posture_at(captured, e, chosen.q, chosen.attitude, posture.R_plus, posture.direction, crit, family, count)
         else:
             placement, posture, _ = _path_checked_plan(
                 plan.before, captured, e, path, plan.piw, payload.mass, crit, chosen, plan.posture.starts

@@ -13,13 +13,15 @@ with e the rotation vector of T0ᵀ T0,des (spacecraft frame). ``force=False`` k
 (torque only): the CM then keeps its velocity, and rest means zero rotation and joint rates.
 
 :func:`detumble_cost` reads a simulated :class:`~freefloat.Trajectory` of it (or of any controller): thruster
-impulse, delta-v of the combined system and the propellant for a specific impulse, peak joint torques, time to rest.
-Reaction wheels are not modelled yet, so no wheel momentum or speed is reported.
+impulse, delta-v of the combined system and the propellant for a specific impulse, peak joint torques, time to rest,
+and with reaction wheels (``torque_by="wheels"``, docs/wheels.md) their peak speed, spin momentum, torque and the
+limits that acted.
 """
 
 from __future__ import annotations
 
 import copy
+import os
 from dataclasses import dataclass
 from typing import Any
 
@@ -28,7 +30,8 @@ from scipy.spatial.transform import Rotation
 
 from ..core.conventions import attitude_matrix
 from ..core.errors import ShapeError
-from ..core.model import Model
+from ..core.model import Model, resolve_model
+from ..core.numbers import real_array
 from ..core.state import Actuation, State
 from ..mechanics.dynamics import nonlinear_forces
 from ..mechanics.momentum import system_inertia_matrix, wheel_spin_momentum
@@ -44,6 +47,8 @@ STANDARD_GRAVITY = 9.80665
 
 
 def _positive(value: Any, name: str, unit: str) -> float:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name}: expected a number ({unit}), got {type(value).__name__} {value!r}")
     number = float(value)
     if not (np.isfinite(number) and number > 0.0):
         raise ValueError(f"{name}: expected a positive finite number ({unit}), got {value!r}")
@@ -59,6 +64,10 @@ class Detumble:
     ``force=False``: no thruster force (the CM keeps drifting). ``torque_by="wheels"``: the spacecraft torque by the
     reaction wheels (:mod:`freefloat.control.wheels`), not the thrusters. Actuator limits are the simulation's
     (``simulate(..., limits=ff.ActuatorLimits(...))``), which saturates and records where it did.
+
+    ``model``: a :class:`~freefloat.Model`, a built-in model name or a model file path (``ff.load``), or a sequence of
+    payload variants (one per trajectory). Each argument is checked by name before any work: numbers must be real
+    numbers (not text, not booleans), ``force`` a boolean (not the text "true").
     """
 
     def __init__(
@@ -71,11 +80,15 @@ class Detumble:
         force: bool = True,
         torque_by: str = "thrusters",
     ) -> None:
+        if isinstance(model, (str, os.PathLike)):
+            model = resolve_model(model)  # a built-in name or a model file, as everywhere a model is taken
         self.models = _compiled.models_of(model)  # one model, or payload variants per trajectory
         model = self.models[0]
+        if not isinstance(force, (bool, np.bool_)):
+            raise TypeError(f"force: expected True or False (thrusters stop the CM, or torque only), got {type(force).__name__} {force!r}")
         self.actuators = check_actuators(model, torque_by, "thrusters" if force else "none")
         size = 6 + model.n_joints
-        gains = np.asarray(rate_gain, dtype=float)
+        gains = real_array(rate_gain, "rate_gain")
         gains = np.full(size, float(gains)) if gains.ndim == 0 else gains
         if gains.ndim == 2 and gains.shape[1] in (1, size):  # per trajectory: (B, 1) or (B, 6 + N)
             gains = np.broadcast_to(gains, (gains.shape[0], size))
@@ -93,7 +106,7 @@ class Detumble:
         if attitude is not None:
             rotation = attitude if isinstance(attitude, Rotation) else None
             if rotation is None:
-                quat = np.asarray(attitude, dtype=float)
+                quat = real_array(attitude, "attitude")
                 if quat.shape != (4,) or not np.all(np.isfinite(quat)) or abs(np.linalg.norm(quat) - 1.0) > 1e-9:
                     raise ValueError(f"attitude: expected a unit quaternion [x, y, z, w] or a scipy Rotation, got {attitude!r}")
                 rotation = Rotation.from_quat(quat)

@@ -15,12 +15,14 @@ Conventions, following Basilisk's ``reactionWheelStateEffector`` where they fit 
   torque against ``Omega`` (the joints' law, :func:`freefloat.mechanics.passive_torque`), acting between rotor and
   spacecraft (Basilisk's ``cViscous`` and ``fCoulomb``; its static friction and Stribeck curve are not modelled).
 
-Where freefloat differs from Basilisk: **the spacecraft body of the model holds the wheels as rigid parts** (its mass
-and inertia are those of the spacecraft with its wheels locked, as a mass-properties report of the assembled
-spacecraft gives them), so every kinematic and momentum quantity of the model (J*, H+, the barycentric vectors) is
-that of the whole spacecraft; the wheels add only their spin relative to it. Basilisk's hub excludes the wheels: to
-convert, add each wheel's mass and its full inertia (Js along the axis, Jt across it, at the wheel's position) to the
-hub. A balanced wheel's position does not enter the dynamics (its CM is fixed in the spacecraft), so it is not asked.
+**The spacecraft body of the model holds the wheels as rigid parts** (its mass and inertia are those of the
+spacecraft with its wheels locked, as a mass-properties report of the assembled spacecraft gives them), so every
+kinematic and momentum quantity of the model (J*, H+, the barycentric vectors) is that of the whole spacecraft; the
+wheels add only their spin relative to it. This is Basilisk's own convention for balanced wheels: with its default
+``includeWheelMassProperties = False``, a ``BalancedWheels`` wheel adds no mass or constant inertia and the hub
+(``mHub``, ``r_BcB_B``, ``IHubPntBc_B``) must include the wheels locked, so a Basilisk hub is taken as it is (only
+with ``includeWheelMassProperties = True``, a hub without its wheels, are their mass and inertia added to it). A
+balanced wheel's position does not enter the dynamics (its CM is fixed in the spacecraft), so it is not asked.
 
 For the dynamics, :func:`wheel_joint_model` turns the wheels into bodies on revolute joints of the spacecraft, which
 the engine integrates like any joint: each a rotor of inertia ``Js a aᵀ`` (no mass, at the spacecraft's CM), and the

@@ -54,10 +54,16 @@ from .jacobians import point_jacobian
 from .kinematics import body_rotations, point_positions
 from .momentum import system_inertia_matrix
 
-__all__ = ["JOINT_MODES", "Impact", "impact"]
+__all__ = ["GRASP_REACH", "JOINT_MODES", "Impact", "impact"]
 
 #: What the joints do during the grasp: "free" (no impulsive torque) or "locked" (the joint rates do not jump).
 JOINT_MODES = ("free", "locked")
+#: The grasping hand must be on the target: its end-effector point at most this many of the target's largest radii
+#: of gyration, sqrt(max eig(I_c) / m), from the target's CM. Every homogeneous body lies within 4 of them of its CM
+#: (a cube's corner 2.1, a rod's end 1.7, a slender cone's tip 3.9); 10 leaves room for bodies that are not (a
+#: bus with long solar arrays: the arrays' tips about 5). A hand farther away is not on the target (a position in the
+#: wrong frame or unit): the impact is refused rather than computed for a body the hand does not touch.
+GRASP_REACH = 10.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -191,6 +197,7 @@ def impact(model: Any, state: State, target: Target, end_effector: str | int = 0
     t0 = attitude_matrix(robot.attitude)
     rot_k = t0 @ body_rotations(model, robot.q)[..., k, :, :]
     origin_k = robot.r_cm + np.einsum("...ij,...j->...i", t0, point_positions(model, robot.q, k))
+    _check_reach(target, origin_k + np.einsum("...ij,j->...i", rot_k, model.end_effector_point[e]), model.end_effector_names[e])
     jac_o = point_jacobian(model, robot.q, k, np.zeros(3), attitude=t0)  # rows [v_o; w_k], inertial
     h_robot = system_inertia_matrix(model, robot.q)
 
@@ -258,6 +265,27 @@ def impact(model: Any, state: State, target: Target, end_effector: str | int = 0
     if not batch:
         _ = result.model  # one impact: build the combined model now, so that its errors are the call's
     return result
+
+
+def _check_reach(target: Target, tip: np.ndarray, name: str) -> None:
+    """Refuse a target whose CM is farther from the end-effector point ``tip`` (..., 3) (inertial) than
+    :data:`GRASP_REACH` of its largest radii of gyration (a ValueError naming the positions and the distance)."""
+    gyration = np.sqrt(np.linalg.eigvalsh(target.inertia)[..., -1] / target.mass)
+    distance = np.linalg.norm(target.position - tip, axis=-1)
+    excess = np.broadcast_to(distance - GRASP_REACH * gyration, np.broadcast_shapes(distance.shape, gyration.shape))
+    if not np.any(excess > 0.0):
+        return
+    index = np.unravel_index(int(np.argmax(excess)), excess.shape) if excess.shape else ()
+    where = f"target{list(map(int, index)) if index else ''}"
+    cm = np.broadcast_to(target.position, (*excess.shape, 3))[index]
+    hand = np.broadcast_to(tip, (*excess.shape, 3))[index]
+    r_g = float(np.broadcast_to(gyration, excess.shape)[index])
+    raise ValueError(
+        f"{where}: its CM at [{', '.join(f'{x:.6g}' for x in cm)}] m is {float(np.broadcast_to(distance, excess.shape)[index]):.6g} m "
+        f"from the grasping end effector {name!r} at [{', '.join(f'{x:.6g}' for x in hand)}] m (inertial), more than "
+        f"{GRASP_REACH:g} of its radii of gyration ({GRASP_REACH:g} x {r_g:.3g} m): the hand is not on the target; give the "
+        "target's position where the hand grasps it (inertial frame, m)"
+    )
 
 
 def _with_wheels(model: Model, state: State, target: Target, end_effector: str | int, joints: str) -> Impact:

@@ -33,12 +33,14 @@ planar two-link arm. Schema (docs/workspaces.md, docs/impact.md)::
 
     # [grasp]                            # optional, a moving target only (payload velocity / angular_velocity given)
     # joints = "free"                    # "free" or "locked" during the grasp (ff.capture.impact)
+    # time = 0.0                         # s, with [detumble]: the grasp time of the sequence (the target moves on its
+                                         # own until then, to be where the plan grasps it at that time)
     # rank_by = "spacecraft_rate"        # "measure" (1992 §V; default), "spacecraft_rate", "impulse", "angular_impulse",
                                          # "joint_impulse" (locked joints): the posture with the smallest value
 
     # [detumble]                         # optional, a moving target only: the capture sequence (.capture_sequence)
     # rate_gain = 0.5                    # 1/s: ff.control.Detumble's, every rate decays as exp(-k t)
-    # duration = 20.0                    # s of detumbling after the grasp at t = 0
+    # duration = 20.0                    # s of detumbling after the grasp (at [grasp] time, default t = 0)
     # sample_period = 0.05               # s, the controller's samples and the outputs
     # specific_impulse = 220.0           # optional, s: the propellant mass
     # rest_rate = 1e-3                   # rad/s; rest_joint_rate (rad/s), rest_velocity (m/s): what counts as at rest
@@ -72,20 +74,23 @@ import numpy as np
 
 from ..analysis._capture_families import _is_two_link
 from ..analysis._capture_ranking import check_twist, grasp_problem
-from ..analysis.capture import STRATEGIES, CapturePosture, optimal_capture_posture, plan_capture
+from ..analysis.capture import STRATEGIES, CapturePosture, optimal_capture_posture
 from ..analysis.singularity import MEASURES, ROWS, SingularityCriterion
-from ..control.wheels import TORQUE_BY
 from ..core.errors import ModelError, UnknownNameError
 from ..core.model import MAX_LENGTH, Model, inertia_matrix
 from ..io.model_files import read_toml
+from ..simulation._guard import RunEstimate
+from ._plan_memo import fixed_plan
 from .capture_outputs import CaptureResult, plot_capture_families, plot_capture_plan, write_capture_outputs
-from .capture_sequence import DetumbleSettings, run_capture_sequence
+from .capture_sequence import run_capture_sequence
+from .capture_settings import DetumbleSettings, check_sequence_estimate, detumble_settings, estimate_sequence
 from .scenario import description_of, refuse_model_file, scenario_model, scenario_wheels
 
 __all__ = [
     "CaptureResult",
     "CaptureScenario",
     "capture_scenario_from_dict",
+    "estimate_capture_sequence",
     "load_capture_scenario",
     "plot_capture_families",
     "plot_capture_plan",
@@ -100,7 +105,7 @@ _TOP_KEYS = {
 _SINGULARITY_KEYS = {"rows", "measure", "threshold", "strategy"}
 _PAYLOAD_KEYS = {"mass", "inertia", "offset", "velocity", "angular_velocity"}
 _PATH_KEYS = {"points", "rule", "R_plus"}
-_GRASP_KEYS = {"joints", "rank_by"}
+_GRASP_KEYS = {"joints", "rank_by", "time"}
 _DETUMBLE_KEYS = {f.name for f in dataclasses.fields(DetumbleSettings)}
 
 
@@ -126,6 +131,7 @@ class CaptureScenario:
     joints: str | None = None
     rank_by: str = "measure"
     detumble: DetumbleSettings | None = None
+    grasp_time: float = 0.0  # s: the grasp of the capture sequence ([grasp] time)
 
 
 def _where(source: str, field: str) -> str:
@@ -293,10 +299,19 @@ def capture_scenario_from_dict(
         if velocity is None and angular_velocity is None:
             fix = "give the target's motion ([payload] velocity or angular_velocity) or drop [detumble]"
             raise ModelError(_where(source, "detumble"), "needs a moving target", fix)
-        detumble = _detumble(data["detumble"], source)
+        detumble = detumble_settings(_check_keys(data["detumble"], _DETUMBLE_KEYS, source, "detumble"), source)
         if detumble.torque_by == "wheels" and not model.wheels:
             fix = 'declare the spacecraft\'s [[wheels]] in the scenario or its model file (docs/wheels.md), or use "thrusters"'
             raise ModelError(_where(source, "detumble.torque_by"), f"'wheels', but {model.name!r} has no reaction wheels", fix)
+    grasp_time = 0.0
+    if "time" in grasp:
+        fix = "give the grasp time of the capture sequence in s (>= 0), or leave it out (t = 0)"
+        grasp_time = _number(grasp["time"], source, "grasp.time", fix)
+        if grasp_time < 0.0:
+            raise ModelError(_where(source, "grasp.time"), f"must be >= 0, got {grasp['time']!r}", fix)
+        if detumble is None and grasp_time != 0.0:  # the default, 0, says nothing
+            fix = "add a [detumble] table (the capture sequence simulates the time before the grasp) or drop grasp.time"
+            raise ModelError(_where(source, "grasp.time"), "is the grasp time of the capture sequence, and there is none", fix)
     description = description_of(data, source)
     return CaptureScenario(
         source=source,
@@ -317,52 +332,8 @@ def capture_scenario_from_dict(
         joints=grasp.get("joints"),
         rank_by=str(grasp.get("rank_by", "measure")),
         detumble=detumble,
+        grasp_time=grasp_time,
     )
-
-
-def _detumble(table: Any, source: str) -> DetumbleSettings:
-    """The [detumble] table: the capture sequence after the plan (:mod:`.capture_sequence`)."""
-    table = _check_keys(table, _DETUMBLE_KEYS, source, "detumble")
-    values: dict[str, Any] = {}
-    units = {
-        "rate_gain": "1/s", "duration": "s", "sample_period": "s", "specific_impulse": "s",
-        "rest_rate": "rad/s", "rest_velocity": "m/s", "rest_joint_rate": "rad/s",
-    }  # fmt: skip
-    for key, unit in units.items():
-        if key in table:
-            fix = f"give detumble.{key} in {unit}, a number > 0"
-            values[key] = _number(table[key], source, f"detumble.{key}", fix)
-            if values[key] <= 0.0:
-                raise ModelError(_where(source, f"detumble.{key}"), f"must be positive, got {table[key]!r}", fix)
-    if "force" in table:
-        if not isinstance(table["force"], bool):
-            fix = "write force = true (thrusters stop the CM) or false (torque only)"
-            raise ModelError(_where(source, "detumble.force"), f"expected true or false, got {table['force']!r}", fix)
-        values["force"] = table["force"]
-    if "torque_by" in table:
-        if table["torque_by"] not in TORQUE_BY:
-            fix = 'write torque_by = "thrusters" or "wheels" (the model\'s [[wheels]]: docs/wheels.md)'
-            raise ModelError(_where(source, "detumble.torque_by"), f"unknown {table['torque_by']!r}", fix)
-        values["torque_by"] = table["torque_by"]
-    if "frames" in table:
-        frames = table["frames"]
-        if isinstance(frames, bool) or not isinstance(frames, int) or frames < 2:
-            raise ModelError(_where(source, "detumble.frames"), f"expected an integer >= 2, got {frames!r}", "e.g. frames = 40")
-        values["frames"] = frames
-    if "attitude" in table:
-        fix = "give attitude = [x, y, z, w], a unit quaternion (spacecraft -> inertial), or leave it out (rates only)"
-        raw = table["attitude"]
-        if not isinstance(raw, list) or len(raw) != 4:
-            raise ModelError(_where(source, "detumble.attitude"), f"expected [x, y, z, w], got {raw!r}", fix)
-        quat = np.array([_number(v, source, "detumble.attitude", fix) for v in raw])
-        if abs(np.linalg.norm(quat) - 1.0) > 1e-6:
-            raise ModelError(_where(source, "detumble.attitude"), f"has norm {np.linalg.norm(quat):.6g}, not 1", fix)
-        values["attitude"] = tuple(float(v) for v in quat / np.linalg.norm(quat))
-    settings = DetumbleSettings(**values)
-    if settings.sample_period > settings.duration:
-        fix = "make sample_period (s) at most the duration"
-        raise ModelError(_where(source, "detumble.sample_period"), f"{settings.sample_period:g} s exceeds the duration", fix)
-    return settings
 
 
 def _twist(payload: dict[str, Any], key: str, source: str) -> np.ndarray | None:
@@ -406,25 +377,26 @@ def load_capture_scenario(
     return capture_scenario_from_dict(data, source=str(path), base_dir=path.parent, model_loader=model_loader, end_effectors=end_effectors)
 
 
-def run_capture_scenario(scenario: CaptureScenario) -> CaptureResult:
-    """Run 1992 §V for a scenario. Raises :class:`~freefloat.analysis.capture.PathDoesNotFitError` when the path fits nowhere."""
-    plan = plan_capture(
-        scenario.model,
-        scenario.end_effector,
-        scenario.path,
-        mass=scenario.mass,
-        inertia=scenario.inertia,
-        offset=tuple(scenario.offset),
-        rule=scenario.rule,
-        R_plus=scenario.R_plus,
-        samples=scenario.samples,
-        criterion=scenario.criterion,
-        strategy=scenario.strategy,
-        target_velocity=scenario.velocity,
-        target_angular_velocity=scenario.angular_velocity,
-        joints=scenario.joints,
-        rank_by=scenario.rank_by,
-    )
+def estimate_capture_sequence(scenario: CaptureScenario) -> RunEstimate | None:
+    """Steps, samples, outputs, memory and wall time of the scenario's capture sequence (None without [detumble]):
+    :func:`freefloat.simulation.estimate_run`, as ``freefloat simulate`` estimates its runs."""
+    if scenario.detumble is None:
+        return None
+    return estimate_sequence(scenario.model, scenario.detumble, scenario.grasp_time)
+
+
+def run_capture_scenario(scenario: CaptureScenario, *, warn_after: float | None = 60.0) -> CaptureResult:
+    """Run 1992 §V for a scenario. Raises :class:`~freefloat.analysis.capture.PathDoesNotFitError` when the path fits nowhere.
+
+    The capture sequence ([detumble]) is estimated first, before the plan (:func:`estimate_capture_sequence`): one
+    whose recorded states would not fit in memory raises :class:`~freefloat.MemoryBudgetError`, and one estimated
+    to take over ``warn_after`` seconds (None: never) warns :class:`~freefloat.LongRunWarning`, as ``ff.simulate`` does.
+    The robot's plan is computed once per distinct robot and path in a process (:mod:`._plan_memo`): a run with only
+    the target's motion, the grasp time or the detumbling changed reuses it."""
+    estimate = estimate_capture_sequence(scenario)
+    if estimate is not None:
+        check_sequence_estimate(estimate, warn_after)
+    plan = fixed_plan(scenario).moving(scenario.velocity, scenario.angular_velocity, joints=scenario.joints, rank_by=scenario.rank_by)
     families: tuple[CapturePosture | None, ...] = ()
     if _is_two_link(plan.captured) and plan.method == "piw":
         found: list[CapturePosture | None] = []
@@ -438,5 +410,5 @@ def run_capture_scenario(scenario: CaptureScenario) -> CaptureResult:
             except ValueError:  # no posture on this family within the joint limits
                 found.append(None)
         families = tuple(found)
-    sequence = None if scenario.detumble is None else run_capture_sequence(plan, scenario.detumble)
+    sequence = None if scenario.detumble is None else run_capture_sequence(plan, scenario.detumble, scenario.grasp_time)
     return CaptureResult(scenario=scenario, plan=plan, family_postures=families, sequence=sequence)

@@ -308,6 +308,7 @@ def simulate_capture(
             raise ValueError(f"Capture.at: the capture time {capture.at:g} s is beyond the duration {duration:g} s")
         if step is not None and abs(round(capture.at / step) * step - capture.at) > 1e-9 * max(duration, step):
             raise ValueError(f"Capture.at: {capture.at:g} s is not a multiple of fixed_step = {step:g} s; choose a time that is")
+    _check_controllers(model, controller, capture.controller_after)
     events: Sequence[Any] = tuple(options.get("events", ()))
     motion = coast(capture.target, duration if capture.at is None else capture.at)
     gap = _Gap(model, end, motion, capture)
@@ -331,7 +332,11 @@ def simulate_capture(
 
     # the grasp, then phase 2: the combined model from the post-impact state
     t_e = float(before.t[-1])
-    grasp = impact(model, before.state(-1), motion.at(t_e), end_effector=end, joints=capture.joints)
+    try:
+        grasp = impact(model, before.state(-1), motion.at(t_e), end_effector=end, joints=capture.joints)
+    except ValueError as exc:  # the hand not on the target: said with the capture's time
+        when = f"Capture.at = {capture.at:g} s" if capture.at is not None else f"Capture.within: the event at t = {t_e:.6g} s"
+        raise ValueError(f"{when}: {exc}") from None
     after_controller = capture.controller_after if capture.controller_after is not None else controller
     for told in {id(c): c for c in (controller, capture.controller_after) if c is not None}.values():
         tell = getattr(told, "on_capture", None)
@@ -356,6 +361,23 @@ def simulate_capture(
     if after.message:
         message += f"; after the grasp (times from the grasp): {after.message}"
     return CaptureRun(after=after, status=after.status, message=message, **run)  # type: ignore[arg-type]
+
+
+def _check_controllers(model: Model, controller: Any, after: Any) -> None:
+    """Before the run: a controller made for another robot (its ``model``: other joints or wheels) is refused; the
+    controller of phase 2 is told of the grasp and then controls the combined model, which has the robot's joints."""
+    for name, told in (("controller", controller), ("Capture.controller_after", after)):
+        other = getattr(told, "model", None)
+        if not isinstance(other, Model) or other is model:
+            continue
+        mine = (model.joint_names, tuple(w.name for w in model.wheels))
+        theirs = (other.joint_names, tuple(w.name for w in other.wheels))
+        if mine != theirs:
+            raise ValueError(
+                f"{name}: was made for model {other.name!r} (joints {list(other.joint_names)}, wheels {list(theirs[1])}), "
+                f"not for the simulated {model.name!r} (joints {list(model.joint_names)}, wheels {list(mine[1])}); make it with the "
+                "robot that grasps (ff.control.Detumble(robot, ...)): after the grasp it controls the combined model"
+            )
 
 
 def _closest(before: Trajectory, gap: _Gap | None, target: Target, capture: Capture, end: int) -> tuple[float, float]:

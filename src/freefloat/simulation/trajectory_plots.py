@@ -162,6 +162,7 @@ def animate_trajectory(
     dpi: int = 80,
     overwrite: bool = False,
     progress: bool | Callable[[float, float], Any] | None = None,
+    overlay: Callable[[Any, np.ndarray], tuple[np.ndarray, Callable[[int], list[Any]]]] | None = None,
 ) -> Path:
     """Write an animation of the system moving along the trajectory: ``.gif`` (Pillow) or ``.mp4`` (ffmpeg).
 
@@ -172,7 +173,9 @@ def animate_trajectory(
     existing file unless ``overwrite=True``. Returns the path written.
     ``progress``: frames drawn, as :func:`freefloat.simulate`'s (None: a bar on a terminal once
     it has taken 2 s, else lines to the ``freefloat.progress`` logger; a callable
-    ``progress(frame, frames)``).
+    ``progress(frame, frames)``). ``overlay(ax, frames)``: more to draw (a grasped target), called once with the axes
+    and the output indices of the frames; it returns points (..., 3) the axes must show and a function of the frame
+    number that moves its artists and returns them.
     """
     import matplotlib.pyplot as plt
     from matplotlib import animation
@@ -204,7 +207,8 @@ def animate_trajectory(
     ee = traj.end_effector_positions
     fig = new_figure(figsize=(5.5, 5.0))
     ax = fig.add_subplot(projection="3d" if dims == 3 else None)
-    pts = np.concatenate([seg.reshape(-1, 3), bus.reshape(-1, 3), ee.reshape(-1, 3)])
+    extra, draw_extra = overlay(ax, frames) if overlay is not None else (np.zeros((0, 3)), lambda i: [])
+    pts = np.concatenate([seg.reshape(-1, 3), bus.reshape(-1, 3), ee.reshape(-1, 3), np.reshape(extra, (-1, 3))])
     if dims == 3:
         _set_equal_3d(ax, pts)
     else:
@@ -232,7 +236,7 @@ def animate_trajectory(
             if dims == 3:
                 trace.set_3d_properties(ee[: k + 1, e, 2])  # type: ignore[attr-defined]
         title.set_text(f"{model.name}   t = {traj.t[k]:.2f} s")
-        return [box, *links, *traces, title]
+        return [box, *links, *traces, title, *draw_extra(i)]
 
     anim = animation.FuncAnimation(fig, draw, frames=len(frames), interval=1000.0 / fps, blit=False)
     out.parent.mkdir(parents=True, exist_ok=True)
