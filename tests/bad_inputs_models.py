@@ -2,6 +2,222 @@
 
 from __future__ import annotations
 
-from bad_case import Case
+from pathlib import Path
+
+import numpy as np
+
+import freefloat as ff
+from bad_case import Case, add_file, api, cli
+from freefloat.core.errors import MemoryBudgetError, ModelError, ShapeError
 
 CASES: list[Case] = []
+
+_ROOT = Path(__file__).resolve().parents[1]
+_CAPTURE = _ROOT / "examples" / "scenarios" / "papadopoulos1992_capture.toml"
+_SCENARIO = _ROOT / "examples" / "scenarios" / "papadopoulos1992_joint_pd.toml"
+_Q = np.radians([0.0, 90.0, 180.0, -90.0])
+_WHEELED = [{"name": "rw", "axis": [0.0, 0.0, 1.0], "inertia": 0.1}]
+
+
+def _model() -> ff.Model:
+    return ff.load("papadopoulos1992")
+
+
+def _linked(files: Path, target: str) -> Path:
+    """A symbolic link ``link.xml`` to ``target``, made in the case's working directory (the caller removes it)."""
+    link = Path.cwd() / "link.xml"
+    link.symlink_to(target)
+    return link
+
+
+def _load_through(files: Path, target: str) -> None:
+    link = _linked(files, target)
+    try:
+        ff.load(link.name)
+    finally:
+        link.unlink()
+
+
+# model paths: relative paths that name nothing, a broken link, a folder, a path with spaces (quoted as given)
+CASES += [
+    api(
+        "path-relative-missing", lambda f: ff.load("../files/nothere/arm.xml"), ModelError, r"^\.\./files/nothere/arm\.xml: file not found"
+    ),
+    api("path-dot-relative-missing", lambda f: ff.load("./arm.xml"), ModelError, r"^\./arm\.xml: file not found"),
+    api("path-spaces-missing", lambda f: ff.load("my models/bras_é.xml"), ModelError, r"^my models/bras_é\.xml: file not found"),
+    api("path-folder", lambda f: ff.load(f), ModelError, r"files: is not a file; give the path of a \.toml"),
+    api("path-relative-folder", lambda f: ff.load("../files"), ModelError, r"^\.\./files: is not a file"),
+    api(
+        "path-broken-symlink",
+        lambda f: _load_through(f, "nowhere/arm.xml"),
+        ModelError,
+        r"^link\.xml: is a symbolic link to nowhere/arm\.xml, which does not exist",
+    ),
+]
+CASES += [
+    cli("cli-inspect-path-relative-missing", "inspect ../files/nothere.xml", r"^error: \.\./files/nothere\.xml: no such model file"),
+    cli("cli-inspect-path-relative-folder", "inspect ../files", r"^error: \.\./files: is not a file"),
+    cli("cli-workspace-path-relative-missing", "workspace ./nothere.urdf", r"^error: \./nothere\.urdf: no such model file"),
+    cli("cli-specialise-path-relative-missing", "specialise ../nothere.toml", r"^error: \.\./nothere\.toml: no such model file"),
+]
+
+# a scenario's model by a relative path that names nothing (relative to the scenario's folder, quoted as written)
+_SIM = _SCENARIO.read_text()
+_CAP = _CAPTURE.read_text()
+add_file("paths/sim-model-missing.toml", _SIM.replace('model = "papadopoulos1992"', 'model = "../nothere/arm.xml"'))
+add_file("paths/cap-model-missing.toml", _CAP.replace('model = "papadopoulos1992-one-arm"', 'model = "./arm.urdf"'))
+CASES += [
+    cli(
+        "cli-simulate-path-model-relative-missing",
+        "simulate {files}/paths/sim-model-missing.toml --out out",
+        r"sim-model-missing\.toml: model: \.\./nothere/arm\.xml: no such model file",
+    ),
+    cli("cli-capture-path-model-dot-missing", "capture {files}/paths/cap-model-missing.toml", r"model: \./arm\.urdf: no such model file"),
+]
+
+# initial.wheel_speed of a scenario (issue 40: [1e300] gave "cannot reshape array of size 0")
+_WHEEL = '\n[[wheels]]\nname = "rw_z"\naxis = [0.0, 0.0, 1.0]\ninertia = 0.15\nmax_torque = 1.0\nmax_speed = 600.0\n'
+for _id, _speed in (("huge", "[1e300]"), ("nan", "[nan]"), ("inf", "[inf]"), ("text", '["fast"]'), ("too-many", "[1.0, 2.0]")):
+    add_file(f"wheels/speed-{_id}.toml", _SIM.replace("[initial]\n", f"[initial]\nwheel_speed = {_speed}\n", 1) + _WHEEL)
+CASES += [
+    cli(f"cli-simulate-wheel-speed-{id}", f"simulate {{files}}/wheels/speed-{id}.toml --out out", match)
+    for id, match in (
+        ("huge", r"initial: State\.wheel_speed: 1e\+300 is beyond 10000 \(rad/s\), which no reaction wheel turns at"),
+        ("nan", r"initial\.wheel_speed: has NaN or infinite entries"),
+        ("inf", r"initial\.wheel_speed: has NaN or infinite entries"),
+        ("text", r"initial\.wheel_speed: expected numbers, got \['fast'\]"),
+        ("too-many", r"initial\.wheel_speed: expected shape \(1,\), got \(2,\)"),
+    )
+]
+
+# rollouts: the batch, its size, and the per-trajectory parameters (fields of State and of JointPD)
+_BIG = 10**8  # trajectories, as a broadcast view: nothing of that size exists until a rollout would make it
+CASES += [
+    api(
+        "rollout-empty-batch",
+        lambda f: ff.rollout(_model(), ff.State(q=np.zeros((0, 4))), 0.1, dt=0.01),
+        ShapeError,
+        r"^initial_states: an empty batch \(0 trajectories\): a rollout needs at least one initial state",
+    ),
+    api(
+        "rollout-two-batch-axes",
+        lambda f: ff.rollout(_model(), ff.State(q=np.zeros((2, 3, 4))), 0.1, dt=0.01),
+        ShapeError,
+        r"one leading batch axis .*got a state of shape \(2, 3, 21\)",
+    ),
+    api(
+        "rollout-not-a-state",
+        lambda f: ff.rollout(_model(), np.zeros((3, 21)), 0.1, dt=0.01),
+        TypeError,
+        r"^initial_states: expected a freefloat\.State whose fields have a leading batch axis, got ndarray",
+    ),
+    api(
+        "rollout-1e8-trajectories",
+        lambda f: ff.rollout(_model(), ff.State(q=np.broadcast_to(_Q, (_BIG, 4))), 10.0, dt=0.01),
+        MemoryBudgetError,
+        r"^a rollout of 100000000 trajectories x 1002 recorded states would need about .* of memory",
+    ),
+    api(
+        "rollout-1e12-s",
+        lambda f: ff.rollout(_model(), ff.State(q=np.tile(_Q, (2, 1))), 1e12, dt=0.01),
+        MemoryBudgetError,
+        r"^a rollout of 2 trajectories x 100000000000002 recorded states",
+    ),
+    api(
+        "rollout-fields-do-not-broadcast",
+        lambda f: ff.rollout(_model(), ff.State(q=np.zeros((3, 4)), qdot=np.zeros((2, 4))), 0.1, dt=0.01),
+        ShapeError,
+        r"^State: the fields' leading \(batch\) shapes do not broadcast: q \(3, 4\), qdot \(2, 4\)",
+    ),
+    api(
+        "rollout-q-wrong-length",
+        lambda f: ff.rollout(_model(), ff.State(q=np.zeros((3, 5))), 0.1, dt=0.01),
+        ShapeError,
+        r"^State\.q: expected shape \(\.\.\., 4\)",
+    ),
+    api(
+        "rollout-q-nan-row",
+        lambda f: ff.rollout(_model(), ff.State(q=np.array([_Q, [np.nan, 0, 0, 0]])), 0.1, dt=0.01),
+        ValueError,
+        r"^State\.q: has NaN or infinite entries",
+    ),
+    api(
+        "rollout-omega-inf-row",
+        lambda f: ff.rollout(_model(), ff.State(q=np.tile(_Q, (2, 1)), omega=[[0, 0, 0], [0, 0, np.inf]]), 0.1, dt=0.01),
+        ValueError,
+        r"^State\.omega: has NaN or infinite entries",
+    ),
+    api(
+        "rollout-q-empty-rows",
+        lambda f: ff.rollout(_model(), ff.State(q=np.zeros((3, 0))), 0.1, dt=0.01),
+        ShapeError,
+        r"^State\.q: expected shape \(\.\.\., 4\)",
+    ),
+    api(
+        "rollout-pd-gains-wrong-rows",
+        lambda f: ff.rollout(_model(), ff.State(q=np.tile(_Q, (4, 1))), 0.1, dt=0.01, controller=ff.JointPD(kp=np.ones((3, 4)), kd=1.0)),
+        ShapeError,
+        r"^JointPD\.kp: shape \(3, 4\) does not broadcast to the states' \(4, 4\) \(trajectories x joints\); give a scalar",
+    ),
+    api(
+        "rollout-pd-gains-empty",
+        lambda f: ff.rollout(_model(), ff.State(q=np.tile(_Q, (4, 1))), 0.1, dt=0.01, controller=ff.JointPD(kp=1.0, kd=np.ones(0))),
+        ShapeError,
+        r"^JointPD\.kd: shape \(0,\) does not broadcast to the states' \(4, 4\)",
+    ),
+    api(
+        "rollout-pd-reference-wrong-length",
+        lambda f: ff.rollout(
+            _model(), ff.State(q=np.tile(_Q, (2, 1))), 0.1, dt=0.01, controller=ff.JointPD(kp=1.0, kd=1.0, q_ref=np.zeros(3))
+        ),
+        ShapeError,
+        r"^JointPD\.q_ref: shape \(3,\) does not broadcast",
+    ),
+    api(
+        "rollout-pd-gain-nan", lambda f: ff.JointPD(kp=[[1.0, np.nan, 1.0, 1.0]], kd=1.0), ValueError, r"^JointPD\.kp: has NaN or infinite"
+    ),
+    api("rollout-pd-gain-inf", lambda f: ff.JointPD(kp=1.0, kd=[[np.inf] * 4]), ValueError, r"^JointPD\.kd: has NaN or infinite"),
+]
+
+# reaction wheel speeds (initial.wheel_speed of a scenario reads the same field)
+CASES += [
+    api(
+        f"wheel-speed-{id}",
+        lambda f, value=value: ff.State(wheel_speed=value).resolve(ff.load("papadopoulos1992", wheels=_WHEELED)),
+        expect,
+        match,
+    )
+    for id, value, expect, match in (
+        ("huge", [1e300], ValueError, r"^State\.wheel_speed: 1e\+300 is beyond 10000 \(rad/s\), which no reaction wheel turns at"),
+        ("above-max-rate", [2e4], ValueError, r"^State\.wheel_speed: 2e\+04 is beyond 10000 \(rad/s\)"),
+        ("nan", [np.nan], ValueError, r"^State\.wheel_speed: has NaN or infinite entries"),
+        ("inf", [-np.inf], ValueError, r"^State\.wheel_speed: has NaN or infinite entries"),
+        ("text", ["fast"], TypeError, r"^State\.wheel_speed: expected real numbers, got text"),
+        ("scalar", 3.0, ShapeError, r"^State\.wheel_speed: expected one value per reaction wheel, shape \(\.\.\., W\)"),
+        ("too-many", [1.0, 2.0], ShapeError, r"^State\.wheel_speed: expected shape \(\.\.\., 1\) \(one speed per reaction wheel"),
+        ("empty", [], ShapeError, r"^State\.wheel_speed: expected shape \(\.\.\., 1\)"),
+    )
+]
+
+# --out: the forms tests/test_bad_inputs.py's BAD_OUTS lacks, on every command with --out (campaign's are its own);
+# each refused before the work (simulate: before its estimate), naming --out
+_OUT_COMMANDS = {"demo": "demo", "reproduce": "reproduce 1992", "workspace": "workspace papadopoulos1992"}
+_OUT_COMMANDS |= {"capture": f"capture {_CAPTURE}", "simulate": f"simulate {_SCENARIO}"}
+_OUTS = [
+    ("file-trailing-slash", "{files}/empty.toml/", r"^error: --out \S+/empty\.toml: exists and is not a directory; choose another --out"),
+    (
+        "under-a-file-trailing-slash",
+        "{files}/empty.toml/sub/",
+        r"^error: --out \S+/empty\.toml/sub: cannot create this folder \(Not a directory\)",
+    ),
+    (
+        "unwritable",
+        "/sys/freefloat-out",
+        r"^error: --out /sys/freefloat-out: cannot create this folder \(.*\); choose a folder you can write to",
+    ),
+    ("under-a-device", "/dev/null/out", r"^error: --out /dev/null/out: cannot create this folder \(Not a directory\)"),
+    ("through-a-file-and-back", "{files}/empty.toml/../out", r"^error: --out \S+/empty\.toml/\.\./out: cannot create this folder"),
+]
+CASES += [
+    cli(f"cli-{command}-out-{id}", f"{prefix} --out {out}", match) for command, prefix in _OUT_COMMANDS.items() for id, out, match in _OUTS
+]

@@ -15,6 +15,7 @@ from typer.testing import CliRunner, Result
 
 import freefloat as ff
 from freefloat.cli import app
+from freefloat.core.errors import LongRunWarning
 from freefloat.papers.paper1991_figures import FIGURE_NAMES as F91_NAMES
 from freefloat.papers.paper1992_figures import FIGURE_NAMES as F92_NAMES
 from images import check_paper_figure, check_png
@@ -411,3 +412,86 @@ def test_user_errors_passes_other_warnings_through_once() -> None:
         with user_errors():
             warnings.warn("something else", RuntimeWarning, stacklevel=1)
     assert len(record) == 1
+
+
+# ----------------------------------------------------------------------------- warnings: one line each (issue 40)
+_ROOT = Path(__file__).resolve().parents[2]
+_SCENARIO = _ROOT / "examples" / "scenarios" / "papadopoulos1992_joint_pd.toml"
+_CAPTURE = _ROOT / "examples" / "scenarios" / "papadopoulos1992_capture.toml"
+
+
+def _warns_then(module: Any, name: str, category: type[Warning], monkeypatch: pytest.MonkeyPatch, stop: bool = False) -> str:
+    """Replace ``module.name`` by a function that warns ``category`` twice (the same message, from library code), then
+    calls the original (or, ``stop``, raises a ValueError: the command ends there with its ``error:`` line)."""
+    import warnings
+
+    original = getattr(module, name)
+    message = f"{category.__name__} from {name}: the plan passes close to a singularity"
+
+    def warning_first(*args: Any, **kwargs: Any) -> Any:
+        for _ in range(2):
+            warnings.warn(message, category, stacklevel=2)
+        if stop:
+            raise ValueError(f"{name}: stopped by the test")
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(module, name, warning_first)
+    return message
+
+
+def _one_warning_line(result: Result, message: str) -> None:
+    lines = [line for line in result.stderr.splitlines() if "warning" in line.lower()]
+    assert lines == [f"warning: {message}"], result.stderr
+    assert ".py:" not in result.stderr and "warnings.warn" not in result.stderr, result.stderr
+
+
+def _commands() -> list[tuple[str, list[str], str, str, bool]]:
+    """Each command: (id, argv, module, function it calls, whether the function stops it)."""
+    return [
+        ("inspect", ["inspect", "papadopoulos1992"], "freefloat.cli", "model_info", False),
+        ("specialise", ["specialise", "papadopoulos1992", "--kind", "jstar"], "freefloat.mechanics.specialised", "specialise", True),
+        ("workspace", ["workspace", "papadopoulos1992"], "freefloat.analysis.workspace_report", "workspace_limits", True),
+        ("demo", ["demo", "--out", "out"], "freefloat.cli", "paper_systems", True),
+        ("reproduce", ["reproduce", "1991", "--out", "out"], "freefloat.papers.reproduce", "reproduce_1991", True),
+        ("simulate", ["simulate", str(_SCENARIO), "--out", "out"], "freefloat.scenarios.scenario", "estimate_scenario", True),
+        ("capture", ["capture", str(_CAPTURE)], "freefloat.scenarios.capture_scenario", "run_capture_scenario", False),
+        ("campaign", ["campaign", "spec.toml", "--out", "out"], "freefloat.campaigns", "load_campaign", True),
+    ]
+
+
+@pytest.mark.parametrize(("argv", "module", "name", "stop"), [c[1:] for c in _commands()], ids=[c[0] for c in _commands()])
+@pytest.mark.parametrize("category", [ff.NearSingularWarning, LongRunWarning, UserWarning])
+def test_every_command_shows_a_warning_as_one_line(
+    argv: list[str], module: str, name: str, stop: bool, category: type[Warning], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A freefloat warning (and another library's UserWarning) on any command: one ``warning: ...`` line, once, with no
+    source path or line number; the command then goes on (or ends with its one ``error:`` line)."""
+    import importlib
+
+    monkeypatch.chdir(tmp_path)
+    message = _warns_then(importlib.import_module(module), name, category, monkeypatch, stop)
+    result = invoke(*argv)
+    _one_warning_line(result, message)
+    if stop:
+        assert result.exit_code == 1 and result.stderr.splitlines()[-1] == f"error: {name}: stopped by the test", result.output
+    else:
+        assert result.exit_code == 0, result.output
+
+
+def test_a_warning_of_the_capture_sequence_is_one_line_on_the_terminal(tmp_path: Path) -> None:
+    """``freefloat capture`` as a process (``main()``, Python's own warning display): NearSingularWarning in the plan is
+    one ``warning: ...`` line on stderr, without the ``file.py:LINE: NearSingularWarning`` line Python prints."""
+    code = (
+        "import warnings, freefloat as ff, freefloat.scenarios.capture_scenario as cs\n"
+        "run = cs.run_capture_scenario\n"
+        "def warned(*a, **k):\n"
+        "    warnings.warn('J* is near-singular along the path', ff.NearSingularWarning, stacklevel=2)\n"
+        "    return run(*a, **k)\n"
+        "cs.run_capture_scenario = warned\n"
+        "import sys; sys.argv = ['freefloat', 'capture', sys.argv[1]]\n"
+        "from freefloat.cli import main; main()\n"
+    )
+    proc = subprocess.run([sys.executable, "-c", code, str(_CAPTURE)], capture_output=True, text=True, cwd=tmp_path, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    lines = [line for line in proc.stderr.splitlines() if "Warning" in line or "warning" in line]
+    assert lines == ["warning: J* is near-singular along the path"], proc.stderr

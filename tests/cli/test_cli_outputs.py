@@ -174,3 +174,20 @@ def test_reproduce_never_replaces_a_user_file(tmp_path: Path) -> None:
     result = invoke("reproduce", "1991", "--out", str(out), "--overwrite")  # even with --overwrite: not a file freefloat wrote
     assert result.exit_code == 1 and "report.md was not written by freefloat" in result.output and "nothing was run" in result.output
     assert notes.read_text() == "my notes on the paper\n" and sorted(p.name for p in out.iterdir()) == ["report.md"]
+
+
+@pytest.mark.parametrize("out", ["user.txt/", "user.txt/sub/", "user.txt/../out"])
+def test_simulate_refuses_an_out_it_cannot_make_before_anything_else(out: str, scenario: Path, tmp_path: Path) -> None:
+    """A path through a file: one ``error: --out ...`` line, before the run's estimate is even printed; nothing made."""
+    (tmp_path / "user.txt").write_text("mine")
+    before = tree(tmp_path)
+    result = invoke("simulate", str(scenario), "--out", str(tmp_path / out))
+    assert result.exit_code == 1, result.output
+    assert result.stderr.splitlines() == [result.stderr.strip()] and result.stderr.startswith("error: --out "), result.stderr
+    assert tree(tmp_path) == before and sorted(p.name for p in tmp_path.iterdir()) == sorted(["user.txt", scenario.name])
+
+
+def test_checking_an_out_folder_leaves_no_folder_behind(tmp_path: Path) -> None:
+    """check_targets tries to make the folder (and its parents) and removes what it made: the run makes them."""
+    check_targets(tmp_path / "a" / "b" / "c", ["trajectory.json"], overwrite=False)
+    assert list(tmp_path.iterdir()) == []

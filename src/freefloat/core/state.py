@@ -10,7 +10,7 @@ State (all SI, frames as in :mod:`freefloat.conventions`):
     r_cm      (3,)  system CM position, inertial frame (|r_cm| up to MAX_POSITION = 1e12 m)
     v_cm      (3,)  system CM velocity, inertial frame (|v_cm| up to MAX_SPEED = 1e8 m/s)
     wheel_speed (W,) reaction wheel speeds relative to the spacecraft, rad/s, ``model.wheels`` order (Basilisk's
-                    Omega; :mod:`freefloat.core.wheels`); only for a model with wheels
+                    Omega; :mod:`freefloat.core.wheels`); only for a model with wheels; |speed| up to MAX_RATE = 1e4
 
 Omitted fields are zero (attitude: identity). Values beyond the bounds of :mod:`freefloat.core.numbers`
 (|q| > 1e6 rad or m, a CM position or speed component beyond 1e12 m or 1e8 m/s) are refused as input: no
@@ -40,11 +40,20 @@ from scipy.spatial.transform import Rotation
 from .conventions import as_quaternion
 from .errors import ShapeError
 from .model import Model
-from .numbers import MAX_POSITION, MAX_SPEED, check_joint_values, check_largest, real_array
+from .numbers import MAX_POSITION, MAX_RATE, MAX_SPEED, check_joint_values, check_largest, real_array
 
 __all__ = ["Actuation", "ActuatorLimits", "State", "dissipated", "dissipates", "pack_state", "state_size", "unpack_state"]
 
 _FIELDS = ("q", "qdot", "omega", "attitude", "r_cm", "v_cm", "wheel_speed")
+# the rates refused as input: (unit, why, fix) for check_largest at MAX_RATE (a joint rate or a spin beyond it is the
+# divergence guard's: a simulation stops at t = 0 naming the joint; a wheel's speed is refused here)
+_RATE_BOUNDS = {
+    "wheel_speed": (
+        "rad/s",
+        "which no reaction wheel turns at (about 95,000 rpm)",
+        "check the units (rad/s, relative to the spacecraft; rpm / 9.549 = rad/s)",
+    ),
+}
 # the CM's bounds: (limit, unit, why, fix) for check_largest
 _CM_BOUNDS = {
     "r_cm": (
@@ -57,6 +66,14 @@ _CM_BOUNDS = {
 }
 
 
+def _distinct(arr: np.ndarray) -> np.ndarray:
+    """The entries of ``arr`` that can differ: a view with every axis of stride 0 (a broadcast, ``np.broadcast_to``) cut
+    to its first index, so that a batch of 10^8 copies of one state is checked as one."""
+    if arr.ndim == 0 or all(arr.strides):
+        return arr
+    return arr[tuple(slice(0, 1) if stride == 0 else slice(None) for stride in arr.strides)]
+
+
 def _finite(name: str, value: Any, size: int, what: str) -> np.ndarray:
     """``value`` as a float array of shape (..., size) with finite, real entries, or an error naming ``name``;
     joint values beyond :data:`~freefloat.core.numbers.MAX_JOINT_VALUE` are refused too (:func:`check_joint_values`),
@@ -65,13 +82,20 @@ def _finite(name: str, value: Any, size: int, what: str) -> np.ndarray:
     arr = real_array(value, f"State.{name}")
     if arr.ndim == 0 or arr.shape[-1] != size:
         raise ShapeError(f"State.{name}: expected shape (..., {size}) ({what}), got {arr.shape}")
+    _check_values(name, _distinct(arr))
+    return arr
+
+
+def _check_values(name: str, arr: np.ndarray) -> None:
+    """Refuse NaN, infinities and values beyond their bounds in the field ``name`` (:mod:`freefloat.core.numbers`)."""
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"State.{name}: has NaN or infinite entries; give finite values")
     if name == "q":
         check_joint_values(arr, "State.q")
     elif name in _CM_BOUNDS:
         check_largest(arr, f"State.{name}", *_CM_BOUNDS[name])
-    return arr
+    elif name in _RATE_BOUNDS:
+        check_largest(arr, f"State.{name}", MAX_RATE, *_RATE_BOUNDS[name])
 
 
 def _quaternion(attitude: Any) -> np.ndarray:
@@ -136,11 +160,9 @@ class State:
             if value is not None:
                 arr = real_array(value, f"State.{name}")
                 if arr.ndim == 0:
-                    raise ShapeError(f"State.{name}: expected one value per joint, shape (..., N), got a scalar {value!r}")
-                if not np.all(np.isfinite(arr)):
-                    raise ValueError(f"State.{name}: has NaN or infinite entries; give finite values")
-                if name == "q":
-                    check_joint_values(arr, "State.q")
+                    each = "reaction wheel, shape (..., W)" if name == "wheel_speed" else "joint, shape (..., N)"
+                    raise ShapeError(f"State.{name}: expected one value per {each}, got a scalar {value!r}")
+                _check_values(name, _distinct(arr))
                 object.__setattr__(self, name, arr)
 
     @classmethod

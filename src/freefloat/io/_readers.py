@@ -3,6 +3,7 @@ argument and the correction of a non-physical inertia (a warning and a record, o
 
 from __future__ import annotations
 
+import os
 import warnings
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -13,7 +14,7 @@ import numpy as np
 from ..core.errors import ModelCorrectionWarning, ModelError
 from ..core.model import MAX_INERTIA, Model, check_inertia, inertia_defect, nearest_physical_inertia
 
-__all__ = ["EndEffectors", "end_effector_specs", "naming_file", "physical_inertia"]
+__all__ = ["EndEffectors", "end_effector_specs", "naming_file", "not_a_file", "physical_inertia"]
 
 #: What a user may pass as ``end_effectors=``: link (body) names, or (name, link, point) triples.
 EndEffectors = Sequence[str | tuple[str, str, Sequence[float]]] | None
@@ -69,6 +70,16 @@ def physical_inertia(inertia: np.ndarray, path: str, strict: bool, corrections: 
         stacklevel=3,
     )
     return fixed
+
+
+def not_a_file(path: Path) -> str | None:
+    """What keeps ``path`` from being read as a model file: a broken symbolic link (and where it points), a folder or
+    something else that is not a regular file, or nothing there; None when it is a file (a link to one included)."""
+    if path.is_file():
+        return None
+    if path.is_symlink() and not path.exists():
+        return f"is a symbolic link to {os.readlink(path)}, which does not exist"
+    return "is not a file" if path.exists() else "file not found"
 
 
 def naming_file(path: str | Path, build: Callable[[], Model]) -> Model:

@@ -35,7 +35,7 @@ from ..core.builder import ModelBuilder
 from ..core.errors import ModelCorrectionWarning, ModelError, UnmodelledElementWarning
 from ..core.model import JOINT_PASSIVE, Model, resolve_model
 from ..core.wheels import wheels_from
-from ._readers import EndEffectors, end_effector_specs, naming_file, physical_inertia
+from ._readers import EndEffectors, end_effector_specs, naming_file, not_a_file, physical_inertia
 from .mjcf import load_mjcf
 from .unmodelled import report_unmodelled, urdf_unmodelled
 
@@ -73,13 +73,14 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
             raise TypeError(f'end_effectors: expected a list of names, e.g. ["tool0"], got {end_effectors!r}')
         if len(end_effectors) == 0:
             raise ModelError("end_effectors", "is empty", "name at least one end effector, or pass None for the file's (else every leaf)")
-    path = Path(path)
-    if not path.suffix and not path.exists():
+    given, path = os.fspath(path), Path(path)  # errors quote the path as given (Path drops a leading "./")
+    if not path.suffix and not path.exists() and not path.is_symlink():
         builtin = resolve_model(str(path), "path")  # a built-in name (or an error listing them)
         builtin = builtin if joints is None else with_joint_dynamics(builtin, joints)
         return builtin if wheels is None else with_wheels(builtin, wheels)
-    if not path.is_file():
-        raise ModelError(str(path), "file not found", "give the path of a .toml, .urdf or MJCF .xml model file")
+    problem = not_a_file(path)
+    if problem is not None:
+        raise ModelError(str(given), problem, "give the path of a .toml, .urdf or MJCF .xml model file")
     suffix = path.suffix.lower()
     root = _xml_root(path) if suffix == ".xml" else ""
     if suffix == ".toml":

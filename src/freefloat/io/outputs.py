@@ -154,7 +154,15 @@ def _refuse(out: Path, problems: list[str], overwrite: bool, when: str) -> None:
 
 
 def check_targets(out: Path, names: Iterable[str], *, overwrite: bool) -> None:
-    """Before a run: refuse if writing ``names`` (paths relative to ``out``) would replace a protected file."""
+    """Before a run: refuse if ``out`` cannot be made (a path through a file, a folder this process cannot write in:
+    tried, and the folders made for the try removed again) or if writing ``names`` (paths relative to ``out``) would
+    replace a protected file."""
+    _, created = _make_output_directory(out)
+    for folder in created:  # deepest first: the run makes them again when it starts
+        try:
+            folder.rmdir()
+        except OSError:
+            break
     manifests = _Manifests()
     problems = [p for p in (_conflict(out, name, overwrite, manifests) for name in names) if p]
     if problems:

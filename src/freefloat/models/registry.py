@@ -13,6 +13,7 @@ from pathlib import Path
 
 from ..core.errors import ModelError
 from ..core.model import Model, register_model_resolver
+from ..io._readers import not_a_file
 from ..io.model_files import EndEffectors, load
 from .papers import papadopoulos1991, papadopoulos1992
 from .spacecraft import spacecraft_7dof
@@ -66,9 +67,9 @@ def load_model(spec: str, *, end_effectors: EndEffectors = None, strict: bool = 
         return model
     path = Path(spec)
     if path.is_file():
-        return load(path, end_effectors=end_effectors, strict=strict)
-    if path.exists():
-        raise ModelError(spec, "is not a file", "give the path of a .toml, .urdf or MJCF .xml model file")
+        return load(spec, end_effectors=end_effectors, strict=strict)
+    if path.exists() or path.is_symlink():  # a folder, a device, a broken symbolic link
+        raise ModelError(spec, not_a_file(path) or "is not a file", "give the path of a .toml, .urdf or MJCF .xml model file")
     if path.suffix.lower() in _MODEL_SUFFIXES or "/" in spec or "\\" in spec:
         raise FileNotFoundError(f"{spec}: no such model file")
     close = difflib.get_close_matches(key, list(BUILTIN_MODELS), n=3, cutoff=0.5)

@@ -85,6 +85,27 @@ class JointPD:
                     f"JointPD.feedforward_period: give the time between feed-forward samples (s, a finite number > 0), got {period!r}"
                 )
 
+    def check_batch(self, shape: tuple[int, ...]) -> None:
+        """Refuse parameters that do not broadcast to the states' ``shape`` ((B, N) for a rollout of B trajectories of
+        N joints; (N,) for one simulation), naming the parameter, before the run; the feed-forward's samples likewise."""
+        rows = len(shape) == 2
+        each = "a scalar, one value per joint (N,)" + (", or one row per trajectory (B, N)" if rows else "")
+        each_ff = "(K, N) torques per sample" + (", or (K, B, N)" if rows else "")
+        given = {name: np.shape(getattr(self, name)) for name in ("kp", "kd", "q_ref", "qdot_ref")}
+        if self.feedforward is not None:
+            given["feedforward"] = np.shape(self.feedforward)[1:]  # each sample
+        for name, part in given.items():
+            try:
+                fits = np.broadcast_shapes(part, shape) == shape
+            except ValueError:
+                fits = False
+            if not fits:
+                what = f"samples of shape {part}" if name == "feedforward" else f"shape {part}"
+                raise ShapeError(
+                    f"JointPD.{name}: {what} does not broadcast to the states' {shape} "
+                    f"({'trajectories x joints' if rows else 'joints'}); give {each_ff if name == 'feedforward' else each}"
+                )
+
     def sample(self, t: float) -> int:
         """Index of the feed-forward sample in force at time ``t``."""
         ff = np.asarray(self.feedforward)

@@ -30,7 +30,7 @@ from ..core.errors import FreefloatError, LongRunWarning, ShapeError, Simulation
 from ..core.model import Model
 from ..core.numbers import tolerance_problem
 from ..core.resources import require_memory
-from ..core.state import Actuation, ActuatorLimits, State, dissipates, pack_state, unpack_state
+from ..core.state import Actuation, ActuatorLimits, State, dissipates, pack_state, state_size, unpack_state
 from ..core.wheels import wheel_joint_model
 from ..mechanics import _engine
 from ..mechanics._laws import actuator_bounds
@@ -414,6 +414,31 @@ def _positive(name: str, value: Any) -> float:
     return out
 
 
+def _batch_shape(initial_states: Any, model: Model) -> tuple[int]:
+    """The batch (B,) of a rollout's initial states, from the shapes of their fields (no field is copied or resolved
+    yet: a rollout too large for memory is refused before it makes anything per trajectory). Errors name
+    ``initial_states``: not a State, not one leading batch axis, an empty batch."""
+    if not isinstance(initial_states, State):
+        raise TypeError(
+            f"initial_states: expected a freefloat.State whose fields have a leading batch axis, got {type(initial_states).__name__}"
+        )
+    values = (getattr(initial_states, f.name) for f in dataclasses.fields(State))
+    shapes = [np.shape(value)[:-1] for value in values if value is not None]
+    try:
+        batch = np.broadcast_shapes(*shapes) if shapes else ()
+    except ValueError:
+        initial_states.resolve(model)  # raises the State's own error, naming the fields and their shapes
+        raise
+    if len(batch) != 1:
+        size = state_size(model) + dissipates(model)
+        raise ShapeError(f"initial_states: expected fields with one leading batch axis (B, ...), got a state of shape {(*batch, size)}")
+    if batch[0] == 0:
+        raise ShapeError(
+            "initial_states: an empty batch (0 trajectories): a rollout needs at least one initial state (fields of shape (B, ...), B >= 1)"
+        )
+    return (int(batch[0]),)
+
+
 def rollout(
     model: Model,
     initial_states: State,
@@ -456,17 +481,12 @@ def rollout(
     trajectories), or every trajectory up to the last step of a Python-controlled one.
     """
     model, plant = plant_models(model, passive)
-    state = initial_states.resolve(model)
-    x = pack_state(state, 0.0 if dissipates(model) else None)  # with the dissipated energy's slot when there are passive torques
-    if x.ndim == 2 and plant.shape[0] not in (1, x.shape[0]):
-        raise ShapeError(f"model: {plant.shape[0]} per-trajectory models, but initial_states has {x.shape[0]} trajectories")
-    if x.ndim != 2:
-        raise ShapeError(f"initial_states: expected fields with one leading batch axis (B, ...), got a state of shape {x.shape}")
-    batch = x.shape[:1]
+    batch = _batch_shape(initial_states, model)  # from the fields' shapes: nothing per trajectory is made before the checks
+    if plant.shape[0] not in (1, batch[0]):
+        raise ShapeError(f"model: {plant.shape[0]} per-trajectory models, but initial_states has {batch[0]} trajectories")
     limits = limits or ActuatorLimits()
     duration, dt = _positive("duration", duration), _positive("dt", dt)
     steps = round(float(duration) / dt)
-    check_passive_step(model, x[0, 13 : 13 + model.n_joints], dt)  # at the first trajectory's angles
     if steps <= 0 or abs(steps * dt - duration) > 1e-9 * duration:
         raise ValueError(f"dt: {dt} must divide duration {duration}")
     for name, value in (("sample_period", sample_period), ("output_period", output_period)):
@@ -477,11 +497,17 @@ def rollout(
     hold = round((sample_period or dt) / dt)
     stride = max(1, round((output_period or dt) / dt))
     outputs = steps // stride + 2
+    size = state_size(model) + dissipates(model)  # the flat state, with the dissipated energy's slot when there are passive torques
     require_memory(  # the recorded states and actuation of every trajectory
-        float(outputs) * batch[0] * (x.shape[-1] + model.n_joints + 7) * 8,
+        float(outputs) * batch[0] * (size + model.n_joints + 7) * 8,
         f"a rollout of {batch[0]} trajectories x {outputs} recorded states",
         "record fewer states (a longer output_period), run fewer trajectories per call, or a shorter duration",
     )
+    state = initial_states.resolve(model)
+    x = pack_state(state, 0.0 if dissipates(model) else None)
+    check_passive_step(model, x[0, 13 : 13 + model.n_joints], dt)  # at the first trajectory's angles
+    if isinstance(controller, JointPD):
+        controller.check_batch((*batch, model.n_joints))
     zero = (np.zeros((*batch, model.n_joints)), np.zeros((*batch, 3)), np.zeros((*batch, 3)))
 
     def command(t: float, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -489,14 +515,6 @@ def rollout(
             return (*zero, np.zeros(batch, dtype=bool))
         return limits.apply(*_call_controller(controller, model, t, xx, batch))
 
-    if batch[0] == 0:  # an empty batch: an empty result, as every batched call gives (J* of 0 configurations is (0, 6E, N))
-        times = np.arange(0, steps + 1, stride) * dt
-        if times[-1] < steps * dt - 1e-12 * duration:
-            times = np.append(times, steps * dt)
-        t_n = times.size
-        empty = np.zeros((t_n, 0, x.shape[-1]))
-        nothing = (np.zeros((t_n, 0, model.n_joints)), np.zeros((t_n, 0, 3)), np.zeros((t_n, 0, 3)), np.zeros((t_n, 0), dtype=bool))
-        return _trajectory(model, times, empty, nothing)
     rec = _Recorder(model)
     bar = Progress(progress, float(duration))
     try:

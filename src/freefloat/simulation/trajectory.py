@@ -275,7 +275,7 @@ class Trajectory:
         joints = list(self.model.joint_names) if self.model is not None else None
         for name in self._saved():
             arr = np.asarray(getattr(self, name), dtype=float)
-            columns.append(arr.reshape(arr.shape[0], -1))
+            columns.append(arr.reshape(arr.shape[0], int(np.prod(arr.shape[1:]))))  # a trajectory of no samples too
             if arr.ndim == 1:
                 header.append(name)
                 continue
