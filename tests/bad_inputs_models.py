@@ -65,6 +65,7 @@ CASES += [
 _SIM = _SCENARIO.read_text()
 _CAP = _CAPTURE.read_text()
 add_file("paths/sim-model-missing.toml", _SIM.replace('model = "papadopoulos1992"', 'model = "../nothere/arm.xml"'))
+add_file("paths/sim-model-folder.toml", _SIM.replace('model = "papadopoulos1992"', 'model = "../paths"'))
 add_file("paths/cap-model-missing.toml", _CAP.replace('model = "papadopoulos1992-one-arm"', 'model = "./arm.urdf"'))
 CASES += [
     cli(
@@ -73,6 +74,11 @@ CASES += [
         r"sim-model-missing\.toml: model: \.\./nothere/arm\.xml: no such model file",
     ),
     cli("cli-capture-path-model-dot-missing", "capture {files}/paths/cap-model-missing.toml", r"model: \./arm\.urdf: no such model file"),
+    cli(  # a folder next to the scenario is named as a folder, not as a missing file
+        "cli-simulate-path-model-relative-folder",
+        "simulate {files}/paths/sim-model-folder.toml --out out",
+        r"sim-model-folder\.toml: model: .*/\.\./paths: is not a file; give the path of a \.toml",
+    ),
 ]
 
 # initial.wheel_speed of a scenario (issue 40: [1e300] gave "cannot reshape array of size 0")

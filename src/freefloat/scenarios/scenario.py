@@ -516,8 +516,9 @@ def scenario_model(top: dict[str, Any], source: str, base: Path | None, end_effe
     spec = top["model"]
     found: Path | None
     try:
-        if base is not None and (base / spec).is_file():
-            model, found = load(base / spec, end_effectors=chosen, strict=strict), (base / spec)
+        near = base / spec if base is not None else None
+        if near is not None and (near.exists() or near.is_symlink()):  # a folder or a broken link there: load names it
+            model, found = load(near, end_effectors=chosen, strict=strict), near
         else:
             path = Path(spec)
             model, found = load_model(spec, end_effectors=chosen, strict=strict), (path if path.is_file() else None)
