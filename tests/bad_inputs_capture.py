@@ -32,7 +32,11 @@ def _edit(text: str, old: str, new: str) -> str:
 
 #: [detumble] numbers: (key, its line in the example, the huge value's message).
 _NUMBERS = [
-    ("rate_gain", "rate_gain = 0.5", r"detumble\.rate_gain: 1e\+300 1/s x sample_period 0\.05 s = 5e\+298: each sample would reverse"),
+    (
+        "rate_gain",
+        "rate_gain = 0.5",
+        r"detumble\.rate_gain: 1e\+300 1/s x sample_period 0\.05 s = 5e\+298: each sample would remove all",
+    ),
     ("duration", "duration = 30.0", r"the capture sequence .*would need about .* of memory"),
     ("sample_period", "sample_period = 0.05", r"detumble\.sample_period: 1e\+300 s exceeds the duration"),
     ("specific_impulse", "specific_impulse = 220.0", r"detumble\.specific_impulse: 1e\+300 s is beyond 100000 s"),
@@ -92,6 +96,16 @@ for _id, (_old, _new), _match in EDITS:
 _MOVING_GRASP = (
     'rank_by = "spacecraft_rate"           # "measure" (1992 §V), "spacecraft_rate", "impulse", "angular_impulse", "joint_impulse"'
 )
+_MOVING_MASS = "mass = 400.0                          # kg"
+for _id, _offset in (("payload-offset-beyond-reach", "[3.0, 0.0, 0.0]"), ("payload-offset-beyond-reach-z", "[0.0, 0.0, -2.6]")):
+    add_file(f"cap40/{_id}.toml", _edit(MOVING, _MOVING_MASS, _MOVING_MASS + f"\noffset = {_offset}"))
+    CASES.append(  # the hand off the payload: refused when the scenario is read, before the plan (review of 85de392)
+        cli(
+            f"cli-capture40-{_id}",
+            f"capture {{files}}/cap40/{_id}.toml",
+            r"payload\.offset: puts the payload's CM .* m from the hand, beyond 10",
+        )
+    )
 add_file("cap40/grasp-time-without-sequence.toml", _edit(MOVING, _MOVING_GRASP, _MOVING_GRASP + "\ntime = 2.0"))
 CASES.append(
     cli(

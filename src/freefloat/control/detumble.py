@@ -47,6 +47,8 @@ STANDARD_GRAVITY = 9.80665
 
 
 def _positive(value: Any, name: str, unit: str) -> float:
+    if isinstance(value, np.ndarray) and value.ndim == 0:  # a 0-d array is a number
+        value = value[()]
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise TypeError(f"{name}: expected a number ({unit}), got {type(value).__name__} {value!r}")
     number = float(value)

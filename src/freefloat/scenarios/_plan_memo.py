@@ -30,28 +30,36 @@ MEMO_SIZE = 4
 _MEMO: OrderedDict[str, FixedCapturePlan] = OrderedDict()
 
 
+def _token(digest: Any, kind: str, data: bytes) -> None:
+    """One framed token: its kind and length before its bytes, so that no two sequences of tokens hash alike
+    (``0.1`` then ``24096`` is not ``0.12`` then ``4096``)."""
+    digest.update(f"{kind}:{len(data)}:".encode())
+    digest.update(data)
+
+
 def _feed(digest: Any, value: Any) -> None:
-    """Hash ``value``'s content: arrays by dtype, shape and bytes; dataclasses by their init fields; containers by item."""
+    """Hash ``value``'s content: arrays by dtype, shape and bytes; dataclasses by their init fields; containers by item;
+    every token framed by :func:`_token`."""
     if isinstance(value, np.ndarray):
-        digest.update(f"array{value.dtype.str}{value.shape}".encode())
-        digest.update(np.ascontiguousarray(value).tobytes())
+        _token(digest, "array", f"{value.dtype.str}{value.shape}".encode())
+        _token(digest, "bytes", np.ascontiguousarray(value).tobytes())
     elif dataclasses.is_dataclass(value) and not isinstance(value, type):
-        digest.update(type(value).__name__.encode())
+        _token(digest, "dataclass", type(value).__name__.encode())
         for f in dataclasses.fields(value):
             if f.init:
-                digest.update(f.name.encode())
+                _token(digest, "field", f.name.encode())
                 _feed(digest, getattr(value, f.name))
     elif isinstance(value, dict):
-        digest.update(b"dict")
+        _token(digest, "dict", str(len(value)).encode())
         for key in sorted(value, key=repr):
             _feed(digest, key)
             _feed(digest, value[key])
     elif isinstance(value, (list, tuple)):
-        digest.update(f"seq{len(value)}".encode())
+        _token(digest, "seq", str(len(value)).encode())
         for item in value:
             _feed(digest, item)
     else:
-        digest.update(repr(value).encode())
+        _token(digest, type(value).__name__, repr(value).encode())
 
 
 def plan_key(scenario: CaptureScenario) -> str:

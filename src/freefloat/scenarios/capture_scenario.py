@@ -79,6 +79,7 @@ from ..analysis.singularity import MEASURES, ROWS, SingularityCriterion
 from ..core.errors import ModelError, UnknownNameError
 from ..core.model import MAX_LENGTH, Model, inertia_matrix
 from ..io.model_files import read_toml
+from ..mechanics.impact import GRASP_REACH
 from ..simulation._guard import RunEstimate
 from ._plan_memo import fixed_plan
 from .capture_outputs import CaptureResult, plot_capture_families, plot_capture_plan, write_capture_outputs
@@ -275,6 +276,14 @@ def capture_scenario_from_dict(
     if not isinstance(offset_raw, list) or len(offset_raw) != 3:
         raise ModelError(_where(source, "payload.offset"), f"expected [x, y, z], got {offset_raw!r}", offset_fix)
     offset = np.array([_number(v, source, "payload.offset", offset_fix) for v in offset_raw])
+    gyration = float(np.sqrt(np.linalg.eigvalsh(inertia)[-1] / mass))  # m, the payload's largest radius of gyration
+    if np.linalg.norm(offset) > GRASP_REACH * gyration:  # the hand would not be on the payload (ff.capture.impact's rule)
+        raise ModelError(
+            _where(source, "payload.offset"),
+            f"puts the payload's CM {np.linalg.norm(offset):.6g} m from the hand, beyond {GRASP_REACH:g} of its radii of "
+            f"gyration ({GRASP_REACH:g} x {gyration:.3g} m): the hand is not on the payload",
+            "give the CM's offset from the grasp point in m (grasping body frame), or check payload.inertia and mass",
+        )
     velocity = _twist(payload, "velocity", source)
     angular_velocity = _twist(payload, "angular_velocity", source)
     if "path" not in data:

@@ -118,7 +118,8 @@ class CaptureSequence:
                 "peak_joint_torque": cost.peak_joint_torque.tolist(),
                 "peak_force": cost.peak_force,
                 "peak_torque": cost.peak_torque,
-                "time_to_rest": cost.time_to_rest,
+                "time_to_rest": cost.time_to_rest,  # s, an output time (the run's clock: the grasp is at grasp_time)
+                "rest_after_grasp": None if cost.time_to_rest is None else cost.time_to_rest - self.grasp_time,  # s
                 "at_rest": cost.time_to_rest is not None,
                 "final_rates": {"v_cm": cost.final_rates[0], "omega": cost.final_rates[1], "qdot_max": cost.final_rates[2]},
                 "wheels": None
@@ -143,7 +144,11 @@ class CaptureSequence:
             return "[" + ", ".join(f"{x:.6g}" for x in v) + "]"
 
         change = np.abs(self.momentum_after - self.momentum_before).max()
-        rest = "not at rest at the end" if det["time_to_rest"] is None else f"at rest from t = {det['time_to_rest']:.6g} s"
+        rest = (
+            "not at rest at the end"
+            if det["time_to_rest"] is None
+            else f"at rest from t = {det['time_to_rest']:.6g} s, {det['rest_after_grasp']:.6g} s after the grasp"
+        )
         isp = "" if det["propellant_mass"] is None else f", propellant {det['propellant_mass']:.6g} kg (Isp {s.specific_impulse:g} s)"
         final = det["final_rates"]
         return [

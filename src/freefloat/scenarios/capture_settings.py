@@ -103,7 +103,8 @@ def detumble_settings(table: dict[str, Any], source: str) -> DetumbleSettings:
         fix = f"make rate_gain x sample_period below 1 (e.g. rate_gain <= {0.5 / settings.sample_period:.3g} 1/s at this sample_period)"
         problem = (
             f"{settings.rate_gain:g} 1/s x sample_period {settings.sample_period:g} s = {settings.rate_gain * settings.sample_period:.3g}: "
-            "each sample would reverse the rates instead of removing them (the held control takes k T of each per sample)"
+            "each sample would remove all of the rates (k T = 1) or reverse them (k T > 1) instead of damping them "
+            "(the held control takes k T of each per sample)"
         )
         raise ModelError(_where(source, "detumble.rate_gain"), problem, fix)
     return settings
