@@ -18,17 +18,18 @@ GATE_TIMEOUT = 60.0
 
 def marked(parameters: dict[str, Any]) -> dict[str, Any]:
     """Write ``start-I-PID`` in ``parameters["dir"]``, wait for the file ``gate`` there (when ``gated``), write
-    ``done-I-PID``: the files count how often run I was started and computed, and by which worker process."""
+    ``done-I-PID``: the files (each with a unique ``-N`` ending) count how often run I was started and computed, and by
+    which worker process."""
     folder, i = Path(parameters["dir"]), int(parameters["i"])
-    (folder / f"start-{i}-{os.getpid()}").touch()
+    (folder / f"start-{i}-{os.getpid()}-{time.monotonic_ns()}").touch()
     if parameters.get("gated", False):
         give_up = time.monotonic() + GATE_TIMEOUT
         while not (folder / "gate").exists():
             if time.monotonic() > give_up:
                 raise TimeoutError("no gate")
             time.sleep(0.01)
-    (folder / f"done-{i}-{os.getpid()}").touch()
-    return {"square": float(i * i), "steps": np.arange(i + 1, dtype=float)}
+    (folder / f"done-{i}-{os.getpid()}-{time.monotonic_ns()}").touch()
+    return {"square": float(i * i), "steps": np.arange(i + 1, dtype=float), "t": 0.5 * np.arange(i + 1)}
 
 
 def allocate(parameters: dict[str, Any]) -> dict[str, Any]:

@@ -12,7 +12,8 @@ library functions, and prints or writes their results. Shared rules:
   created; a run never replaces a file there unless ``--overwrite`` is given,
   and then only the files freefloat itself wrote earlier, unchanged
   (``DIR/freefloat-manifest.json``, :mod:`freefloat.io.outputs`). ``--out ""`` is an error.
-- Warnings (stiff gains, long runs) print as ``warning: ...`` lines on stderr.
+- Warnings (model corrections, stiff gains, long runs, near-singular plans, ...) print as one ``warning: ...`` line
+  each on stderr, for every command (:func:`_warnings_as_lines`, entered by the app's callback).
 
 New commands register on :data:`app` with ``@app.command("name")`` and wrap
 their body in ``with user_errors():``.
@@ -33,7 +34,7 @@ import numpy as np
 import typer
 
 from .analysis.singularity import jacobian_determinant_map
-from .core.errors import FreefloatError, ModelCorrectionWarning, ModelError, UnknownNameError
+from .core.errors import FreefloatError, ModelError, UnknownNameError
 from .core.model import Model
 from .io.outputs import OutputDirectory, check_targets, output_directory, staged_outputs
 from .models import BUILTIN_MODELS, load_model
@@ -55,39 +56,17 @@ app = typer.Typer(
 # --------------------------------------------------------------------- shared pieces
 @contextmanager
 def user_errors() -> Iterator[None]:
-    """Turn bad input into one ``error: ...`` line on stderr and exit code 1; corrections of a model
-    file (:class:`~freefloat.core.errors.ModelCorrectionWarning`) into ``warning: ...`` lines."""
-    others: list[warnings.WarningMessage] = []
+    """Turn bad input into one ``error: ...`` line on stderr and exit code 1 (warnings, model corrections among them, are
+    the app's: :func:`_warnings_as_lines` shows each as it happens, so a correction is reported before the error)."""
     try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", ModelCorrectionWarning)
-
-            def flush() -> None:
-                for w in caught:
-                    if issubclass(w.category, ModelCorrectionWarning):
-                        typer.echo(f"warning: {' '.join(str(w.message).split())}", err=True)
-                    else:
-                        others.append(w)  # re-issued below, outside the recording
-                caught.clear()
-
-            try:
-                yield
-            except (FreefloatError, OSError, ValueError) as exc:
-                flush()
-                message = " ".join(str(exc).split()) or type(exc).__name__
-                typer.echo(f"error: {message}", err=True)
-                raise typer.Exit(1) from None
-            except MemoryError as exc:  # a last resort: the calls check their memory before they take it
-                flush()
-                typer.echo(
-                    f"error: out of memory ({' '.join(str(exc).split())}); ask for less: fewer samples, states or trajectories", err=True
-                )
-                raise typer.Exit(1) from None
-            finally:
-                flush()
-    finally:
-        for w in others:
-            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        yield
+    except (FreefloatError, OSError, ValueError) as exc:
+        message = " ".join(str(exc).split()) or type(exc).__name__
+        typer.echo(f"error: {message}", err=True)
+        raise typer.Exit(1) from None
+    except MemoryError as exc:  # a last resort: the calls check their memory before they take it
+        typer.echo(f"error: out of memory ({' '.join(str(exc).split())}); ask for less: fewer samples, states or trajectories", err=True)
+        raise typer.Exit(1) from None
 
 
 def _inertia(text: str) -> Any:
@@ -167,13 +146,20 @@ def _optional_out(out: Path | None, overwrite: bool, command: str, names: list[s
 
 @contextmanager
 def _warnings_as_lines() -> Iterator[None]:
-    """Show library warnings (stiff gains, long runs) as one ``warning: ...`` line each, on stderr, when they happen."""
+    """Show warnings as one ``warning: ...`` line each on stderr, when they happen, without Python's source path and line
+    number: every ``UserWarning`` (freefloat's own classes: corrections, stiff gains, long runs, near-singular plans, a
+    damaged cache or store; and those of other libraries), each distinct message once; other categories as Python's
+    filters decide (a library's DeprecationWarning stays hidden). Entered for every command by the app's callback."""
     with warnings.catch_warnings():
-        warnings.simplefilter("always")
+        warnings.simplefilter("always", UserWarning)
         previous = warnings.showwarning
+        shown: set[tuple[type, str]] = set()
 
         def show(message: Any, category: Any, filename: str, lineno: int, file: Any = None, line: Any = None) -> None:
-            typer.echo(f"warning: {' '.join(str(message).split())}", err=True)
+            text = " ".join(str(message).split()) or category.__name__
+            if (category, text) not in shown:
+                shown.add((category, text))
+                typer.echo(f"warning: {text}", err=True)
 
         warnings.showwarning = show
         try:
@@ -192,9 +178,11 @@ def _version(value: bool) -> None:
 
 @app.callback()
 def _root(
+    ctx: typer.Context,
     version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True, help="Print the version and exit.")] = False,
 ) -> None:
     """Kinematics, dynamics and workspaces of space robots (Papadopoulos & Dubowsky 1991, Papadopoulos 1992)."""
+    ctx.with_resource(_warnings_as_lines())  # for the whole command: its warnings as `warning: ...` lines
 
 
 # --------------------------------------------------------------------- commands
@@ -492,17 +480,25 @@ def capture_command(
         bool,
         typer.Option("--no-animation", help="With a [detumble] table and --out: skip the GIF of the detumbling run."),
     ] = False,
+    yes: Annotated[
+        bool,
+        typer.Option("--yes", "-y", help=f"Run without asking even when the capture sequence is estimated over {LONG_RUN_S:g} s."),
+    ] = False,
 ) -> None:
     """Plan a payload capture (1992 §V): approach distance, CM+, R+, capture posture and spacecraft orientation.
 
     --rows/--measure/--threshold/--strategy override the scenario's [singularity] table. A moving target (the
     scenario's [payload] velocity, angular_velocity): the impact at the grasp and the candidate postures ranked;
-    with a [detumble] table, the capture sequence (the grasp, then detumbling) is simulated and reported."""
+    with a [detumble] table, the capture sequence (the grasp, then detumbling) is simulated and reported. Its run is
+    estimated first, as `freefloat simulate` estimates its runs: one expected to take over a minute asks for
+    confirmation (--yes skips it)."""
+    import sys
 
     from .analysis._capture_ranking import grasp_problem
     from .analysis.capture import STRATEGIES
-    from .scenarios.capture_scenario import load_capture_scenario, run_capture_scenario, write_capture_outputs
+    from .scenarios.capture_scenario import estimate_capture_sequence, load_capture_scenario, run_capture_scenario, write_capture_outputs
     from .scenarios.capture_sequence import ANIMATION_FILE, SEQUENCE_FILES
+    from .scenarios.capture_settings import check_sequence_estimate
 
     with user_errors():
         if out is not None and isinstance(out, _EmptyPath):
@@ -525,8 +521,18 @@ def capture_command(
         names = ["capture.json", "capture_plan.png", *(["capture_tradeoff.png"] if moving else [])]
         if loaded.detumble is not None:
             names += [*SEQUENCE_FILES, *([] if no_animation else [ANIMATION_FILE])]
+        estimate = estimate_capture_sequence(loaded)
+        if estimate is not None:  # before the plan, as simulate's before its run
+            check_sequence_estimate(estimate, None)
+            typer.echo(f"{loaded.source}: the capture sequence: {estimate.describe()}", err=True)
+            if estimate.seconds > LONG_RUN_S and not yes:
+                if not sys.stdin.isatty():
+                    raise ValueError(
+                        f"the capture sequence is estimated to take over {LONG_RUN_S:g} s ({estimate.describe()}); pass --yes to run it"
+                    )
+                typer.confirm(f"The capture sequence is estimated to take over {LONG_RUN_S:g} s. Run it?", abort=True, err=True)
         with _optional_out(out, overwrite, "capture", names) as target:
-            result = run_capture_scenario(loaded)
+            result = run_capture_scenario(loaded, warn_after=None)
             if target is not None:
                 written = write_capture_outputs(result, target.stage, animation=not no_animation)
         written = target.final(written) if target is not None else []
@@ -575,7 +581,7 @@ def simulate_command(
     from .scenarios.scenario import estimate_scenario, load_scenario
     from .scenarios.scenario_outputs import check_animation_target, output_names, simulate_scenario
 
-    with user_errors(), _warnings_as_lines():
+    with user_errors():
         loaded = load_scenario(scenario, end_effectors=end_effector or None)
         if max_wall_time is not None:
             if not (max_wall_time > 0 and max_wall_time < float("inf")):
@@ -659,6 +665,10 @@ def campaign_command(
         bool | None,
         typer.Option("--progress/--no-progress", help="Progress on stderr (default: a bar on a terminal; elsewhere a line every 10 s)."),
     ] = None,
+    worker_timeout: Annotated[
+        float | None,
+        typer.Option("--worker-timeout", metavar="SECONDS", help="Seconds a cluster may have no worker before it stops (default 60)."),
+    ] = None,
 ) -> None:
     """Run a campaign: a scenario many times with values varied, on a Dask cluster; results kept as runs finish.
 
@@ -672,7 +682,7 @@ def campaign_command(
         loaded = load_campaign(spec)
         done = run_campaign(
             loaded, out, scheduler=scheduler, workers=workers, memory_limit=memory_limit, resume=resume, max_runs=max_runs,
-            progress=progress,
+            progress=progress, worker_timeout=worker_timeout,
         )  # fmt: skip
         written = write_campaign_report(summarize_campaign(out, loaded), out) if done.ok + done.failed + done.skipped else []
     typer.echo(done.line())

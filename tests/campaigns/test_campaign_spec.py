@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -227,3 +229,34 @@ def test_a_worker_death_fails_the_run_and_any_other_cluster_error_stops_the_camp
     assert (outcome.status, outcome.index) == ("failed", 3) and outcome.reason.startswith("KilledWorker: the worker running it died")
     with pytest.raises(CampaignError, match=r"run abc could not run on the cluster \(ModuleNotFoundError: No module named 'freefloat'\)"):
         _lost(run, ModuleNotFoundError("No module named 'freefloat'"))
+
+
+def test_failures_group_by_pattern_and_the_histograms_have_units(tmp_path: Path) -> None:
+    data = {
+        "function": "campaign_runs:marked",
+        "parameters": {"i": {"values": list(range(9))}, "dir": {"values": [str(tmp_path)]}},
+        "record": {"scalars": ["square", "t_end"], "units": {"square": "m^2"}},
+    }
+    spec = campaign_from_dict(data, source="f.toml", base=tmp_path)
+    plan = plan_runs(spec)
+    reasons = [f"RuntimeError: the simulation diverged at t = {0.25 * k} s (step {k})" for k in range(6)]
+    outcomes = [RunOutcome(r.run_id, r.index, "failed", reasons[r.index]) for r in plan[:6]]
+    outcomes.append(RunOutcome(plan[6].run_id, 6, "failed", "KilledWorker: died (tcp://127.0.0.1:40233)", failure="worker"))
+    outcomes += [RunOutcome(r.run_id, r.index, "ok", scalars={"square": 1.0, "t_end": 2.0}) for r in plan[7:]]
+    with CampaignStore.open(tmp_path / "out", spec, plan, resume=False) as store:
+        store.add(outcomes)
+    summary = summarize_campaign(tmp_path / "out", spec)
+    assert summary.failure_groups == [
+        {"pattern": "RuntimeError: the simulation diverged at t = # s (step #)", "runs": 6, "failure": "run", "example": reasons[0]},
+        {"pattern": "KilledWorker: died (tcp://#:#)", "runs": 1, "failure": "worker", "example": outcomes[6].reason},
+    ]
+    assert "| 6 | run | RuntimeError: the simulation diverged at t = # s (step #) |" in summary.markdown()
+    labels = [ax.get_xlabel() for ax in summary.plot_distributions()]
+    assert labels == ["square (m^2)", "t_end (s)"]
+
+
+def test_import_freefloat_loads_nothing_heavy() -> None:
+    heavy = ("scipy.stats", "pyarrow", "zarr", "distributed", "dask", "matplotlib", "matplotlib.pyplot", "pandas")
+    code = f"import sys, freefloat; print(sorted(m for m in {heavy!r} if m in sys.modules))"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
+    assert done.stdout.strip() == "[]", done.stdout + done.stderr

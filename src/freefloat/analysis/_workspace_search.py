@@ -27,7 +27,6 @@ from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares, minimize
-from scipy.stats import qmc
 
 from ..core import feedback
 from ..core.errors import ModelError
@@ -109,6 +108,8 @@ def sobol(n: int, lo: np.ndarray, hi: np.ndarray, seed: int) -> np.ndarray:
         f"sampling {2**m:.3g} configurations ({n:.3g} samples asked, rounded up to a power of two)",
         "ask for fewer samples: the results report their sampling accuracy, and 2^16 to 2^20 samples are usually enough",
     )
+    from scipy.stats import qmc  # (here: scipy.stats is not imported with freefloat)
+
     points = qmc.Sobol(d, scramble=True, seed=np.random.default_rng(seed)).random_base2(m)
     return lo + points * (hi - lo)
 

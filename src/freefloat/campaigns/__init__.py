@@ -2,7 +2,8 @@
 
 - :mod:`.spec`: the campaign file (:func:`load_campaign`) and its runs (:func:`plan_runs`), each with a stable id.
 - :mod:`.execute`: one run on a worker (:func:`execute_run`): a failure is kept with its reason.
-- :mod:`.store`: the output directory: Parquet parts of finished runs, Zarr time series, resumable.
+- :mod:`.store`: the output directory: Parquet parts of finished runs, one Zarr store of time series, resumable;
+  :mod:`.stored`: reading it and checking it (a damaged part or a lost series named, never silently dropped).
 - :mod:`.runner`: :func:`run_campaign`, on a local cluster or an existing one (``scheduler="tcp://host:port"``).
 - :mod:`.maps`: singularity-measure and workspace maps over 10^8+ configurations, a chunk per run.
 - :mod:`.report`: summary tables (Markdown, JSON) and plots of a campaign's results.

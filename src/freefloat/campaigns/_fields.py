@@ -7,7 +7,11 @@ from typing import Any
 from ..core.errors import ModelError
 from ..scenarios.scenario import _where
 
-__all__ = ["integer_field"]
+__all__ = ["MAX_RUNS", "integer_field"]
+
+#: The most runs a campaign plans (the grid's points times ``runs.count``, or a map's chunks): the plan is drawn and
+#: hashed before the first run (about 0.1 ms and 0.5 kB a run), and the store is read whole on --resume.
+MAX_RUNS = 1_000_000
 
 
 def integer_field(table: dict[str, Any], key: str, default: int, low: int, source: str, where: str, fix: str) -> int:

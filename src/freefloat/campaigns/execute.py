@@ -2,8 +2,11 @@
 
 :func:`execute_run` is the function each Dask task calls. It never raises for a run's own failure (a value the
 scenario refuses, a simulation that diverges, a missing quantity): the :class:`RunOutcome` says "failed" and
-why, and the campaign goes on. Only a worker that dies (out of memory, killed) loses a run, and then Dask
-tries it once more elsewhere (``allowed-failures``), then the runner stores it as failed with that reason.
+why, and the campaign goes on. A failure of the worker's environment is not the run's: a module that the worker
+cannot import (the campaign's function, or a package a run needs) is an outcome with status "environment", which
+the runner never stores (it stops the campaign; ``--resume`` runs the run once the workers are fixed). A worker
+that dies (out of memory, killed) loses a run; Dask tries it once more elsewhere (``allowed-failures``), then the
+runner stores it as failed by its worker.
 """
 
 from __future__ import annotations
@@ -42,7 +45,9 @@ class RunTask:
 
 @dataclass(frozen=True)
 class RunOutcome:
-    """A finished run: "ok" with its scalars and time series, or "failed" with the reason (one line)."""
+    """A finished run: "ok" with its scalars and time series, or "failed" with the reason (one line) and whose
+    failure it is (``failure``: "run", its own; "worker", it killed its worker on each try); or "environment": not
+    run, the worker could not (never stored)."""
 
     run_id: str
     index: int
@@ -52,6 +57,7 @@ class RunOutcome:
     series: dict[str, np.ndarray] = field(default_factory=dict)
     seconds: float = 0.0
     worker: str = ""
+    failure: str = ""
 
 
 def scalar_value(result: Any, name: str) -> float:
@@ -104,14 +110,18 @@ def _compute(task: RunTask) -> tuple[dict[str, float], dict[str, np.ndarray]]:
 
         return map_chunk(task.scenario, task.base, int(task.parameters["start"]), int(task.parameters["size"]))
     if task.kind == "function":
-        module, name = task.function.split(":")
-        result = getattr(importlib.import_module(module), name)(dict(task.parameters))
+        result = _function(task.function)(dict(task.parameters))
         if not isinstance(result, dict):
             raise TypeError(f"function {task.function} returned {type(result).__name__}, not a dict of results")
-        arrays = {key: np.asarray(result[key]) for key in task.series if key in result}
         missing = [key for key in task.series if key not in result]
         if missing:
             raise KeyError(f"the result has no series {', '.join(missing)}")
+        arrays = {key: np.asarray(result[key]) for key in task.series}
+        if arrays and "t" in result:  # the time axis of the series, kept with them
+            arrays = {"t": np.asarray(result["t"]), **arrays}
+            wrong = [f"{k} ({v.shape[0] if v.ndim else 'a scalar'})" for k, v in arrays.items() if not v.ndim or len(v) != len(arrays["t"])]
+            if wrong:
+                raise ValueError(f"series {', '.join(wrong)}: not one sample per time of t ({len(arrays['t'])} times)")
         return {name: scalar_value(result, name) for name in task.scalars}, arrays
     scenario = task.scenario
     for name, value in task.parameters.items():
@@ -122,18 +132,39 @@ def _compute(task: RunTask) -> tuple[dict[str, float], dict[str, np.ndarray]]:
     return {name: scalar_value(result, name) for name in task.scalars}, _trajectory_series(traj, task.series)
 
 
+class EnvironmentFailure(Exception):
+    """The worker cannot run any run (its environment, not the run): the function's module cannot be imported."""
+
+
+def _function(spec: str) -> Any:
+    module, name = spec.split(":")
+    try:
+        return getattr(importlib.import_module(module), name)
+    except ImportError as exc:
+        raise EnvironmentFailure(f"function {spec}: {type(exc).__name__}: {' '.join(str(exc).split())}") from None
+    except AttributeError:
+        raise EnvironmentFailure(f"function {spec}: module {module} has no {name}") from None
+
+
 def execute_run(task: RunTask) -> RunOutcome:
     """Run one task; a failure of the run itself is a "failed" outcome with its reason, never an exception."""
     start = time.perf_counter()
     worker = f"{socket.gethostname()}:{os.getpid()}"
     try:
-        scalars, series = _compute(task)
+        try:
+            scalars, series = _compute(task)
+        except EnvironmentFailure as exc:
+            return RunOutcome(task.run_id, task.index, "environment", str(exc), worker=worker)
+        except ImportError as exc:  # a module missing on this worker (the run's own code, or a package it needs)
+            where = traceback.extract_tb(exc.__traceback__)[-1]
+            reason = f"{type(exc).__name__}: {' '.join(str(exc).split())} ({Path(where.filename).name}:{where.lineno})"
+            return RunOutcome(task.run_id, task.index, "environment", reason, worker=worker)
     except MemoryError as exc:
         reason = f"out of memory: {' '.join(str(exc).split())}"
-        return RunOutcome(task.run_id, task.index, "failed", reason, seconds=time.perf_counter() - start, worker=worker)
+        return RunOutcome(task.run_id, task.index, "failed", reason, seconds=time.perf_counter() - start, worker=worker, failure="run")
     except Exception as exc:  # a run's own failure: kept with its reason, the campaign goes on
         message = " ".join(str(exc).split()) or type(exc).__name__
         where = traceback.extract_tb(exc.__traceback__)[-1]
         reason = f"{type(exc).__name__}: {message} ({Path(where.filename).name}:{where.lineno})"
-        return RunOutcome(task.run_id, task.index, "failed", reason, seconds=time.perf_counter() - start, worker=worker)
+        return RunOutcome(task.run_id, task.index, "failed", reason, seconds=time.perf_counter() - start, worker=worker, failure="run")
     return RunOutcome(task.run_id, task.index, "ok", "", scalars, series, time.perf_counter() - start, worker)

@@ -32,17 +32,15 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy.stats import qmc
 
 from ..analysis._workspace_reach import end_effector_radius
-from ..analysis._workspace_search import model_box
 from ..analysis.singularity import MEASURES, ROWS, SingularityCriterion
 from ..core.barycentric import barycentric_vectors
 from ..core.errors import ModelError
 from ..core.model import Model
 from ..models import load_model
 from ..scenarios.scenario import _number, _table, _where
-from ._fields import integer_field
+from ._fields import MAX_RUNS, integer_field
 
 __all__ = ["MAP_SCALARS", "MAP_SERIES", "MEASURE_DECADES", "map_chunk", "map_from_dict", "map_runs", "radius_bound"]
 
@@ -58,8 +56,9 @@ _MAP_KEYS = {"model", "end_effector", "samples", "chunk", "seed", "bins", "singu
 _SINGULARITY_KEYS = {"rows", "measure", "threshold"}
 
 
-def map_from_dict(data: Any, source: str) -> dict[str, Any]:
-    """The validated ``[map]`` table (plain values: it is hashed into the campaign's id and sent to the workers)."""
+def map_from_dict(data: Any, source: str, base: Path | None = None) -> dict[str, Any]:
+    """The validated ``[map]`` table (plain values: it is hashed into the campaign's id and sent to the workers);
+    ``base``: the folder of a relative model file. The samples, the chunks and a chunk's memory are checked here."""
     table = _table(data, _MAP_KEYS, source, "map")
     if not isinstance(table.get("model"), str):
         raise ModelError(
@@ -74,11 +73,21 @@ def map_from_dict(data: Any, source: str) -> dict[str, Any]:
             _where(source, "map.chunk"), f"{chunk} is not a power of two", "give a power of two (Sobol points come in powers of two)"
         )
     samples = integer_field(table, "samples", chunk, chunk, source, "map", "give the configurations in all, a multiple of chunk")
-    if samples % chunk or samples > 1 << 62:
+    if samples > MAX_SAMPLES:
         raise ModelError(
             _where(source, "map.samples"),
-            f"{samples} is not a multiple of chunk ({chunk}) below 2^62",
-            "round samples to a multiple of chunk",
+            f"{samples:,} configurations are above the 2^30 ({MAX_SAMPLES:,}) of one Sobol sequence",
+            "give samples <= 1073741824 (or map with another seed in a second campaign)",
+        )
+    if samples % chunk:
+        raise ModelError(
+            _where(source, "map.samples"), f"{samples} is not a multiple of chunk ({chunk})", "round samples to a multiple of chunk"
+        )
+    if samples // chunk > MAX_RUNS:
+        raise ModelError(
+            _where(source, "map.chunk"),
+            f"{samples // chunk:,} chunks are above the {MAX_RUNS:,} runs a campaign can plan",
+            "give a larger chunk",
         )
     singular = _table(table.get("singularity", {}), _SINGULARITY_KEYS, source, "map.singularity")
     for key, allowed in (("rows", ROWS), ("measure", MEASURES)):
@@ -86,6 +95,7 @@ def map_from_dict(data: Any, source: str) -> dict[str, Any]:
             raise ModelError(
                 _where(source, f"map.singularity.{key}"), f"unknown value {singular[key]!r}", f"use one of {', '.join(allowed)}"
             )
+    _check_chunk_memory(table["model"], base, chunk, source)
     threshold = _number(singular.get("threshold", 0.0), source, "map.singularity.threshold", "give a threshold >= 0")
     if threshold < 0.0:
         raise ModelError(_where(source, "map.singularity.threshold"), f"must be >= 0, got {threshold!r}", "give a threshold >= 0")
@@ -100,6 +110,22 @@ def map_from_dict(data: Any, source: str) -> dict[str, Any]:
         "measure": singular.get("measure", "auto"),
         "threshold": threshold,
     }
+
+
+def _check_chunk_memory(name: str, base: Path | None, chunk: int, source: str) -> None:
+    """A chunk's arrays on a worker (the points, the radius and the measure's Jacobians: about 8 x (7 + 6) x N bytes per
+    point for N joints) against this machine's free memory (:func:`freefloat.core.resources.require_memory`)."""
+    from ..core.errors import MemoryBudgetError
+    from ..core.resources import require_memory
+
+    try:
+        model = _model(name, str(base if base is not None else Path(".")))
+    except (ModelError, OSError, KeyError, ValueError):
+        return  # (the model's own error comes with the first chunk, named by load_model)
+    try:
+        require_memory(8.0 * (7 + 6) * len(model.joint_names) * chunk, f"a chunk of {chunk:,} configurations", "give a smaller chunk")
+    except MemoryBudgetError as exc:
+        raise ModelError(_where(source, "map.chunk"), str(exc), "give a smaller chunk (a power of two)") from None
 
 
 def map_runs(table: dict[str, Any]) -> list[dict[str, Any]]:
@@ -124,6 +150,10 @@ def radius_bound(model: Model) -> float:
 
 def map_chunk(table: dict[str, Any], base: str, start: int, size: int) -> tuple[dict[str, float], dict[str, np.ndarray]]:
     """One chunk of a map: its scalars and arrays (module docstring)."""
+    from scipy.stats import qmc  # (imported here: not with freefloat)
+
+    from ..analysis._workspace_search import model_box
+
     model = _model(table["model"], base)
     e = model.end_effector_index(table["end_effector"])
     box = model_box(model)

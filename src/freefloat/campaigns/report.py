@@ -8,7 +8,9 @@ figure. :func:`write_campaign_report` writes ``DIR/report/summary.md``, ``summar
 
 - statistics of each recorded scalar over the runs that finished "ok" (NaN values, such as a time to rest never
   reached, are left out and counted);
-- the failure rate and each distinct reason with its count;
+- the failure rate, and the failures grouped by pattern (reasons that differ only by numbers, run ids or addresses
+  are one pattern) with their count, whose failure it is ("run": the run's own; "worker": it killed its worker on
+  each try) and an example;
 - the worst cases: the ``worst`` runs with the largest (or smallest, ``worst_is = "min"``) ``rank_by``, with
   their parameters;
 - the sensitivity of each output to each numeric input: Spearman's rank correlation (scipy.stats.spearmanr),
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -29,7 +32,22 @@ from .maps import MAP_SERIES, radius_bound
 from .spec import CampaignSpec
 from .store import read_runs, read_series
 
-__all__ = ["CampaignSummary", "map_totals", "summarize_campaign", "write_campaign_report"]
+__all__ = ["CampaignSummary", "failure_pattern", "map_totals", "scalar_unit", "summarize_campaign", "write_campaign_report"]
+
+#: The unit of a recorded scalar from the names in its path (searched from the last part back): exact names first,
+#: then endings. A scalar none of them names has no unit on its axis ("unit not known"); ``[record] units`` says it.
+_UNITS = {
+    "delta_v": "m/s", "time_to_rest": "s", "rest_after_grasp": "s", "t_end": "s", "duration": "s", "seconds": "s", "energy_lost": "J",
+    "kinetic_energy": "J", "angular_momentum_change": "N m s", "linear_momentum_change": "N s", "angular_momentum": "N m s",
+    "linear_momentum": "N s", "mass": "kg", "inertia": "kg m^2", "omega": "rad/s", "angular_velocity": "rad/s",
+    "v_cm": "m/s", "velocity": "m/s", "r_cm": "m", "approach_distance": "m", "distance": "m", "radius": "m",
+    "joint_torque": "N m", "spacecraft_torque": "N m", "spacecraft_force": "N", "impulse": "N s", "wheel_speed": "rad/s",
+    "wheel_angle": "rad", "saturated_fraction": "unitless", "singular_fraction": "unitless", "configurations": "count",
+    "singular": "count",
+}  # fmt: skip
+_ENDINGS = (("_deg", "deg"), ("_s", "s"), ("_m", "m"), ("_kg", "kg"), ("_radius_min", "m"), ("_radius_max", "m"),
+            ("radius_min", "m"), ("radius_max", "m"), ("_fraction", "unitless"))  # fmt: skip
+_NUMBER = re.compile(r"(?<![\w.])[-+]?(?:\d+(?:\.\d+)*\.?|\.\d+)(?:[eE][-+]?\d+)?(?!\w)|\b[0-9a-f]{16}\b|0x[0-9a-fA-F]+")
 
 REPORT_FILES = ("summary.md", "summary.json", "distributions.png", "failures.png", "sensitivity.png")
 
@@ -47,6 +65,7 @@ class CampaignSummary:
     ok: int
     failed: int
     reasons: dict[str, int]
+    failure_groups: list[dict[str, Any]]
     statistics: dict[str, dict[str, float]]
     values: dict[str, np.ndarray]
     inputs: dict[str, np.ndarray]
@@ -55,6 +74,7 @@ class CampaignSummary:
     worst_is: str
     worst: list[dict[str, Any]]
     totals: dict[str, Any] = field(default_factory=dict)
+    units: dict[str, str] = field(default_factory=dict)
 
     @property
     def failure_rate(self) -> float:
@@ -74,6 +94,8 @@ class CampaignSummary:
                 "failed": self.failed,
                 "failure_rate": self.failure_rate,
                 "failure_reasons": self.reasons,
+                "failures": self.failure_groups,
+                "units": self.units,
                 "statistics": self.statistics,
                 "sensitivity_spearman": self.sensitivity,
                 "rank_by": self.rank_by,
@@ -98,9 +120,13 @@ class CampaignSummary:
             lines += ["## Recorded quantities (ok runs)", "", "| quantity | " + " | ".join(names) + " |", "|---" * (len(names) + 1) + "|"]
             lines += [f"| {q} | " + " | ".join(_cell(s[n]) for n in names) + " |" for q, s in self.statistics.items()]
             lines.append("")
-        if self.reasons:
-            lines += ["## Failures", "", "| runs | reason |", "|---|---|"]
-            lines += [f"| {n} | {reason.replace('|', '/')} |" for reason, n in self.reasons.items()]
+        if self.failure_groups:
+            lines += ["## Failures", "", "(# stands for a number that differs between runs)", ""]
+            lines += ["| runs | whose | reason | example |", "|---|---|---|---|"]
+            lines += [
+                f"| {g['runs']} | {g['failure']} | {g['pattern'].replace('|', '/')} | {g['example'].replace('|', '/')} |"
+                for g in self.failure_groups
+            ]
             lines.append("")
         if self.worst:
             params = [k for k in self.worst[0] if k not in ("run_id", self.rank_by)]
@@ -127,7 +153,8 @@ class CampaignSummary:
         for ax, (name, values) in zip(axes, self.values.items(), strict=False):
             finite = values[np.isfinite(values)]
             ax.hist(finite, bins=min(50, max(5, finite.size // 4)), color="C0")
-            ax.set_xlabel(name)
+            unit = self.units.get(name, "unit not known")
+            ax.set_xlabel(f"{name} ({unit})")
             ax.set_ylabel("runs")
             if finite.size < values.size:
                 ax.set_title(f"{values.size - finite.size} runs without a value", fontsize="small")
@@ -178,6 +205,27 @@ class CampaignSummary:
         bottom.set_ylabel("configurations")
         bottom.legend(fontsize="small")
         return [top, bottom]
+
+
+def failure_pattern(reason: str) -> str:
+    """``reason`` with what differs from run to run (numbers, run ids, hexadecimal addresses) as ``#``."""
+    return _NUMBER.sub("#", reason)
+
+
+def scalar_unit(name: str, given: dict[str, str] | None = None) -> str:
+    """The unit of a recorded scalar (``given``: the campaign's ``[record] units``), "unit not known" otherwise."""
+    if given and name in given:
+        return given[name]
+    parts = [p for p in re.split(r"[.\[\]]", name) if p and not p.isdigit()]
+    for part in reversed(parts):
+        if part in _UNITS:
+            return _UNITS[part]
+        for ending, unit in _ENDINGS:
+            if part.endswith(ending):
+                return unit
+    if parts and parts[-1] == "q":
+        return "rad (m for a sliding joint)"
+    return "unit not known"
 
 
 def _figure(size: tuple[float, float]) -> Any:
@@ -262,9 +310,15 @@ def summarize_campaign(out: str | Path, spec: CampaignSpec) -> CampaignSummary:
     columns = {name: table.column(name).to_numpy(zero_copy_only=False) for name in table.column_names}
     status = columns["status"].astype(str)
     ok = status == "ok"
+    groups: dict[tuple[str, str], dict[str, Any]] = {}
+    for reason, whose in zip(columns["reason"][~ok], columns["failure"][~ok], strict=True):
+        group_key = (str(whose), failure_pattern(str(reason)))
+        group = groups.setdefault(group_key, {"pattern": group_key[1], "runs": 0, "failure": group_key[0], "example": str(reason)})
+        group["runs"] += 1
+    failure_groups = sorted(groups.values(), key=lambda g: -g["runs"])
     reasons: dict[str, int] = {}
-    for reason in columns["reason"][~ok]:
-        reasons[str(reason)] = reasons.get(str(reason), 0) + 1
+    for group in failure_groups:
+        reasons[group["pattern"]] = reasons.get(group["pattern"], 0) + group["runs"]
     scalars = MAP_SCALARS if spec.kind == "map" else spec.scalars
     values = {name: np.asarray(columns[name][ok], dtype=float) for name in scalars}
     statistics = {name: {s: _statistic(v[np.isfinite(v)], s) for s in spec.statistics} for name, v in values.items()}
@@ -290,7 +344,8 @@ def summarize_campaign(out: str | Path, spec: CampaignSpec) -> CampaignSummary:
         finished=int(status.size),
         ok=int(ok.sum()),
         failed=int((~ok).sum()),
-        reasons=dict(sorted(reasons.items(), key=lambda kv: -kv[1])),
+        reasons=reasons,
+        failure_groups=failure_groups,
         statistics=statistics,
         values=values,
         inputs=inputs,
@@ -299,6 +354,7 @@ def summarize_campaign(out: str | Path, spec: CampaignSpec) -> CampaignSummary:
         worst_is=spec.worst_is,
         worst=worst,
         totals=totals,
+        units={name: scalar_unit(name, spec.units) for name in scalars},
     )
 
 

@@ -22,6 +22,7 @@ Schema (docs/campaigns.md)::
     [record]
     scalars = ["sequence.detumble.delta_v"]               # dotted paths into the run's result (capture --json, simulate's NAME.json)
     series = ["omega", "v_cm"]                            # trajectory fields kept per run (capture: the detumbling run)
+    units = { "sequence.detumble.delta_v" = "m/s" }       # optional: the report's axis units (known names have theirs)
 
     [summary]
     statistics = ["mean", "std", "min", "p5", "median", "p95", "max"]
@@ -40,23 +41,24 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from ..core.errors import ModelError
 from ..io.model_files import read_toml
 from ..scenarios.scenario import _number, _table, _where
-from ._fields import integer_field
+from ._fields import MAX_RUNS, integer_field
 from .maps import map_from_dict, map_runs
 
 __all__ = [
     "COLUMNS",
     "DISTRIBUTIONS",
+    "MAX_RUNS",
     "SERIES",
     "STATISTICS",
     "CampaignSpec",
@@ -85,10 +87,10 @@ SERIES = (
 STATISTICS = ("mean", "std", "min", "median", "max", "count")
 
 #: The columns of every run's row (:mod:`.store`), before the parameters and the recorded scalars.
-COLUMNS = ("run_id", "index", "status", "reason", "seconds", "worker")
+COLUMNS = ("run_id", "index", "status", "failure", "reason", "seconds", "worker")
 _TOP_KEYS = {"description", "scenario", "function", "map", "runs", "parameters", "record", "summary"}
 _RUNS_KEYS = {"count", "seed"}
-_RECORD_KEYS = {"scalars", "series"}
+_RECORD_KEYS = {"scalars", "series", "units"}
 _SUMMARY_KEYS = {"statistics", "rank_by", "worst", "worst_is"}
 _GRID_KEYS = {"values", "linspace"}
 _PATH_PART = re.compile(r"([^.\[\]]+)|\[(\d+)\]")
@@ -124,6 +126,7 @@ class CampaignSpec:
     rank_by: str = ""
     worst: int = 5
     worst_is: str = "max"
+    units: dict[str, str] = field(default_factory=dict)  # of the scalars, for the report (not in the campaign's id)
 
     @property
     def parameters(self) -> tuple[str, ...]:
@@ -224,6 +227,8 @@ def _grid_axis(name: str, table: dict[str, Any], source: str) -> list[Any]:
     fix = "give linspace = [start, stop, num] with num an integer >= 1"
     if not isinstance(raw, list) or len(raw) != 3 or isinstance(raw[2], bool) or not isinstance(raw[2], int) or raw[2] < 1:
         raise ModelError(_where(source, f"{where}.linspace"), f"expected [start, stop, num], got {raw!r}", fix)
+    if raw[2] > MAX_RUNS:
+        raise ModelError(_where(source, f"{where}.linspace"), f"num {raw[2]} is above {MAX_RUNS:,} runs", "give fewer points")
     lo, hi = (_number(v, source, f"{where}.linspace", fix) for v in raw[:2])
     return [float(v) for v in np.linspace(lo, hi, raw[2])]
 
@@ -266,6 +271,8 @@ def _distribution(name: str, table: dict[str, Any], source: str) -> dict[str, An
 
 def _draws(table: dict[str, Any], size: int, rng: np.random.Generator) -> list[Any]:
     """``size`` draws of one distribution (scipy.stats with numpy's Generator)."""
+    from scipy import stats  # (imported here: not with freefloat)
+
     kind = table["distribution"]
     if kind == "choice":
         picks = rng.choice(len(table["values"]), size=size, p=table.get("p"))
@@ -285,7 +292,7 @@ def _string_list(value: Any, source: str, where: str, fix: str) -> tuple[str, ..
     return tuple(value)
 
 
-def _record(table: Any, source: str, kind: str) -> tuple[tuple[str, ...], tuple[str, ...]]:
+def _record(table: Any, source: str, kind: str) -> tuple[tuple[str, ...], tuple[str, ...], dict[str, str]]:
     table = _table(table, _RECORD_KEYS, source, "record")
     scalars = _string_list(table.get("scalars", []), source, "record.scalars", 'give scalars = ["path.in.the.result", ...]')
     for name in scalars:
@@ -300,7 +307,17 @@ def _record(table: Any, source: str, kind: str) -> tuple[tuple[str, ...], tuple[
                 raise ModelError(_where(source, f"record.series.{name}"), "unknown time series", f"use one of {', '.join(SERIES)}")
     if len(set(scalars)) != len(scalars) or len(set(series)) != len(series):
         raise ModelError(_where(source, "record"), "names a quantity twice", "list each quantity once")
-    return scalars, series
+    units = table.get("units", {})
+    if not isinstance(units, dict) or not all(isinstance(v, str) and v for v in units.values()):
+        raise ModelError(
+            _where(source, "record.units"), f"expected a table of unit names, got {units!r}", 'e.g. units = { square = "m^2" }'
+        )
+    for name in units:
+        if name not in scalars:
+            raise ModelError(
+                _where(source, f"record.units.{name}"), "is not a recorded scalar", f"give units of record.scalars: {', '.join(scalars)}"
+            )
+    return scalars, series, dict(units)
 
 
 def _summary(table: Any, source: str, scalars: tuple[str, ...]) -> dict[str, Any]:
@@ -358,7 +375,7 @@ def campaign_from_dict(data: Any, *, source: str = "", base: Path | None = None)
     if given[0] == "scenario":
         kind, scenario, where = _scenario(top, source, base)
     elif given[0] == "map":
-        kind, scenario, where = "map", map_from_dict(top["map"], source), str(base.resolve())
+        kind, scenario, where = "map", map_from_dict(top["map"], source, base), str(base.resolve())
     else:
         function = top["function"]
         if not isinstance(function, str) or not re.fullmatch(r"[\w.]+:\w+", function):
@@ -368,6 +385,12 @@ def campaign_from_dict(data: Any, *, source: str = "", base: Path | None = None)
         kind, scenario, where = "function", {}, str(base.resolve())
     runs = _table(top.get("runs", {}), _RUNS_KEYS, source, "runs")
     values = {"count": integer_field(runs, "count", 1, 1, source, "runs", "e.g. count = 64")}
+    if values["count"] > MAX_RUNS:
+        raise ModelError(
+            _where(source, "runs.count"),
+            f"{values['count']:,} runs are above the {MAX_RUNS:,} a campaign can plan",
+            "split it into campaigns of fewer runs (another seed each)",
+        )
     values["seed"] = integer_field(runs, "seed", 0, 0, source, "runs", "e.g. seed = 2026")
     grid: dict[str, list[Any]] = {}
     random: dict[str, dict[str, Any]] = {}
@@ -400,13 +423,21 @@ def campaign_from_dict(data: Any, *, source: str = "", base: Path | None = None)
             random[name] = _distribution(name, table, source)
         else:
             grid[name] = _grid_axis(name, table, source)
+    total = math.prod(len(axis) for axis in grid.values()) * values["count"]
+    if total > MAX_RUNS:
+        sizes = " x ".join([*(str(len(axis)) for axis in grid.values()), *([str(values["count"])] if values["count"] > 1 else [])])
+        raise ModelError(
+            _where(source, "parameters"),
+            f"plans {sizes} = {total:,} runs, above the {MAX_RUNS:,} a campaign can plan",
+            "give fewer grid values or a smaller runs.count, or split it into campaigns",
+        )
     if values["count"] > 1 and not random:
         raise ModelError(
             _where(source, "runs.count"),
             f"is {values['count']} but no parameter is drawn at random",
             "drop runs.count or add a distribution",
         )
-    scalars, series = _record(top.get("record", {}), source, kind)
+    scalars, series, units = _record(top.get("record", {}), source, kind)
     for name in scalars:
         if name in grid or name in random or name in COLUMNS:
             fix = "record another quantity, or vary the parameter under another name"
@@ -430,6 +461,7 @@ def campaign_from_dict(data: Any, *, source: str = "", base: Path | None = None)
         random=random,
         scalars=scalars,
         series=series,
+        units=units,
         **summary,
     )
 
@@ -448,8 +480,9 @@ def plan_runs(spec: CampaignSpec) -> list[Run]:
     The draws are made at once (``default_rng(seed)``, one parameter after the other), so the plan, and each
     run's id, is the same on every machine and after a resume.
     """
+    campaign = spec.campaign_id  # (a hash of the whole campaign: once, not once per run)
     if spec.kind == "map":
-        return [Run(_run_id(spec, i, params), i, params) for i, params in enumerate(map_runs(spec.scenario))]
+        return [Run(_run_id(campaign, i, params), i, params) for i, params in enumerate(map_runs(spec.scenario))]
     points = list(itertools.product(*spec.grid.values())) or [()]
     total = len(points) * spec.count
     rng = np.random.default_rng(spec.seed)
@@ -458,9 +491,9 @@ def plan_runs(spec: CampaignSpec) -> list[Run]:
     for i in range(total):
         params = dict(zip(spec.grid, points[i // spec.count], strict=True))
         params.update({name: values[i] for name, values in drawn.items()})
-        runs.append(Run(_run_id(spec, i, params), i, params))
+        runs.append(Run(_run_id(campaign, i, params), i, params))
     return runs
 
 
-def _run_id(spec: CampaignSpec, index: int, params: dict[str, Any]) -> str:
-    return _digest({"campaign": spec.campaign_id, "index": index, "parameters": params})[:16]
+def _run_id(campaign_id: str, index: int, params: dict[str, Any]) -> str:
+    return _digest({"campaign": campaign_id, "index": index, "parameters": params})[:16]

@@ -1,18 +1,29 @@
-"""A campaign's output directory: what finished, written as it finishes, never rewritten.
+"""A campaign's output directory: what finished, written as it finishes, never rewritten nor lost.
 
 ::
 
     DIR/campaign.json          the campaign (its id, the spec, the scenario, the plan's size); written first
-    DIR/runs/part-000000.parquet, part-000001.parquet, ...
-                               one row per finished run: run_id, index, status ("ok" / "failed"), reason, seconds,
-                               worker, each varied parameter, each recorded scalar (NaN where a run has none)
-    DIR/series.zarr/<run_id>/  the recorded time series of each run ("t" and one array per name, time first)
+    DIR/runs/part-<time>-<random>-<first run id>.parquet
+                               one row per finished run: run_id, index, status ("ok" / "failed"), failure ("run",
+                               "worker" or "" for ok), reason, seconds, worker, each varied parameter, each recorded
+                               scalar (NaN where a run has none)
+    DIR/series.zarr/           one Zarr v3 store; a group per run, series.zarr/<run_id>/ ("t" and one array per name,
+                               time first; its attribute run_id)
+    DIR/damaged/               parts and series groups found damaged by --resume, moved here (never deleted)
     DIR/report/                the summary tables and plots (.report), rewritten after each invocation
 
-A part is written to a hidden temporary file and renamed into place (atomic on POSIX), so a part is either
-whole or absent; a run counts as finished once its row is in a part. A run's series are written before its row,
-so a finished run always has them. ``--resume`` runs the plan's run ids that no part holds. One runner at a time
-holds the directory (an advisory lock, released when its process ends, however it ends).
+A part's name cannot be another's (the time in nanoseconds, random bits and the first run's id): it is written to a
+hidden temporary file, flushed to the disk and linked into place under its name, which fails if the name exists (so
+no part is ever replaced), then the temporary name is removed: a part is whole or absent. A run's series are
+written before its row, so a finished run always has them; a run counts as finished once its row is in a part.
+
+``--resume`` first reads every part and checks every stored ok run's series (:func:`.stored.survey`), before any
+cluster starts: a part that is another campaign's or another program's is refused (an error naming it; nothing is
+changed); a damaged part (truncated, empty, unreadable) is moved to ``DIR/damaged/`` with a warning naming it, and
+its runs run again; an ok run whose series are missing or are another run's is named in a warning (a series
+group that is there but not whole is moved to ``DIR/damaged/``) and runs again: its new row goes into a new part,
+and the readers keep the newest row of each run (a stored row is never rewritten). One runner at a time holds the
+directory (an advisory lock, released when its process ends, however it ends).
 
 A directory that holds another campaign (another id), or files that are not a campaign's, is refused: nothing
 in it is ever overwritten.
@@ -20,25 +31,30 @@ in it is ever overwritten.
 
 from __future__ import annotations
 
-import contextlib
 import fcntl
 import json
 import os
+import secrets
+import time
+import warnings
 from pathlib import Path
 from typing import Any, TextIO
 
 import numpy as np
 
 from .._version import __version__
-from ..core.errors import CampaignError
+from ..core.errors import CampaignError, ModelCorrectionWarning
 from .execute import RunOutcome
 from .spec import COLUMNS, CampaignSpec, Run
+from .stored import DAMAGED, FORMAT, MANIFEST, SERIES, StoreSurvey, fsync_file, read_runs, read_series, survey
 
-__all__ = ["MANIFEST", "CampaignStore", "finished_runs", "read_runs", "read_series"]
+__all__ = ["MANIFEST", "CampaignStore", "DamagedStoreWarning", "read_runs", "read_series"]
 
-MANIFEST = "campaign.json"
-FORMAT = "freefloat-campaign-1"
 _LOCK = ".campaign.lock"
+
+
+class DamagedStoreWarning(ModelCorrectionWarning):
+    """A damaged part or a run's lost series found by ``--resume``: moved aside (never deleted), its runs run again."""
 
 
 def _column_type(values: list[Any]) -> Any:
@@ -54,19 +70,45 @@ def _column_type(values: list[Any]) -> Any:
     return pa.string()
 
 
+def part_schema(spec: CampaignSpec, plan: list[Run]) -> Any:
+    """The schema of every part of this campaign (without its metadata, which names the campaign)."""
+    import pyarrow as pa
+
+    from .maps import MAP_SCALARS
+
+    scalars = MAP_SCALARS if spec.kind == "map" else spec.scalars
+    params = [(name, _column_type([run.parameters[name] for run in plan])) for name in spec.parameters]
+    return pa.schema(
+        [("run_id", pa.string()), ("index", pa.int64()), ("status", pa.string()), ("failure", pa.string()),
+         ("reason", pa.string()), ("seconds", pa.float64()), ("worker", pa.string()), *params,
+         *((name, pa.float64()) for name in scalars)]
+    )  # fmt: skip
+
+
+def _check_out(root: Path, out: str | Path) -> None:
+    """``--out`` refused with one line when it cannot be this campaign's folder (before anything is written; its
+    missing parents are created later, as every command's ``--out``)."""
+    if not str(out).strip():
+        raise CampaignError("--out: is empty; give an output directory")
+    if root.exists() and not root.is_dir():
+        raise CampaignError(f"--out {root}: is a file, not a directory; give a new or empty directory")
+    above = root.parent
+    while not above.exists():
+        above = above.parent
+    if not root.exists() and not above.is_dir():
+        raise CampaignError(f"--out {root}: {above} is a file, not a folder; give a directory whose parents are folders")
+    folder = root if root.exists() else above
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise CampaignError(f"--out {root}: {folder} is not writable by this user; give a directory you can write in")
+
+
 class CampaignStore:
     """The output directory of one campaign (module docstring); :meth:`open` it, then :meth:`add` outcomes."""
 
     def __init__(self, root: Path, spec: CampaignSpec, plan: list[Run], lock: TextIO) -> None:
-        import pyarrow as pa
-
         self.root, self.spec, self.plan, self._lock = root, spec, plan, lock
-        params = [(name, _column_type([run.parameters[name] for run in plan])) for name in spec.parameters]
-        self.schema = pa.schema(
-            [("run_id", pa.string()), ("index", pa.int64()), ("status", pa.string()), ("reason", pa.string()),
-             ("seconds", pa.float64()), ("worker", pa.string()), *params, *((name, pa.float64()) for name in self.scalar_names)]
-        )  # fmt: skip
-        self.parts = len(list((root / "runs").glob("part-*.parquet")))
+        self.schema = part_schema(spec, plan).with_metadata({"freefloat_campaign": spec.campaign_id})
+        self._series: Any = None
 
     @property
     def scalar_names(self) -> tuple[str, ...]:
@@ -78,16 +120,18 @@ class CampaignStore:
     def check(out: str | Path, spec: CampaignSpec, *, resume: bool) -> None:
         """Refuse ``out`` unless it is new, empty, or this campaign's with ``resume`` (before any work: nothing written)."""
         root = Path(out)
-        if not str(out).strip():
-            raise CampaignError("--out: is empty; give an output directory")
-        if root.exists() and not root.is_dir():
-            raise CampaignError(f"--out {root}: is a file, not a directory; give a new or empty directory")
+        _check_out(root, out)
         manifest = root / MANIFEST
         if manifest.is_file():
             try:
                 held = json.loads(manifest.read_text(encoding="utf-8"))
             except (ValueError, UnicodeDecodeError):
                 raise CampaignError(f"--out {root}: {MANIFEST} is not a campaign's manifest; give another directory") from None
+            if isinstance(held, dict) and str(held.get("format", "")).startswith("freefloat-campaign-") and held["format"] != FORMAT:
+                raise CampaignError(
+                    f"--out {root}: holds a campaign written by an older freefloat (format {held['format']}, this one "
+                    f"writes {FORMAT}); give another directory (nothing is overwritten)"
+                )
             if not isinstance(held, dict) or held.get("format") != FORMAT:
                 raise CampaignError(f"--out {root}: {MANIFEST} is not a freefloat campaign's; give another directory")
             if held.get("campaign_id") != spec.campaign_id:
@@ -99,6 +143,11 @@ class CampaignStore:
                 raise CampaignError(f"--out {root}: holds results of this campaign already; pass --resume to run only the missing runs")
         elif root.is_dir() and any(p.name != _LOCK for p in root.iterdir()):
             raise CampaignError(f"--out {root}: is not empty and holds no campaign; give a new or empty directory (nothing is overwritten)")
+
+    @staticmethod
+    def survey(out: str | Path, spec: CampaignSpec, plan: list[Run]) -> StoreSurvey:
+        """What ``out`` holds of this campaign (:func:`.stored.survey` with this campaign's schema and plan)."""
+        return survey(out, part_schema(spec, plan), {run.run_id: run.index for run in plan})
 
     @classmethod
     def open(cls, out: str | Path, spec: CampaignSpec, plan: list[Run], *, resume: bool) -> CampaignStore:
@@ -136,13 +185,39 @@ class CampaignStore:
     def __exit__(self, *exc: Any) -> None:
         self.close()
 
+    def repair(self, found: StoreSurvey) -> None:
+        """Move the damaged parts and the series groups that are not whole to ``DIR/damaged/`` (never deleted),
+        with a :class:`DamagedStoreWarning` naming each; their runs are not finished, so they run again."""
+        aside = self.root / DAMAGED
+        for path, why in found.damaged.items():
+            aside.mkdir(exist_ok=True)
+            target = _free_name(aside / path.name)
+            os.rename(path, target)
+            warnings.warn(f"{path}: is damaged ({why}); moved to {target}, its runs run again", DamagedStoreWarning, stacklevel=2)
+        for run_id, why in found.lost_series.items():
+            group = self.root / SERIES / run_id
+            moved = ""
+            if group.exists():
+                (aside / "series").mkdir(parents=True, exist_ok=True)
+                target = _free_name(aside / "series" / run_id)
+                os.rename(group, target)
+                moved = f"; moved to {target}"
+            warnings.warn(
+                f"{self.root}: run {run_id} is stored but {why}{moved}; it runs again (its new row supersedes the old one)",
+                DamagedStoreWarning,
+                stacklevel=2,
+            )
+
     def write_series(self, outcome: RunOutcome) -> None:
-        """The run's time series into ``series.zarr/<run_id>`` (a run not yet finished may be written again)."""
+        """The run's time series into the group ``series.zarr/<run_id>`` (a run not yet finished may be written again)."""
         if not outcome.series:
             return
         import zarr
 
-        group = zarr.open_group(str(self.root / "series.zarr" / outcome.run_id), mode="w")
+        if self._series is None:
+            self._series = zarr.open_group(str(self.root / SERIES), mode="a")
+        attributes = {"run_id": outcome.run_id, "campaign_id": self.spec.campaign_id}
+        group = self._series.create_group(outcome.run_id, overwrite=True, attributes=attributes)
         for name, values in outcome.series.items():
             group.create_array(name, data=np.asarray(values))
 
@@ -157,7 +232,8 @@ class CampaignStore:
         rows: dict[str, list[Any]] = {name: [] for name in self.schema.names}
         for outcome in outcomes:
             params = by_id[outcome.run_id].parameters
-            fixed = (outcome.run_id, outcome.index, outcome.status, outcome.reason, outcome.seconds, outcome.worker)
+            failure = outcome.failure or ("run" if outcome.status == "failed" else "")
+            fixed = (outcome.run_id, outcome.index, outcome.status, failure, outcome.reason, outcome.seconds, outcome.worker)
             for name, value in zip(COLUMNS, fixed, strict=True):
                 rows[name].append(value)
             for name in self.spec.parameters:
@@ -165,50 +241,32 @@ class CampaignStore:
             for name in self.scalar_names:
                 rows[name].append(outcome.scalars.get(name, float("nan")))
         table = pa.table(rows, schema=self.schema)
-        final = self.root / "runs" / f"part-{self.parts:06d}.parquet"
-        temporary = final.with_name(f".{final.name}.tmp")
+        runs = self.root / "runs"
+        temporary = runs / f".part-{os.getpid()}-{secrets.token_hex(8)}.tmp"
         pq.write_table(table, temporary)
-        os.replace(temporary, final)
-        self.parts += 1
+        fsync_file(temporary)
+        try:
+            while True:  # a new name each try: an existing part is never replaced
+                final = runs / f"part-{time.time_ns():020d}-{secrets.token_hex(4)}-{outcomes[0].run_id}.parquet"
+                try:
+                    os.link(temporary, final)
+                    break
+                except FileExistsError:
+                    continue
+        finally:
+            temporary.unlink()
         return final
+
+
+def _free_name(path: Path) -> Path:
+    """``path``, or ``path.N`` for the first N that is free (a second damaged file of the same name is kept too)."""
+    candidate, k = path, 1
+    while candidate.exists():
+        candidate, k = path.with_name(f"{path.name}.{k}"), k + 1
+    return candidate
 
 
 def _atomic_write(path: Path, data: bytes) -> None:
     temporary = path.with_name(f".{path.name}.tmp")
     temporary.write_bytes(data)
     os.replace(temporary, path)
-
-
-def finished_runs(out: str | Path) -> set[str]:
-    """The run ids that the parts in ``out`` hold (none for a new directory)."""
-    if not any((Path(out) / "runs").glob("part-*.parquet")):
-        return set()
-    return set(read_runs(out, columns=["run_id"]).column("run_id").to_pylist())
-
-
-def read_runs(out: str | Path, columns: list[str] | None = None) -> Any:
-    """The finished runs of a campaign directory: one pyarrow Table of every part (sorted by run index)."""
-    import pyarrow.parquet as pq
-
-    parts = sorted((Path(out) / "runs").glob("part-*.parquet"))
-    if not parts:
-        raise CampaignError(f"{out}: holds no finished runs (no runs/part-*.parquet)")
-    import pyarrow as pa
-
-    table = pa.concat_tables([pq.read_table(p, columns=columns) for p in parts])
-    if "index" in table.column_names:
-        table = table.sort_by("index")
-    return table
-
-
-def read_series(out: str | Path, run_id: str) -> dict[str, np.ndarray]:
-    """The recorded time series of one run ({} when it has none)."""
-    import zarr
-
-    path = Path(out) / "series.zarr" / run_id
-    if not path.is_dir():
-        return {}
-    group = zarr.open_group(str(path), mode="r")
-    with contextlib.suppress(KeyError):
-        return {name: np.asarray(array[...]) for name, array in group.arrays()}
-    return {}
