@@ -59,10 +59,11 @@ __all__ = ["GRASP_REACH", "JOINT_MODES", "Impact", "impact"]
 #: What the joints do during the grasp: "free" (no impulsive torque) or "locked" (the joint rates do not jump).
 JOINT_MODES = ("free", "locked")
 #: The grasping hand must be on the target: its end-effector point at most this many of the target's largest radii
-#: of gyration, sqrt(max eig(I_c) / m), from the target's CM. Every homogeneous convex body lies within 4 of them of its CM
-#: (a cube's corner 2.1, a rod's end 1.7, a slender cone's tip 3.9); 10 leaves room for bodies that are not (a
-#: bus with long solar arrays: the arrays' tips about 5; a light boom on a compact bus can reach beyond 10). A hand farther away is not on the target (a position in the
-#: wrong frame or unit): the impact is refused rather than computed for a body the hand does not touch.
+#: of gyration, sqrt(max eig(I_c) / m), from the target's CM. Every homogeneous convex body lies within 4 of them of
+#: its CM (a cube's corner 2.1, a rod's end 1.7, a slender cone's tip 3.9); 10 leaves room for bodies that are not (a
+#: bus with long solar arrays: the arrays' tips about 5; a light boom on a compact bus can reach beyond 10: grasp such
+#: a target at its bus). A hand farther away is not on the target (a position in the wrong frame or unit): the impact
+#: is refused rather than computed for a body the hand does not touch.
 GRASP_REACH = 10.0
 
 
