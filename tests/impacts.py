@@ -24,16 +24,20 @@ def random_state(model: ff.Model, rng: np.random.Generator, moving: bool = True)
 
 
 def random_target(model: ff.Model, state: ff.State, e: int, rng: np.random.Generator, size: tuple[int, ...] = ()) -> ff.capture.Target:
-    """A target near end effector ``e`` (its CM within ~0.3 m of the end-effector point), random mass, shape and motion."""
+    """A target held by end effector ``e`` (its CM within ~0.3 m of the end-effector point, and within 4 of the
+    target's radii of gyration: the hand is on it, as ``ff.capture.impact`` asks), random mass, shape and motion."""
     s = state.resolve(model)
     tip = s.r_cm + s.rotation.apply(ff.end_effector_positions(model, s.q)[e])
     count = int(np.prod(size))
     mass = np.exp(rng.uniform(np.log(0.5), np.log(2000.0), size=count))
     inertia = np.array([random_inertia(rng, m) for m in mass])
+    offset = rng.normal(scale=0.3, size=(*size, 3))
+    gyration = np.sqrt(np.linalg.eigvalsh(inertia)[:, -1] / mass).reshape(size)
+    offset = offset * np.minimum(1.0, 4.0 * gyration / np.linalg.norm(offset, axis=-1))[..., None]
     return ff.capture.Target(
         mass=mass.reshape(size),
         inertia=inertia.reshape((*size, 3, 3)),
-        position=tip + rng.normal(scale=0.3, size=(*size, 3)),
+        position=tip + offset,
         attitude=Rotation.random(count, random_state=rng).as_quat().reshape((*size, 4)),
         velocity=rng.normal(scale=0.5, size=(*size, 3)),
         angular_velocity=rng.normal(scale=0.3, size=(*size, 3)),

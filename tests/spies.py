@@ -64,3 +64,41 @@ def count_chunks(monkeypatch: pytest.MonkeyPatch) -> list[int]:
 def count_pieces(monkeypatch: pytest.MonkeyPatch) -> list[int]:
     """:func:`count_kernel_runs` of ``freefloat.mechanics._arrays.pieces`` (slices within ``_arrays.PAIR_BUDGET``)."""
     return count_kernel_runs(monkeypatch, freefloat.mechanics._arrays.pieces)
+
+
+def compiled_runs(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Spy on the engine's compiled rollout loops (``_engine.law_rollout``, ``_engine.rollout``): one entry per call,
+    the name of the law that ran inside (``"transposed_jacobian"``, ``"operational_space"``, ``"detumble"``, or
+    ``"joint_pd"`` for the joint PD), so that a test that compares the compiled path with the Python loop can assert
+    that the compiled path ran at all, with the law it names."""
+    from freefloat.mechanics import _engine, _laws
+
+    names = {_laws.TRANSPOSED_JACOBIAN: "transposed_jacobian", _laws.OPERATIONAL_SPACE: "operational_space", _laws.DETUMBLE: "detumble"}
+    runs: list[str] = []
+    law_rollout, rollout = _engine.law_rollout, _engine.rollout
+
+    def law_spy(*args: Any, **kwargs: Any) -> Any:
+        law = args[7] if len(args) > 7 else kwargs.get("law")
+        runs.append("joint_pd" if law is None else names[int(law.setup[0])])
+        return law_rollout(*args, **kwargs)
+
+    def pd_spy(*args: Any, **kwargs: Any) -> Any:
+        runs.append("joint_pd")
+        return rollout(*args, **kwargs)
+
+    replace_everywhere(monkeypatch, law_rollout, law_spy)
+    replace_everywhere(monkeypatch, rollout, pd_spy)
+    return runs
+
+
+def count_method_calls(monkeypatch: pytest.MonkeyPatch, cls: type, name: str) -> list[int]:
+    """Spy on the method ``cls.name`` (e.g. a controller's ``__call__``: its Python form): one entry per call."""
+    original = getattr(cls, name)
+    calls: list[int] = []
+
+    def spy(self: Any, *args: Any, **kwargs: Any) -> Any:
+        calls.append(1)
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(cls, name, spy)
+    return calls

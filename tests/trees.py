@@ -172,3 +172,55 @@ def random_mimic_trees(
     return build_random_model(
         rng, joints, branch, fixed, name="mimic", prismatic=prismatic, tools=tools, mimic=0.3, gripper_like=gripper_like
     )
+
+
+def random_urdf(rng: np.random.Generator, joints_per_arm: list[int], prismatic: float = 0.3) -> str:
+    """A URDF written here from raw random numbers (never through a freefloat model or writer), for oracles that build
+    their robot from the file itself (``pinocchio.buildModelFromUrdf``) while freefloat reads it with ``ff.load``.
+
+    A spacecraft link ``bus`` with ``len(joints_per_arm)`` serial arms of revolute and (probability ``prismatic``)
+    prismatic joints, random placements, axes and inertias (about a CM off the link origin, in rotated axes); each arm
+    ends in a massless ``a{m}_tool`` link on a fixed joint, off its last link's origin: the end effectors, points of
+    the last links away from their frame origins."""
+
+    def f(values: np.ndarray) -> str:
+        return " ".join(f"{x:.17g}" for x in np.ravel(values))
+
+    def inertial(mass: float, spread: float) -> str:
+        i = random_inertia(rng, mass)
+        rpy = Rotation.random(random_state=rng).as_euler("xyz")
+        com = rng.normal(scale=spread, size=3)
+        # the tensor is given in the inertial frame's axes (turned by rpy): write R^T I R so that the link axes see I
+        rot = Rotation.from_euler("xyz", rpy).as_matrix()
+        j = rot.T @ i @ rot
+        return (
+            f'<inertial><origin xyz="{f(com)}" rpy="{f(rpy)}"/><mass value="{mass:.17g}"/>'
+            f'<inertia ixx="{j[0, 0]:.17g}" ixy="{j[0, 1]:.17g}" ixz="{j[0, 2]:.17g}" '
+            f'iyy="{j[1, 1]:.17g}" iyz="{j[1, 2]:.17g}" izz="{j[2, 2]:.17g}"/>'
+            "</inertial>"
+        )
+
+    parts = [f'<robot name="raw"><link name="bus">{inertial(float(rng.uniform(100.0, 500.0)), 0.2)}</link>']
+    for arm, n in enumerate(joints_per_arm):
+        parent = "bus"
+        for k in range(n):
+            body = f"a{arm}_l{k}"
+            slides = rng.uniform() < prismatic
+            axis = rng.normal(size=3)
+            limit = '<limit lower="-0.5" upper="0.5" effort="100" velocity="10"/>' if slides else ""
+            kind = "prismatic" if slides else "continuous"
+            parts.append(f'<link name="{body}">{inertial(float(rng.uniform(1.0, 50.0)), 0.4)}</link>')
+            parts.append(
+                f'<joint name="a{arm}_q{k}" type="{kind}"><parent link="{parent}"/><child link="{body}"/>'
+                f'<origin xyz="{f(rng.normal(scale=0.5, size=3))}" rpy="{f(Rotation.random(random_state=rng).as_euler("xyz"))}"/>'
+                f'<axis xyz="{f(axis / np.linalg.norm(axis))}"/>{limit}</joint>'
+            )
+            parent = body
+        tool = f"a{arm}_tool"
+        parts.append(f'<link name="{tool}"/>')
+        parts.append(
+            f'<joint name="a{arm}_tool_mount" type="fixed"><parent link="{parent}"/><child link="{tool}"/>'
+            f'<origin xyz="{f(rng.uniform(0.2, 0.5, size=3) * rng.choice([-1.0, 1.0], size=3))}" rpy="0 0 0"/></joint>'
+        )
+    parts.append("</robot>")
+    return "".join(parts)

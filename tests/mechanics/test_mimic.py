@@ -11,6 +11,7 @@ tests/oracle/test_pinocchio_mimic.py, tests/oracle/test_real_robots.py.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -215,6 +216,22 @@ def test_a_mimic_joints_rotor_damping_and_friction_act_through_its_leader() -> N
     rhs = np.concatenate([np.zeros((4, 3)), tau + passive], axis=-1) - (ff.nonlinear_forces(ex, qb, vb) @ t)[:, 3:]
     expected = np.linalg.solve(h[:, 3:, 3:], rhs[..., None])[..., 0]
     assert rel(ff.forward_dynamics(model, q, v, tau)[:, 3:], expected) < BOUND
+
+
+def test_a_mimic_joints_armature_adds_r_squared_a_to_its_leaders_diagonal() -> None:
+    """H+ with rotors minus H+ without is diagonal on the joints: each independent joint's own armature a plus, for each
+    mimic joint following it with ratio r (chains multiplied out), r^2 a. The numbers are the gripper's, written here:
+    armature 0.05 on elbow, finger_r (r = -1 of finger_l), mast (r = 0.5 of shoulder) and tilt (r = -2 x 0.5 = -1 of
+    shoulder). r a in place of r^2 a gives the shoulder 0.05 (0.5 - 1) < 0 and finger_l -0.05: far from it."""
+    a = 0.05
+    expected = np.diag(np.concatenate([np.zeros(6), [a * (0.5**2 + (-2.0 * 0.5) ** 2), a, 0.0, a * (-1.0) ** 2]]))
+    with_rotors = dataclasses.replace(gripper(passive=True), joint_damping=np.zeros(4), joint_friction=np.zeros(4))
+    bare = gripper()
+    assert with_rotors.joint_names == bare.joint_names == ("shoulder", "elbow", "wrist", "finger_l")
+    q = np.random.default_rng(4).uniform(-1.0, 1.0, (3, 4)) * np.where(bare.prismatic, 0.02, 1.0)
+    for method in ("recursive", "barycentric"):
+        added = ff.system_inertia_matrix(with_rotors, q, method=method) - ff.system_inertia_matrix(bare, q, method=method)
+        assert np.abs(added - expected).max() < 1e-14, method
 
 
 def test_free_floating_1000_s_with_mimic_joints_conserves_momentum() -> None:

@@ -22,11 +22,13 @@ from __future__ import annotations
 
 import dataclasses
 import tempfile
+import xml.etree.ElementTree as ElementTree
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-from hypothesis import given, settings
+import pytest
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from scipy.linalg import block_diag
 from scipy.spatial.transform import Rotation
@@ -37,7 +39,7 @@ from oracle.test_pinocchio_core import AGREEMENT as CORE_AGREEMENT
 from oracle.test_pinocchio_core import PinocchioSystem, compare
 from oracle.test_pinocchio_dynamics import AGREEMENT as DYNAMICS_AGREEMENT
 from oracle.test_pinocchio_dynamics import run_urdf_case
-from oracle_checks import MARGIN, Agreement
+from oracle_checks import EXCEEDS, MARGIN, Agreement
 from trees import random_mimic_trees
 
 #: Agreement with Pinocchio: the worst relative error of any check (pytest -s prints it), measured 2026-11-26 on the
@@ -134,3 +136,74 @@ def test_random_trees_with_mimic_joints_and_rotors_match_pinocchio(model: ff.Mod
     for name, value in zip(model.joint_names, armature, strict=True):
         pm.armature[pm.joints[pm.getJointId(name)].idx_v] = value
     run_urdf_case(rotors, PinocchioSystem(rotors, pm, tips), rng, BOUND)
+
+
+def urdf_laws(path: Path) -> dict[str, tuple[str, float, float]]:
+    """The file's own ``<mimic>`` elements: joint -> (leader, multiplier, offset), read here with ElementTree."""
+    root = ElementTree.parse(path).getroot()
+    laws = {}
+    for joint in root.findall("joint"):
+        mimic = joint.find("mimic")
+        if mimic is not None:
+            laws[str(joint.get("name"))] = (str(mimic.get("joint")), float(mimic.get("multiplier", 1.0)), float(mimic.get("offset", 0.0)))
+    return laws
+
+
+@settings(max_examples=10, deadline=None, derandomize=True)
+@given(random_mimic_trees(prismatic=0.3), st.integers(0, 1000))
+def test_rotors_on_mimic_joints_match_pinocchio_of_the_expanded_file(model: ff.Model, seed: int) -> None:
+    """A rotor on every joint, mimic joints included (``Model.mimic``'s records): freefloat's H+ against Pinocchio's
+    CRBA of the same URDF parsed with every joint independent (mimic=False) and its armature on every joint, contracted
+    by the file's own mimic laws (ν_expanded = S ν, S = diag(1_6, dq_body/dq) from the multipliers read here): a mimic
+    joint's rotor adds r^2 a to its leader (r a fails this by far)."""
+    rng = np.random.default_rng(seed)
+    with tempfile.TemporaryDirectory() as directory:
+        path = ff.save(model, Path(directory) / f"{model.name}.urdf")
+        laws = urdf_laws(path)
+        armature = {name: float(rng.uniform(0.05, 0.5)) for name in model.body_joint_names}
+        loaded = ff.load(path)
+        pe = pin.buildModelFromUrdf(str(path), pinocchio_root_joint(), mimic=False)
+    assume(model.has_mimic)  # (a tree whose joints can have no leader has none)
+    assert set(laws) == {r["joint"] for r in loaded.mimic}
+    # the rotors: each independent joint's in Model.joint_armature, each mimic joint's in its record (ff.load(joints=)
+    # takes independent joints only)
+    loaded = dataclasses.replace(
+        loaded,
+        joint_armature=np.array([armature[name] for name in loaded.joint_names]),
+        mimic=tuple({**r, "armature": armature[r["joint"]]} for r in loaded.mimic),
+    )
+    names = loaded.joint_names
+    q = rng.uniform(-1.0, 1.0, loaded.n_joints) * np.where(loaded.prismatic, 0.1, 1.0)
+
+    def law(joint: str) -> tuple[float, np.ndarray]:  # (value, d value / d q) of a joint of the file, chains followed
+        if joint in names:
+            return float(q[names.index(joint)]), np.eye(len(names))[names.index(joint)]
+        leader, r, offset = laws[joint]
+        value, grad = law(leader)
+        return r * value + offset, r * grad
+
+    qp, s = pin.neutral(pe), np.zeros((pe.nv, 6 + len(names)))
+    s[:6, :6] = np.eye(6)
+    qp[3:7] = Rotation.random(random_state=rng).as_quat()
+    for j in range(2, pe.njoints):
+        joint = pe.joints[j]
+        value, grad = law(pe.names[j])
+        qp[joint.idx_q : joint.idx_q + joint.nq] = value if joint.nq == 1 else (np.cos(value), np.sin(value))
+        s[joint.idx_v, 6:] = grad
+        pe.armature[joint.idx_v] = armature[pe.names[j]]
+    data = pe.createData()
+    m = pin.crba(pe, data, qp)
+    m_reduced = s.T @ (np.triu(m) + np.triu(m, 1).T) @ s
+    to_ff = np.eye(6 + len(names))
+    to_ff[0:3] = pin.jacobianCenterOfMass(pe, data, qp) @ s  # zdot0 = [J_com S ν; w; qdot]
+    inverse = np.linalg.inv(to_ff)
+    ref = inverse.T @ m_reduced @ inverse
+    check("H+ with rotors on mimic joints (S^T M S)", ff.system_inertia_matrix(loaded, q), ref)
+    check("H+ with rotors on mimic joints: joint rows", ff.system_inertia_matrix(loaded, q)[6:], ref[6:])
+    # a mimic joint's rotor 1e-7 off (the one with the largest ratio) fails the bound
+    r = max(loaded.mimic, key=lambda record: abs(law(record["joint"])[1]).max())
+    wrong = dataclasses.replace(
+        loaded, mimic=tuple({**x, "armature": x["armature"] * (1 + 1e-7) if x is r else x["armature"]} for x in loaded.mimic)
+    )
+    with AGREEMENT.not_recorded(), pytest.raises(AssertionError, match=EXCEEDS):
+        check("wrong on purpose", ff.system_inertia_matrix(wrong, q)[6:], ref[6:])
