@@ -6,8 +6,8 @@ on the 1992 system and a random 3D tree with a sliding joint; the post-event sta
 the pre-event state and the coasting target (the same call, equal); the target coasts torque-free (its
 angular momentum constant, its energy kept, an axisymmetric body against the closed form); a capture that
 never comes ends the run with the closest approach and its time; bad capture descriptions are refused
-naming the field. A capture event replayed in MuJoCo phase by phase (robot and coasting target as free bodies up to
-the event, the grasp at MuJoCo's state, the combined model after it) agrees with the run.
+naming the field. The capture event against MuJoCo (its robot from the raw URDF, its own combined system and grasp,
+never freefloat's converters) is tests/oracle/test_impact_mujoco_raw.py.
 """
 
 from __future__ import annotations
@@ -305,108 +305,3 @@ def test_a_capture_at_the_start_or_the_end_of_the_run(at: float) -> None:
     i = len(run.before)
     jump = np.linalg.norm(run.angular_momentum[i] - run.angular_momentum[i - 1])
     assert jump <= JUMP_BOUND * np.linalg.norm(run.angular_momentum[i - 1])
-
-
-# ------------------------------------------------------------------ the capture event replayed in MuJoCo
-#: The run against its replay in MuJoCo, phase by phase (RK4 at 1 ms in both, 0.1 s outputs): the robot before the
-#: grasp, the coasting target at the event, the post-impact state, the combined system after. Measured 2026-11-26
-#: (2-core dev VM): 2.5e-16, 1.1e-13 (the target: freefloat's coast is DOP853 at rtol 1e-12), 2.6e-14, 3.7e-14; with a
-#: 1e-7 error in the mass of the run's target, 2.8e-8 after the grasp.
-REPLAY_BOUND = 1e-12
-
-
-def mujoco_replay(run_mass_scale: float = 1.0) -> dict[str, float]:
-    """Largest differences between a freefloat run with a capture at t = 1 s (free joints, joint torques throughout)
-    and MuJoCo: phase 1 integrates the robot and the target as a free body of its own (no contact) in one MuJoCo
-    model; at the event the grasp is ``ff.capture.impact`` of MuJoCo's states (MuJoCo has no impulsive weld; the
-    impact itself is checked against Pinocchio in tests/oracle/test_pinocchio_impact.py); phase 2 integrates the
-    combined model in MuJoCo from there. ``run_mass_scale`` changes the target's mass of the freefloat run only."""
-    import mujoco  # an oracle: a missing one fails the test
-
-    from freefloat.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mjcf, to_mujoco
-
-    robot = ff.models.papadopoulos1992(arms=1)
-    state = ff.State(q=[0.5, 1.0], qdot=[0.02, -0.01], omega=[0.0, 0.0, 0.005])
-    tip, _ = tip_motion(robot, state)
-    shape = dict(inertia=np.array([[20.0, 1.0, -0.5], [1.0, 30.0, 0.8], [-0.5, 0.8, 25.0]]), position=tip + np.array([0.2, 0.1, 0.05]))
-    motion = dict(attitude=Rotation.from_euler("xyz", [0.3, -0.2, 0.5]), velocity=[-0.05, 0.02, 0.01], angular_velocity=[0.02, -0.03, 0.05])
-    target = ff.capture.Target(mass=150.0, **shape, **motion)
-    dt, t_event, duration = 1e-3, 1.0, 2.0
-
-    def torques(t: float) -> np.ndarray:
-        return np.array([0.5 * np.sin(t), -0.3 * np.cos(2.0 * t)])
-
-    ran = ff.capture.Target(mass=150.0 * run_mass_scale, **shape, **motion)
-    run = ff.simulate(
-        robot, state, duration, lambda t, s: torques(t), capture=ff.Capture(ran, at=t_event), fixed_step=dt, output_period=0.1
-    )
-    assert run.before is not None and run.after is not None and run.impact is not None
-
-    def f(values: object) -> str:
-        return " ".join(f"{x:.17g}" for x in np.ravel(np.asarray(values, dtype=float)))
-
-    i_t, quat = target.inertia, np.roll(target.rotation.as_quat(), 1)  # MuJoCo's [w, x, y, z]
-    full = [i_t[0, 0], i_t[1, 1], i_t[2, 2], i_t[0, 1], i_t[0, 2], i_t[1, 2]]
-    free_body = (
-        f'<body name="target" pos="{f(target.position)}" quat="{f(quat)}"><freejoint name="target"/>'
-        f'<inertial pos="0 0 0" mass="150.0" fullinertia="{f(full)}"/></body>\n'
-    )
-    mj = mujoco.MjModel.from_xml_string(to_mjcf(robot, timestep=dt).replace("  </worldbody>", free_body + "  </worldbody>"))
-    data = mujoco.MjData(mj)
-    qpos, qvel = mujoco_state(robot, state)
-    nq, nv = qpos.size, qvel.size
-    data.qpos[:nq], data.qvel[:nv] = qpos, qvel
-    data.qpos[nq:] = np.r_[target.position, quat]
-    data.qvel[nv:] = np.r_[target.velocity, target.rotation_matrix.T @ target.angular_velocity]  # body-frame rate
-
-    def difference(model: ff.Model, traj: ff.Trajectory, k: int, qpos: np.ndarray, qvel: np.ndarray) -> float:
-        s = from_mujoco_state(model, qpos, qvel)
-        attitude = s.attitude if s.attitude @ traj.attitude[k] >= 0 else -s.attitude
-        pairs = (
-            (s.q, traj.q),
-            (s.qdot, traj.qdot),
-            (s.omega, traj.omega),
-            (attitude, traj.attitude),
-            (s.r_cm, traj.r_cm),
-            (s.v_cm, traj.v_cm),
-        )
-        return max(float(np.abs(a - b[k]).max()) for a, b in pairs)
-
-    found = {"before": 0.0, "after": 0.0}
-    for i in range(round(duration / dt)):
-        if i == round(t_event / dt):  # the grasp at MuJoCo's states, then the combined model in MuJoCo
-            rotation = Rotation.from_quat(np.roll(data.qpos[nq + 3 :], -1))
-            coasted = ff.capture.Target(
-                mass=150.0, inertia=target.inertia, position=data.qpos[nq : nq + 3].copy(), attitude=rotation,
-                velocity=data.qvel[nv : nv + 3].copy(), angular_velocity=rotation.apply(data.qvel[nv + 3 :]),
-            )  # fmt: skip
-            found["target"] = max(
-                float(np.abs(coasted.position - run.target.position[-1]).max()),
-                float(np.abs(coasted.velocity - run.target.velocity[-1]).max()),
-                float(np.abs(coasted.angular_velocity - run.target.angular_velocity[-1]).max()),
-            )
-            hit = ff.capture.impact(robot, from_mujoco_state(robot, data.qpos[:nq], data.qvel[:nv]), coasted)
-            after = run.impact.state
-            found["impact"] = max(float(np.abs(getattr(hit.state, n) - getattr(after, n)).max()) for n in ("qdot", "omega", "v_cm", "r_cm"))
-            mj, combined = to_mujoco(hit.model, timestep=dt), hit.model
-            data = mujoco.MjData(mj)
-            data.qpos[:], data.qvel[:] = mujoco_state(combined, hit.state)
-        data.ctrl[:] = torques(i * dt)
-        mujoco.mj_step(mj, data)
-        k = (i + 1) // 100
-        if (i + 1) % 100 == 0 and i + 1 <= round(t_event / dt):
-            found["before"] = max(found["before"], difference(robot, run.before, k, data.qpos[:nq], data.qvel[:nv]))
-        elif (i + 1) % 100 == 0:
-            found["after"] = max(found["after"], difference(combined, run.after, k - 10, data.qpos, data.qvel))
-    return found
-
-
-def test_a_capture_event_replayed_in_mujoco_phase_by_phase_agrees_with_the_run() -> None:
-    found = mujoco_replay()
-    assert set(found) == {"before", "target", "impact", "after"}
-    assert max(found.values()) < REPLAY_BOUND, found
-
-
-def test_a_1e_7_error_in_the_targets_mass_fails_the_replay_bound() -> None:
-    found = mujoco_replay(run_mass_scale=1.0 + 1e-7)
-    assert found["before"] < REPLAY_BOUND and found["impact"] > REPLAY_BOUND and found["after"] > REPLAY_BOUND, found
