@@ -148,7 +148,7 @@ def _empty_part(folder: Path) -> Any:
     from freefloat.campaigns import read_runs
 
     _, out = _store(folder)
-    (out / "runs" / "part-0-empty.parquet").write_bytes(b"")
+    (out / "runs" / "part-00000000000000000000-00000000-empty.parquet").write_bytes(b"")
     return read_runs(out)
 
 
@@ -166,7 +166,7 @@ def _foreign_part(folder: Path) -> Any:
 
     spec, out = _store(folder)
     _, other = _store(folder, k=2.0)
-    shutil.copy(next((other / "runs").glob("part-*.parquet")), out / "runs" / "part-9-copied.parquet")
+    shutil.copy(next((other / "runs").glob("part-*.parquet")), out / "runs" / "part-99999999999999999999-00000000-copied.parquet")
     return run_campaign(spec, out, resume=True, progress=False)
 
 
@@ -177,7 +177,7 @@ def _other_program(folder: Path) -> Any:
     from freefloat.campaigns import run_campaign
 
     spec, out = _store(folder)
-    pq.write_table(pa.table({"x": [1.0, 2.0]}), out / "runs" / "part-9-theirs.parquet")
+    pq.write_table(pa.table({"x": [1.0, 2.0]}), out / "runs" / "part-99999999999999999999-00000000-theirs.parquet")
     return run_campaign(spec, out, resume=True, progress=False)
 
 
@@ -186,30 +186,63 @@ def _older_format(folder: Path) -> Any:
 
     spec, out = _store(folder)
     manifest = out / "campaign.json"
-    manifest.write_text(manifest.read_text().replace("freefloat-campaign-2", "freefloat-campaign-1"))
+    manifest.write_text(manifest.read_text().replace("freefloat-campaign-2", "freefloat-campaign-0"))
     return run_campaign(spec, out, resume=True, progress=False)
 
 
+def _broken_link(folder: Path) -> Any:
+    from freefloat.campaigns import run_campaign
+
+    spec = _spec(folder)
+    (folder / "out").symlink_to(folder / "gone")
+    return run_campaign(spec, folder / "out", scheduler="tcp://127.0.0.1:1", progress=False)
+
+
+def _being_written(folder: Path) -> Any:
+    from freefloat.campaigns import run_campaign
+    from freefloat.campaigns.store import CampaignStore
+
+    spec, out = _store(folder)
+    lock = CampaignStore.lock(out)  # another campaign writing there now (a port nothing listens on: refused first)
+    try:
+        return run_campaign(spec, out, scheduler="tcp://127.0.0.1:1", resume=True, progress=False)
+    finally:
+        assert lock is not None
+        lock.close()
+
+
+CASES += [
+    api(
+        "api-campaign40-out-broken-link",
+        _in_temporary(_broken_link),
+        CampaignError,
+        r"--out \S+out: is a broken symbolic link \(to \S+gone\)",
+    ),
+    api(
+        "api-campaign40-out-being-written", _in_temporary(_being_written), CampaignError, r"another freefloat campaign is writing there now"
+    ),
+]
+
 CASES += [
     api("api-campaign40-truncated-part", _in_temporary(_truncated), CampaignError, r"part-\S+\.parquet: is damaged .*--resume: it moves"),
-    api("api-campaign40-empty-part", _in_temporary(_empty_part), CampaignError, r"part-0-empty\.parquet: is damaged"),
+    api("api-campaign40-empty-part", _in_temporary(_empty_part), CampaignError, r"part-0+-0+-empty\.parquet: is damaged"),
     api("api-campaign40-lost-series", _in_temporary(_lost_series), CampaignError, r"run \w+: series\.zarr/\w+ is missing; run .*--resume"),
     api(
         "api-campaign40-foreign-part",
         _in_temporary(_foreign_part),
         CampaignError,
-        r"part-9-copied\.parquet: is a Parquet file of campaign \w+, not",
+        r"part-9+-0+-copied\.parquet: is a Parquet file of campaign \w+, not",
     ),
     api(
         "api-campaign40-other-program",
         _in_temporary(_other_program),
         CampaignError,
-        r"part-9-theirs\.parquet: is a Parquet file of another program",
+        r"part-9+-0+-theirs\.parquet: is a Parquet file of another program",
     ),
     api(
         "api-campaign40-older-format",
         _in_temporary(_older_format),
         CampaignError,
-        r"written by an older freefloat \(format freefloat-campaign-1",
+        r"written by another freefloat \(format freefloat-campaign-0; this one reads freefloat-campaign-1 and",
     ),
 ]

@@ -116,6 +116,64 @@ def test_an_unimportable_function_stores_nothing_and_resume_runs_it_once_fixed(c
     assert read_runs(out).column("k2").to_pylist() == [1.0, 4.0, 9.0, 16.0]
 
 
+def test_an_import_error_inside_one_run_leaves_it_unfinished_and_the_campaign_goes_on(cluster: Cluster, tmp_path: Path) -> None:
+    module = f"inside_{tmp_path.name.replace('-', '_')}"
+    flag = tmp_path / "broken"
+    flag.touch()
+    source = (
+        "import os\n"
+        "def run(p):\n"
+        f"    if p['k'] == 2 and os.path.exists({str(flag)!r}):\n"
+        "        from math import nonexistent\n"
+        "    return {'k2': float(p['k'] ** 2)}\n"
+    )
+    (cluster.modules / f"{module}.py").write_text(source)
+    spec = load_campaign(
+        campaign(tmp_path, function=f"{module}:run", parameters={"k": {"values": [1, 2, 3, 4]}}, record={"scalars": ["k2"]})
+    )
+    out = tmp_path / "out"
+    first = run_campaign(spec, out, scheduler=cluster.address, progress=False)
+    assert (first.ok, first.failed, first.unfinished) == (3, 0, 1) and "cannot import name 'nonexistent'" in first.unfinished_reason
+    assert "1 not finished (a module missing on the workers: ImportError" in first.line() and "--resume runs them again" in first.line()
+    assert read_runs(out).column("k2").to_pylist() == [1.0, 9.0, 16.0]
+    flag.unlink()
+    again = run_campaign(spec, out, scheduler=cluster.address, resume=True, progress=False)
+    assert (again.ok, again.skipped, again.unfinished) == (1, 3, 0)
+    assert read_runs(out).column("k2").to_pylist() == [1.0, 4.0, 9.0, 16.0]
+
+
+def test_import_errors_in_the_first_runs_stop_the_campaign(cluster: Cluster, tmp_path: Path) -> None:
+    from freefloat.campaigns.runner import ENVIRONMENT_STOP
+
+    module = f"never_{tmp_path.name.replace('-', '_')}"
+    (cluster.modules / f"{module}.py").write_text("def run(p):\n    import not_installed_anywhere\n")
+    values = list(range(ENVIRONMENT_STOP + 4))
+    spec = load_campaign(campaign(tmp_path, function=f"{module}:run", parameters={"k": {"values": values}}, record={"scalars": ["y"]}))
+    with pytest.raises(CampaignError, match=rf"the first {ENVIRONMENT_STOP} runs .*could not run on worker .*not_installed_anywhere"):
+        run_campaign(spec, tmp_path / "out", scheduler=cluster.address, progress=False, window=2)
+    assert not list((tmp_path / "out" / "runs").glob("part-*"))
+
+
+def test_a_run_that_killed_its_worker_runs_again_on_resume(cluster: Cluster, tmp_path: Path) -> None:
+    from freefloat.campaigns.execute import RunOutcome
+    from freefloat.campaigns.store import CampaignStore
+
+    spec = load_campaign(marked_campaign(tmp_path, 2, gated=False))
+    plan = plan_runs(spec)
+    out = tmp_path / "out"
+    first = run_campaign(spec, out, scheduler=cluster.address, progress=False, max_runs=1)
+    assert first.ok == 1
+    killed = RunOutcome(plan[1].run_id, 1, "failed", "KilledWorker: the worker running it died", failure="worker")
+    with CampaignStore.open(out, spec, plan, resume=True) as store:
+        store.add([killed])
+    old = {path.name: path.read_bytes() for path in parts(out)}
+    again = run_campaign(spec, out, scheduler=cluster.address, resume=True, progress=False)
+    assert (again.ok, again.skipped, again.retried) == (1, 1, 1) and "1 ok (1 that had killed their worker run again)" in again.line()
+    assert marks(tmp_path, "done") == [0, 1]
+    assert read_runs(out).column("status").to_pylist() == ["ok", "ok"]
+    assert all((out / "runs" / name).read_bytes() == data for name, data in old.items())  # the old rows kept on disk
+
+
 def test_a_scheduler_without_workers_and_the_last_worker_killed(tmp_path: Path) -> None:
     spec = load_campaign(marked_campaign(tmp_path, 3, gated=True))
     with start_cluster(tmp_path, workers=()) as lonely:
@@ -146,6 +204,32 @@ def test_a_scheduler_without_workers_and_the_last_worker_killed(tmp_path: Path) 
             run_campaign(spec, tmp_path / "b", scheduler=lonely.address, progress=False, worker_timeout=1.0)
         killer.join()
         assert marks(tmp_path, "done") == []
+
+
+def test_a_scheduler_that_goes_away_is_one_line_and_the_finished_runs_are_kept(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
+    import logging
+
+    import dask
+
+    spec = load_campaign(marked_campaign(tmp_path, 3, gated=True))
+    with start_cluster(tmp_path, workers=("only",)) as doomed:
+        scheduler = doomed.processes[0]
+
+        def kill_when_started() -> None:
+            wait_for(lambda: marks(tmp_path, "start"), "a run to start")
+            scheduler.kill()
+
+        killer = threading.Thread(target=kill_when_started)
+        killer.start()
+        with (
+            dask.config.set({"distributed.comm.timeouts.connect": "1s"}),
+            pytest.raises(
+                CampaignError, match=rf"--scheduler {doomed.address}: the scheduler stopped answering .*finished runs are kept.*--resume"
+            ),
+        ):
+            run_campaign(spec, tmp_path / "out", scheduler=doomed.address, progress=False, worker_timeout=30.0)
+        killer.join()
+    assert not [r for r in caplog.records if r.name.startswith("distributed.client") and r.levelno >= logging.ERROR]
 
 
 @pytest.mark.parametrize(

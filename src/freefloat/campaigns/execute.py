@@ -2,11 +2,13 @@
 
 :func:`execute_run` is the function each Dask task calls. It never raises for a run's own failure (a value the
 scenario refuses, a simulation that diverges, a missing quantity): the :class:`RunOutcome` says "failed" and
-why, and the campaign goes on. A failure of the worker's environment is not the run's: a module that the worker
-cannot import (the campaign's function, or a package a run needs) is an outcome with status "environment", which
-the runner never stores (it stops the campaign; ``--resume`` runs the run once the workers are fixed). A worker
-that dies (out of memory, killed) loses a run; Dask tries it once more elsewhere (``allowed-failures``), then the
-runner stores it as failed by its worker.
+why, and the campaign goes on. A failure of the worker's environment is not the run's: an outcome with status
+"environment", which the runner never stores. ``failure`` "module": the campaign's function module did not load
+(any exception while importing it) or lacks the name: no run can run there, the runner stops the campaign.
+``failure`` "import": an ImportError raised inside the run's call: that run is left not finished and the campaign
+goes on (``--resume`` tries it again). A worker that dies (out of memory, killed) loses a run; Dask tries it once
+more elsewhere (``allowed-failures``), then the runner stores it as failed by its worker (run again by
+``--resume``).
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ class RunTask:
 class RunOutcome:
     """A finished run: "ok" with its scalars and time series, or "failed" with the reason (one line) and whose
     failure it is (``failure``: "run", its own; "worker", it killed its worker on each try); or "environment": not
-    run, the worker could not (never stored)."""
+    run, the worker could not (never stored; ``failure`` "module" or "import", see the module docstring)."""
 
     run_id: str
     index: int
@@ -117,11 +119,9 @@ def _compute(task: RunTask) -> tuple[dict[str, float], dict[str, np.ndarray]]:
         if missing:
             raise KeyError(f"the result has no series {', '.join(missing)}")
         arrays = {key: np.asarray(result[key]) for key in task.series}
-        if arrays and "t" in result:  # the time axis of the series, kept with them
-            arrays = {"t": np.asarray(result["t"]), **arrays}
-            wrong = [f"{k} ({v.shape[0] if v.ndim else 'a scalar'})" for k, v in arrays.items() if not v.ndim or len(v) != len(arrays["t"])]
-            if wrong:
-                raise ValueError(f"series {', '.join(wrong)}: not one sample per time of t ({len(arrays['t'])} times)")
+        t = np.asarray(result.get("t", ()))
+        if arrays and "t" in result and t.ndim == 1 and all(v.ndim and len(v) == len(t) for v in arrays.values()):
+            arrays = {"t": t, **arrays}  # the time axis of the series, kept with them (else they have none: a spectrum)
         return {name: scalar_value(result, name) for name in task.scalars}, arrays
     scenario = task.scenario
     for name, value in task.parameters.items():
@@ -137,11 +137,16 @@ class EnvironmentFailure(Exception):
 
 
 def _function(spec: str) -> Any:
+    """The campaign's function; any failure to import its module is the environment's (:class:`EnvironmentFailure`)."""
     module, name = spec.split(":")
     try:
-        return getattr(importlib.import_module(module), name)
-    except ImportError as exc:
-        raise EnvironmentFailure(f"function {spec}: {type(exc).__name__}: {' '.join(str(exc).split())}") from None
+        loaded = importlib.import_module(module)
+    except BaseException as exc:  # (ImportError, SyntaxError, NameError, a RuntimeError at import: none is a run's)
+        if isinstance(exc, KeyboardInterrupt):  # (a SystemExit at import is the module's failure too)
+            raise
+        raise EnvironmentFailure(f"function {spec}: importing {module}: {type(exc).__name__}: {' '.join(str(exc).split())}") from None
+    try:
+        return getattr(loaded, name)
     except AttributeError:
         raise EnvironmentFailure(f"function {spec}: module {module} has no {name}") from None
 
@@ -153,12 +158,12 @@ def execute_run(task: RunTask) -> RunOutcome:
     try:
         try:
             scalars, series = _compute(task)
-        except EnvironmentFailure as exc:
-            return RunOutcome(task.run_id, task.index, "environment", str(exc), worker=worker)
-        except ImportError as exc:  # a module missing on this worker (the run's own code, or a package it needs)
+        except EnvironmentFailure as exc:  # the campaign's module: no run can run on this worker
+            return RunOutcome(task.run_id, task.index, "environment", str(exc), worker=worker, failure="module")
+        except ImportError as exc:  # a module missing for this run (its own code, or a package it needs): retried
             where = traceback.extract_tb(exc.__traceback__)[-1]
             reason = f"{type(exc).__name__}: {' '.join(str(exc).split())} ({Path(where.filename).name}:{where.lineno})"
-            return RunOutcome(task.run_id, task.index, "environment", reason, worker=worker)
+            return RunOutcome(task.run_id, task.index, "environment", reason, worker=worker, failure="import")
     except MemoryError as exc:
         reason = f"out of memory: {' '.join(str(exc).split())}"
         return RunOutcome(task.run_id, task.index, "failed", reason, seconds=time.perf_counter() - start, worker=worker, failure="run")

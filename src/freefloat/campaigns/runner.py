@@ -15,43 +15,37 @@ in progress (a second Ctrl-C leaves them), stores them and returns.
 Whose failure: a run that raises is the run's own (stored "failed", ``failure`` "run"). A worker that dies during
 a run (killed, out of memory) loses it; the scheduler tries it once more elsewhere (a local cluster's
 ``allowed-failures`` is 1; an external cluster's is its own setting); a run that killed its worker on every try
-is stored as failed by its worker (``failure`` "worker"). The environment's failures (the function's module not
-importable on a worker, freefloat missing there, the scheduler gone, no worker left) are never stored: they stop
-the campaign with one error, the finished runs kept, and ``--resume`` runs the rest once the cluster is fixed.
+is stored as failed by its worker (``failure`` "worker"; ``--resume`` runs it again: a dead worker is the
+environment's). The environment's failures (the function's module not loadable on a worker, freefloat missing
+there, the scheduler gone, no worker left) are never stored: they stop the campaign with one error, every run that
+finished stored first, and ``--resume`` runs the rest once the cluster is fixed. An ImportError inside one run's
+call leaves that run not finished (counted, not stored) and the campaign goes on, unless the first
+:data:`ENVIRONMENT_STOP` runs all raise one.
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
-import os
-import socket
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
-from urllib.parse import urlsplit
 
 from ..core.errors import CampaignError
 from ..simulation._guard import Progress
+from .cluster import CONNECT_TIMEOUT, WORKER_TIMEOUT, _one_line, check_cluster_options, dask_client
 from .execute import RunOutcome, RunTask, execute_run
 from .spec import CampaignSpec, Run, plan_runs
 from .store import CampaignStore
 
 __all__ = ["CONNECT_TIMEOUT", "CampaignRun", "dask_client", "run_campaign"]
 
-#: Seconds to wait for an external scheduler to answer.
-CONNECT_TIMEOUT = 4.0
-#: Seconds to wait for an external scheduler's first worker, and for a worker when a running campaign has none left.
-WORKER_TIMEOUT = 60.0
-#: The least memory a local worker can live in: a worker process that has run a simulation holds about 215 MiB
-#: (freefloat, numba and Dask loaded), and Dask pauses a worker at 80 % of its limit.
-MIN_WORKER_MEMORY = 320 << 20
-#: The schemes of a scheduler's address this command connects to.
-SCHEMES = ("tcp", "tls", "ws", "wss")
-#: Allowed failures of a run on a local cluster: a worker dying once (a lost machine) is forgiven, twice is the run's.
-ALLOWED_FAILURES = 1
+#: A module missing inside a run (an ImportError raised by the run's call) leaves that run not finished and the
+#: campaign goes on (``--resume`` tries it again); when the first this many runs of an invocation all raise one, the
+#: workers' environment is broken: the campaign stops.
+ENVIRONMENT_STOP = 8
 
 
 @dataclass(frozen=True)
@@ -68,213 +62,24 @@ class CampaignRun:
     failed: int
     interrupted: bool
     seconds: float
+    unfinished: int = 0
+    unfinished_reason: str = ""
+    retried: int = 0
 
     def line(self) -> str:
         """One line for the terminal."""
         stopped = "; interrupted: run it again with --resume" if self.interrupted else ""
+        again = f" ({self.retried} that had killed their worker run again)" if self.retried else ""
+        missing = (
+            f", {self.unfinished} not finished (a module missing on the workers: {self.unfinished_reason}; nothing stored "
+            "for them: --resume runs them again)"
+            if self.unfinished
+            else ""
+        )
         return (
-            f"campaign {self.campaign_id}: {self.ok} ok, {self.failed} failed, {self.skipped} already stored, "
+            f"campaign {self.campaign_id}: {self.ok} ok{again}, {self.failed} failed{missing}, {self.skipped} already stored, "
             f"of {self.selected} selected ({self.planned} planned) in {self.seconds:.3g} s{stopped}"
         )
-
-
-@contextlib.contextmanager
-def dask_client(
-    scheduler: str | None = None,
-    *,
-    workers: int | None = None,
-    memory_limit: str | None = None,
-    numba_threads: int | None = None,
-    worker_timeout: float | None = None,
-) -> Iterator[Any]:
-    """A Dask client on ``scheduler``, or on a new local cluster of ``workers`` processes (one task thread each) on
-    127.0.0.1 with ``memory_limit`` per worker (e.g. "2GiB") and ``numba_threads`` for the batched kernels in each
-    (default :func:`local_threads`: the cores shared between the workers); closed (and the cluster stopped) on exit.
-    An existing scheduler must answer as one within :data:`CONNECT_TIMEOUT` and have a worker within
-    ``worker_timeout`` (default :data:`WORKER_TIMEOUT`) s, else a CampaignError says which."""
-    import dask
-    from distributed import Client, LocalCluster
-
-    check_cluster_options(scheduler, workers=workers, memory_limit=memory_limit)
-    if scheduler is not None:
-        _probe(scheduler)
-        try:
-            client = Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
-        except (OSError, ValueError, TypeError, MemoryError) as exc:
-            raise CampaignError(f"--scheduler {scheduler}: the scheduler answered, then the connection failed ({_one_line(exc)})") from None
-        with client:
-            _wait_for_workers(client, scheduler, WORKER_TIMEOUT if worker_timeout is None else worker_timeout)
-            yield client
-        return
-    threads = numba_threads if numba_threads is not None else local_threads(workers or 1)
-    environ = {**dask.config.get("distributed.nanny.pre-spawn-environ"), "NUMBA_NUM_THREADS": str(threads)}  # read at numba's import
-    settings = {"distributed.scheduler.allowed-failures": ALLOWED_FAILURES, "distributed.nanny.pre-spawn-environ": environ}
-    with dask.config.set(settings), _workers_ignore_ctrl_c():
-        cluster = LocalCluster(
-            n_workers=workers or 1,
-            threads_per_worker=1,
-            processes=True,
-            host="127.0.0.1",
-            dashboard_address="127.0.0.1:0",  # the scheduler's HTTP server on a free port (None still takes 8787, warning when busy)
-            memory_limit=memory_limit or "auto",
-            silence_logs=logging.CRITICAL,
-        )
-    with cluster, Client(cluster, set_as_default=False) as client:
-        yield client
-
-
-def _one_line(exc: BaseException) -> str:
-    return " ".join(str(exc).split()) or type(exc).__name__
-
-
-def check_cluster_options(scheduler: str | None, *, workers: int | None, memory_limit: str | None) -> None:
-    """The cluster's options checked before any work (a CampaignError naming the option and the fix)."""
-    if scheduler is not None:
-        if workers is not None or memory_limit is not None:
-            raise CampaignError("--workers and --memory-limit shape a local cluster; with --scheduler, the cluster's own workers run")
-        _address(scheduler)
-        scheme = urlsplit(scheduler).scheme
-        if scheme in ("tls", "wss"):
-            from distributed.security import Security
-
-            if Security().get_connection_args("client").get("ssl_context") is None:
-                raise CampaignError(
-                    f"--scheduler {scheduler}: a {scheme} scheduler needs this client's certificates; set them in Dask's "
-                    "configuration (DASK_DISTRIBUTED__COMM__TLS__CA_FILE, ..._CLIENT__CERT, ..._CLIENT__KEY) or use tcp://"
-                )
-        return
-    cores = os.cpu_count() or 1
-    if workers is not None and not 1 <= workers <= cores:
-        raise CampaignError(
-            f"--workers: expected 1 to {cores} (this machine's cores), got {workers}; a cluster of more machines: start one "
-            "and give --scheduler"
-        )
-    if memory_limit is not None:
-        from dask.utils import format_bytes, parse_bytes
-
-        try:
-            size = parse_bytes(memory_limit)
-        except (ValueError, TypeError):
-            raise CampaignError(f"--memory-limit {memory_limit}: not a size; give one such as 2GiB or 500MB") from None
-        total = _total_memory()
-        if size < MIN_WORKER_MEMORY:
-            raise CampaignError(
-                f"--memory-limit {memory_limit}: a worker with freefloat loaded needs at least {format_bytes(MIN_WORKER_MEMORY)}; "
-                "give more (e.g. 2GiB)"
-            )
-        if total is not None and size * (workers or 1) > total:
-            raise CampaignError(
-                f"--memory-limit {memory_limit}: {workers or 1} worker(s) of {format_bytes(size)} exceed this machine's "
-                f"{format_bytes(total)}; give less, or fewer --workers"
-            )
-
-
-def _total_memory() -> int | None:
-    try:
-        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
-    except (ValueError, OSError):
-        return None
-
-
-def _probe(scheduler: str) -> None:
-    """Ask ``scheduler`` who it is, within :data:`CONNECT_TIMEOUT` s: a CampaignError unless a Dask scheduler answers."""
-    import asyncio
-    import threading
-
-    from distributed.comm import connect
-    from distributed.security import Security
-
-    args = Security().get_connection_args("client")
-
-    host, port = _address(scheduler)
-    try:  # nothing listening: refused at once, before Dask's retries
-        socket.create_connection((host, port), timeout=CONNECT_TIMEOUT).close()
-    except OSError as exc:
-        raise CampaignError(
-            f"--scheduler {scheduler}: no Dask scheduler answered within {CONNECT_TIMEOUT:g} s ({_one_line(exc)}); start one "
-            "(dask scheduler) or check the address (tcp://host:port)"
-        ) from None
-
-    async def identity() -> Any:
-        comm = await connect(scheduler, timeout=CONNECT_TIMEOUT, **args)
-        try:
-            await comm.write({"op": "identity", "reply": True})
-            return await comm.read()
-        finally:
-            comm.abort()
-
-    answer: list[Any] = []
-
-    def ask() -> None:  # (a thread of its own: the caller may be inside an event loop)
-        try:
-            answer.append(asyncio.run(asyncio.wait_for(identity(), CONNECT_TIMEOUT)))
-        except BaseException as exc:  # (anything a non-scheduler's bytes make the reader raise)
-            answer.append(exc)
-
-    thread = threading.Thread(target=ask, daemon=True)
-    thread.start()
-    thread.join(CONNECT_TIMEOUT + 2.0)
-    reply = answer[0] if answer else TimeoutError()
-    if isinstance(reply, dict) and reply.get("type") == "Scheduler":
-        return
-    if isinstance(reply, dict) and reply.get("type"):
-        what = f"a Dask {str(reply['type']).lower()}"
-    elif isinstance(reply, (TimeoutError, asyncio.TimeoutError)):
-        what = f"something that accepts connections but did not answer as a Dask scheduler within {CONNECT_TIMEOUT:g} s"
-    else:
-        what = "a program that does not speak Dask's protocol"
-    raise CampaignError(
-        f"--scheduler {scheduler}: {what} is there, not a Dask scheduler; give the scheduler's address (dask scheduler "
-        "prints it: tcp://host:port)"
-    )
-
-
-def _wait_for_workers(client: Any, scheduler: str, timeout: float) -> None:
-    """Wait until the cluster has a worker, saying so; a CampaignError after ``timeout`` s."""
-    if client.nthreads():
-        return
-    log = logging.getLogger("freefloat.progress")
-    log.info("waiting for workers at %s (none yet; giving up after %g s)", scheduler, timeout)
-    try:
-        client.wait_for_workers(1, timeout=timeout)
-    except TimeoutError:
-        raise CampaignError(
-            f"--scheduler {scheduler}: no worker joined the scheduler within {timeout:g} s; start workers "
-            f"(dask worker {scheduler} --nthreads 1) and run it again"
-        ) from None
-
-
-@contextlib.contextmanager
-def _workers_ignore_ctrl_c() -> Iterator[None]:
-    """Start the local workers with SIGINT ignored (a process started so keeps it: Python then installs no
-    KeyboardInterrupt), so that a terminal's Ctrl-C, which reaches the whole process group, stops the runner only and
-    the runs in progress finish. (A worker that its nanny restarts later, after an out-of-memory kill, has the
-    default again.) Off the main thread, where no signal can be set, nothing changes."""
-    import signal
-    import threading
-
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
-def _address(address: str) -> tuple[str, int]:
-    """The host and port of a scheduler address ``protocol://host:port``; a CampaignError if it is not one."""
-    parts = urlsplit(address)
-    try:
-        port = parts.port
-    except ValueError:
-        port = None
-    if not parts.scheme or not parts.hostname or port is None:
-        raise CampaignError(f"--scheduler {address}: expected a scheduler address such as tcp://127.0.0.1:8786")
-    if parts.scheme not in SCHEMES:
-        raise CampaignError(f"--scheduler {address}: unknown scheme {parts.scheme}://; use tcp://host:port (or tls://, ws://, wss://)")
-    return parts.hostname, port
 
 
 def _lost(run: Run, exc: BaseException) -> RunOutcome:
@@ -295,9 +100,10 @@ def _lost(run: Run, exc: BaseException) -> RunOutcome:
     ) from exc
 
 
-def _environment(outcome: RunOutcome) -> CampaignError:
+def _environment(outcome: RunOutcome, first: int = 0) -> CampaignError:
+    which = f"the first {first} runs (the last: run {outcome.run_id})" if first else f"run {outcome.run_id}"
     return CampaignError(
-        f"run {outcome.run_id} could not run on worker {outcome.worker} ({outcome.reason}): the workers' environment, not "
+        f"{which} could not run on worker {outcome.worker} ({outcome.reason}): the workers' environment, not "
         "the run, failed; nothing is stored for it and the finished runs are kept: make it importable there "
         "(installed, or on the workers' PYTHONPATH), then --resume"
     )
@@ -305,11 +111,6 @@ def _environment(outcome: RunOutcome) -> CampaignError:
 
 def _task(spec: CampaignSpec, run: Run) -> RunTask:
     return RunTask(run.run_id, run.index, spec.kind, spec.scenario, spec.base, spec.function, run.parameters, spec.scalars, spec.series)
-
-
-def local_threads(workers: int) -> int:
-    """Threads of the batched kernels in each worker of a local cluster: the machine's cores shared between them."""
-    return max(1, (os.cpu_count() or 1) // workers)
 
 
 def run_campaign(
@@ -346,35 +147,42 @@ def run_campaign(
     CampaignStore.check(out, spec, resume=resume)  # a refused directory or a bad option: nothing drawn, nothing written
     plan = plan_runs(spec)
     selected = plan[:max_runs] if max_runs is not None else plan
-    found = CampaignStore.survey(out, spec, plan)  # a foreign part: refused here, nothing changed
-    stored = found.finished
-    todo = [run for run in selected if run.run_id not in stored]
-    counts = {"ok": 0, "failed": 0}
+    counts = {"ok": 0, "failed": 0, "environment": 0}
+    reasons: list[str] = []
     interrupted = False
-    if found.damaged or found.lost_series:
-        with CampaignStore.open(out, spec, plan, resume=resume) as store:
-            store.repair(found)
-    if todo:
-        try:
-            with (
-                dask_client(scheduler, workers=workers, memory_limit=memory_limit, numba_threads=numba_threads,
-                            worker_timeout=worker_timeout) as client,
-                CampaignStore.open(out, spec, plan, resume=resume) as store,
-            ):  # fmt: skip
-                if on_started is not None:
-                    on_started(client)
-                limit = window or max(4, 2 * sum(client.nthreads().values()))
-                bar = Progress(progress, float(len(todo)), what=f"campaign {spec.campaign_id}", unit="runs", rate=True)
-                patience = WORKER_TIMEOUT if worker_timeout is None else worker_timeout
-                try:
-                    interrupted = _drive(client, spec, store, todo, limit, bar, counts, (flush_seconds, flush_runs, patience))
-                finally:
-                    bar.close()
-        except KeyboardInterrupt:  # (Ctrl-C, SIGTERM while the cluster starts, waits for workers or stops: nothing lost)
-            interrupted = True
+    with contextlib.ExitStack() as held:
+        lock = CampaignStore.lock(out)  # an existing directory: held (or refused) before the survey and any cluster
+        if lock is not None:
+            held.callback(lock.close)
+        found = CampaignStore.survey(out, spec, plan)  # a foreign part: refused here, nothing changed
+        stored = found.finished
+        todo = [run for run in selected if run.run_id not in stored]
+        retried = sum(1 for run in todo if run.run_id in found.worker_failed)
+        if found.damaged or found.lost_series:
+            CampaignStore.open(out, spec, plan, resume=resume, lock=lock).repair(found)
+        if todo:
+            CampaignStore.probe(out)  # --out can take a part (links, or exclusive creation): before any cluster starts
+            try:
+                with (
+                    dask_client(scheduler, workers=workers, memory_limit=memory_limit, numba_threads=numba_threads,
+                                worker_timeout=worker_timeout) as client,
+                    CampaignStore.open(out, spec, plan, resume=resume, lock=lock) as store,
+                ):  # fmt: skip
+                    if on_started is not None:
+                        on_started(client)
+                    limit = window or max(4, 2 * sum(client.nthreads().values()))
+                    bar = Progress(progress, float(len(todo)), what=f"campaign {spec.campaign_id}", unit="runs", rate=True)
+                    patience = WORKER_TIMEOUT if worker_timeout is None else worker_timeout
+                    timing = (flush_seconds, flush_runs, patience)
+                    try:
+                        interrupted = _drive(client, spec, store, todo, limit, bar, counts, reasons, timing, scheduler)
+                    finally:
+                        bar.close()
+            except KeyboardInterrupt:  # (Ctrl-C, SIGTERM while the cluster starts, waits for workers or stops: nothing lost)
+                interrupted = True
     return CampaignRun(
         Path(out), spec.campaign_id, len(plan), len(selected), len(selected) - len(todo), counts["ok"], counts["failed"],
-        interrupted, time.perf_counter() - start,
+        interrupted, time.perf_counter() - start, counts["environment"], reasons[0] if reasons else "", retried,
     )  # fmt: skip
 
 
@@ -386,7 +194,9 @@ def _drive(
     limit: int,
     bar: Progress,
     counts: dict[str, int],
+    reasons: list[str],
     timing: tuple[float, int, float],
+    scheduler: str | None = None,
 ) -> bool:
     """Submit, collect and store; True when interrupted (Ctrl-C, SIGTERM). ``timing``: (flush every so many s, or so
     many rows; the seconds a cluster may have no worker while runs wait)."""
@@ -429,20 +239,34 @@ def _drive(
                 )
 
     def collect() -> None:
+        """Store every run of the batch that finished, then raise the first error of the batch (none is lost)."""
         wait()
+        errors: list[CampaignError] = []
         for future in finished.next_batch(block=False):
             run = running.pop(future)
             try:
                 outcome = future.result()
             except Exception as exc:  # (a run's own failure is an outcome: this is the cluster's)
-                outcome = _lost(run, exc)
-            future.release()
+                try:
+                    outcome = _lost(run, exc)
+                except CampaignError as error:
+                    errors.append(error)
+                    continue
+            finally:
+                future.release()
             if outcome.status == "environment":
-                raise _environment(outcome)
+                counts["environment"] += 1
+                reasons.append(outcome.reason)
+                first = counts["environment"] if counts["ok"] + counts["failed"] == 0 else 0
+                if outcome.failure == "module" or first >= ENVIRONMENT_STOP:
+                    errors.append(_environment(outcome, first if outcome.failure != "module" else 0))
+                continue
             store.write_series(outcome)
             pending.append(outcome)
             counts[outcome.status] += 1
-        bar.update(float(counts["ok"] + counts["failed"]))
+        bar.update(float(counts["ok"] + counts["failed"] + counts["environment"]))
+        if errors:
+            raise errors[0]
 
     def flush() -> None:
         nonlocal flushed
@@ -469,6 +293,11 @@ def _drive(
         for future in running:
             future.cancel()
         raise
+    except OSError as exc:  # (the scheduler gone: Dask's "Timed out trying to connect", a closed comm)
+        where = f"--scheduler {scheduler}" if scheduler else "the local cluster"
+        raise CampaignError(
+            f"{where}: the scheduler stopped answering ({_one_line(exc)}); the finished runs are kept: start it again, then --resume"
+        ) from None
     finally:
         flush()
     return stopping

@@ -52,7 +52,7 @@ import numpy as np
 from ..core.errors import ModelError
 from ..io.model_files import read_toml
 from ..scenarios.scenario import _number, _table, _where
-from ._fields import MAX_RUNS, integer_field
+from ._fields import MAX_RUNS, integer_field, plan_estimate
 from .maps import map_from_dict, map_runs
 
 __all__ = [
@@ -89,7 +89,8 @@ STATISTICS = ("mean", "std", "min", "median", "max", "count")
 #: The columns of every run's row (:mod:`.store`), before the parameters and the recorded scalars.
 COLUMNS = ("run_id", "index", "status", "failure", "reason", "seconds", "worker")
 _TOP_KEYS = {"description", "scenario", "function", "map", "runs", "parameters", "record", "summary"}
-_RUNS_KEYS = {"count", "seed"}
+_RUNS_KEYS = {"count", "seed", "max_plan"}
+_MORE = "raise the limit with [runs] max_plan = N (the plan is drawn in memory before the first run)"
 _RECORD_KEYS = {"scalars", "series", "units"}
 _SUMMARY_KEYS = {"statistics", "rank_by", "worst", "worst_is"}
 _GRID_KEYS = {"values", "linspace"}
@@ -213,7 +214,7 @@ def set_path(data: dict[str, Any], path: str, value: Any) -> dict[str, Any]:
 
 
 # --------------------------------------------------------------------- sections
-def _grid_axis(name: str, table: dict[str, Any], source: str) -> list[Any]:
+def _grid_axis(name: str, table: dict[str, Any], source: str, limit: int = MAX_RUNS) -> list[Any]:
     where = f"parameters.{name}"
     table = _table(table, _GRID_KEYS, source, where)
     if len(table) != 1:
@@ -227,8 +228,8 @@ def _grid_axis(name: str, table: dict[str, Any], source: str) -> list[Any]:
     fix = "give linspace = [start, stop, num] with num an integer >= 1"
     if not isinstance(raw, list) or len(raw) != 3 or isinstance(raw[2], bool) or not isinstance(raw[2], int) or raw[2] < 1:
         raise ModelError(_where(source, f"{where}.linspace"), f"expected [start, stop, num], got {raw!r}", fix)
-    if raw[2] > MAX_RUNS:
-        raise ModelError(_where(source, f"{where}.linspace"), f"num {raw[2]} is above {MAX_RUNS:,} runs", "give fewer points")
+    if raw[2] > limit:
+        raise ModelError(_where(source, f"{where}.linspace"), f"num {raw[2]} is above {limit:,} runs ({plan_estimate(raw[2])})", _MORE)
     lo, hi = (_number(v, source, f"{where}.linspace", fix) for v in raw[:2])
     return [float(v) for v in np.linspace(lo, hi, raw[2])]
 
@@ -385,11 +386,12 @@ def campaign_from_dict(data: Any, *, source: str = "", base: Path | None = None)
         kind, scenario, where = "function", {}, str(base.resolve())
     runs = _table(top.get("runs", {}), _RUNS_KEYS, source, "runs")
     values = {"count": integer_field(runs, "count", 1, 1, source, "runs", "e.g. count = 64")}
-    if values["count"] > MAX_RUNS:
+    limit = integer_field(runs, "max_plan", MAX_RUNS, 1, source, "runs", f"e.g. max_plan = {2 * MAX_RUNS}")
+    if values["count"] > limit:
         raise ModelError(
             _where(source, "runs.count"),
-            f"{values['count']:,} runs are above the {MAX_RUNS:,} a campaign can plan",
-            "split it into campaigns of fewer runs (another seed each)",
+            f"{values['count']:,} runs are above the {limit:,} a campaign can plan ({plan_estimate(values['count'])})",
+            f"split it into campaigns of fewer runs (another seed each), or {_MORE}",
         )
     values["seed"] = integer_field(runs, "seed", 0, 0, source, "runs", "e.g. seed = 2026")
     grid: dict[str, list[Any]] = {}
@@ -422,14 +424,14 @@ def campaign_from_dict(data: Any, *, source: str = "", base: Path | None = None)
         if "distribution" in table:
             random[name] = _distribution(name, table, source)
         else:
-            grid[name] = _grid_axis(name, table, source)
+            grid[name] = _grid_axis(name, table, source, limit)
     total = math.prod(len(axis) for axis in grid.values()) * values["count"]
-    if total > MAX_RUNS:
+    if total > limit:
         sizes = " x ".join([*(str(len(axis)) for axis in grid.values()), *([str(values["count"])] if values["count"] > 1 else [])])
         raise ModelError(
             _where(source, "parameters"),
-            f"plans {sizes} = {total:,} runs, above the {MAX_RUNS:,} a campaign can plan",
-            "give fewer grid values or a smaller runs.count, or split it into campaigns",
+            f"plans {sizes} = {total:,} runs, above the {limit:,} a campaign can plan ({plan_estimate(total)})",
+            f"give fewer grid values or a smaller runs.count, split it into campaigns, or {_MORE}",
         )
     if values["count"] > 1 and not random:
         raise ModelError(

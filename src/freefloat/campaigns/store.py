@@ -22,7 +22,8 @@ cluster starts: a part that is another campaign's or another program's is refuse
 changed); a damaged part (truncated, empty, unreadable) is moved to ``DIR/damaged/`` with a warning naming it, and
 its runs run again; an ok run whose series are missing or are another run's is named in a warning (a series
 group that is there but not whole is moved to ``DIR/damaged/``) and runs again: its new row goes into a new part,
-and the readers keep the newest row of each run (a stored row is never rewritten). One runner at a time holds the
+and the readers keep the newest row of each run (that of the part stored last: its metadata holds its place in
+the store's order, 1 + the largest, given under the lock; a stored row is never rewritten). One runner at a time holds the
 directory (an advisory lock, released when its process ends, however it ends).
 
 A directory that holds another campaign (another id), or files that are not a campaign's, is refused: nothing
@@ -31,6 +32,7 @@ in it is ever overwritten.
 
 from __future__ import annotations
 
+import errno
 import fcntl
 import json
 import os
@@ -46,11 +48,27 @@ from .._version import __version__
 from ..core.errors import CampaignError, ModelCorrectionWarning
 from .execute import RunOutcome
 from .spec import COLUMNS, CampaignSpec, Run
-from .stored import DAMAGED, FORMAT, MANIFEST, SERIES, StoreSurvey, fsync_file, read_runs, read_series, survey
+from .stored import (
+    DAMAGED,
+    FORMAT,
+    FORMATS,
+    MANIFEST,
+    SEQUENCE_KEY,
+    SERIES,
+    StoreSurvey,
+    fsync_file,
+    part_paths,
+    read_runs,
+    read_series,
+    sequence_of,
+    survey,
+)
 
 __all__ = ["MANIFEST", "CampaignStore", "DamagedStoreWarning", "read_runs", "read_series"]
 
 _LOCK = ".campaign.lock"
+#: More runs with lost series than this are one warning line (their count and the first ids), not a line each.
+SUMMARY_AFTER = 3
 
 
 class DamagedStoreWarning(ModelCorrectionWarning):
@@ -90,6 +108,8 @@ def _check_out(root: Path, out: str | Path) -> None:
     missing parents are created later, as every command's ``--out``)."""
     if not str(out).strip():
         raise CampaignError("--out: is empty; give an output directory")
+    if root.is_symlink() and not root.exists():
+        raise CampaignError(f"--out {root}: is a broken symbolic link (to {os.readlink(root)}); remove it or give another directory")
     if root.exists() and not root.is_dir():
         raise CampaignError(f"--out {root}: is a file, not a directory; give a new or empty directory")
     above = root.parent
@@ -105,10 +125,11 @@ def _check_out(root: Path, out: str | Path) -> None:
 class CampaignStore:
     """The output directory of one campaign (module docstring); :meth:`open` it, then :meth:`add` outcomes."""
 
-    def __init__(self, root: Path, spec: CampaignSpec, plan: list[Run], lock: TextIO) -> None:
-        self.root, self.spec, self.plan, self._lock = root, spec, plan, lock
+    def __init__(self, root: Path, spec: CampaignSpec, plan: list[Run], lock: TextIO, *, owned: bool = True) -> None:
+        self.root, self.spec, self.plan, self._lock, self._owned = root, spec, plan, lock, owned
         self.schema = part_schema(spec, plan).with_metadata({"freefloat_campaign": spec.campaign_id})
         self._series: Any = None
+        self._sequence = 1 + max([-1, *(_sequence_at(path) for path in part_paths(root))]) if (root / "runs").is_dir() else 0
 
     @property
     def scalar_names(self) -> tuple[str, ...]:
@@ -127,12 +148,12 @@ class CampaignStore:
                 held = json.loads(manifest.read_text(encoding="utf-8"))
             except (ValueError, UnicodeDecodeError):
                 raise CampaignError(f"--out {root}: {MANIFEST} is not a campaign's manifest; give another directory") from None
-            if isinstance(held, dict) and str(held.get("format", "")).startswith("freefloat-campaign-") and held["format"] != FORMAT:
+            if isinstance(held, dict) and str(held.get("format", "")).startswith("freefloat-campaign-") and held["format"] not in FORMATS:
                 raise CampaignError(
-                    f"--out {root}: holds a campaign written by an older freefloat (format {held['format']}, this one "
-                    f"writes {FORMAT}); give another directory (nothing is overwritten)"
+                    f"--out {root}: holds a campaign written by another freefloat (format {held['format']}; this one "
+                    f"reads {' and '.join(sorted(FORMATS))}); give another directory (nothing is overwritten)"
                 )
-            if not isinstance(held, dict) or held.get("format") != FORMAT:
+            if not isinstance(held, dict) or held.get("format") not in FORMATS:
                 raise CampaignError(f"--out {root}: {MANIFEST} is not a freefloat campaign's; give another directory")
             if held.get("campaign_id") != spec.campaign_id:
                 raise CampaignError(
@@ -147,16 +168,16 @@ class CampaignStore:
     @staticmethod
     def survey(out: str | Path, spec: CampaignSpec, plan: list[Run]) -> StoreSurvey:
         """What ``out`` holds of this campaign (:func:`.stored.survey` with this campaign's schema and plan)."""
-        return survey(out, part_schema(spec, plan), {run.run_id: run.index for run in plan})
+        return survey(out, part_schema(spec, plan), {run.run_id: run.index for run in plan}, deep=True)
 
-    @classmethod
-    def open(cls, out: str | Path, spec: CampaignSpec, plan: list[Run], *, resume: bool) -> CampaignStore:
-        """The store in ``out`` (:meth:`check`): created (with its manifest), or this campaign's, reopened with ``resume``."""
-        cls.check(out, spec, resume=resume)
-        root, manifest = Path(out), Path(out) / MANIFEST
-        wanted = {"format": FORMAT, "campaign_id": spec.campaign_id}
-        root.mkdir(parents=True, exist_ok=True)
-        lock = open(root / _LOCK, "a")  # held for the store's life
+    @staticmethod
+    def lock(out: str | Path) -> TextIO | None:
+        """The directory's lock, taken now when ``out`` exists (None when it does not yet: :meth:`open` takes it); a
+        CampaignError when another campaign holds it."""
+        root = Path(out)
+        if not root.is_dir():
+            return None
+        lock = open(root / _LOCK, "a")
         try:
             fcntl.flock(lock.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
@@ -164,6 +185,33 @@ class CampaignStore:
             raise CampaignError(
                 f"--out {root}: another freefloat campaign is writing there now; wait for it or give another directory"
             ) from None
+        return lock
+
+    @staticmethod
+    def probe(out: str | Path) -> None:
+        """Check, before any cluster starts, that ``out`` (or its first existing parent) can take a part: a file
+        created exclusively, written and flushed (nothing is left there)."""
+        root = Path(out)
+        folder = root / "runs" if (root / "runs").is_dir() else root if root.is_dir() else _existing_parent(root)
+        probe = folder / f".probe-{os.getpid()}-{secrets.token_hex(4)}.tmp"
+        try:
+            _exclusive_write(probe, b"freefloat")
+        except OSError as exc:
+            raise CampaignError(f"--out {root}: cannot write a part in {folder} ({exc.strerror or exc}); give another directory") from None
+        finally:
+            probe.unlink(missing_ok=True)
+
+    @classmethod
+    def open(cls, out: str | Path, spec: CampaignSpec, plan: list[Run], *, resume: bool, lock: TextIO | None = None) -> CampaignStore:
+        """The store in ``out`` (:meth:`check`): created (with its manifest), or this campaign's, reopened with ``resume``.
+        ``lock``: the directory's lock already held (:meth:`lock`; it stays the caller's), else it is taken here."""
+        cls.check(out, spec, resume=resume)
+        root, manifest = Path(out), Path(out) / MANIFEST
+        wanted = {"format": FORMAT, "campaign_id": spec.campaign_id}
+        root.mkdir(parents=True, exist_ok=True)
+        owned = lock is None
+        held = cls.lock(root) if lock is None else lock  # held for the store's life
+        assert held is not None
         if not manifest.is_file():
             (root / "runs").mkdir(exist_ok=True)
             content = {
@@ -173,11 +221,12 @@ class CampaignStore:
                 "grid": spec.grid, "random": spec.random, "freefloat": __version__,
             }  # fmt: skip
             _atomic_write(manifest, (json.dumps(content, indent=2) + "\n").encode())
-        return cls(root, spec, plan, lock)
+        return cls(root, spec, plan, held, owned=owned)
 
     def close(self) -> None:
-        """Release the directory."""
-        self._lock.close()
+        """Release the directory (unless its lock was given to :meth:`open`)."""
+        if self._owned:
+            self._lock.close()
 
     def __enter__(self) -> CampaignStore:
         return self
@@ -194,6 +243,7 @@ class CampaignStore:
             target = _free_name(aside / path.name)
             os.rename(path, target)
             warnings.warn(f"{path}: is damaged ({why}); moved to {target}, its runs run again", DamagedStoreWarning, stacklevel=2)
+        said: list[str] = []
         for run_id, why in found.lost_series.items():
             group = self.root / SERIES / run_id
             moved = ""
@@ -202,11 +252,18 @@ class CampaignStore:
                 target = _free_name(aside / "series" / run_id)
                 os.rename(group, target)
                 moved = f"; moved to {target}"
+            said.append(f"run {run_id} is stored but {why}{moved}")
+        if len(said) > SUMMARY_AFTER:  # (a lost series.zarr: one line, not one per run)
+            first = ", ".join(list(found.lost_series)[:SUMMARY_AFTER])
             warnings.warn(
-                f"{self.root}: run {run_id} is stored but {why}{moved}; it runs again (its new row supersedes the old one)",
+                f"{self.root}: {len(said)} stored runs have lost their series (runs {first}, ...; the first: {said[0]}); "
+                "they run again (their new rows supersede the old ones)",
                 DamagedStoreWarning,
                 stacklevel=2,
             )
+            return
+        for line in said:
+            warnings.warn(f"{self.root}: {line}; it runs again (its new row supersedes the old one)", DamagedStoreWarning, stacklevel=2)
 
     def write_series(self, outcome: RunOutcome) -> None:
         """The run's time series into the group ``series.zarr/<run_id>`` (a run not yet finished may be written again)."""
@@ -216,6 +273,15 @@ class CampaignStore:
 
         if self._series is None:
             self._series = zarr.open_group(str(self.root / SERIES), mode="a")
+        try:
+            self._write_group(outcome)
+        except OSError as exc:  # a filesystem without hard links: Zarr's exclusive writes link; the lock makes them ours
+            if exc.errno not in _NO_LINKS:
+                raise
+            self._series = zarr.open_group(_unlinked_store(self.root / SERIES), mode="a")
+            self._write_group(outcome)
+
+    def _write_group(self, outcome: RunOutcome) -> None:
         attributes = {"run_id": outcome.run_id, "campaign_id": self.spec.campaign_id}
         group = self._series.create_group(outcome.run_id, overwrite=True, attributes=attributes)
         for name, values in outcome.series.items():
@@ -240,7 +306,8 @@ class CampaignStore:
                 rows[name].append(params[name] if self.schema.field(name).type != pa.string() else str(params[name]))
             for name in self.scalar_names:
                 rows[name].append(outcome.scalars.get(name, float("nan")))
-        table = pa.table(rows, schema=self.schema)
+        table = pa.table(rows, schema=self.schema.with_metadata({**self.schema.metadata, SEQUENCE_KEY: str(self._sequence).encode()}))
+        self._sequence += 1
         runs = self.root / "runs"
         temporary = runs / f".part-{os.getpid()}-{secrets.token_hex(8)}.tmp"
         pq.write_table(table, temporary)
@@ -249,13 +316,70 @@ class CampaignStore:
             while True:  # a new name each try: an existing part is never replaced
                 final = runs / f"part-{time.time_ns():020d}-{secrets.token_hex(4)}-{outcomes[0].run_id}.parquet"
                 try:
-                    os.link(temporary, final)
+                    _place(temporary, final)
                     break
                 except FileExistsError:
                     continue
         finally:
             temporary.unlink()
         return final
+
+
+#: What ``os.link`` raises on a filesystem without hard links.
+_NO_LINKS = {errno.EPERM, errno.ENOTSUP, errno.EOPNOTSUPP, errno.EXDEV, errno.ENOSYS, errno.EMLINK}
+
+
+def _place(temporary: Path, final: Path) -> None:
+    """``temporary``'s bytes at ``final``, which must not exist (FileExistsError): a hard link, or where the
+    filesystem has none, a file created exclusively, written and flushed (never a replacement)."""
+    try:
+        os.link(temporary, final)
+    except FileExistsError:
+        raise
+    except OSError as exc:
+        if exc.errno not in _NO_LINKS:
+            raise
+        _exclusive_write(final, temporary.read_bytes())
+
+
+def _unlinked_store(path: Path) -> Any:
+    """A Zarr LocalStore at ``path`` whose "write unless it exists" checks, then writes (LocalStore links a
+    temporary file into place, which a filesystem without hard links refuses); this runner holds the directory."""
+    from zarr.storage import LocalStore
+
+    class UnlinkedStore(LocalStore):
+        async def set_if_not_exists(self, key: str, value: Any) -> None:
+            if not await self.exists(key):
+                await self.set(key, value)
+
+    return UnlinkedStore(str(path))
+
+
+def _exclusive_write(path: Path, data: bytes) -> None:
+    descriptor = os.open(path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+    try:
+        view = memoryview(data)
+        while view:
+            view = view[os.write(descriptor, view) :]
+        os.fsync(descriptor)
+    finally:
+        os.close(descriptor)
+
+
+def _existing_parent(path: Path) -> Path:
+    while not path.exists():
+        path = path.parent
+    return path
+
+
+def _sequence_at(path: Path) -> int:
+    """The sequence of the part at ``path`` (-1 when it has none or cannot be read: the survey says why)."""
+    import pyarrow.parquet as pq
+
+    try:
+        return sequence_of(pq.read_schema(path).metadata)
+    except (OSError, ValueError):
+        return -1
 
 
 def _free_name(path: Path) -> Path:
