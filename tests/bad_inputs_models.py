@@ -23,19 +23,17 @@ def _model() -> ff.Model:
     return ff.load("papadopoulos1992")
 
 
-def _linked(files: Path, target: str) -> Path:
-    """A symbolic link ``link.xml`` to ``target``, made in the case's working directory (the caller removes it)."""
-    link = Path.cwd() / "link.xml"
-    link.symlink_to(target)
-    return link
-
-
-def _load_through(files: Path, target: str) -> None:
-    link = _linked(files, target)
+def _load_through(files: Path, *chain: str) -> None:
+    """``ff.load("link.xml")``, a symbolic link in the case's working directory to the first of ``chain``, each a link
+    to the next but the last (removed again)."""
+    links = [Path.cwd() / "link.xml", *(Path.cwd() / name for name in chain[:-1])]
+    for link, target in zip(links, chain, strict=True):
+        link.symlink_to(target)
     try:
-        ff.load(link.name)
+        ff.load(links[0].name)
     finally:
-        link.unlink()
+        for link in links:
+            link.unlink()
 
 
 # model paths: relative paths that name nothing, a broken link, a folder, a path with spaces (quoted as given)
@@ -51,8 +49,61 @@ CASES += [
         "path-broken-symlink",
         lambda f: _load_through(f, "nowhere/arm.xml"),
         ModelError,
-        r"^link\.xml: is a symbolic link to nowhere/arm\.xml, which does not exist",
+        r"^link\.xml: is a symbolic link to /\S+/work/nowhere/arm\.xml, which does not exist",
     ),
+    api(  # a chain of links: the file missing at its end is named (was: the first hop)
+        "path-broken-symlink-chain",
+        lambda f: _load_through(f, "hop.xml", "gone/arm.xml"),
+        ModelError,
+        r"^link\.xml: is a symbolic link to /\S+/work/gone/arm\.xml, which does not exist",
+    ),
+    api(
+        "path-backslash-missing",
+        lambda f: ff.load("models\\arm.urdf"),
+        ModelError,
+        r"^models\\arm\.urdf: file not found \(use / as the separator: a backslash is part of a file name here\)",
+    ),
+]
+CASES += [
+    cli(
+        "cli-inspect-path-backslash-missing",
+        "inspect models\\arm.urdf",
+        r"^error: models\\arm\.urdf: no such model file; use / as the separator",
+    ),
+]
+
+# a file name that is not UTF-8 (made on another system; Python's surrogate escapes): one line, for every source (was: a
+# TypeError traceback of MuJoCo's from_xml_path for MJCF, "malformed URDF" for URDF)
+_MJCF = (
+    '<mujoco><worldbody><body name="bus"><freejoint/><inertial pos="0 0 0" mass="100" diaginertia="10 10 10"/>'
+    '<body name="a" pos="1 0 0"><joint name="j" type="hinge" axis="0 0 1"/><inertial pos="0.5 0 0" mass="1" '
+    'diaginertia="0.1 0.1 0.1"/></body></body></worldbody></mujoco>'
+)
+_MODELS = _ROOT / "examples" / "models"
+_LATIN1 = {
+    "xml": _MJCF,
+    "urdf": (_MODELS / "six_dof_arm.urdf").read_text(),
+    "toml": (_MODELS / "papadopoulos1992_two_arm.toml").read_text(),
+}
+for _ext, _text in _LATIN1.items():
+    add_file(f"latin1/bras\udce9.{_ext}", _text)  # the byte 0xe9 (e-acute in Latin-1) in the name
+CASES += [
+    api(
+        f"path-not-utf8-{ext}",
+        lambda f, ext=ext: ff.load(f / "latin1" / f"bras\udce9.{ext}"),
+        ModelError,
+        rf"bras\\xe9\.{ext}: the file name is not valid UTF-8; rename the file",
+    )
+    for ext in ("xml", "urdf", "toml")
+]
+CASES += [
+    cli(
+        f"cli-{command}-path-not-utf8-{ext}",
+        f"{command} {{files}}/latin1/bras\udce9.{ext}",
+        rf"^error: \S+/latin1/bras\\xe9\.{ext}: the file name is not valid UTF-8; rename the file",
+    )
+    for command in ("inspect", "workspace")
+    for ext in ("xml", "urdf")
 ]
 CASES += [
     cli("cli-inspect-path-relative-missing", "inspect ../files/nothere.xml", r"^error: \.\./files/nothere\.xml: no such model file"),
@@ -96,14 +147,43 @@ CASES += [
     )
 ]
 
+# a wheel's max_speed beyond 1e4 rad/s (the largest wheel speed a State takes) refused where the wheel is declared
+add_file("wheels/max-speed-huge.toml", _SIM + _WHEEL.replace("max_speed = 600.0", "max_speed = 2e4"))
+CASES += [
+    cli(
+        "cli-simulate-wheel-max-speed-huge",
+        "simulate {files}/wheels/max-speed-huge.toml --out out",
+        r"wheels\[0\] \(rw_z\)\.max_speed: 20000 rad/s is beyond 10000 rad/s \(about 95,000 rpm\).*check the units",
+    ),
+    api(
+        "wheel-max-speed-huge",
+        lambda f: ff.load("papadopoulos1992", wheels=[{**_WHEELED[0], "max_speed": 1e5}]),
+        ModelError,
+        r"^wheels\[0\] \(rw\)\.max_speed: 100000 rad/s is beyond 10000 rad/s",
+    ),
+    api(
+        "wheel-max-speed-huge-builder",
+        lambda f: ff.ModelBuilder("t").add_wheel("rw", axis=[0.0, 0.0, 1.0], inertia=0.1, max_speed=1e300),
+        ModelError,
+        r"^wheels\[0\] \(rw\)\.max_speed: 1e\+300 rad/s is beyond 10000 rad/s",
+    ),
+]
+
 # rollouts: the batch, its size, and the per-trajectory parameters (fields of State and of JointPD)
 _BIG = 10**8  # trajectories, as a broadcast view: nothing of that size exists until a rollout would make it
 CASES += [
+    # an empty batch is a batch (its empty result: tests/simulation/test_rollout_inputs.py), checked as any other
     api(
-        "rollout-empty-batch",
-        lambda f: ff.rollout(_model(), ff.State(q=np.zeros((0, 4))), 0.1, dt=0.01),
+        "rollout-empty-batch-1e12-s",
+        lambda f: ff.rollout(_model(), ff.State(q=np.zeros((0, 4))), 1e12, dt=0.01),
+        MemoryBudgetError,
+        r"^a rollout of 0 trajectories x 100000000000002 recorded states would need about .* of memory",
+    ),
+    api(
+        "rollout-empty-batch-pd-gains-wrong-rows",
+        lambda f: ff.rollout(_model(), ff.State(q=np.zeros((0, 4))), 0.1, dt=0.01, controller=ff.JointPD(kp=np.ones((3, 4)), kd=1.0)),
         ShapeError,
-        r"^initial_states: an empty batch \(0 trajectories\): a rollout needs at least one initial state",
+        r"^JointPD\.kp: shape \(3, 4\) does not broadcast to the states' \(0, 4\) \(trajectories x joints\)",
     ),
     api(
         "rollout-two-batch-axes",
@@ -185,6 +265,25 @@ CASES += [
     api("rollout-pd-gain-inf", lambda f: ff.JointPD(kp=1.0, kd=[[np.inf] * 4]), ValueError, r"^JointPD\.kd: has NaN or infinite"),
 ]
 
+# ff.simulate checks a JointPD's shapes against the model's joints before the run (was: a failed run at t = 0)
+CASES += [
+    api(
+        f"simulate-pd-{id}",
+        lambda f, given=given: ff.simulate(_model(), ff.State(q=_Q), 0.1, ff.JointPD(**{"kp": 1.0, "kd": 1.0, **given})),
+        ShapeError,
+        match,
+    )
+    for id, given, match in (
+        ("gains-wrong-length", {"kp": np.ones(3)}, r"^JointPD\.kp: shape \(3,\) does not broadcast to the model's 4 joints \(4,\)"),
+        ("gains-per-trajectory", {"kd": np.ones((2, 4))}, r"^JointPD\.kd: shape \(2, 4\) does not broadcast to the model's 4 joints"),
+        (
+            "feedforward-wrong-joints",
+            {"feedforward": np.zeros((2, 3)), "feedforward_period": 0.01},
+            r"^JointPD\.feedforward: samples of shape \(3,\) does not broadcast to the model's 4 joints",
+        ),
+    )
+]
+
 # reaction wheel speeds (initial.wheel_speed of a scenario reads the same field)
 CASES += [
     api(
@@ -223,7 +322,53 @@ _OUTS = [
     ),
     ("under-a-device", "/dev/null/out", r"^error: --out /dev/null/out: cannot create this folder \(Not a directory\)"),
     ("through-a-file-and-back", "{files}/empty.toml/../out", r"^error: --out \S+/empty\.toml/\.\./out: cannot create this folder"),
+    # an existing folder nothing can be made in (was: the run's estimate, then "[Errno 2] ... '/proc/.freefloat-staging-...'")
+    ("existing-unwritable", "/proc", r"^error: --out /proc: cannot write here \(.*\); choose a folder you can write to"),
+    ("existing-unwritable-sys", "/sys", r"^error: --out /sys: cannot write here \(.*\); choose a folder you can write to"),
 ]
 CASES += [
     cli(f"cli-{command}-out-{id}", f"{prefix} --out {out}", match) for command, prefix in _OUT_COMMANDS.items() for id, out, match in _OUTS
+]
+
+# capture checks --out before it estimates a long capture sequence and asks to confirm it (as simulate does)
+_LONG = (_ROOT / "examples" / "scenarios" / "tumbling_satellite_capture.toml").read_text().replace("duration = 30.0", "duration = 1e5", 1)
+add_file("out/capture-long.toml", _LONG)
+CASES += [
+    cli(f"cli-capture-long-out-{id}", f"capture {{files}}/out/capture-long.toml --out {out}", match)
+    for id, out, match in (
+        ("is-a-file", "{files}/empty.toml", r"^error: --out \S+/empty\.toml: exists and is not a directory"),
+        ("unwritable", "/proc", r"^error: --out /proc: cannot write here"),
+    )
+]
+
+
+def _out_through(*chain: str) -> None:
+    """check_targets of ``--out dl/sub`` with ``dl`` the first of symbolic links in the working directory, each pointing
+    at the next of ``chain`` (the last one's target does not exist)."""
+    from freefloat.io.outputs import check_targets
+
+    names = [f"dl{i or ''}" for i in range(len(chain))]
+    made = [Path.cwd() / name for name in names]
+    for link, target in zip(made, [*names[1:], chain[-1]], strict=True):
+        link.symlink_to(target)
+    try:
+        check_targets(Path("dl") / "sub", ["trajectory.json"], overwrite=False)
+    finally:
+        for link in made:
+            link.unlink()
+
+
+CASES += [  # a broken link on the way to --out: named, with the target it misses (the end of a chain of links)
+    api(
+        "out-through-a-broken-link",
+        lambda f: _out_through("nowhere/x"),
+        OSError,
+        r"^--out dl/sub: dl is a symbolic link to /\S+/work/nowhere/x, which does not exist",
+    ),
+    api(
+        "out-through-a-chain-of-links",
+        lambda f: _out_through("dl1", "dl2", "gone/x"),
+        OSError,
+        r"^--out dl/sub: dl is a symbolic link to /\S+/work/gone/x, which does not exist",
+    ),
 ]

@@ -13,7 +13,8 @@ library functions, and prints or writes their results. Shared rules:
   and then only the files freefloat itself wrote earlier, unchanged
   (``DIR/freefloat-manifest.json``, :mod:`freefloat.io.outputs`). ``--out ""`` is an error.
 - Warnings (model corrections, stiff gains, long runs, near-singular plans, ...) print as one ``warning: ...`` line
-  each on stderr, for every command (:func:`_warnings_as_lines`, entered by the app's callback).
+  each on stderr, for every command (:func:`_warnings_as_lines`, entered by the app's callback); the user's own
+  filters decide first (``python -W error -m freefloat ...`` or ``PYTHONWARNINGS=error``: one ``error:`` line, exit 1).
 
 New commands register on :data:`app` with ``@app.command("name")`` and wrap
 their body in ``with user_errors():``.
@@ -24,6 +25,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import json
+import os
 import warnings
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -60,7 +62,7 @@ def user_errors() -> Iterator[None]:
     the app's: :func:`_warnings_as_lines` shows each as it happens, so a correction is reported before the error)."""
     try:
         yield
-    except (FreefloatError, OSError, ValueError) as exc:
+    except (FreefloatError, OSError, ValueError, Warning) as exc:  # a Warning: one the user's -W error made an error
         message = " ".join(str(exc).split()) or type(exc).__name__
         typer.echo(f"error: {message}", err=True)
         raise typer.Exit(1) from None
@@ -119,7 +121,12 @@ class _EmptyPath(type(Path())):  # type: ignore[misc]
 
 
 def _out_path(value: str) -> Path:
-    return _EmptyPath("") if not str(value).strip() else Path(value)
+    return _EmptyPath("") if not str(value).strip() else Path(value)  # ~ expanded by freefloat.io.outputs
+
+
+def _user_path(value: str) -> Path:
+    """A path argument (SCENARIO) with ``~`` expanded, as a shell does where the user quoted it."""
+    return Path(os.path.expanduser(value))
 
 
 @contextmanager
@@ -149,9 +156,13 @@ def _warnings_as_lines() -> Iterator[None]:
     """Show warnings as one ``warning: ...`` line each on stderr, when they happen, without Python's source path and line
     number: every ``UserWarning`` (freefloat's own classes: corrections, stiff gains, long runs, near-singular plans, a
     damaged cache or store; and those of other libraries), each distinct message once; other categories as Python's
-    filters decide (a library's DeprecationWarning stays hidden). Entered for every command by the app's callback."""
+    filters decide (a library's DeprecationWarning stays hidden). Entered for every command by the app's callback.
+
+    The user's filters come first: ``python -W error -m freefloat ...`` or ``PYTHONWARNINGS=error`` turn a warning
+    into an error (one ``error: ...`` line and exit 1, :func:`user_errors`), ``-W ignore::UserWarning`` hides them; the
+    "always" added here is appended after them and decides only for the warnings no filter of theirs names."""
     with warnings.catch_warnings():
-        warnings.simplefilter("always", UserWarning)
+        warnings.filterwarnings("always", category=UserWarning, append=True)
         previous = warnings.showwarning
         shown: set[tuple[type, str]] = set()
 
@@ -450,7 +461,9 @@ def workspace_command(
 
 @app.command("capture")
 def capture_command(
-    scenario: Annotated[Path, typer.Argument(metavar="SCENARIO", help="Capture scenario TOML (schema: docs/workspaces.md).")],
+    scenario: Annotated[
+        Path, typer.Argument(metavar="SCENARIO", parser=_user_path, help="Capture scenario TOML (schema: docs/workspaces.md).")
+    ],
     out: Annotated[
         Path | None, typer.Option("--out", parser=_out_path, metavar="DIR", help="Write capture.json and the plots here (created).")
     ] = None,
@@ -521,6 +534,8 @@ def capture_command(
         names = ["capture.json", "capture_plan.png", *(["capture_tradeoff.png"] if moving else [])]
         if loaded.detumble is not None:
             names += [*SEQUENCE_FILES, *([] if no_animation else [ANIMATION_FILE])]
+        if out is not None and not isinstance(out, _EmptyPath):  # before the estimate and its question, as simulate checks
+            check_targets(out, names, overwrite=overwrite)
         estimate = estimate_capture_sequence(loaded)
         if estimate is not None:  # before the plan, as simulate's before its run
             check_sequence_estimate(estimate, None)
@@ -543,7 +558,9 @@ def capture_command(
 
 @app.command("simulate")
 def simulate_command(
-    scenario: Annotated[Path, typer.Argument(metavar="SCENARIO", help="Simulation scenario TOML (schema: docs/simulation.md).")],
+    scenario: Annotated[
+        Path, typer.Argument(metavar="SCENARIO", parser=_user_path, help="Simulation scenario TOML (schema: docs/simulation.md).")
+    ],
     out: Annotated[
         Path,
         typer.Option(

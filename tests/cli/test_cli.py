@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -363,6 +364,7 @@ def test_inspect_without_a_model_lists_the_built_in_models() -> None:
     assert [m["name"] for m in listed] == list(ff.models.BUILTIN_MODELS)
 
 
+@pytest.mark.filterwarnings("always::freefloat.core.errors.ModelCorrectionWarning")  # the warning line is what it checks
 def test_inspect_shows_joint_types_the_end_effector_rule_and_corrections(tmp_path: Path) -> None:
     from io_files import flawed_urdf  # tests/io_files.py
 
@@ -461,6 +463,7 @@ def _commands() -> list[tuple[str, list[str], str, str, bool]]:
 
 @pytest.mark.parametrize(("argv", "module", "name", "stop"), [c[1:] for c in _commands()], ids=[c[0] for c in _commands()])
 @pytest.mark.parametrize("category", [ff.NearSingularWarning, LongRunWarning, UserWarning])
+@pytest.mark.filterwarnings("always::UserWarning")  # the warning lines are what it checks (else pytest's "error" decides)
 def test_every_command_shows_a_warning_as_one_line(
     argv: list[str], module: str, name: str, stop: bool, category: type[Warning], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -476,6 +479,51 @@ def test_every_command_shows_a_warning_as_one_line(
         assert result.exit_code == 1 and result.stderr.splitlines()[-1] == f"error: {name}: stopped by the test", result.output
     else:
         assert result.exit_code == 0, result.output
+
+
+def test_an_unexpected_warning_in_a_cli_test_fails_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The suite's ``filterwarnings = error`` reaches the commands CliRunner runs (the CLI's own "always" is appended
+    after it): a warning no test declares ends the command with one ``error:`` line and exit 1, so the test fails."""
+    import freefloat.cli
+
+    message = _warns_then(freefloat.cli, "model_info", UserWarning, monkeypatch, False)
+    result = invoke("inspect", "papadopoulos1992")
+    assert result.exit_code == 1 and result.stdout == "", result.output
+    assert result.stderr.splitlines() == [f"error: {message}"], result.stderr
+
+
+def _inspect_flawed(tmp_path: Path, *flags: str, warnings_env: str | None = None) -> subprocess.CompletedProcess[str]:
+    """``python FLAGS -m freefloat inspect flawed.urdf`` (a URDF freefloat corrects with a ModelCorrectionWarning) as a
+    process, with ``PYTHONWARNINGS`` set to ``warnings_env`` (else unset)."""
+    from io_files import flawed_urdf  # tests/io_files.py
+
+    path = flawed_urdf(tmp_path)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONWARNINGS"}
+    if warnings_env is not None:
+        env["PYTHONWARNINGS"] = warnings_env
+    argv = [sys.executable, *flags, "-m", "freefloat", "inspect", str(path), "-e", "tool"]
+    return subprocess.run(argv, capture_output=True, text=True, cwd=tmp_path, env=env, timeout=300)
+
+
+@pytest.mark.parametrize(("flags", "warnings_env"), [(["-W", "error"], None), ([], "error"), (["-W", "error::UserWarning"], None)])
+def test_a_warning_the_user_makes_an_error_is_one_error_line(tmp_path: Path, flags: list[str], warnings_env: str | None) -> None:
+    """``python -W error -m freefloat ...`` and ``PYTHONWARNINGS=error`` turn a correction into an error: one
+    ``error: ...`` line naming it, exit 1, nothing printed on stdout (the user's filters go ahead of the CLI's)."""
+    proc = _inspect_flawed(tmp_path, *flags, warnings_env=warnings_env)
+    assert proc.returncode == 1, proc.stderr
+    assert proc.stdout == ""
+    (line,) = proc.stderr.splitlines()
+    assert line.startswith("error: ") and "flawed.urdf: link[2] (l2).inertia violates the triangle inequality" in line, line
+
+
+def test_a_warning_the_user_ignores_is_not_shown(tmp_path: Path) -> None:
+    """``-W ignore::UserWarning`` hides the correction's line; without a filter it is one ``warning:`` line."""
+    proc = _inspect_flawed(tmp_path, "-W", "ignore::UserWarning")
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    proc = _inspect_flawed(tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    (line,) = proc.stderr.splitlines()
+    assert line.startswith("warning: ") and "flawed.urdf: link[2] (l2).inertia violates the triangle inequality" in line, line
 
 
 def test_a_warning_of_the_capture_sequence_is_one_line_on_the_terminal(tmp_path: Path) -> None:

@@ -12,6 +12,7 @@ import tomllib
 import warnings
 from pathlib import Path
 
+import pytest
 import tomli_w
 from typer.testing import CliRunner
 
@@ -96,6 +97,7 @@ def test_an_unreachable_scheduler_is_one_line_that_states_its_wait(tmp_path: Pat
     assert line == "error: --scheduler localhost: expected a scheduler address such as tcp://127.0.0.1:8786"
 
 
+@pytest.mark.filterwarnings("always::freefloat.campaigns.store.DamagedStoreWarning")  # its warning line is what it checks
 def test_a_damaged_part_is_a_warning_line_moved_aside_and_its_runs_run_again(tmp_path: Path) -> None:
     import numpy as np
 

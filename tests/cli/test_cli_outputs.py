@@ -9,6 +9,7 @@ from __future__ import annotations
 import hashlib
 import json
 from pathlib import Path
+from typing import Any
 
 import pytest
 from typer.testing import CliRunner
@@ -191,3 +192,81 @@ def test_checking_an_out_folder_leaves_no_folder_behind(tmp_path: Path) -> None:
     """check_targets tries to make the folder (and its parents) and removes what it made: the run makes them."""
     check_targets(tmp_path / "a" / "b" / "c", ["trajectory.json"], overwrite=False)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_existing_out_that_cannot_be_written_is_refused_before_the_run(scenario: Path) -> None:
+    """``--out /proc`` exists and is a folder, but nothing can be made in it: one ``--out`` line before the estimate
+    (was: the estimate printed, then ``[Errno 2] ... '/proc/.freefloat-staging-...'``)."""
+    result = invoke("simulate", str(scenario), "--out", "/proc")
+    assert result.exit_code == 1 and result.stdout == "", result.output
+    assert result.stderr.splitlines() == [
+        "error: --out /proc: cannot write here (No such file or directory); choose a folder you can write to"
+    ]
+    with pytest.raises(OSError, match=r"^--out /proc: cannot write here \(No such file or directory\)"):
+        check_targets(Path("/proc"), ["trajectory.json"], overwrite=False)
+    with pytest.raises(OSError, match=r"^--out /proc: cannot write here"), staged_outputs("/proc", overwrite=False, command="test"):
+        raise AssertionError("the block ran")
+
+
+def test_an_out_through_dotdot_makes_only_the_folder_it_names(tmp_path: Path) -> None:
+    """``--out n/../m`` is the folder m: checking it leaves nothing, the run makes m and no n."""
+    check_targets(tmp_path / "n" / ".." / "m", ["a.txt"], overwrite=False)
+    assert list(tmp_path.iterdir()) == []
+    with staged_outputs(tmp_path / "n" / ".." / "m", overwrite=False, command="test") as out:
+        (out.stage / "a.txt").write_text("x")
+    assert sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*")) == ["m", "m/a.txt", f"m/{MANIFEST}"]
+
+
+def test_only_the_folders_this_process_made_are_removed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Another process makes ``a`` between this one's look and its mkdir: ``a`` is theirs and stays; ``a/b`` is removed."""
+    import os
+
+    import freefloat.io.outputs as outputs
+
+    real = os.mkdir
+
+    def raced(path: Any, *args: Any) -> None:
+        if Path(path) == tmp_path / "a":
+            real(path)  # the other process, first
+        real(path, *args)
+
+    monkeypatch.setattr(outputs.os, "mkdir", raced)
+    check_targets(tmp_path / "a" / "b", ["a.txt"], overwrite=False)
+    assert [p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*")] == ["a"]
+
+
+def test_a_broken_link_on_the_way_to_out_is_named(tmp_path: Path) -> None:
+    """``--out dl/sub`` through a broken link (a chain of two): the message names the link and the target it misses."""
+    (tmp_path / "dl").symlink_to(tmp_path / "gone" / "x")
+    (tmp_path / "dl2").symlink_to("dl")
+    for link in ("dl", "dl2"):
+        out = tmp_path / link / "sub"
+        with pytest.raises(OSError, match=rf"^--out {out}: {tmp_path / link} is a symbolic link to {tmp_path}/gone/x, which does not"):
+            check_targets(out, ["a.txt"], overwrite=False)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dl", "dl2"]
+
+
+def test_out_expands_the_home_folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.chdir(tmp_path)  # where a "~" folder would be made if it were not expanded
+    with staged_outputs("~/results", overwrite=False, command="test") as out:
+        (out.stage / "a.txt").write_text("x")
+    assert (tmp_path / "home" / "results" / "a.txt").read_text() == "x" and out.path == tmp_path / "home" / "results"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["home"]
+
+
+def test_capture_checks_out_before_it_estimates_and_asks(tmp_path: Path) -> None:
+    """A capture sequence estimated over a minute, with an ``--out`` that cannot be written: the ``--out`` line, before
+    the estimate is printed or confirmation asked (as simulate)."""
+    text = (EXAMPLES / "scenarios" / "tumbling_satellite_capture.toml").read_text()
+    scenario = tmp_path / "long.toml"
+    scenario.write_text(text.replace("duration = 30.0", "duration = 1e5", 1))
+    (tmp_path / "user.txt").write_text("mine")
+    for out, match in ((str(tmp_path / "user.txt"), "exists and is not a directory"), ("/proc", "cannot write here")):
+        result = invoke("capture", str(scenario), "--out", out)
+        assert result.exit_code == 1, result.output
+        (line,) = result.stderr.splitlines()
+        assert line.startswith(f"error: --out {out}: {match}"), line
+    result = invoke("capture", str(scenario), "--out", str(tmp_path / "out"))  # a good --out: then the estimate
+    assert result.exit_code == 1 and "estimated to take over 60 s" in result.stderr and "pass --yes" in result.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["long.toml", "user.txt"]

@@ -148,3 +148,28 @@ def test_a_model_without_joints_has_no_path_independent_workspace(tmp_path: Path
     result = CliRunner().invoke(app, ["workspace", str(path), "--piw", "--samples", "64"])
     assert result.exit_code == 1 and "bus_with_tool.toml: has no movable joint" in result.output
     assert "Traceback" not in result.output
+
+
+@pytest.mark.parametrize("declared", ["load", "builder", "file"])
+def test_a_wheel_speed_limit_beyond_the_fastest_wheel_speed_is_refused_when_declared(declared: str, tmp_path: Path) -> None:
+    """A wheel's max_speed above MAX_RATE (1e4 rad/s, the largest wheel speed a State takes) could never act: it is
+    refused where the wheel is declared, naming ``wheels[i].max_speed``; the bound itself is accepted."""
+    from freefloat.core.numbers import MAX_RATE
+
+    def declare(speed: float) -> ff.Model:
+        wheel = {"name": "rw", "axis": [0.0, 0.0, 1.0], "inertia": 0.1, "max_speed": speed}
+        if declared == "load":
+            return ff.load("papadopoulos1992", wheels=[wheel])
+        if declared == "builder":
+            b = ff.ModelBuilder("t")
+            b.add_body("bus", mass=100.0, inertia=10.0)
+            b.add_wheel(**wheel)
+            return b.build()
+        path = tmp_path / f"model-{speed}.toml"
+        text = ff.save(ff.load("papadopoulos1992"), tmp_path / f"plain-{speed}.toml").read_text()
+        path.write_text(text + f'\n[[wheels]]\nname = "rw"\naxis = [0.0, 0.0, 1.0]\ninertia = 0.1\nmax_speed = {speed!r}\n')
+        return ff.load(path)
+
+    assert declare(MAX_RATE).wheels[0].max_speed == MAX_RATE
+    with pytest.raises(ff.ModelError, match=r"wheels\[0\] \(rw\)\.max_speed: 10000\.1 rad/s is beyond 10000 rad/s .*check the units"):
+        declare(MAX_RATE + 0.1)

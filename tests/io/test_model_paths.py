@@ -2,8 +2,10 @@
 through a symbolic link to a file in another folder; for each source (TOML, URDF, MJCF) and each way in (``ff.load``,
 ``freefloat inspect``, ``workspace``, ``specialise``, a simulation scenario's and a capture scenario's ``model``).
 
-The MJCF file reads an ``<include>`` and a mesh (``meshdir``) relative to itself: through a link they are found next to
-the real file (docs/model-files.md, "Paths"). Every test runs in ``tmp_path/work``; the files lie in other folders.
+The MJCF file reads an ``<include>`` and a mesh (``meshdir``) relative to the folder of the path it is named by, as
+MuJoCo does: through a link they are found next to the link, not next to the file it points at (docs/model-files.md,
+"Paths"); a scenario's model likewise, next to the scenario as named. Every test runs in ``tmp_path/work``; the files
+lie in other folders.
 """
 
 from __future__ import annotations
@@ -49,13 +51,21 @@ FORMS = ("relative", "spaces-unicode", "symlink")
 runner = CliRunner()
 
 
-def write_sources(folder: Path, stem: str) -> None:
-    """The one-arm system as ``folder/STEM.toml``, ``.urdf`` and ``.xml`` (with the MJCF file's include and mesh)."""
-    (folder / "parts").mkdir(parents=True)
-    (folder / "meshes").mkdir()
+def write_sources(folder: Path, stem: str, references: bool = True) -> None:
+    """The one-arm system as ``folder/STEM.toml``, ``.urdf`` and ``.xml``, with the MJCF file's include and mesh
+    (``references``) or without them."""
+    folder.mkdir(parents=True, exist_ok=True)
     (folder / f"{stem}.toml").write_text(ONE_ARM.read_text(), encoding="utf-8")
     ff.save(ff.load(ONE_ARM), folder / f"{stem}.urdf")
     (folder / f"{stem}.xml").write_text(MJCF, encoding="utf-8")
+    if references:
+        write_references(folder)
+
+
+def write_references(folder: Path) -> None:
+    """What the MJCF file refers to, in ``folder``: ``parts/link2.xml`` and ``meshes/tetra.obj``."""
+    (folder / "parts").mkdir(parents=True)
+    (folder / "meshes").mkdir()
     (folder / "parts" / "link2.xml").write_text(LINK2, encoding="utf-8")
     (folder / "meshes" / "tetra.obj").write_text(TETRA, encoding="utf-8")
 
@@ -69,10 +79,10 @@ def place(tmp_path: Path, form: str, source: str) -> tuple[str, str]:
     if form == "spaces-unicode":
         write_sources(tmp_path / "my models", "bras_é")
         return str(tmp_path / "my models" / f"bras_é.{source}"), f"../my models/bras_é.{source}"
-    write_sources(tmp_path / "real", "arm")
-    (tmp_path / "elsewhere").mkdir()
+    write_sources(tmp_path / "real", "arm", references=False)  # the real file's folder holds no parts/ and no meshes/
+    write_references(tmp_path / "elsewhere")  # the link's folder holds them (a variant of a shared model)
     link = tmp_path / "elsewhere" / f"lien.{source}"
-    link.symlink_to(tmp_path / "real" / f"arm.{source}")  # the link's folder holds no parts/ and no meshes/
+    link.symlink_to(tmp_path / "real" / f"arm.{source}")
     return str(link), f"../elsewhere/lien.{source}"
 
 
@@ -166,13 +176,94 @@ def test_capture_scenario(work: Path, form: str, source: str) -> None:
     assert "arm1_ee" in result.stdout and "approach" in result.stdout.lower()
 
 
-def test_a_link_reads_the_mjcf_references_next_to_the_real_file(work: Path) -> None:
-    """Through a link in a folder of its own, the include and the mesh are read from the real file's folder; a copy of
-    the file there (a real file, not a link) finds neither, and MuJoCo's error names the include it could not open."""
+def test_a_link_reads_the_mjcf_references_next_to_itself_as_mujoco_does(work: Path) -> None:
+    """Through a link, the include and the mesh are read from the link's folder, where MuJoCo itself reads them
+    (``from_xml_path`` of the link); a link whose folder lacks them fails in both, freefloat's error naming the include."""
+    import mujoco
+
     link, _ = place(work, "symlink", "xml")
-    assert_one_arm(ff.load(link))
-    copy = work / "elsewhere" / "copy.xml"
-    copy.write_text(MJCF, encoding="utf-8")
-    with pytest.raises(ff.ModelError, match=r"copy\.xml: MuJoCo could not compile it: .*parts/link2\.xml"):
-        ff.load(copy)
-    assert os.readlink(link) == str(work / "real" / "arm.xml")
+    assert os.readlink(link) == str(work / "real" / "arm.xml") and not (work / "real" / "parts").exists()
+    model = ff.load(link)
+    assert_one_arm(model)
+    assert mujoco.MjModel.from_xml_path(link).nbody == model.n_bodies + 1  # MuJoCo's world body besides
+    bare = work / "bare"
+    bare.mkdir()
+    (bare / "arm.xml").symlink_to(work / "elsewhere" / "lien.xml")  # a chain of links; no parts/ next to the first
+    with pytest.raises(ValueError, match=r"parts/link2\.xml"):
+        mujoco.MjModel.from_xml_path(str(bare / "arm.xml"))
+    with pytest.raises(ff.ModelError, match=r"arm\.xml: MuJoCo could not compile it: .*parts/link2\.xml"):
+        ff.load(bare / "arm.xml")
+
+
+@pytest.mark.parametrize("source", SOURCES)
+def test_a_scenario_through_a_link_finds_its_model_next_to_the_link(work: Path, source: str) -> None:
+    """The scenario's ``model = "arm.EXT"`` is relative to the folder of the scenario's path as given (the rule of the
+    MJCF references): next to a link to the scenario, not next to the file it points at."""
+    (work / "shared").mkdir()
+    real = work / "shared" / "run.toml"
+    real.write_text(f'model = "arm.{source}"\nduration = 0.02\n[integrator]\nmethod = "RK4"\nfixed_step = 0.01\n', encoding="utf-8")
+    write_sources(work / "variant", "arm")
+    (work / "variant" / "run.toml").symlink_to(real)
+    invoke("simulate", "../variant/run.toml", "--out", "out")
+    assert json.loads((work / "work" / "out" / "trajectory.json").read_text())["status"] == "finished"
+    (work / "lonely").mkdir()
+    (work / "lonely" / "run.toml").symlink_to(real)  # no model next to this link: the one in variant/ is not found
+    write_sources(work / "shared", "arm")  # nor the one next to the real file
+    result = runner.invoke(app, ["simulate", "../lonely/run.toml", "--out", "out2"])
+    assert result.exit_code == 1 and f"model: arm.{source}: no such model file" in result.stderr, result.output
+
+
+def test_a_chain_of_links_is_named_by_the_file_it_misses(work: Path) -> None:
+    """``a.urdf -> b.urdf -> gone/arm.urdf``: the message names the missing file at the end of the chain; a loop of links
+    is named as a loop."""
+    (work / "work" / "b.urdf").symlink_to("gone/arm.urdf")
+    (work / "work" / "a.urdf").symlink_to("b.urdf")
+    missing = work / "work" / "gone" / "arm.urdf"
+    with pytest.raises(ff.ModelError, match=rf"^a\.urdf: is a symbolic link to {missing}, which does not exist"):
+        ff.load("a.urdf")
+    result = runner.invoke(app, ["inspect", "a.urdf"])
+    assert result.exit_code == 1 and result.stderr.startswith(f"error: a.urdf: is a symbolic link to {missing}, which"), result.output
+    (work / "work" / "loop1.xml").symlink_to("loop2.xml")
+    (work / "work" / "loop2.xml").symlink_to("loop1.xml")
+    with pytest.raises(ff.ModelError, match=r"^loop1\.xml: is a loop of symbolic links"):
+        ff.load("loop1.xml")
+
+
+@pytest.mark.parametrize("source", SOURCES)
+def test_a_file_name_that_is_not_utf8_is_one_clear_error(work: Path, source: str) -> None:
+    """A name made on another system (bytes that are not UTF-8: Python's surrogate escapes) is refused before any
+    reader sees it (MuJoCo's parser raised a TypeError, the URDF reader called the file malformed)."""
+    write_sources(work / "models", "arm")
+    name = os.fsdecode(b"bras\xe9." + source.encode())  # Latin-1 e-acute
+    os.link(work / "models" / f"arm.{source}", work / "models" / name)
+    for given in (f"../models/{name}", Path("..") / "models" / name):
+        with pytest.raises(ff.ModelError, match=rf"^\.\./models/bras\\xe9\.{source}: the file name is not valid UTF-8; rename"):
+            ff.load(given)
+    result = runner.invoke(app, ["inspect", f"../models/{name}"])
+    assert result.exit_code == 1 and result.stderr.splitlines() == [
+        f"error: ../models/bras\\xe9.{source}: the file name is not valid UTF-8; rename the file (and its folders) to a UTF-8 name"
+    ], result.output
+
+
+@pytest.mark.parametrize("source", SOURCES)
+def test_the_home_folder_is_expanded(work: Path, source: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """``~/models/arm.EXT`` (quoted, so no shell expanded it) in ff.load, inspect and a scenario's model."""
+    monkeypatch.setenv("HOME", str(work))
+    write_sources(work / "models", "arm")
+    assert_one_arm(ff.load(f"~/models/arm.{source}"))
+    info = json.loads(invoke("inspect", f"~/models/arm.{source}", "--json").stdout)
+    assert info["total_mass"] == pytest.approx(470.0, rel=1e-12)
+    (work / "scenarios" / "run.toml").write_text(
+        f'model = "~/models/arm.{source}"\nduration = 0.02\n[integrator]\nmethod = "RK4"\nfixed_step = 0.01\n', encoding="utf-8"
+    )
+    invoke("simulate", "~/scenarios/run.toml", "--out", "~/out")
+    assert json.loads((work / "out" / "trajectory.json").read_text())["status"] == "finished"
+
+
+def test_a_path_with_backslashes_that_names_nothing_hints_at_the_separator(work: Path) -> None:
+    write_sources(work / "work" / "models", "arm")
+    with pytest.raises(ff.ModelError, match=r"^models\\arm\.urdf: file not found \(use / as the separator"):
+        ff.load("models\\arm.urdf")
+    result = runner.invoke(app, ["inspect", "models\\arm.urdf"])
+    assert result.exit_code == 1 and "no such model file; use / as the separator" in result.stderr, result.output
+    assert_one_arm(ff.load("models/arm.urdf"))

@@ -238,6 +238,7 @@ def test_urdf_with_only_ignored_elements_loads_without_a_word(tmp_path: Path) ->
 
 
 # ----------------------------------------------------------------------------- inspect
+@pytest.mark.filterwarnings("always::freefloat.core.errors.UnmodelledElementWarning")  # its warning line is what it checks
 def test_inspect_lists_what_was_dropped_and_strict_refuses(tmp_path: Path) -> None:
     path = mjcf(tmp_path, joint_attrs='stiffness="3"', after='<actuator><motor name="m1" joint="shoulder" gear="120"/></actuator>')
     runner = CliRunner()

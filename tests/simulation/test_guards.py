@@ -128,6 +128,7 @@ def test_a_run_estimated_too_long_warns_before_it_starts(arm: ff.Model) -> None:
         ff.simulate(arm, ff.State(), 1e12, None, sample_period=0.01)
 
 
+@pytest.mark.filterwarnings("always::freefloat.core.errors.StiffGainsWarning")  # its warning line is part of what it checks
 def test_cli_asks_for_confirmation_and_yes_skips_it(tmp_path: Path) -> None:
     scenario = tmp_path / "long.toml"
     scenario.write_text(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -27,9 +28,41 @@ def test_a_rollout_too_large_is_refused_before_a_state_is_resolved(monkeypatch: 
         ff.rollout(ff.load("papadopoulos1992"), states, 10.0, dt=0.01)
 
 
-def test_an_empty_batch_is_refused_naming_the_batch() -> None:
-    with pytest.raises(ShapeError, match=r"initial_states: an empty batch \(0 trajectories\)"):
-        ff.rollout(ff.load("papadopoulos1992"), ff.State(q=np.zeros((0, 4)), omega=np.zeros((0, 3))), 0.1, dt=0.01)
+_ARRAYS = [f.name for f in dataclasses.fields(ff.Trajectory) if f.name not in ("t", "status", "message", "model_name", "model")]
+_ARRAYS.remove("joint_limit_events")
+
+
+@pytest.mark.parametrize("controller", ["none", "joint-pd", "python"])
+def test_an_empty_batch_gives_an_empty_trajectory(controller: str) -> None:
+    """B = 0 initial states: every field (T, 0, ...), at the times a rollout of one trajectory records, as every batched
+    call gives an empty result for an empty batch (J* of (0, N) configurations is (0, 6E, N)); no controller is called."""
+    model = ff.load("papadopoulos1992")
+
+    def python_law(t: float, states: ff.State) -> np.ndarray:
+        assert len(states.q) > 0, "called a controller for no trajectory"
+        return np.zeros_like(states.q)
+
+    law = {"none": None, "joint-pd": ff.JointPD(kp=np.ones(4), kd=1.0), "python": python_law}[controller]
+    run = {"duration": 0.1, "dt": 0.01, "output_period": 0.03, "controller": law}
+    empty = ff.rollout(model, ff.State(q=np.zeros((0, 4)), omega=np.zeros((0, 3))), **run)
+    one = ff.rollout(model, ff.State(q=np.zeros((1, 4))), **run)
+    assert empty.status == "finished" and empty.joint_limit_events == ()
+    np.testing.assert_array_equal(empty.t, one.t)
+    for name in _ARRAYS:
+        got, single = getattr(empty, name), getattr(one, name)
+        assert (got is None) == (single is None), name
+        if single is not None:
+            assert got.shape == (single.shape[0], 0, *single.shape[2:]), name
+    assert empty.angular_momentum.shape == (empty.t.size, 0, 3)
+
+
+def test_an_empty_batch_is_checked_like_any_other() -> None:
+    """The checks of a rollout run for B = 0 too: the memory of the recorded times, and JointPD's shapes."""
+    empty = ff.State(q=np.zeros((0, 4)))
+    with pytest.raises(MemoryBudgetError, match=r"^a rollout of 0 trajectories x 100000000000002 recorded states"):
+        ff.rollout(ff.load("papadopoulos1992"), empty, 1e12, dt=0.01)
+    with pytest.raises(ShapeError, match=r"^JointPD\.kp: shape \(3, 4\) does not broadcast to the states' \(0, 4\)"):
+        ff.rollout(ff.load("papadopoulos1992"), empty, 0.1, dt=0.01, controller=ff.JointPD(kp=np.ones((3, 4)), kd=1.0))
 
 
 def test_a_broadcast_batch_is_checked_as_its_distinct_values() -> None:

@@ -400,6 +400,26 @@ def test_bad_initial_state() -> None:
         ff.simulate(model, ff.State(), 1.0, controller=3.0)
 
 
+@pytest.mark.parametrize("fixed_step", [None, 0.01], ids=["adaptive", "rk4"])
+@pytest.mark.parametrize(
+    ("given", "match"),
+    [
+        ({"kp": np.ones(3)}, r"^JointPD\.kp: shape \(3,\) does not broadcast to the model's 4 joints \(4,\); give a scalar"),
+        ({"kd": np.ones((2, 4))}, r"^JointPD\.kd: shape \(2, 4\) does not broadcast to the model's 4 joints"),
+        ({"q_ref": np.zeros(5)}, r"^JointPD\.q_ref: shape \(5,\) does not broadcast"),
+        ({"qdot_ref": np.zeros(0)}, r"^JointPD\.qdot_ref: shape \(0,\) does not broadcast"),
+        ({"feedforward": np.zeros((2, 3))}, r"^JointPD\.feedforward: samples of shape \(3,\) does not broadcast .*give \(K, N\)"),
+        ({"feedforward": np.zeros((2, 1, 4))}, r"^JointPD\.feedforward: samples of shape \(1, 4\) does not broadcast"),
+    ],
+    ids=["kp-short", "kd-per-trajectory", "q-ref-long", "qdot-ref-empty", "feedforward-short", "feedforward-per-trajectory"],
+)
+def test_joint_pd_shapes_are_refused_before_the_run(fixed_step: float | None, given: dict[str, Any], match: str) -> None:
+    """A JointPD whose parameters do not fit the model's joints: a ShapeError naming the parameter, not a failed run."""
+    pd = ff.JointPD(**{"kp": 1.0, "kd": 1.0, **given, **({"feedforward_period": 0.01} if "feedforward" in given else {})})
+    with pytest.raises(ff.ShapeError, match=match):
+        ff.simulate(two_arm(), ff.State(q=[0.1, 0.2, 3.0, -0.2]), 0.1, pd, fixed_step=fixed_step)
+
+
 @pytest.mark.parametrize("fixed_step", [None, 0.001], ids=["adaptive", "rk4"])
 @pytest.mark.parametrize(
     ("output", "needle"),
@@ -617,6 +637,7 @@ def test_cli_simulate_writes_the_trajectory_and_plots(tmp_path: Path) -> None:
     assert np.abs(traj.angular_momentum).max() < 1e-9
 
 
+@pytest.mark.filterwarnings("always::freefloat.core.errors.StiffGainsWarning")  # its warning line is part of what it checks
 def test_cli_simulate_failing_scenario_writes_the_partial_run_and_exits_1(tmp_path: Path) -> None:
     scenario = tmp_path / "unstable.toml"
     scenario.write_text(

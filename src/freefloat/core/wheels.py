@@ -9,7 +9,7 @@ Conventions, following Basilisk's ``reactionWheelStateEffector`` where they fit 
 - ``axis``: the spin axis, a unit vector in the spacecraft frame (Basilisk's ``gsHat_B``);
 - ``inertia``: the rotor's inertia about the spin axis, kg m² (Basilisk's ``Js``);
 - ``max_torque``: the motor torque limit, N m (``u_max``): a command beyond it is clipped to it, and recorded;
-- ``max_speed``: the speed limit, rad/s (``Omega_max``): as in Basilisk, a wheel at or beyond it gets no motor
+- ``max_speed``: the speed limit, rad/s (``Omega_max``, at most MAX_RATE = 1e4): as in Basilisk, a wheel at or beyond it gets no motor
   torque that would spin it faster (the command is set to zero, and recorded); torque that slows it is applied;
 - ``viscous`` (N m s/rad) and ``coulomb`` (N m): the bearing friction, a torque ``-viscous Omega`` and a smooth Coulomb
   torque against ``Omega`` (the joints' law, :func:`freefloat.mechanics.passive_torque`), acting between rotor and
@@ -40,6 +40,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .errors import ModelError
+from .numbers import MAX_RATE
 
 if TYPE_CHECKING:
     from .model import Model
@@ -115,6 +116,19 @@ def _number(value: Any, path: str, what: str, *, positive: bool, allow_inf: bool
     return out
 
 
+def _speed_limit(value: Any, path: str) -> float:
+    """A wheel's ``max_speed``: positive, finite and at most :data:`~freefloat.core.numbers.MAX_RATE` (a speed beyond
+    it is refused as a wheel's state and stops a simulation, so a limit beyond it could never act)."""
+    out = _number(value, path, "speed limit in rad/s (> 0)", positive=True)
+    if out > MAX_RATE:
+        raise ModelError(
+            path,
+            f"{out:.6g} rad/s is beyond {MAX_RATE:g} rad/s (about 95,000 rpm), the fastest a wheel may turn in freefloat",
+            "check the units (rad/s; rpm / 9.549 = rad/s), or leave max_speed out for no limit",
+        )
+    return out
+
+
 def reaction_wheel(
     name: str,
     *,
@@ -150,7 +164,7 @@ def reaction_wheel(
         axis=vec,
         inertia=_number(inertia, f"{path}.inertia", "rotor inertia about the spin axis in kg m^2 (> 0)", positive=True),
         max_torque=limit if max_torque is None else _number(max_torque, f"{path}.max_torque", "torque limit in N m (> 0)", positive=True),
-        max_speed=limit if max_speed is None else _number(max_speed, f"{path}.max_speed", "speed limit in rad/s (> 0)", positive=True),
+        max_speed=limit if max_speed is None else _speed_limit(max_speed, f"{path}.max_speed"),
         viscous=_number(viscous, f"{path}.viscous", "viscous friction in N m s/rad (>= 0)", positive=False),
         coulomb=_number(coulomb, f"{path}.coulomb", "Coulomb friction torque in N m (>= 0)", positive=False),
     )

@@ -14,7 +14,7 @@ import numpy as np
 from ..core.errors import ModelCorrectionWarning, ModelError
 from ..core.model import MAX_INERTIA, Model, check_inertia, inertia_defect, nearest_physical_inertia
 
-__all__ = ["EndEffectors", "end_effector_specs", "naming_file", "not_a_file", "physical_inertia"]
+__all__ = ["SEPARATOR_HINT", "EndEffectors", "end_effector_specs", "model_path", "naming_file", "not_a_file", "physical_inertia"]
 
 #: What a user may pass as ``end_effectors=``: link (body) names, or (name, link, point) triples.
 EndEffectors = Sequence[str | tuple[str, str, Sequence[float]]] | None
@@ -72,14 +72,35 @@ def physical_inertia(inertia: np.ndarray, path: str, strict: bool, corrections: 
     return fixed
 
 
+def model_path(given: str) -> Path:
+    """The path of a model file as the user typed it, ``~`` expanded; a name that is not valid UTF-8 (a file made on
+    another system) is refused here, before a reader that cannot take it (MuJoCo's parser) fails on it."""
+    try:
+        given.encode("utf-8")
+    except UnicodeEncodeError:
+        shown = os.fsencode(given).decode("utf-8", "backslashreplace")
+        raise ModelError(shown, "the file name is not valid UTF-8", "rename the file (and its folders) to a UTF-8 name") from None
+    return Path(os.path.expanduser(given))
+
+
 def not_a_file(path: Path) -> str | None:
-    """What keeps ``path`` from being read as a model file: a broken symbolic link (and where it points), a folder or
-    something else that is not a regular file, or nothing there; None when it is a file (a link to one included)."""
+    """What keeps ``path`` from being read as a model file: a broken symbolic link (and the missing file at the end of
+    its chain of links), a folder or something else that is not a regular file, or nothing there (with a hint where
+    the path has a backslash); None when it is a file (a link to one included)."""
     if path.is_file():
         return None
     if path.is_symlink() and not path.exists():
-        return f"is a symbolic link to {os.readlink(path)}, which does not exist"
-    return "is not a file" if path.exists() else "file not found"
+        target = os.path.realpath(path)
+        if os.path.islink(target):
+            return f"is a loop of symbolic links (through {target})"
+        return f"is a symbolic link to {target}, which does not exist"
+    if path.exists():
+        return "is not a file"
+    return "file not found" + (f" ({SEPARATOR_HINT})" if "\\" in str(path) else "")
+
+
+#: The hint for a path with a backslash that names nothing (a Windows path typed on Linux or macOS).
+SEPARATOR_HINT = "use / as the separator: a backslash is part of a file name here"
 
 
 def naming_file(path: str | Path, build: Callable[[], Model]) -> Model:

@@ -53,14 +53,14 @@ def load_mjcf(path: str | Path, *, end_effectors: EndEffectors = None, strict: b
         raise ModelError(
             str(path), "is an MJCF file, which freefloat reads with MuJoCo's own parser", 'install it: pip install "freefloat[mjcf]"'
         ) from None
-    # the real file, named before the scratch folder below becomes the working directory: a relative path is the
-    # caller's, and MuJoCo reads <include file>, meshdir and mesh files relative to the file it is given, so a
-    # symbolic link is followed to the file it names (its folder is where the model's own references point)
-    real = Path(path).resolve()
+    # made absolute before the scratch folder below becomes the working directory (a relative path is the caller's), and
+    # not resolved: MuJoCo reads <include file>, meshdir and mesh files relative to the folder of the path it is given,
+    # a symbolic link's folder included (mujoco.MjModel.from_xml_path("variant/arm.xml") reads variant/'s meshes)
+    given = Path(path).absolute()
     try:
         # MuJoCo writes MUJOCO_LOG.TXT into the working directory on some errors: give it a scratch one
         with tempfile.TemporaryDirectory(prefix="freefloat-mujoco-") as scratch, contextlib.chdir(scratch):
-            mj = mujoco.MjModel.from_xml_path(str(real))
+            mj = mujoco.MjModel.from_xml_path(str(given))
     except ValueError as exc:  # MuJoCo's parse and compile errors
         raise ModelError(str(path), f"MuJoCo could not compile it: {exc}".replace("\n", " "), "fix the MJCF file") from None
     return naming_file(path, lambda: from_mjmodel(mj, source=str(path), end_effectors=end_effectors, strict=strict))

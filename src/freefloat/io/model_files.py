@@ -35,7 +35,7 @@ from ..core.builder import ModelBuilder
 from ..core.errors import ModelCorrectionWarning, ModelError, UnmodelledElementWarning
 from ..core.model import JOINT_PASSIVE, Model, resolve_model
 from ..core.wheels import wheels_from
-from ._readers import EndEffectors, end_effector_specs, naming_file, not_a_file, physical_inertia
+from ._readers import EndEffectors, end_effector_specs, model_path, naming_file, not_a_file, physical_inertia
 from .mjcf import load_mjcf
 from .unmodelled import report_unmodelled, urdf_unmodelled
 
@@ -73,7 +73,10 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
             raise TypeError(f'end_effectors: expected a list of names, e.g. ["tool0"], got {end_effectors!r}')
         if len(end_effectors) == 0:
             raise ModelError("end_effectors", "is empty", "name at least one end effector, or pass None for the file's (else every leaf)")
-    given, path = os.fspath(path), Path(path)  # errors quote the path as given (Path drops a leading "./")
+    given = os.fspath(path)  # errors quote the path as given (Path drops a leading "./")
+    if isinstance(given, bytes):
+        given = os.fsdecode(given)
+    path = model_path(given)  # ~ expanded; a name that is not UTF-8 refused
     if not path.suffix and not path.exists() and not path.is_symlink():
         builtin = resolve_model(str(path), "path")  # a built-in name (or an error listing them)
         builtin = builtin if joints is None else with_joint_dynamics(builtin, joints)

@@ -84,23 +84,77 @@ class _Manifests:
 
 
 def output_directory(path: Path | str) -> Path:
-    """Create the output directory ``path`` (and its parents); refuse an empty path or a path that is a file."""
+    """Create the output directory ``path`` (and its parents); refuse an empty path or a path that is a file.
+
+    ``~`` is expanded, and a path with ``..`` is taken as the folder it names (``n/../m`` is ``m``: no ``n`` is made).
+    Returns the folder's path (the one given, or the normalised one where it had ``..``)."""
     return _make_output_directory(path)[0]
 
 
+def _out_problem(given: str, path: Path) -> str | None:
+    """Why no folder can be made at ``path`` (``--out given``) before anything is made: a broken symbolic link on the way
+    (named with the target it misses), or a file or device where a folder of the path must be; None when it can be."""
+    parts = path.parts
+    for i in range(1, len(parts) + 1):
+        level = Path(*parts[:i])
+        if level.is_symlink() and not level.exists():
+            return (
+                f"--out {given}: {level} is a symbolic link to {os.path.realpath(level)}, which does not exist; "
+                "make that folder, or choose another --out"
+            )
+        if i < len(parts) and level.exists() and not level.is_dir():  # the system would not go through it (not even "..")
+            return f"--out {given}: cannot create this folder (Not a directory): {level} is not a folder; choose another --out"
+    return None
+
+
 def _make_output_directory(path: Path | str) -> tuple[Path, list[Path]]:
-    """``output_directory``, and the folders it created (deepest first), to remove if the run fails."""
+    """``output_directory``, and the folders this process created (deepest first), to remove if the run fails.
+
+    Each missing level is made with one ``os.mkdir`` of its own; a level that another process made in the meantime is
+    used and not listed, so that the caller removes only what this process made."""
     if not str(path).strip():
         raise ValueError("--out: an empty path would write into the current directory; name an output directory, e.g. --out out")
-    path = Path(path)
+    given = str(Path(path))
+    path = Path(os.path.expanduser(path))
+    problem = _out_problem(given, path)
+    if problem is not None:
+        raise OSError(problem)
+    if ".." in path.parts:  # the folder it names, as the system reads it (a link before ".." followed)
+        path = Path(os.path.realpath(path))
     if path.exists() and not path.is_dir():
-        raise FileExistsError(f"--out {path}: exists and is not a directory; choose another --out")
-    created = [p for p in (path, *path.parents) if not p.exists()]
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise OSError(f"--out {path}: cannot create this folder ({exc.strerror or exc}); choose a folder you can write to") from None
+        raise FileExistsError(f"--out {given}: exists and is not a directory; choose another --out")
+    missing = []
+    for level in (path, *path.parents):
+        if level.exists():
+            break
+        missing.append(level)
+    created: list[Path] = []
+    for level in reversed(missing):  # outermost first
+        try:
+            os.mkdir(level)
+        except FileExistsError:
+            if not level.is_dir():  # made by another process, as something else than a folder
+                _remove(created)
+                raise FileExistsError(f"--out {given}: {level} exists and is not a directory; choose another --out") from None
+            continue  # made by another process meanwhile: theirs, not ours to remove
+        except OSError as exc:
+            _remove(created)
+            raise OSError(f"--out {given}: cannot create this folder ({exc.strerror or exc}); choose a folder you can write to") from None
+        created.insert(0, level)
     return path, created
+
+
+def _remove(created: list[Path]) -> None:
+    """Remove the folders this process made for an output directory (deepest first); one that holds anything stays."""
+    for folder in created:
+        try:
+            folder.rmdir()
+        except OSError:
+            break
+
+
+def _cannot_write(given: Path | str, exc: OSError) -> OSError:
+    return OSError(f"--out {Path(given)}: cannot write here ({exc.strerror or exc}); choose a folder you can write to")
 
 
 def _stage_owner() -> str:
@@ -157,12 +211,13 @@ def check_targets(out: Path, names: Iterable[str], *, overwrite: bool) -> None:
     """Before a run: refuse if ``out`` cannot be made (a path through a file, a folder this process cannot write in:
     tried, and the folders made for the try removed again) or if writing ``names`` (paths relative to ``out``) would
     replace a protected file."""
-    _, created = _make_output_directory(out)
-    for folder in created:  # deepest first: the run makes them again when it starts
-        try:
-            folder.rmdir()
-        except OSError:
-            break
+    given, (out, created) = out, _make_output_directory(out)
+    try:  # a folder this process can write in: a file made and removed in it (as the run's staging folder will be)
+        os.rmdir(tempfile.mkdtemp(prefix=f"{_STAGING_PREFIX}check-", dir=out))
+    except OSError as exc:
+        raise _cannot_write(given, exc) from None
+    finally:
+        _remove(created)  # the run makes them again when it starts
     manifests = _Manifests()
     problems = [p for p in (_conflict(out, name, overwrite, manifests) for name in names) if p]
     if problems:
@@ -236,7 +291,11 @@ def staged_outputs(path: Path | str, *, overwrite: bool, command: str) -> Iterat
     """
     out, created = _make_output_directory(path)
     _remove_stale_stages(out)
-    stage = Path(tempfile.mkdtemp(prefix=f"{_STAGING_PREFIX}{_stage_owner()}-", dir=out))
+    try:
+        stage = Path(tempfile.mkdtemp(prefix=f"{_STAGING_PREFIX}{_stage_owner()}-", dir=out))
+    except OSError as exc:
+        _remove(created)
+        raise _cannot_write(path, exc) from None
     target = OutputDirectory(out, stage, overwrite, command)
     committed = False
     try:
@@ -250,8 +309,4 @@ def staged_outputs(path: Path | str, *, overwrite: bool, command: str) -> Iterat
     finally:
         shutil.rmtree(stage, ignore_errors=True)
         if not committed:
-            for folder in created:  # deepest first; a folder that holds anything stays
-                try:
-                    folder.rmdir()
-                except OSError:
-                    break
+            _remove(created)

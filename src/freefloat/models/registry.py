@@ -9,11 +9,10 @@ from __future__ import annotations
 import difflib
 import functools
 from collections.abc import Callable
-from pathlib import Path
 
 from ..core.errors import ModelError
 from ..core.model import Model, register_model_resolver
-from ..io._readers import not_a_file
+from ..io._readers import SEPARATOR_HINT, model_path, not_a_file
 from ..io.model_files import EndEffectors, load
 from .papers import papadopoulos1991, papadopoulos1992
 from .spacecraft import spacecraft_7dof
@@ -65,12 +64,14 @@ def load_model(spec: str, *, end_effectors: EndEffectors = None, strict: bool = 
                 "drop --strict (strict=False) to use the corrected model; `freefloat inspect` lists the corrections",
             )
         return model
-    path = Path(spec)
+    path = model_path(spec)  # ~ expanded; a name that is not UTF-8 refused
     if path.is_file():
         return load(spec, end_effectors=end_effectors, strict=strict)
     if path.exists() or path.is_symlink():  # a folder, a device, a broken symbolic link
         raise ModelError(spec, not_a_file(path) or "is not a file", "give the path of a .toml, .urdf or MJCF .xml model file")
-    if path.suffix.lower() in _MODEL_SUFFIXES or "/" in spec or "\\" in spec:
+    if "\\" in spec:
+        raise FileNotFoundError(f"{spec}: no such model file; {SEPARATOR_HINT}")
+    if path.suffix.lower() in _MODEL_SUFFIXES or "/" in spec or spec.startswith("~"):
         raise FileNotFoundError(f"{spec}: no such model file")
     close = difflib.get_close_matches(key, list(BUILTIN_MODELS), n=3, cutoff=0.5)
     hint = f"did you mean {', '.join(repr(c) for c in close)}? " if close else ""

@@ -101,10 +101,8 @@ class JointPD:
                 fits = False
             if not fits:
                 what = f"samples of shape {part}" if name == "feedforward" else f"shape {part}"
-                raise ShapeError(
-                    f"JointPD.{name}: {what} does not broadcast to the states' {shape} "
-                    f"({'trajectories x joints' if rows else 'joints'}); give {each_ff if name == 'feedforward' else each}"
-                )
+                to = f"the states' {shape} (trajectories x joints)" if rows else f"the model's {shape[0]} joints {shape}"
+                raise ShapeError(f"JointPD.{name}: {what} does not broadcast to {to}; give {each_ff if name == 'feedforward' else each}")
 
     def sample(self, t: float) -> int:
         """Index of the feed-forward sample in force at time ``t``."""

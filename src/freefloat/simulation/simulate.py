@@ -283,6 +283,8 @@ def simulate(
     state = initial_state.resolve(model)
     if np.asarray(state.q).ndim != 1:
         raise ShapeError("initial_state: simulate takes one state; use freefloat.rollout for a batch of states")
+    if isinstance(controller, JointPD):  # its gains, references and feed-forward one value per joint, before the run
+        controller.check_batch((model.n_joints,))
     duration = _positive("duration", duration)
     for name, value in (("fixed_step", fixed_step), ("sample_period", sample_period), ("output_period", output_period)):
         if value is not None:
@@ -417,7 +419,8 @@ def _positive(name: str, value: Any) -> float:
 def _batch_shape(initial_states: Any, model: Model) -> tuple[int]:
     """The batch (B,) of a rollout's initial states, from the shapes of their fields (no field is copied or resolved
     yet: a rollout too large for memory is refused before it makes anything per trajectory). Errors name
-    ``initial_states``: not a State, not one leading batch axis, an empty batch."""
+    ``initial_states``: not a State, not one leading batch axis. An empty batch (B = 0) is a batch: the rollout gives
+    an empty result, as every batched call does (J* of 0 configurations is (0, 6E, N))."""
     if not isinstance(initial_states, State):
         raise TypeError(
             f"initial_states: expected a freefloat.State whose fields have a leading batch axis, got {type(initial_states).__name__}"
@@ -432,10 +435,6 @@ def _batch_shape(initial_states: Any, model: Model) -> tuple[int]:
     if len(batch) != 1:
         size = state_size(model) + dissipates(model)
         raise ShapeError(f"initial_states: expected fields with one leading batch axis (B, ...), got a state of shape {(*batch, size)}")
-    if batch[0] == 0:
-        raise ShapeError(
-            "initial_states: an empty batch (0 trajectories): a rollout needs at least one initial state (fields of shape (B, ...), B >= 1)"
-        )
     return (int(batch[0]),)
 
 
@@ -498,16 +497,20 @@ def rollout(
     stride = max(1, round((output_period or dt) / dt))
     outputs = steps // stride + 2
     size = state_size(model) + dissipates(model)  # the flat state, with the dissipated energy's slot when there are passive torques
-    require_memory(  # the recorded states and actuation of every trajectory
-        float(outputs) * batch[0] * (size + model.n_joints + 7) * 8,
+    require_memory(  # the recorded times, and the states and actuation of every trajectory
+        float(outputs) * (1 + batch[0] * (size + model.n_joints + 7)) * 8,
         f"a rollout of {batch[0]} trajectories x {outputs} recorded states",
         "record fewer states (a longer output_period), run fewer trajectories per call, or a shorter duration",
     )
     state = initial_states.resolve(model)
     x = pack_state(state, 0.0 if dissipates(model) else None)
-    check_passive_step(model, x[0, 13 : 13 + model.n_joints], dt)  # at the first trajectory's angles
     if isinstance(controller, JointPD):
         controller.check_batch((*batch, model.n_joints))
+    if batch[0] == 0:  # every check passed: the empty result, (T, 0, ...) at the times a run would record
+        times = _output_times(dt, steps, stride)
+        none = (np.zeros((times.size, 0, model.n_joints)), np.zeros((times.size, 0, 3)), np.zeros((times.size, 0, 3)))
+        return _trajectory(model, times, np.zeros((times.size, 0, size)), (*none, np.zeros((times.size, 0), dtype=bool)))
+    check_passive_step(model, x[0, 13 : 13 + model.n_joints], dt)  # at the first trajectory's angles
     zero = (np.zeros((*batch, model.n_joints)), np.zeros((*batch, 3)), np.zeros((*batch, 3)))
 
     def command(t: float, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -580,6 +583,12 @@ def _batch_limits(traj: Trajectory) -> Trajectory:
         return traj
     found = limit_violations(model, traj.t, traj.q)
     return dataclasses.replace(traj, joint_limit_events=tuple(found)) if found else traj
+
+
+def _output_times(dt: float, steps: int, stride: int) -> np.ndarray:
+    """The times a rollout of ``steps`` steps of ``dt`` records: t = 0, every ``stride``-th step and the last."""
+    k = np.arange(0, steps + 1, stride)
+    return (k if k[-1] == steps else np.append(k, steps)) * dt
 
 
 def _rollout_pd(
@@ -657,7 +666,7 @@ def _rollout_pd(
     else:
         xs, us, sat = (np.concatenate([p[i] for p in parts], axis=1) for i in range(3))
         done = np.concatenate([p[3] for p in parts])
-    times = np.array([0.0] + [i * dt for i in range(1, steps + 1) if i % stride == 0 or i == steps])
+    times = _output_times(dt, steps, stride)
     if np.any(done < steps):
         first = int(np.argmin(done))
         t_fail = float(done[first] * dt)
