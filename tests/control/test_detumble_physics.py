@@ -73,3 +73,23 @@ def test_without_force_the_cm_keeps_its_velocity(section5: Any, path: str, monke
     cost = ff.control.detumble_cost(traj, rest_velocity=None)
     assert cost.final_rates[1] < 0.2 * np.exp(-DURATION) * 1.01 and cost.final_rates[2] < 0.3 * np.exp(-DURATION) * 1.01
     assert np.abs(traj.joint_torque).max() > 0.1  # the joints did work
+
+
+def test_an_adaptive_run_gives_the_controller_unit_attitudes() -> None:
+    """The adaptive integrator's stage states carry quaternions off unit length (by ~1e-6 within 0.2 s here); the
+    controller is given the attitude the stage stands for, so an attitude-holding Detumble runs to the end (it raised
+    "quaternion norm ... is not 1" at t = 0.14 s) and turns the spacecraft to the attitude asked for."""
+    model = ff.load("papadopoulos1992")
+    target = Rotation.from_rotvec([0.0, 0.0, 0.2])
+    seen: list[float] = []
+    law = Detumble(model, attitude=target.as_quat())
+
+    def controller(t: float, state: ff.State) -> Any:
+        seen.append(float(np.linalg.norm(state.attitude)))
+        return law(t, state)
+
+    run = ff.simulate(model, ff.State(q=[0.1, 0.2, 0.3, 0.4], omega=[0.0, 0.0, 0.05]), 20.0, controller=controller)
+    assert run.t[-1] == 20.0
+    assert max(abs(n - 1.0) for n in seen) <= 1e-12
+    start, final = (Rotation.from_quat(run.attitude[i]).inv() * target for i in (0, -1))
+    assert final.magnitude() < 1e-2 * start.magnitude()  # turned to the attitude asked for

@@ -151,7 +151,7 @@ def run_against_mujoco(
     return errors[worst]
 
 
-@settings(max_examples=5, deadline=None)
+@settings(max_examples=50, deadline=None)
 @given(random_trees(max_arms=2, max_joints=4, prismatic=0.4), st.integers(0, 1000))
 def test_random_trees_with_prismatic_joints_agree_with_mujoco(model: ff.Model, seed: int) -> None:
     """Hypothesis trees with sliding joints: 2 s of random torques, freefloat against MuJoCo (slide joints)."""

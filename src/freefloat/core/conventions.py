@@ -111,7 +111,7 @@ def as_quaternion(attitude: Any) -> np.ndarray:
     if np.any(off > 1e-6):
         worst = float(np.reshape(norm, -1)[np.argmax(np.reshape(off, -1))])
         raise ValueError(
-            f"attitude: quaternion norm {worst:.6g} is not 1 (tolerance 1e-6); pass a unit quaternion [x, y, z, w] (scalar last), "
+            f"attitude: quaternion norm {worst:.10g} is not 1 (tolerance 1e-6); pass a unit quaternion [x, y, z, w] (scalar last), "
             "e.g. q / np.linalg.norm(q)"
         )
     return quat

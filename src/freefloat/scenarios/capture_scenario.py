@@ -276,6 +276,9 @@ def capture_scenario_from_dict(
     if not isinstance(offset_raw, list) or len(offset_raw) != 3:
         raise ModelError(_where(source, "payload.offset"), f"expected [x, y, z], got {offset_raw!r}", offset_fix)
     offset = np.array([_number(v, source, "payload.offset", offset_fix) for v in offset_raw])
+    if np.abs(offset).max() > MAX_LENGTH:
+        too_far = f"{np.abs(offset).max():g} m is beyond the {MAX_LENGTH:g} m freefloat accepts for a position (a unit slip?)"
+        raise ModelError(_where(source, "payload.offset"), too_far, offset_fix)
     gyration = float(np.sqrt(np.linalg.eigvalsh(inertia)[-1] / mass))  # m, the payload's largest radius of gyration
     if np.linalg.norm(offset) > GRASP_REACH * gyration:  # the hand would not be on the payload (ff.capture.impact's rule)
         raise ModelError(

@@ -120,8 +120,14 @@ def _call_controller(
     """Evaluate the controller at (t, x); any failure becomes a SimulationError that says when and what. Returns
     (tau, f_S, n_S), and the wheel torques last for a model with reaction wheels. ``kernel_checks``: see
     :func:`_actuation`."""
+    state = unpack_state(model, x)
+    norm = np.linalg.norm(state.attitude, axis=-1, keepdims=True)
+    if np.any(np.abs(norm - 1.0) > 1e-12):  # an integrator's stage state: its quaternion drifts off unit length
+        x = x.copy()
+        state = unpack_state(model, x)
+        state.attitude[...] /= norm  # the controller sees the attitude the stage stands for (a view into the copy)
     try:
-        raw = controller(t, unpack_state(model, x))
+        raw = controller(t, state)
     except Exception as exc:
         raise SimulationError(f"the controller raised {type(exc).__name__} at t = {t:.6g} s: {exc}") from exc
     try:
