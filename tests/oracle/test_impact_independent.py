@@ -21,6 +21,7 @@ import pinocchio as pin
 import pytest
 
 import freefloat as ff
+from freefloat.io.oracles import pinocchio_root_joint
 from impacts import random_state, random_target
 from oracle_checks import EXCEEDS, MARGIN, Agreement
 from trees import random_urdf
@@ -46,7 +47,7 @@ class Raw:
         path = directory / f"raw{seed}.urdf"
         path.write_text(random_urdf(self.rng, joints), encoding="utf-8")
         self.model = ff.load(path, end_effectors=[f"a{m}_tool" for m in range(len(joints))])
-        self.pm = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+        self.pm = pin.buildModelFromUrdf(str(path), pinocchio_root_joint())  # (the one place that names the joint class)
         assert self.pm.nv == 6 + self.model.n_joints and self.pm.names[1] == "root_joint"
         self.ids = [self.pm.getJointId(name) for name in self.model.joint_names]
         self.idx_v = [self.pm.joints[i].idx_v for i in self.ids]
