@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import freefloat as ff
-from freefloat.core.errors import UnmodelledElementWarning
+from freefloat.core.errors import ModelError, UnmodelledElementWarning
 from robots import REAL_ROBOTS, load_real, spacecraft_urdf
 
 
@@ -71,3 +71,34 @@ def test_urdf_keeps_damping_and_friction_and_says_it_cannot_keep_the_rotors(tmp_
     q = np.linspace(-1, 1, model.n_joints)
     h = ff.system_inertia_matrix(model, q)
     assert np.abs(ff.system_inertia_matrix(back, q) - h).max() < 1e-12 * np.abs(h).max()
+
+
+def _follower(**dynamics: float) -> ff.Model:
+    """A bus, a link on joint ``lead`` and a link on ``follow`` (a mimic of ``lead``, ratio -0.5), ``follow`` with
+    ``dynamics`` (armature, damping, friction) given to the builder."""
+    b = ff.ModelBuilder("follower")
+    b.add_body("bus", mass=100.0, inertia=[10.0, 12.0, 14.0])
+    b.add_body("one", mass=2.0, inertia=[0.02, 0.03, 0.04], com=[0.2, 0.0, 0.0])
+    b.add_body("two", mass=1.0, inertia=[0.01, 0.02, 0.02], com=[0.1, 0.05, 0.0])
+    b.add_joint("lead", parent="bus", child="one", origin=[0.5, 0, 0], axis=[0, 0, 1])
+    b.add_joint("follow", parent="one", child="two", origin=[0.4, 0, 0], axis=[0, 1, 0], **dynamics)
+    b.add_mimic("follow", leader="lead", multiplier=-0.5)
+    return b.build()
+
+
+def test_a_mimic_joint_takes_its_own_rotor_and_friction() -> None:
+    """``joints=`` may name a mimic joint: its armature, damping and friction go into its mimic record (it has no column
+    of q), as the builder puts them; it was refused as "is not a joint"."""
+    from freefloat.io.model_files import with_joint_dynamics
+
+    entry = {"armature": 0.05, "damping": 0.3, "friction": 0.2}
+    bare, built = _follower(), _follower(**entry)
+    named = with_joint_dynamics(bare, {"follow": entry})
+    assert named.mimic == built.mimic and named.joint_names == ("lead",)
+    q = np.random.default_rng(4).uniform(-1.0, 1.0, (3, 1))
+    np.testing.assert_array_equal(ff.system_inertia_matrix(named, q), ff.system_inertia_matrix(built, q))
+    assert not np.array_equal(ff.system_inertia_matrix(named, q), ff.system_inertia_matrix(bare, q))
+    with pytest.raises(ModelError, match=r"joints: follow\.armature: cannot read 'a lot' as a number"):
+        with_joint_dynamics(bare, {"follow": {"armature": "a lot"}})
+    with pytest.raises(ModelError, match=r"is not a joint of 'follower'.*name one of its joints: lead, follow"):
+        with_joint_dynamics(bare, {"folow": {"armature": 0.1}})

@@ -120,20 +120,31 @@ def with_joint_dynamics(model: Model, joints: Any) -> Model:
     if not isinstance(joints, dict):
         raise TypeError(f"joints: expected a table {{joint name: {{armature, damping, friction}}}} or a TOML file, got {joints!r}")
     values = {key: np.array(getattr(model, f"joint_{key}"), dtype=float) for key in JOINT_PASSIVE}
+    mimic = {record["joint"]: dict(record) for record in model.mimic}  # a mimic joint's own dynamics are in its record
     for name, entry in joints.items():
+        if name in mimic:
+            _check_keys(entry, set(JOINT_PASSIVE), f"{where}: {name}")
+            for key, value in entry.items():
+                if isinstance(value, (bool, str)) or not isinstance(value, (int, float)):
+                    raise ModelError(f"{where}: {name}.{key}", f"cannot read {value!r} as a number", f"give the {JOINT_PASSIVE[key]}")
+                mimic[name][key] = float(value)
+            continue
         if name not in model.joint_names:
-            close = difflib.get_close_matches(str(name), model.joint_names, n=3)
+            close = difflib.get_close_matches(str(name), (*model.joint_names, *mimic), n=3)
             raise ModelError(
                 f"{where}: {name}",
                 f"is not a joint of {model.name!r}" + (f" (did you mean {', '.join(map(repr, close))}?)" if close else ""),
-                f"name one of its joints: {', '.join(model.joint_names)}",
+                f"name one of its joints: {', '.join((*model.joint_names, *mimic))}",
             )
         _check_keys(entry, set(JOINT_PASSIVE), f"{where}: {name}")
         for key, value in entry.items():
             if isinstance(value, (bool, str)) or not isinstance(value, (int, float)):
                 raise ModelError(f"{where}: {name}.{key}", f"cannot read {value!r} as a number", f"give the {JOINT_PASSIVE[key]}")
             values[key][model.joint_names.index(name)] = float(value)
-    return dataclasses.replace(model, joint_armature=values["armature"], joint_damping=values["damping"], joint_friction=values["friction"])
+    return dataclasses.replace(
+        model, joint_armature=values["armature"], joint_damping=values["damping"], joint_friction=values["friction"],
+        mimic=tuple(mimic[record["joint"]] for record in model.mimic),
+    )  # fmt: skip
 
 
 def _xml_root(path: Path) -> str:
