@@ -136,7 +136,7 @@ def _per_state_loop(model: Any, task: Any, targets: np.ndarray, states: Any, dur
     MuJoCo user calls one: ``mujoco.rollout`` steps the batch, the controller runs per trajectory in Python between
     steps): one OperationalSpaceController per trajectory, its ``__call__`` on each state, then the batch's RK4 step."""
     from freefloat.core.state import pack_state, unpack_state
-    from freefloat.mechanics import _engine
+    from freefloat.engine import calls as _engine
 
     own = [OperationalSpaceController(model, task, z, 30.0, 60.0) for z in targets]
     x = pack_state(states.resolve(model))

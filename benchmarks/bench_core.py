@@ -32,8 +32,8 @@ from typing import Any
 import numpy as np
 
 import freefloat as ff
+from freefloat.engine.specialise.build import generic
 from freefloat.io.oracles import pinocchio_configuration, to_pinocchio
-from freefloat.mechanics._specialise import generic
 from freefloat.mechanics.jacobians import _singularity_row_indices
 
 #: Agreement required between freefloat and Pinocchio before timing (relative to the largest entry).

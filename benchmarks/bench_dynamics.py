@@ -36,11 +36,11 @@ import numpy as np
 import freefloat as ff
 from bench_core import best_of, machine_info, machine_line, panda_model, set_threads, thread_counts
 from freefloat.core.state import State
+from freefloat.engine.cache import store_fence
+from freefloat.engine.specialise.build import generic
+from freefloat.engine.specialise.lanes import stream_block
 from freefloat.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
 from freefloat.io.oracles import acceleration_from_pinocchio, pinocchio_configuration, pinocchio_velocity, to_pinocchio
-from freefloat.mechanics._lanes import stream_block
-from freefloat.mechanics._numba_cache import store_fence
-from freefloat.mechanics._specialise import generic
 from freefloat.simulation.pd import JointPD
 from freefloat.simulation.simulate import rollout, simulate
 
@@ -109,7 +109,8 @@ def output_write_bound(per_config: int, configs: int, repeats: int) -> dict[str,
     outputs are (``_arrays.new_output``: 4-256 MiB); ``streamed``: into memory written before, by the streaming stores
     that the specialised maps use for outputs of ``_specialise.STREAM_FROM`` bytes or more there. No call that returns
     that array can run faster than the one that applies (``applies``)."""
-    from freefloat.mechanics import _arrays, _specialise
+    from freefloat.engine import buffers as _arrays
+    from freefloat.engine.specialise import build as _specialise
 
     size = per_config * configs
     row = np.ones(_STREAM_CHUNK)

@@ -104,7 +104,7 @@ def _variant(system: System, factor: float) -> Any:
 
 
 def _cache_size() -> dict[str, Any]:
-    from freefloat.mechanics._specialise import _folder
+    from freefloat.engine.specialise.build import _folder
 
     folder = Path(_folder())
     files = list(folder.rglob("*")) if folder.exists() else []

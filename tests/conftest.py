@@ -58,7 +58,7 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "freefloat"))
 def _generic_kernels() -> Iterator[None]:
     """Tests run on the generic kernels even where this machine has specialised ones (``make bench`` makes
     some); ``tests/mechanics/test_specialise.py`` turns them on in a folder of its own."""
-    from freefloat.mechanics import _specialise
+    from freefloat.engine.specialise import build as _specialise
 
     with _specialise.generic():
         yield

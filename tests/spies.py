@@ -13,7 +13,7 @@ from typing import Any
 
 import pytest
 
-import freefloat.mechanics._arrays
+import freefloat.mechanics._batches
 
 
 def replace_everywhere(monkeypatch: pytest.MonkeyPatch, original: Callable[..., Any], replacement: Callable[..., Any]) -> None:
@@ -38,7 +38,7 @@ def count_calls(monkeypatch: pytest.MonkeyPatch, original: Callable[..., Any]) -
 
 
 def count_kernel_runs(monkeypatch: pytest.MonkeyPatch, original: Callable[..., Any]) -> list[int]:
-    """Spy on a batch driver ``original(kernel, ...)`` (``_arrays.chunked`` or ``_arrays.pieces``): one entry per
+    """Spy on a batch driver ``original(kernel, ...)`` (``_batches.chunked`` or ``_batches.pieces``): one entry per
     call of the driver, the number of times it ran its kernel, i.e. the pieces it cut the batch into."""
     runs: list[int] = []
 
@@ -57,13 +57,13 @@ def count_kernel_runs(monkeypatch: pytest.MonkeyPatch, original: Callable[..., A
 
 
 def count_chunks(monkeypatch: pytest.MonkeyPatch) -> list[int]:
-    """:func:`count_kernel_runs` of ``freefloat.mechanics._arrays.chunked`` (chunks of ``_arrays.CHUNK`` configurations)."""
-    return count_kernel_runs(monkeypatch, freefloat.mechanics._arrays.chunked)
+    """:func:`count_kernel_runs` of ``freefloat.mechanics._batches.chunked`` (chunks of ``_batches.CHUNK`` configurations)."""
+    return count_kernel_runs(monkeypatch, freefloat.mechanics._batches.chunked)
 
 
 def count_pieces(monkeypatch: pytest.MonkeyPatch) -> list[int]:
-    """:func:`count_kernel_runs` of ``freefloat.mechanics._arrays.pieces`` (slices within ``_arrays.PAIR_BUDGET``)."""
-    return count_kernel_runs(monkeypatch, freefloat.mechanics._arrays.pieces)
+    """:func:`count_kernel_runs` of ``freefloat.mechanics._batches.pieces`` (slices within ``_batches.PAIR_BUDGET``)."""
+    return count_kernel_runs(monkeypatch, freefloat.mechanics._batches.pieces)
 
 
 def compiled_runs(monkeypatch: pytest.MonkeyPatch) -> list[str]:
@@ -71,7 +71,8 @@ def compiled_runs(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     the name of the law that ran inside (``"transposed_jacobian"``, ``"operational_space"``, ``"detumble"``, or
     ``"joint_pd"`` for the joint PD), so that a test that compares the compiled path with the Python loop can assert
     that the compiled path ran at all, with the law it names."""
-    from freefloat.mechanics import _engine, _laws
+    from freefloat.engine import calls as _engine
+    from freefloat.engine import laws as _laws
 
     names = {_laws.TRANSPOSED_JACOBIAN: "transposed_jacobian", _laws.OPERATIONAL_SPACE: "operational_space", _laws.DETUMBLE: "detumble"}
     runs: list[str] = []

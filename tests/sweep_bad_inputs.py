@@ -23,7 +23,7 @@ import matplotlib
 matplotlib.use("Agg")
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from freefloat.mechanics import _specialise
+from freefloat.engine.specialise import build as _specialise
 from test_bad_inputs import CASES, Hang, outcome, scratch_dir
 
 KINDS = ("clear", "unclear", "traceback", "silent", "hang")

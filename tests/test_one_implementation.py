@@ -22,7 +22,7 @@ CARRIERS = ("core", "io", "models", "scenarios")
 
 #: Functions allowed to read inertias (attribute ``inertia``/``diagonal_inertia``, or the engine's column ``_I``).
 READS_INERTIA = {
-    "mechanics/_recursions.py::mass_properties": "engine: inertias about O, composite bodies (H+, C+, J* of the engine)",
+    "engine/recursions.py::mass_properties": "engine: inertias about O, composite bodies (H+, C+, J* of the engine)",
     "mechanics/momentum.py::_pair_inertias": "barycentric reference: pair inertias D_ij, 1991 eq. 17",
     "mechanics/dynamics.py::_diagonal_inertias": "barycentric reference: D_ii of C+ (1991 eq. 17)",
     "papers/report.py::model_info": "the report prints the model's mass properties",
@@ -44,13 +44,13 @@ USES_PAIRS = {
 #: The engine's one-configuration kernels and the only places that call them.
 ENGINE_KERNELS = {"mass_properties", "centroidal_blocks", "newton_euler", "hplus_one", "jstar_one", "accelerations_one", "unit_momenta"}
 ENGINE_CALLERS = {
-    "mechanics/_recursions.py",
-    "mechanics/_configuration.py",
-    "mechanics/_drivers.py",
-    "mechanics/_laws.py",  # the control laws: H+ and C+ of the engine (hplus_one), never their own
+    "engine/recursions.py",
+    "engine/quantities.py",
+    "engine/drivers.py",
+    "engine/laws.py",  # the control laws: H+ and C+ of the engine (hplus_one), never their own
 }
 #: Modules allowed to import numba (the compiled engine and its cache).
-NUMBA_MODULES = {"mechanics/_numba_cache.py", "mechanics/_threads.py", "mechanics/_lanes.py", "mechanics/_specialise.py"}
+NUMBA_MODULES = {"engine/cache.py", "engine/threads.py", "engine/specialise/lanes.py", "engine/specialise/build.py"}
 
 
 def _functions() -> list[tuple[str, ast.FunctionDef, ast.Module]]:
@@ -102,7 +102,7 @@ def test_only_the_listed_functions_read_inertias() -> None:
         )
 
     sites = _sites(reads)
-    sites.discard("mechanics/_tree.py::<module>")  # the model layout: the field "inertia" read from the model (data, no computation)
+    sites.discard("engine/layout.py::<module>")  # the model layout: the field "inertia" read from the model (data, no computation)
     assert sites == set(READS_INERTIA), (
         f"unlisted readers: {sorted(sites - set(READS_INERTIA))}; gone: {sorted(set(READS_INERTIA) - sites)}"
     )
@@ -146,12 +146,13 @@ def test_the_allowed_homes_exist_and_are_the_two_algorithms() -> None:
         source = (PACKAGE / rel).read_text(encoding="utf-8")
         assert f"def {name.split('.')[-1]}(" in source, site
     homes = {
-        "H+": ("mechanics/_configuration.py::hplus_one", "mechanics/momentum.py::_hplus_barycentric"),
-        "C+": ("mechanics/_recursions.py::newton_euler", "mechanics/dynamics.py::_c_plus_barycentric"),
-        "J*": ("mechanics/_configuration.py::jstar_one", "mechanics/jacobians.py::_gj_barycentric"),
+        "H+": ("engine/quantities.py::hplus_one", "mechanics/momentum.py::_hplus_barycentric"),
+        "C+": ("engine/recursions.py::newton_euler", "mechanics/dynamics.py::_c_plus_barycentric"),
+        "J*": ("engine/quantities.py::jstar_one", "mechanics/jacobians.py::_gj_barycentric"),
     }
     # the specialised kernels are the engine's J* and state derivative traced, not a third home
-    from freefloat.mechanics import _configuration, _trace
+    from freefloat.engine import quantities as _configuration
+    from freefloat.engine.specialise import trace as _trace
 
     assert _trace.ENTRY_POINTS == {
         "jstar": "jstar_one",

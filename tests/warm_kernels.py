@@ -40,7 +40,7 @@ def engine() -> None:
     import numpy as np
 
     import freefloat as ff
-    from freefloat.mechanics._drivers import Batched
+    from freefloat.engine.drivers import Batched
 
     model = ff.models.papadopoulos1992()
     n = model.n_joints

@@ -1,13 +1,13 @@
 """The built-in controllers inside the compiled loops equal their Python versions step for step (issue 23).
 
 ``ff.simulate`` / ``ff.rollout`` run a built-in controller (its ``compiled_law``: the numba kernel of
-mechanics/_laws.py) inside the compiled RK4 loop; wrapped in a plain function the same controller runs from Python
+engine/laws.py) inside the compiled RK4 loop; wrapped in a plain function the same controller runs from Python
 every sample in its numpy form (controllers.py, detumble.py: the readable reference of the law; on a batch of states,
 row by row). Both must record the same states and actuation to 1e-12 at every step, with limits, sample-and-hold,
 per-trajectory gains, set points and payload models; a gain moved by 1e-7 must break that bound (the comparison can
 fail). Spies (tests/spies.py) show each side took its path: the compiled run ran the named law in the engine's loop and
 never called the controller's Python form; the Python run called it every sample and ran no compiled law. Small
-models and a few dozen steps: the kernels are compiled once per machine (mechanics/_numba_cache.py).
+models and a few dozen steps: the kernels are compiled once per machine (engine/cache.py).
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ import pytest
 import freefloat as ff
 from freefloat.analysis import _workspace_search
 from freefloat.core import feedback
-from freefloat.mechanics import _numba_cache
+from freefloat.engine import cache as _numba_cache
 
 
 def test_the_first_compile_is_announced_once(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:

@@ -17,9 +17,10 @@ import numpy as np
 import pytest
 
 import freefloat as ff
-from freefloat.mechanics import _specialise, _threads
-from freefloat.mechanics._lanes import LANES
-from freefloat.mechanics._tree import tree
+from freefloat.engine import threads as _threads
+from freefloat.engine.layout import tree
+from freefloat.engine.specialise import build as _specialise
+from freefloat.engine.specialise.lanes import LANES
 
 
 @pytest.fixture

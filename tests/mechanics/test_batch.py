@@ -1,10 +1,10 @@
 """Batch first (STYLE.md): every batched function takes (..., N), an unbatched input gives an
 unbatched output, and a batch equals the loop over single configurations, also across the
-internal chunks of ``freefloat.mechanics._arrays.CHUNK`` configurations.
+internal chunks of ``freefloat.mechanics._batches.CHUNK`` configurations.
 
 Two kinds of path: the engine (the default ``method="recursive"``, numba kernels that cut a batch
 into blocks of their own) and the numpy reference forms (``method="barycentric"``,
-dH+/dt, the point bias acceleration), which run through ``_arrays.chunked``. ``CHUNKED`` names the
+dH+/dt, the point bias acceleration), which run through ``_batches.chunked``. ``CHUNKED`` names the
 cases of the second kind; a counting spy (tests/spies.py) asserts that exactly these reach
 ``chunked`` and that the chunk tests really cut their batch into several chunks.
 """
@@ -19,7 +19,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import freefloat as ff
-import freefloat.mechanics._arrays
+import freefloat.mechanics._batches
 from spies import count_chunks
 from trees import build_random_model
 
@@ -57,7 +57,7 @@ CASES: dict[str, Case] = {
     "generalized_jacobian": lambda m, x: ff.generalized_jacobian(m, x["q"]),
     "generalized_jacobian_drift": lambda m, x: ff.mechanics.generalized_jacobian_drift(m, x["q"], x["h"], x["p"], attitude=x["attitude"]),
     "manipulability": lambda m, x: ff.manipulability(m, x["q"]),
-    # the numpy reference forms: through _arrays.chunked
+    # the numpy reference forms: through _batches.chunked
     "end_effector_positions(attitude, barycentric)": lambda m, x: ff.end_effector_positions(
         m, x["q"], attitude=x["attitude"], method="barycentric"
     ),
@@ -77,7 +77,7 @@ CASES: dict[str, Case] = {
     "system_inertia_matrix_rate": lambda m, x: ff.mechanics.system_inertia_matrix_rate(m, x["q"], x["velocity"][..., 6:]),
     "point_bias_acceleration": lambda m, x: ff.mechanics.point_bias_acceleration(m, x["q"], x["velocity"], 2, attitude=x["attitude"]),
 }
-#: The cases that run through ``_arrays.chunked`` (the others run on the engine's blocks); asserted below.
+#: The cases that run through ``_batches.chunked`` (the others run on the engine's blocks); asserted below.
 CHUNKED = {name for name in CASES if "barycentric" in name}
 PLANAR_CASES: dict[str, Case] = {
     "jacobian_determinant": lambda m, x: ff.jacobian_determinant(m, x["q"]),
@@ -171,7 +171,7 @@ def test_exactly_the_chunked_cases_reach_chunked(monkeypatch: pytest.MonkeyPatch
 @pytest.mark.parametrize(("model", "name"), CHUNKED_PARAMS)
 def test_batch_equals_loop_across_small_chunks(model: ff.Model, name: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """With CHUNK = 5 a (3, 4) batch runs in three pieces; the pieces must join in order."""
-    monkeypatch.setattr(freefloat.mechanics._arrays, "CHUNK", 5)
+    monkeypatch.setattr(freefloat.mechanics._batches, "CHUNK", 5)
     x = make_inputs(model, (3, 4), seed=3)
     runs = count_chunks(monkeypatch)
     batch = arrays(ALL_CASES[name](model, x))
@@ -183,7 +183,7 @@ def test_batch_equals_loop_across_small_chunks(model: ff.Model, name: str, monke
 def test_batch_larger_than_the_chunk_equals_loop(model: ff.Model, name: str, monkeypatch: pytest.MonkeyPatch) -> None:
     """2 CHUNK + 7 configurations: the reference forms run in three chunks (asserted); the engine, which
     does not chunk, runs the same batch on one range per thread."""
-    chunk = freefloat.mechanics._arrays.CHUNK  # 4096
+    chunk = freefloat.mechanics._batches.CHUNK  # 4096
     size = 2 * chunk + 7  # three chunks, the last one short
     x = make_inputs(model, (size,), seed=4)
     runs = count_chunks(monkeypatch)
@@ -195,7 +195,7 @@ def test_batch_larger_than_the_chunk_equals_loop(model: ff.Model, name: str, mon
 
 
 def test_two_dimensional_batch_across_the_chunk_boundary(monkeypatch: pytest.MonkeyPatch) -> None:
-    chunk = freefloat.mechanics._arrays.CHUNK
+    chunk = freefloat.mechanics._batches.CHUNK
     cols = chunk // 2 + 52  # 2 * cols > chunk: the boundary falls inside row 1, at column chunk - cols
     x = make_inputs(PAPER, (2, cols), seed=6)
     picks = [(0, 0), (0, cols - 1), (1, chunk - cols - 1), (1, chunk - cols), (1, cols - 1)]

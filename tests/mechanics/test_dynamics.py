@@ -26,8 +26,8 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 import freefloat as ff
-from freefloat.mechanics import _engine
-from freefloat.mechanics._arrays import PAIR_BUDGET
+from freefloat.engine import calls as _engine
+from freefloat.mechanics._batches import PAIR_BUDGET
 from spies import count_calls, count_pieces
 from trees import build_random_model, random_trees
 
@@ -395,7 +395,7 @@ def test_unbatched_in_unbatched_out_and_broadcasting() -> None:
 
 
 def test_large_batch_runs_in_pieces(monkeypatch: pytest.MonkeyPatch) -> None:
-    """More configurations than one slice of the closed form of C+ (``_arrays.pieces``: at most PAIR_BUDGET / B^2
+    """More configurations than one slice of the closed form of C+ (``_batches.pieces``: at most PAIR_BUDGET / B^2
     per kernel call): cut into three slices (counted), still equal to the loop at the slice boundaries."""
     model = MODELS[-1]
     step = PAIR_BUDGET // model.n_bodies**2  # configurations per slice

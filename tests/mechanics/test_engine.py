@@ -20,10 +20,12 @@ from scipy.spatial.transform import Rotation
 import freefloat as ff
 from freefloat.core.errors import ShapeError
 from freefloat.core.state import Actuation, State
-from freefloat.mechanics import _drivers
+from freefloat.engine import drivers as _drivers
+from freefloat.engine import stepper as _stepper
 from freefloat.simulation.pd import JointPD
 from freefloat.simulation.simulate import ActuatorLimits, rollout, simulate
 from freefloat.simulation.trajectory import Trajectory
+from spies import replace_everywhere
 from trees import build_random_model, random_trees
 
 RTOL = 1e-10
@@ -291,7 +293,7 @@ def test_a_feed_forward_is_read_in_place_in_any_layout() -> None:
     stride + trajectory * trajectory stride + j): in place for the layouts users pass (C, per-trajectory series swapped
     from (K, S, W), one series shared by every trajectory, a chunk of the trajectories), a copy for the others; read-only
     always (one compiled signature)."""
-    from freefloat.mechanics import _engine
+    from freefloat.engine import calls as _engine
 
     per = np.random.default_rng(0).normal(size=(5, 7, 3))  # (K, S, W)
     swapped = per.swapaxes(0, 1)
@@ -343,9 +345,9 @@ def test_scratch_buffers_are_always_kernel_arguments() -> None:
     import ast
     from pathlib import Path
 
-    folder = Path(ff.__file__).parent / "mechanics"
+    folder = Path(ff.__file__).parent / "engine"
     sites = []
-    for name in ("_drivers.py", "_configuration.py", "_laws.py"):
+    for name in ("drivers.py", "stepper.py", "quantities.py", "laws.py"):
         tree = ast.parse((folder / name).read_text(encoding="utf-8"))
         for func in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)):
             params = {a.arg for a in func.args.args}
@@ -383,17 +385,17 @@ def test_scratch_buffers_are_always_kernel_arguments() -> None:
                     ok = isinstance(base, ast.Name) and base.id in params | sliced
                     assert ok, f"{name}::{func.name}: {ast.unparse(call)}"
     assert sorted(sites) == [
-        "_drivers.py::_law_rollout_row::arrays",  # the plant's mass properties per trajectory
-        "_drivers.py::_serial_template::arrays",
-        "_drivers.py::_serial_template::scratch",
-        "_drivers.py::unpack::arrays",
-        "_drivers.py::unpack::scratch",
-        "_laws.py::law_one::arrays",  # the controller's model (per trajectory)
+        "drivers.py::_law_rollout_row::arrays",  # the plant's mass properties per trajectory
+        "drivers.py::_serial_template::arrays",
+        "drivers.py::_serial_template::scratch",
+        "laws.py::law_one::arrays",  # the controller's model (per trajectory)
+        "stepper.py::unpack::arrays",
+        "stepper.py::unpack::scratch",
     ]
 
 
 def stepper_and_state() -> tuple[object, np.ndarray]:
-    from freefloat.mechanics import _engine
+    from freefloat.engine import calls as _engine
 
     model = ff.models.papadopoulos1992(arms=2)
     return _engine.Stepper(model), flat(model, State(q=np.linspace(0.3, -0.2, model.n_joints), omega=[0.01, 0.0, 0.02]))
@@ -421,7 +423,7 @@ def test_the_stepper_refuses_a_bad_actuation_before_any_step(entry: int, value: 
 def test_kernel_views_of_a_short_buffer_raise_before_any_read(short: str) -> None:
     """The model's and the scratch views neither count references nor check bounds (_numba_cache.floats_view): the
     kernel that makes them checks each buffer's length once, and a short one raises instead of reading past its end."""
-    from freefloat.mechanics import _numba_cache
+    from freefloat.engine import cache as _numba_cache
 
     stepper, x0 = stepper_and_state()
     ints, floats = stepper.ints.copy(), stepper.floats.copy()  # type: ignore[attr-defined]
@@ -440,7 +442,7 @@ def test_kernel_views_of_a_short_buffer_raise_before_any_read(short: str) -> Non
         ints = ints[:2]
     x, u = x0.copy(), np.zeros(tree.n_joints + 6)
     with pytest.raises(ValueError, match=r"shorter than|no valid header"):
-        _drivers.rk4_steps(ints, floats, x, u, 1e-3, 1)
+        _stepper.rk4_steps(ints, floats, x, u, 1e-3, 1)
     np.testing.assert_array_equal(x, x0)
     buffer = np.arange(10.0)  # the traced twin of the views: a checked slice
     np.testing.assert_array_equal(_numba_cache.slice_view(buffer, 4, (2, 3)), buffer[4:].reshape(2, 3))
@@ -451,7 +453,7 @@ def test_kernel_views_of_a_short_buffer_raise_before_any_read(short: str) -> Non
 def test_rollout_shows_progress_and_ctrl_c_keeps_the_finished_trajectories(monkeypatch: pytest.MonkeyPatch) -> None:
     """A compiled rollout that reports progress (asked for, or a long run) runs in chunks of trajectories:
     progress after each, Ctrl-C returns the finished ones. A short one without a callback is one call."""
-    from freefloat.mechanics import _engine as engine
+    import freefloat.engine as engine  # the door: the calls the rest of freefloat makes
 
     model = ff.models.papadopoulos1992(arms=2)
     states, _ = batch_setup(model, 300)
@@ -468,7 +470,7 @@ def test_rollout_shows_progress_and_ctrl_c_keeps_the_finished_trajectories(monke
             raise KeyboardInterrupt
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(engine, "rollout", interrupted_second_chunk)
+    replace_everywhere(monkeypatch, real, interrupted_second_chunk)  # the door and the engine's own calls (rk4_batch)
     part = rollout(model, states, 0.02, dt=1e-3, controller=pd, progress=lambda t, d: None)  # chunked: progress asked
     assert part.status == "interrupted" and "of 300 trajectories" in part.message
     k = part.q.shape[1]
@@ -481,9 +483,10 @@ def test_rollout_shows_progress_and_ctrl_c_keeps_the_finished_trajectories(monke
 
 
 def test_the_model_layout_is_one_named_list() -> None:
-    """The three parts of the model layout agree (mechanics/_tree.py): the fields of BODY_FIELDS, the names of Arrays
+    """The three parts of the model layout agree (engine/layout.py): the fields of BODY_FIELDS, the names of Arrays
     and the views arrays() makes of the buffers (run through the specialiser's traced twin: the same code)."""
-    from freefloat.mechanics import _trace, _tree
+    from freefloat.engine import layout as _tree
+    from freefloat.engine.specialise import trace as _trace
 
     names = [f.name for f in _tree.BODY_FIELDS]
     assert list(_tree.Arrays._fields) == ["parent", "ancestor", "ee_body", *names, "total_mass", "ee_point", "n_joints"]
@@ -505,9 +508,11 @@ def test_the_model_layout_is_one_named_list() -> None:
 
 
 def test_the_specialiser_traces_the_engine_kernels_themselves() -> None:
-    """The specialiser's interface to the engine (mechanics/_trace.py: ENTRY_POINTS, traced()): the traced functions
+    """The specialiser's interface to the engine (engine/specialise/trace.py: ENTRY_POINTS, traced()): the traced functions
     run the compiled kernels' own code (no copy of the source, no file read by path)."""
-    from freefloat.mechanics import _configuration, _recursions, _trace
+    from freefloat.engine import quantities as _configuration
+    from freefloat.engine import recursions as _recursions
+    from freefloat.engine.specialise import trace as _trace
 
     space = _trace.traced().configuration
     for name in (*_trace.ENTRY_POINTS.values(), "prepare", "newton_euler", "scratch"):

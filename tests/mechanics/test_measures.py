@@ -17,9 +17,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import freefloat as ff
-from freefloat.mechanics import _drivers, _lanes, _specialise
-from freefloat.mechanics._configuration import MEASURE_CODES, jacobian_measure_lanes, measure_work
-from freefloat.mechanics._tree import tree
+from freefloat.engine import drivers as _drivers
+from freefloat.engine.layout import tree
+from freefloat.engine.measures import MEASURE_CODES, jacobian_measure_lanes, measure_work
+from freefloat.engine.specialise import build as _specialise
+from freefloat.engine.specialise import lanes as _lanes
 from robots import REAL_ROBOTS, load_real, spacecraft_urdf
 from trees import random_trees
 
@@ -253,7 +255,7 @@ def test_singular_values_with_close_pairs(shape: tuple[int, int]) -> None:
 
 def test_the_map_and_search_paths_use_the_kernel(monkeypatch: pytest.MonkeyPatch) -> None:
     """Every public call that needs a measure reaches the measure kernel, not a J* batch and numpy."""
-    from freefloat.mechanics import _engine
+    import freefloat.engine as _engine  # the door: the calls the rest of freefloat makes
 
     calls: list[str] = []
     real = _engine.jacobian_measures
@@ -324,7 +326,7 @@ CASES = (
 def run_specialised(model: ff.Model, q: np.ndarray, rows: np.ndarray, measure: str, threads: bool) -> np.ndarray:
     """The specialised kernel's driver ``blocks`` on the whole batch, or on two ranges of blocks at once (two threads), called
     directly (any batch size, even below the engine's minimum for threads)."""
-    from freefloat.mechanics._configuration import MEASURE_CODES
+    from freefloat.engine.measures import MEASURE_CODES
 
     t = tree(model)
     module = _specialise.find(t, "measure")
@@ -382,10 +384,10 @@ def test_the_engine_uses_the_specialised_kernel(specialised: tuple[ff.Model, ...
 
 def test_the_smallest_singular_value_of_all_rows_runs_the_traced_reduction(specialised: tuple[ff.Model, ...]) -> None:
     """sigma_min of all the rows of J*, in order, runs the engine's reduction traced for the structure
-    (:func:`~freefloat.mechanics._specialise.trace_reduction`): the block's rows of J* stay as the lane kernel wrote
+    (:func:`~freefloat.engine.specialise.build.trace_reduction`): the block's rows of J* stay as the lane kernel wrote
     them. Other rows (the same ones in another order) or another measure run the compiled measure, which reduces the
     chosen rows in place. Each agrees with numpy."""
-    from freefloat.mechanics._configuration import MEASURE_CODES
+    from freefloat.engine.measures import MEASURE_CODES
 
     rng = np.random.default_rng(5)
     for model in specialised:

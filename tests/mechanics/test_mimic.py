@@ -19,7 +19,8 @@ import pytest
 from scipy.linalg import block_diag
 
 import freefloat as ff
-from freefloat.mechanics import _drivers, _specialise
+from freefloat.engine import drivers as _drivers
+from freefloat.engine.specialise import build as _specialise
 from mechanics.test_specialise import specialised  # noqa: F401 (the fixture: specialised kernels in a cache of their own)
 from simulation.test_simulate import bounded_random_torques, moving_state
 from trees import build_random_model

@@ -15,14 +15,15 @@ from pathlib import Path
 
 import pytest
 
-from freefloat.mechanics import _numba_cache
+from freefloat.engine import cache as _numba_cache
 
 PROBE = """
 import json, warnings
 import numpy as np
 warnings.simplefilter("default")
 import freefloat as ff
-from freefloat.mechanics import _drivers, _numba_cache
+from freefloat.engine import drivers as _drivers
+from freefloat.engine import cache as _numba_cache
 m = ff.models.papadopoulos1991()
 j = ff.generalized_jacobian(m, np.linspace(-1.0, 1.0, m.n_joints))
 stats = _drivers.jstar_batch.serial.stats

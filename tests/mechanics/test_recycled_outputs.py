@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import freefloat as ff
-from freefloat.mechanics import _arrays
+from freefloat.engine import buffers as _arrays
 
 #: Configurations whose J* (12 x 4 for the 1992 system: 384 bytes each) is above RECYCLE_MIN.
 SIZE = 20_000

@@ -1,7 +1,7 @@
 """The specialiser (ff.mechanics.specialise): its tracing rules, the code it emits, its sin/cos, its kernels.
 
-The specialised kernels are the engine's own recursions traced on symbols (mechanics/_trace.py),
-emitted as SIMD code over blocks of configurations (mechanics/_specialise.py). Checked here: each
+The specialised kernels are the engine's own recursions traced on symbols (engine/specialise/trace.py),
+emitted as SIMD code over blocks of configurations (engine/specialise/build.py). Checked here: each
 folding rule, common-subexpression and dead-code elimination; the emitted code (run as plain
 Python) against the graph evaluated on floats and against the generic kernels, for random trees;
 the vectorisable sin/cos against the C library in ulp; and the compiled kernels against
@@ -24,11 +24,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import freefloat as ff
+from freefloat.engine import buffers as _arrays
+from freefloat.engine import calls as _engine
+from freefloat.engine.cache import CacheWarning, cache_dir
+from freefloat.engine.layout import tree
+from freefloat.engine.specialise import build as _specialise
+from freefloat.engine.specialise import lanes as _lanes
+from freefloat.engine.specialise.trace import Graph, Sym
 from freefloat.io.oracles import pinocchio_configuration, to_pinocchio
-from freefloat.mechanics import _arrays, _engine, _lanes, _specialise
-from freefloat.mechanics._numba_cache import CacheWarning, cache_dir
-from freefloat.mechanics._trace import Graph, Sym
-from freefloat.mechanics._tree import tree
 from trees import build_random_model, random_trees
 
 LANES = _lanes.LANES
@@ -105,7 +108,7 @@ def test_a_select_on_data_is_one_pick_node() -> None:
     """The engine's measures select on data only through ``_configuration._pick`` (a if x > y else b): traced, a pick of
     numbers is chosen at once, one of a symbol is one node (the same choice made twice: one node), evaluated and emitted
     as that select; a pick between two equal values is the value."""
-    from freefloat.mechanics._trace import _pick, traced
+    from freefloat.engine.specialise.trace import _pick, traced
 
     assert traced().configuration._reduce_views.__globals__["_pick"] is _pick
     g = Graph()

@@ -12,8 +12,9 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import freefloat as ff
-from freefloat.mechanics import _engine, _specialise
-from freefloat.mechanics._tree import tree
+from freefloat.engine import calls as _engine
+from freefloat.engine.layout import tree
+from freefloat.engine.specialise import build as _specialise
 from trees import build_random_model
 
 KINDS = ("hplus", "forward", "inverse")

@@ -14,8 +14,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 import freefloat as ff
-from freefloat.mechanics import _engine, _lanes, _specialise
-from freefloat.mechanics._tree import tree
+from freefloat.engine import calls as _engine
+from freefloat.engine.layout import tree
+from freefloat.engine.specialise import build as _specialise
+from freefloat.engine.specialise import lanes as _lanes
 from freefloat.mechanics.forces import _engine_wrenches
 from spies import count_calls, replace_everywhere
 from trees import build_random_model

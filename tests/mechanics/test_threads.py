@@ -1,4 +1,4 @@
-"""The engine's threads (``freefloat.mechanics._threads``): a batch in contiguous ranges, one per thread, each run by the
+"""The engine's threads (``freefloat.engine.threads``): a batch in contiguous ranges, one per thread, each run by the
 same compiled kernel; every range finished before the call returns or raises, Ctrl-C included; the engine's drivers on
 them give the numbers of one thread."""
 
@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 import freefloat as ff
-from freefloat.mechanics import _drivers, _threads
+from freefloat.engine import drivers as _drivers
+from freefloat.engine import threads as _threads
 
 
 def test_the_ranges_cover_the_batch_once_in_as_many_threads() -> None:
@@ -105,7 +106,7 @@ def test_ranges_run_while_the_interpreter_shuts_down() -> None:
     shutdown": a thread left running after the main script, an ``atexit`` handler): the ranges run in the calling thread."""
     script = (
         "import atexit\n"
-        "from freefloat.mechanics._threads import run_ranges\n"
+        "from freefloat.engine.threads import run_ranges\n"
         "run_ranges(lambda r, first, last: None, 2, 2)  # the pool exists\n"
         "def at_exit():\n"
         "    seen = []\n"

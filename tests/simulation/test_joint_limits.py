@@ -213,7 +213,7 @@ def _spans_one_joint_at_a_time(model: ff.Model, t: np.ndarray, q: np.ndarray) ->
 
 @pytest.mark.parametrize("seed", range(4))
 def test_limit_spans_of_runs_and_batches_equal_the_definition(seed: int) -> None:
-    """``limit_violations`` (one compiled pass over the samples: ``_drivers.limit_spans``) against the loop above: random walks
+    """``limit_violations`` (one compiled pass over the samples: ``_stops.limit_spans``) against the loop above: random walks
     across both limits, NaN gaps, spans from the first output and to the last, one-sided and infinite limits; a batch
     (T, B, N) gives each trajectory's events, in trajectory order, with its index."""
     import dataclasses
@@ -243,8 +243,8 @@ def test_limit_spans_on_threads_and_with_more_spans_than_the_first_room(monkeypa
     the definition, trajectory by trajectory."""
     import dataclasses
 
-    from freefloat.mechanics import _drivers
-    from freefloat.mechanics._threads import range_count, thread_count
+    from freefloat.engine import stops as _stops
+    from freefloat.engine.threads import range_count, thread_count
 
     model = ff.models.papadopoulos1992()
     model = dataclasses.replace(model, joint_lower=np.full(4, -0.2), joint_upper=np.full(4, 0.2))
@@ -255,13 +255,13 @@ def test_limit_spans_on_threads_and_with_more_spans_than_the_first_room(monkeypa
     q = states[:, :, 3:7]
     t = np.linspace(0.0, 3.0, steps)
     calls: list[tuple[int, int]] = []
-    kernel = _drivers.limit_spans
+    kernel = _stops.limit_spans
 
     def spy(*args: object) -> int:
         calls.append((int(args[3]), int(args[4])))  # type: ignore[call-overload]
         return int(kernel(*args))
 
-    monkeypatch.setattr(_drivers, "limit_spans", spy)
+    monkeypatch.setattr(_stops, "limit_spans", spy)
     got = limit_violations(model, t, q)
     expected = [dataclasses.replace(e, trajectory=b) for b in range(batch) for e in _spans_one_joint_at_a_time(model, t, q[:, b])]
     assert got == expected and len(expected) > 2 * 4 * batch

@@ -167,8 +167,8 @@ def test_bad_joint_parameters_name_the_joint() -> None:
 
 def test_specialised_kernels_with_rotors_damping_and_friction_equal_the_generic(own_cache: None) -> None:
     """The joint parameters are data the specialised kernels read (their zeros folded away, keyed by where they are)."""
-    from freefloat.mechanics import _specialise
-    from freefloat.mechanics._tree import tree
+    from freefloat.engine.layout import tree
+    from freefloat.engine.specialise import build as _specialise
 
     model = with_joints(random_tree(), np.random.default_rng(10), armature=0.3, damping=1.0, friction=0.5)
     zeros = dataclasses.replace(model, joint_friction=np.where(np.arange(model.n_joints) % 2 == 0, model.joint_friction, 0.0))
@@ -351,8 +351,9 @@ def test_the_energy_decreases_by_exactly_what_the_trajectory_reports_as_dissipat
 
 def specialised_run(model: ff.Model) -> tuple[ff.Trajectory, list[str]]:
     """The specialised rollout of :func:`run_path` (made for the model's structure), with the modules that ran it."""
-    from freefloat.mechanics import _engine, _specialise
-    from freefloat.mechanics._tree import tree
+    from freefloat.engine import calls as _engine
+    from freefloat.engine.layout import tree
+    from freefloat.engine.specialise import build as _specialise
 
     assert not _engine.specialised_rollouts(model, 9)
     calls: list[str] = []
@@ -374,8 +375,8 @@ def test_the_specialised_rollouts_integrate_the_dissipated_energy(own_cache: Non
     """The specialised rollout kernel (a lane kernel traced from the engine's state derivative, dissipated power
     included) keeps the balance and equals the generic kernels; a model without damping and friction gets the kernel
     it had: a state of 13 + 2N, no power."""
-    from freefloat.mechanics import _specialise
-    from freefloat.mechanics._tree import tree
+    from freefloat.engine.layout import tree
+    from freefloat.engine.specialise import build as _specialise
 
     models = passive_systems()
     for name, model in models.items():

@@ -1,10 +1,12 @@
-"""The built-in controllers as the compiled control laws of :mod:`freefloat.mechanics._laws` (private).
+"""The built-in controllers as the compiled control laws of :mod:`freefloat.engine.laws` (private).
 
-Each controller of :mod:`freefloat.control` describes itself as a :data:`~freefloat.mechanics._laws.Law` (arrays:
-its task, gains, desired motion, its model's mass properties) through :func:`task_law` or :func:`detumble_law`; its
-``__call__`` runs the law on the engine (:func:`evaluate`), and :func:`freefloat.simulate` / :func:`freefloat.rollout`
-run the same law inside their compiled loops (``controller.compiled_law(batch)``). Per-trajectory parameters have a
-leading axis of B: gains (B, d) or (B, d, d), set points (B, size), models (a sequence of B payload variants).
+Each controller of :mod:`freefloat.control` describes itself as a :data:`~freefloat.engine.laws.Law` (arrays:
+its task, gains, desired motion, its model's mass properties) through :func:`task_law` or :func:`detumble_law`
+(``controller.compiled_law(batch)``), and :func:`freefloat.simulate` / :func:`freefloat.rollout` run that law's kernel
+inside their compiled loops; the kernel runs nowhere else. The controller's ``__call__`` is the numpy form of the
+same law, on one state or, through :func:`batch_call`, on a batch of states row by row: the reference that
+tests/control/test_compiled.py checks the kernel against. Per-trajectory parameters have a leading axis of B: gains
+(B, d) or (B, d, d), set points (B, size), models (a sequence of B payload variants).
 """
 
 from __future__ import annotations
@@ -18,8 +20,7 @@ import numpy as np
 from ..core.errors import NearSingularWarning, ShapeError
 from ..core.model import Model
 from ..core.state import Actuation, State, pack_state, unpack_state
-from ..mechanics._laws import DETUMBLE, OPERATIONAL_SPACE, PROFILES, TRANSPOSED_JACOBIAN, actuator_bounds, make_law, same_structure
-from ..mechanics._tree import tree
+from ..engine import DETUMBLE, OPERATIONAL_SPACE, PROFILES, TRANSPOSED_JACOBIAN, actuator_bounds, make_law, same_structure, tree
 
 __all__ = ["batch_call", "batch_of", "desired_row", "detumble_law", "gains", "models_of", "task_law"]
 
@@ -88,7 +89,7 @@ def _rows(value: Any, width: int, name: str) -> np.ndarray:
 
 
 def task_law(controller: Any, batch: int | None) -> Any:
-    """The :data:`~freefloat.mechanics._laws.Law` of a task-space controller (eqs. 27, 29), or None when its desired
+    """The :data:`~freefloat.engine.laws.Law` of a task-space controller (eqs. 27, 29), or None when its desired
     motion is a Python function (the simulation then calls the controller from Python). Per-trajectory values are
     checked against ``batch`` (ShapeError naming the parameter)."""
     from .desired import SetPoint, StraightLine
@@ -143,7 +144,7 @@ def task_law(controller: Any, batch: int | None) -> Any:
 
 
 def detumble_law(controller: Any, batch: int | None) -> Any:
-    """The :data:`~freefloat.mechanics._laws.Law` of :class:`~freefloat.control.detumble.Detumble`."""
+    """The :data:`~freefloat.engine.laws.Law` of :class:`~freefloat.control.detumble.Detumble`."""
     models = controller.models
     floats = mass_rows(models)
     for name, count in (("rate_gain", controller.rate_gain_rows.shape[0]), ("model", floats.shape[0])):

@@ -219,9 +219,9 @@ class _TaskController:
         self._near_singular = near
 
     def compiled_law(self, batch: int | None = None) -> Any:
-        """The controller as a compiled law (:mod:`freefloat.mechanics._laws`) for a run of ``batch`` trajectories (None:
-        one simulation), or None when its desired motion is a Python function. :func:`freefloat.simulate` and
-        :func:`freefloat.rollout` run it in their compiled loops."""
+        """The controller's law as arrays for the compiled loops, for a run of ``batch`` trajectories (None: one
+        simulation), or None when its desired motion is a Python function. :func:`freefloat.simulate` and
+        :func:`freefloat.rollout` run it in their compiled loops, with no Python per step."""
         return _compiled.task_law(self, batch)
 
     def compiled_run_done(self, law: Any) -> None:
@@ -244,9 +244,9 @@ class _TaskController:
         """The actuation at time t (1991 eq. 30): thruster force and torque (spacecraft frame), joint torques.
 
         The numpy form of the law (``_generalized_force``, then :func:`actuation_of`): the readable reference that the
-        compiled kernel of :mod:`freefloat.mechanics._laws` (run inside the compiled loops) is checked against,
-        tests/control/test_compiled.py. ``state`` may hold a batch of B states (a rollout): row b is computed with the
-        per-trajectory parameters' row b, one state at a time."""
+        compiled form of the same law, run inside the compiled loops of :func:`freefloat.simulate` and
+        :func:`freefloat.rollout`, is checked against (tests/control/test_compiled.py). ``state`` may hold a batch of B
+        states (a rollout): row b is computed with the per-trajectory parameters' row b, one state at a time."""
         state = state.resolve(self.model)
         if np.ndim(state.q) == 1:
             if self.per_trajectory:

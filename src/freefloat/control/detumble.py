@@ -129,8 +129,9 @@ class Detumble:
         self.models = (impact.model,)
 
     def compiled_law(self, batch: int | None = None) -> Any:
-        """The controller as a compiled law (:mod:`freefloat.mechanics._laws`) for a run of ``batch`` trajectories (None:
-        one simulation): :func:`freefloat.simulate` and :func:`freefloat.rollout` run it in their compiled loops."""
+        """The controller's law as arrays for the compiled loops, for a run of ``batch`` trajectories (None: one
+        simulation): :func:`freefloat.simulate` and :func:`freefloat.rollout` run it in their compiled loops, with no
+        Python per step."""
         return _compiled.detumble_law(self, batch)
 
     def desired_acceleration(self, state: State) -> np.ndarray:
@@ -159,9 +160,9 @@ class Detumble:
 
     def __call__(self, t: float, state: State) -> Actuation:
         """Thruster force and torque (spacecraft frame) and joint torques: Q_c = H+ zddot0,des + C+, then eq. 30, in numpy
-        (the readable reference that the compiled kernel of :mod:`freefloat.mechanics._laws`, run inside the compiled
-        loops, is checked against). ``state`` may hold a batch of B states (a rollout): row b with its rate gains and
-        model."""
+        (the readable reference that the compiled form of the same law, run inside the compiled loops of
+        :func:`freefloat.simulate` and :func:`freefloat.rollout`, is checked against). ``state`` may hold a batch of B
+        states (a rollout): row b with its rate gains and model."""
         state = state.resolve(self.model)
         if np.ndim(state.q) != 1:
             return batch_call(self, float(t), state)

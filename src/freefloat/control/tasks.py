@@ -34,11 +34,11 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from .. import engine
 from ..core.conventions import attitude_matrix, euler321_from_matrix, euler321_rate_matrix
 from ..core.errors import ShapeError
 from ..core.model import Model
 from ..core.state import State
-from ..mechanics import _engine
 
 __all__ = ["TaskItem", "TaskSpace"]
 
@@ -234,13 +234,13 @@ class TaskSpace:
         t0 = attitude_matrix(quat)
         r_cm = np.asarray(s.r_cm).reshape(c, 3)
         vel = np.asarray(s.velocity).reshape(c, 6 + n)
-        rot, _ = _engine.frames(self.model, qf)  # ⁰T_k (C, B, 3, 3)
+        rot, _ = engine.frames(self.model, qf)  # ⁰T_k (C, B, 3, 3)
         # every item's point (an orientation item: its body's origin): J+ rows, positions and Jdot+ zdot0 by the engine
         bodies = np.array([it.body for it in self.items], dtype=np.int64)
         points = np.array([it.point if it.kind == "position" else (0.0, 0.0, 0.0) for it in self.items], dtype=float).reshape(-1, 3)
-        j_plus = _engine.point_jacobians(self.model, qf, bodies, points)  # (C, I, 6, 6 + N), spacecraft frame (1991 eqs. 7-10)
-        rho = _engine.points(self.model, qf, bodies, points)  # (C, I, 3) from the system CM
-        biases = _engine.point_biases(self.model, qf, vel, bodies, points) if need_bias else None  # (C, I, 6)
+        j_plus = engine.point_jacobians(self.model, qf, bodies, points)  # (C, I, 6, 6 + N), spacecraft frame (1991 eqs. 7-10)
+        rho = engine.points(self.model, qf, bodies, points)  # (C, I, 3) from the system CM
+        biases = engine.point_biases(self.model, qf, vel, bodies, points) if need_bias else None  # (C, I, 6)
         z = np.zeros((c, self.size))
         jac = np.zeros((c, self.dim, 6 + n))
         bias = np.zeros((c, self.dim)) if need_bias else None

@@ -8,10 +8,17 @@ and are refused with an error that names the field, the bound and the fix.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from typing import Any
+import contextvars
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from .errors import ShapeError
+
+if TYPE_CHECKING:
+    from .model import Model
 
 __all__ = [
     "MAX_EFFORT",
@@ -25,8 +32,12 @@ __all__ = [
     "check_joint_rates",
     "check_joint_values",
     "check_largest",
+    "computed_states",
+    "finite_vector",
+    "joint_array",
     "real_array",
     "tolerance_problem",
+    "vector_array",
 ]
 
 #: |q| above this (rad or m) is refused as input: no joint turns or slides that far, and sin/cos of such
@@ -115,3 +126,55 @@ def tolerance_problem(name: str, value: float) -> tuple[str, str] | None:
             f"give a number in [{MIN_RTOL:.3g}, 1), such as 1e-10",
         )
     return None
+
+
+#: Set within :func:`computed_states`: joint arrays a simulation computed (no magnitude bound: a diverged run is still plotted).
+_COMPUTED = contextvars.ContextVar("freefloat_computed_states", default=False)
+
+
+@contextmanager
+def computed_states() -> Iterator[None]:
+    """Within this block, joint arrays are states a simulation computed, not a user's input: no magnitude bound."""
+    token = _COMPUTED.set(True)
+    try:
+        yield
+    finally:
+        _COMPUTED.reset(token)
+
+
+def joint_array(model: Model, q: Any, name: str = "q") -> np.ndarray:
+    """``q`` as a float array of shape (..., N); a clear error otherwise (not real numbers, NaN/inf, beyond
+    ``MAX_JOINT_VALUE`` of :mod:`freefloat.core.numbers`)."""
+    arr = real_array(q, name)
+    if not arr.flags.c_contiguous:  # one copy, which the engine makes anyway; the checks below then read it 3x faster
+        arr = np.ascontiguousarray(arr)
+    n = model.n_joints
+    if arr.ndim == 0 or arr.shape[-1] != n:
+        raise ShapeError(
+            f"{name}: expected shape (..., {n}) (one value per joint: {', '.join(model.joint_names) or 'none'}), got {arr.shape}"
+        )
+    if not np.isfinite(arr).all():
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise ValueError(
+            f"{name}: has NaN or infinite entries (first at index {tuple(int(i) for i in bad)}, joint "
+            f"{model.joint_names[int(bad[-1])]!r}); every joint angle must be a finite number in rad"
+        )
+    if not _COMPUTED.get():
+        check_joint_values(arr, name, model.joint_names)
+    return arr
+
+
+def vector_array(value: Any, size: int, name: str, what: str) -> np.ndarray:
+    """``value`` as a float array of shape (..., size); a clear error otherwise (finiteness: :func:`finite_vector`)."""
+    arr = real_array(value, name)
+    if arr.ndim == 0 or arr.shape[-1] != size:
+        raise ShapeError(f"{name}: expected shape (..., {size}) ({what}), got {arr.shape}")
+    return arr
+
+
+def finite_vector(value: Any, size: int, name: str, what: str) -> np.ndarray:
+    """:func:`vector_array`, with NaN and infinite entries refused."""
+    arr = vector_array(value, size, name, what)
+    if not np.isfinite(arr).all():
+        raise ValueError(f"{name}: has NaN or infinite entries ({what}); every entry must be a finite number")
+    return arr

@@ -6,24 +6,20 @@ everyday ones are also at the top level (``ff.forward_dynamics``); this
 namespace gathers all of them, including the less common ones
 (``generalized_jacobian_drift``, ``point_bias_acceleration``,
 ``spacecraft_fixed_dynamics``, ...). :mod:`.planar` is the planar view
-(``ff.planar``). The physics is written once in the engine (private):
-:mod:`._tree` (the model as arrays), :mod:`._recursions` (the O(N) recursions
-of one configuration), :mod:`._configuration` (J*, J+, H+, forward dynamics,
-RK4), :mod:`._drivers` (batch loops, on one thread or one range per thread) and :mod:`._engine`
-(the Python side), compiled once per machine (:mod:`._numba_cache`). For large
+(``ff.planar``). The physics is written once, in the compiled engine
+(:mod:`freefloat.engine`, private), compiled once per machine. For large
 batches on one robot, the library specialises J* and rollouts for the model's
 structure by itself once the work pays for the compile (:func:`auto_specialise`;
-:func:`specialise` does it up front), from the same recursions (:mod:`._trace` runs them on
-symbols, :mod:`._specialise` emits SIMD code, :mod:`._lanes` drives it). The
+:func:`specialise` does it up front), from the same recursions. The
 papers' barycentric closed forms (``method="barycentric"``) check it.
 
-Layer: imports :mod:`freefloat.core` only.
+Layer: imports :mod:`freefloat.core` and :mod:`freefloat.engine`.
 """
 
 from __future__ import annotations
 
+from ..engine import release_buffers
 from . import planar
-from ._arrays import release_buffers
 from .dynamics import (
     forward_dynamics,
     inverse_dynamics,

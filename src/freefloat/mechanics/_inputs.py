@@ -16,7 +16,7 @@ import numpy as np
 from ..core.conventions import attitude_matrix
 from ..core.errors import ModelError, ShapeError
 from ..core.model import Model
-from ._arrays import finite_vector, joint_array
+from ..core.numbers import finite_vector, joint_array
 
 
 def _finite(arr: np.ndarray, name: str) -> np.ndarray:

@@ -41,7 +41,7 @@ acceleration of the barycentric vector b_ij. psi_i is Euler's equation of the
 barycentric body i (augmented inertia D_ii) plus the coupling through the
 barycentric vectors; this is the ``method="barycentric"`` closed form. The
 ``method="recursive"`` route is an O(N) Newton-Euler recursion on the tree
-(the engine, :mod:`freefloat.mechanics._recursions`), the default.
+(the engine, :mod:`freefloat.engine.recursions`), the default.
 
 Generalized forces Q (1991 eqs. 18 and 21) and their inversion into thruster
 and joint actuation live in :mod:`freefloat.mechanics.forces`.
@@ -55,10 +55,11 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from .. import engine
 from ..core.errors import ShapeError, SingularConfigurationError
 from ..core.model import Model
-from . import _engine
-from ._arrays import chunked, pieces
+from ..engine import FRICTION_SPEED
+from ._batches import chunked, pieces
 from ._inputs import (
     _attitude,
     _joints,
@@ -72,7 +73,6 @@ from ._inputs import (
     gather_square,
     revolute_only,
 )
-from ._recursions import FRICTION_SPEED
 from .forces import _actuation_0, _actuation_parts, _engine_wrenches, _generalized_forces_0, _wrenches
 from .jacobians import actuation_jacobian
 from .kinematics import _rotations, _slides
@@ -198,7 +198,7 @@ def nonlinear_forces(model: Model, q: Any, velocity: Any, *, method: str = "recu
     q = _joints(model, q, "q")
     v = _velocity(model, velocity)
     if method == "recursive":
-        return _engine.residual_rows(model.without_passive(), q, v)  # the engine counts passive torques in Q
+        return engine.residual_rows(model.without_passive(), q, v)  # the engine counts passive torques in Q
     revolute_only(model, "nonlinear_forces(method='barycentric') (1991 eqs. 18-21)")
     kernel = _c_plus_barycentric
     return chunked(pieces(lambda qq, vv: kernel(model, qq, vv), model.n_bodies), q, v, core_ndims=(1, 1))
@@ -256,7 +256,7 @@ def system_inertia_matrix_rate(model: Model, q: Any, qdot: Any, *, method: str =
     q = _joints(model, q, "q")
     qd = _joints(model, qdot, "qdot")
     if how == "recursive":
-        return _engine.inertia_matrix_rate(model, q, qd)
+        return engine.inertia_matrix_rate(model, q, qd)
     revolute_only(model, "system_inertia_matrix_rate(method='barycentric')")
     return chunked(pieces(lambda qq, vv: _hplus_rate(model, qq, vv), model.n_bodies), q, qd, core_ndims=(1, 1))
 
@@ -322,7 +322,7 @@ def point_bias_acceleration(
     if p.shape != (3,):
         raise ShapeError(f"point: expected shape (3,), got {p.shape}")
     if how == "recursive":
-        out = _engine.point_biases(model, q, v, [k], p[None])[..., 0, :]
+        out = engine.point_biases(model, q, v, [k], p[None])[..., 0, :]
     else:
         table = model.bary.point_vectors(model, k, p)
         out = chunked(lambda qq, vv: _point_bias(model, qq, vv, k, table), q, v, core_ndims=(1, 1))
@@ -382,7 +382,7 @@ def forward_dynamics(
     t0 = _attitude(attitude)
     if method == "recursive":
         u = _actuation_parts(model, joint_torque, spacecraft_force, spacecraft_torque)
-        acc, ok = _engine.accelerations(model, q, v, u, t0, _engine_wrenches(model, _wrenches(external)))
+        acc, ok = engine.accelerations(model, q, v, u, t0, _engine_wrenches(model, _wrenches(external)))
         if not np.all(ok):
             h = system_inertia_matrix(model, q)[..., 3:, 3:]
             raise SingularConfigurationError("H+ (1991 eq. 15)", float(np.min(np.linalg.det(h))), "the mass properties are not physical")
@@ -420,7 +420,7 @@ def inverse_dynamics(
     t0 = _attitude(attitude)
     wrenches = _wrenches(external)
     if method == "recursive":  # the engine: H+ zddot0 + C+ - Q_ext, the passive torques and the wrenches counted in Q
-        return _actuation_0(model, q, _engine.residual_rows(model, q, v, acc, None, t0, _engine_wrenches(model, wrenches)))
+        return _actuation_0(model, q, engine.residual_rows(model, q, v, acc, None, t0, _engine_wrenches(model, wrenches)))
     rows = (
         np.einsum("...ij,...j->...i", system_inertia_matrix(model, q, method="barycentric")[..., 3:, 3:], acc[..., 3:])
         + nonlinear_forces(model, q, v, method="barycentric")[..., 3:]

@@ -25,11 +25,12 @@ from typing import Any
 
 import numpy as np
 
+from .. import engine
 from ..core.conventions import attitude_matrix, euler321_from_matrix, euler321_rate_matrix, quaternion_rate_matrix, skew
 from ..core.errors import ShapeError
 from ..core.model import Model
-from . import _engine
-from ._arrays import chunked, finite_vector, joint_array, pieces
+from ..core.numbers import finite_vector, joint_array
+from ._batches import chunked, pieces
 from ._inputs import body_joints, check_method, gather_columns
 from .kinematics import _rotations, _slides, body_rotations
 from .momentum import _hplus_barycentric, zero_momentum_rate
@@ -119,7 +120,7 @@ def point_jacobian(
     k = model.body_index(body)
     p = model.com[k] if point is None else finite_vector(point, 3, "point", "a point in the body frame, m")
     if _method(method) == "recursive":
-        out = _engine.point_jacobians(model, q, k, p)[..., 0, :, :]
+        out = engine.point_jacobians(model, q, k, p)[..., 0, :, :]
         return out if attitude is None else _rotate_rows(out, attitude)
     table = model.bary.point_vectors(model, k, p)[None]
     bodies = np.array([k])
@@ -237,7 +238,7 @@ def generalized_jacobian(model: Model, q: Any, *, method: str = "recursive") -> 
     """
     q = joint_array(model, q)
     if _method(method) == "recursive":
-        return _engine.generalized_jacobian(model, q)
+        return engine.generalized_jacobian(model, q)
     return chunked(pieces(lambda qq: _gj_barycentric(model, qq), model.n_bodies), q, core_ndims=(1,))
 
 
@@ -254,9 +255,9 @@ def generalized_jacobian_drift(
     t0 = attitude_matrix(attitude)
     h = finite_vector(angular_momentum, 3, "angular_momentum", "N m s, inertial frame")
     h0 = np.einsum("...ji,...j->...i", t0, h)
-    h_plus = _engine.inertia_matrix(model, q)
+    h_plus = engine.inertia_matrix(model, q)
     wd = zero_momentum_rate(h_plus, np.zeros((*h_plus.shape[:-2], model.n_joints)), h0)  # at qdot = 0
-    rho = _engine.points(model, q, model.end_effector_body, model.end_effector_point)  # (..., E, 3)
+    rho = engine.points(model, q, model.end_effector_body, model.end_effector_point)  # (..., E, 3)
     wd_e = np.broadcast_to(wd[..., None, :], np.broadcast_shapes(wd[..., None, :].shape, rho.shape))
     drift0 = np.concatenate([np.cross(wd_e, rho), wd_e], axis=-1)  # (..., E, 6)
     drift = np.concatenate(
@@ -295,14 +296,14 @@ def jacobian_determinant(model: Model, q: Any) -> np.ndarray:
             f"J* has shape {(n_rows, model.n_joints)} here, not square, so it has no determinant; "
             "use ff.manipulability(model, q) (sqrt det J* J*^T) or the smallest singular value"
         )
-    return _engine.jacobian_measures(model, q, _singularity_row_indices(model), "det")
+    return engine.jacobian_measures(model, q, _singularity_row_indices(model), "det")
 
 
 def manipulability(model: Model, q: Any) -> np.ndarray:
     """sqrt(det(J* J*^T)) with J* in the plane for planar models (see :func:`jacobian_determinant`), (...): the product
     of the singular values of those rows."""
     q = joint_array(model, q)
-    return _engine.jacobian_measures(model, q, _singularity_row_indices(model), "manipulability")
+    return engine.jacobian_measures(model, q, _singularity_row_indices(model), "manipulability")
 
 
 #: The measures of :func:`jacobian_measure`.
@@ -338,4 +339,4 @@ def jacobian_measure(model: Model, q: Any, rows: Any = None, measure: str = "sig
         raise ValueError(f"rows: expected distinct indices of rows of J* (0 .. {6 * model.n_end_effectors - 1}), got {rows!r}")
     if measure == "det" and idx.size != model.n_joints:
         raise ShapeError(f"measure='det': the chosen rows form a {idx.size} x {model.n_joints} matrix, not square; use 'sigma_min'")
-    return _engine.jacobian_measures(model, q, idx, measure)
+    return engine.jacobian_measures(model, q, idx, measure)

@@ -14,10 +14,11 @@ from typing import Any
 
 import numpy as np
 
+from .. import engine
 from ..core.conventions import attitude_matrix
 from ..core.model import Model
-from . import _engine
-from ._arrays import chunked, finite_vector, joint_array
+from ..core.numbers import finite_vector, joint_array
+from ._batches import chunked
 from ._inputs import body_joints, check_method
 
 __all__ = [
@@ -82,7 +83,7 @@ def forward_kinematics(model: Model, q: Any) -> tuple[np.ndarray, np.ndarray]:
 
     Origins are measured from the spacecraft frame origin, in the spacecraft frame.
     """
-    return _engine.frames(model, joint_array(model, q))
+    return engine.frames(model, joint_array(model, q))
 
 
 def joint_axes(model: Model, rotations: np.ndarray) -> np.ndarray:
@@ -93,7 +94,7 @@ def joint_axes(model: Model, rotations: np.ndarray) -> np.ndarray:
 
 def system_cm(model: Model, q: Any) -> np.ndarray:
     """System CM measured from the spacecraft frame origin, spacecraft frame, (..., 3)."""
-    return -_engine.points(model, joint_array(model, q), 0, (0.0, 0.0, 0.0))[..., 0, :]
+    return -engine.points(model, joint_array(model, q), 0, (0.0, 0.0, 0.0))[..., 0, :]
 
 
 def _method(method: str) -> str:
@@ -109,7 +110,7 @@ def body_cm_positions(model: Model, q: Any, *, method: str = "recursive") -> np.
     """
     q = joint_array(model, q)
     if _method(method) == "recursive":
-        return _engine.points(model, q, np.arange(model.n_bodies), model.com)
+        return engine.points(model, q, np.arange(model.n_bodies), model.com)
     table = model.bary.point_table
     bodies = np.arange(model.n_bodies)
     return chunked(lambda qq: _barycentric_sum(model, qq, table, bodies), q, core_ndims=(1,))
@@ -134,7 +135,7 @@ def end_effector_positions(model: Model, q: Any, *, attitude: Any = None, method
     """
     q = joint_array(model, q)
     if _method(method) == "recursive":
-        r_e = _engine.points(model, q, model.end_effector_body, model.end_effector_point)
+        r_e = engine.points(model, q, model.end_effector_body, model.end_effector_point)
     else:
         table = model.bary.end_effector_table
         r_e = chunked(lambda qq: _barycentric_sum(model, qq, table, model.end_effector_body), q, core_ndims=(1,))
@@ -158,7 +159,7 @@ def point_positions(model: Model, q: Any, body: str | int, point: Any = (0.0, 0.
     p = finite_vector(point, 3, "point", "a point in the body frame, m")
     q = joint_array(model, q)
     if _method(method) == "recursive":
-        return _engine.points(model, q, k, p)[..., 0, :]
+        return engine.points(model, q, k, p)[..., 0, :]
     table = model.bary.point_vectors(model, k, p)[None]
     return chunked(lambda qq: _barycentric_sum(model, qq, table, np.array([k]))[:, 0], q, core_ndims=(1,))
 

@@ -31,12 +31,13 @@ from typing import Any
 
 import numpy as np
 
+from .. import engine
 from ..core.conventions import attitude_matrix
 from ..core.errors import ShapeError
 from ..core.model import Model
+from ..core.numbers import joint_array, vector_array
 from ..core.wheels import wheel_arrays
-from . import _engine
-from ._arrays import chunked, joint_array, pieces, vector_array
+from ._batches import chunked, pieces
 from ._inputs import body_joints, check_method, gather_square
 from .kinematics import _rotations, _slides, joint_axes
 
@@ -170,7 +171,7 @@ def system_inertia_matrix(model: Model, q: Any, *, method: str = "recursive") ->
     """
     q = joint_array(model, q)
     if _method(method) == "recursive":
-        return _engine.inertia_matrix(model, q)
+        return engine.inertia_matrix(model, q)
     return chunked(pieces(lambda qq: _hplus_barycentric(model, qq), model.n_bodies), q, core_ndims=(1,))
 
 

@@ -26,9 +26,9 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from .. import engine
 from ..core.errors import UnknownNameError
-from . import _specialise
-from ._tree import tree
+from ..engine import tree
 from .forces import _engine_wrenches, _wrenches
 
 __all__ = ["AUTO_AFTER", "KINDS", "auto_specialise", "is_specialised", "specialise"]
@@ -37,15 +37,15 @@ __all__ = ["AUTO_AFTER", "KINDS", "auto_specialise", "is_specialised", "speciali
 #: "forward" and "inverse" (forward and inverse dynamics batches), "measure" (det J*, the smallest singular value,
 #: manipulability and condition number of chosen rows of J*: :func:`~.jacobians.jacobian_measure`, the singularity maps
 #: and searches). The rollouts and dynamics are made for one layout of external wrenches (``external``; none by default).
-KINDS = _specialise.KINDS
+KINDS = engine.SPECIALISED_KINDS
 
 #: Seconds of work on the generic kernels (J*, rollouts) of one structure, in one process, after which it is
 #: specialised in the background.
-AUTO_AFTER = _specialise.AUTO_AFTER
+AUTO_AFTER = engine.AUTO_AFTER
 
 
 def specialise(
-    model: Any, kinds: Sequence[str] = _specialise.KINDS, *, external: Any = (), progress: Callable[[str], None] | None = None
+    model: Any, kinds: Sequence[str] = engine.SPECIALISED_KINDS, *, external: Any = (), progress: Callable[[str], None] | None = None
 ) -> dict[str, float]:
     """Compile the specialised kernels of ``kinds`` (:data:`KINDS`; default all) for the structure of ``model``.
 
@@ -57,14 +57,14 @@ def specialise(
     Raises :class:`~freefloat.UnknownNameError` for an unknown kind.
     """
     for kind in kinds:
-        if kind not in _specialise.KINDS:
-            raise UnknownNameError("kind of specialised kernel", kind, _specialise.KINDS)
+        if kind not in engine.SPECIALISED_KINDS:
+            raise UnknownNameError("kind of specialised kernel", kind, engine.SPECIALISED_KINDS)
     t = tree(model)
     wrenches = _layout(model, external)
     took = {}
     for kind in kinds:
         start = time.perf_counter()
-        _specialise.specialise(t, (kind,), progress, wrenches=wrenches)
+        engine.specialise_structure(t, (kind,), progress, wrenches=wrenches)
         took[kind] = time.perf_counter() - start
     return took
 
@@ -72,15 +72,15 @@ def specialise(
 def is_specialised(model: Any, kind: str = "jstar", *, external: Any = ()) -> bool:
     """True when the kernels of ``kind`` for the structure of ``model`` (and the layout of the wrenches ``external``, for
     the kinds that take them) were compiled on this machine (:func:`specialise`)."""
-    if kind not in _specialise.KINDS:
-        raise UnknownNameError("kind of specialised kernel", kind, _specialise.KINDS)
-    wrenches = _layout(model, external) if kind in _specialise.WRENCH_KINDS else ()
-    return _specialise.find(tree(model), kind, wrenches) is not None
+    if kind not in engine.SPECIALISED_KINDS:
+        raise UnknownNameError("kind of specialised kernel", kind, engine.SPECIALISED_KINDS)
+    wrenches = _layout(model, external) if kind in engine.WRENCH_KINDS else ()
+    return engine.find_specialised(tree(model), kind, wrenches) is not None
 
 
-def _layout(model: Any, external: Any) -> _specialise.Layout:
+def _layout(model: Any, external: Any) -> engine.WrenchLayout:
     """The layout (bodies, frame codes) of the :class:`~freefloat.ExternalWrench` items ``external``, checked."""
-    return _specialise.layout(_engine_wrenches(model, _wrenches(external))[0])
+    return engine.wrench_layout(_engine_wrenches(model, _wrenches(external))[0])
 
 
 def auto_specialise(on: bool | None = None) -> bool:
@@ -91,5 +91,5 @@ def auto_specialise(on: bool | None = None) -> bool:
     specialised in a background thread (once per machine: kept in the cache folder, like :func:`specialise`).
     """
     if on is not None:
-        _specialise.set_auto(on)
-    return _specialise.auto_enabled()
+        engine.set_auto(on)
+    return engine.auto_enabled()

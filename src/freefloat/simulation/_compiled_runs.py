@@ -1,8 +1,8 @@
 """The built-in controllers inside the compiled loops of :func:`freefloat.simulate` and :func:`freefloat.rollout` (private).
 
 A controller that describes itself as a compiled law (``controller.compiled_law(batch)``: the controllers of
-:mod:`freefloat.control`, whose ``__call__`` runs the same law, :mod:`freefloat.mechanics._laws`) or a
-:class:`~freefloat.JointPD` runs in the engine's rollout loop (:func:`freefloat.mechanics._engine.law_rollout`) with no
+:mod:`freefloat.control`, whose ``__call__`` runs the same law, :mod:`freefloat.engine.laws`) or a
+:class:`~freefloat.JointPD` runs in the engine's rollout loop (:func:`freefloat.engine.calls.law_rollout`) with no
 Python per step: a rollout of B trajectories, or one simulation as a rollout of one. The results are those of the
 Python loop (the same law, the same RK4 step, the same samples, limits and records; ``tests/control/test_compiled.py``).
 """
@@ -17,8 +17,7 @@ import numpy as np
 from ..core.errors import SimulationError
 from ..core.model import Model
 from ..core.state import ActuatorLimits
-from ..mechanics._laws import same_structure
-from ..mechanics._tree import tree
+from ..engine import same_structure, tree
 from ._guard import PROGRESS_DELAY, Progress, _derivative_cost
 from ._integrate import _trajectory
 from .pd import JointPD

@@ -17,11 +17,11 @@ from typing import Any
 
 import numpy as np
 
+from .. import engine
 from ..core.errors import SimulationError, StiffGainsWarning
 from ..core.feedback import LOG_PERIOD, interactive, progress_log
 from ..core.model import Model
 from ..core.numbers import MAX_RATE  # beyond it a run stops: the actuation or the initial state is not physical
-from ..mechanics import _engine
 from ..mechanics.momentum import free_floating_joint_inertia
 
 __all__ = [
@@ -102,7 +102,7 @@ def _derivative_cost(model: Model) -> float:
     n = model.n_joints
     key = (model.n_bodies, n)
     if key not in _EVAL_COST:
-        stepper = _engine.Stepper(model)
+        stepper = engine.Stepper(model)
         x = np.zeros(stepper.size)
         x[9] = 1.0
         u = np.zeros(n + 6)
@@ -251,12 +251,12 @@ RK4_REAL_LIMIT = 2.785
 def check_passive_step(model: Model, q0: np.ndarray, step: float | None) -> list[str]:
     """Warn (:class:`StiffGainsWarning`) where fixed RK4 steps of ``step`` s cannot follow a joint's damping or friction.
 
-    Near rest the smooth friction acts as a damping of F / v_s (:data:`~freefloat.mechanics._recursions.FRICTION_SPEED`);
+    Near rest the smooth friction acts as a damping of F / v_s (:data:`~freefloat.engine.recursions.FRICTION_SPEED`);
     with the joint's viscous damping d and its effective inertia m (the diagonal of
     :func:`~freefloat.mechanics.free_floating_joint_inertia` at ``q0``), the joint's rate decays at c = (d + F / v_s) / m,
     and RK4 needs c step < :data:`RK4_REAL_LIMIT`. Returns the messages (one per offending joint).
     """
-    from ..mechanics._recursions import FRICTION_SPEED
+    from ..engine import FRICTION_SPEED
 
     if step is None or model.n_joints == 0 or not model.has_passive:
         return []
@@ -439,7 +439,7 @@ class DivergenceGuard:
         velocity = np.concatenate([x[3:6], x[10:13], x[13 + n : 13 + 2 * n]])  # (a dissipated energy may follow)
         # the engine's H+ directly: a diverging state is past what the public calls accept (|q| > 1e6), and is what is measured
         with np.errstate(over="ignore", invalid="ignore"):
-            h_plus = _engine.inertia_matrix(self.model, np.ascontiguousarray(x[13 : 13 + n]))
+            h_plus = engine.inertia_matrix(self.model, np.ascontiguousarray(x[13 : 13 + n]))
             energy = 0.5 * float(velocity @ h_plus @ velocity)
         return energy if np.isfinite(energy) else np.inf
 

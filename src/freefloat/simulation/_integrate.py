@@ -1,6 +1,6 @@
 """The integration loops behind :func:`freefloat.simulate` and :func:`freefloat.rollout` (private).
 
-The state derivative and RK4 steps are the engine's (:mod:`freefloat.mechanics._engine`,
+The state derivative and RK4 steps are the engine's (:mod:`freefloat.engine.calls`,
 one compiled call per run of steps); here are the fixed-step
 and adaptive (scipy ``solve_ivp``) loops, events, and the recorder that turns
 the flat states into a :class:`~freefloat.Trajectory`. The flat state is
@@ -22,12 +22,12 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from .. import engine
 from ..core.errors import ShapeError, SimulationError
 from ..core.model import Model
 from ..core.numbers import MAX_EFFORT
 from ..core.resources import MEMORY_FRACTION, available_memory, format_bytes
 from ..core.state import dissipated, unpack_state
-from ..mechanics import _engine
 from ..mechanics.forces import _engine_wrenches, _wrenches
 from .trajectory import Trajectory
 
@@ -98,7 +98,7 @@ def check_output(name: str, arr: np.ndarray) -> None:
 
 
 def _refused(t: float, act: Any, u: np.ndarray) -> None:
-    """The RK4 kernel refused the actuation u before stepping (``_drivers.REFUSED``): the controller's output named, as
+    """The RK4 kernel refused the actuation u before stepping (``engine.REFUSED``): the controller's output named, as
     the full checks of its output name it."""
     try:
         for name, value in zip(("joint_torque", "spacecraft_force", "spacecraft_torque"), act[:3], strict=True):
@@ -120,7 +120,7 @@ def _record(rec: _Recorder, t: float, x: np.ndarray, act: Any, u: np.ndarray) ->
 
 def _rhs(model: Model, external: Any) -> Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
     """The state derivative ``f(x, tau, force, torque)`` of one state (the engine, one compiled call)."""
-    stepper = _engine.Stepper(model, _engine_inputs(model, external))
+    stepper = engine.Stepper(model, _engine_inputs(model, external))
     u = np.zeros(model.n_joints + 6)
 
     def derivative(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
@@ -139,7 +139,7 @@ def _stepper(model: Model, dt: float, external: Any) -> Callable[..., np.ndarray
 
     def step(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
         u = _u(model, tau, force, torque, np.empty((*x.shape[:-1], model.n_joints + 6)))
-        return _engine.rk4_batch(model, x, u, dt, 1, ext)
+        return engine.rk4_batch(model, x, u, dt, 1, ext)
 
     return step
 
@@ -280,7 +280,7 @@ def _run_rk4(
     """
     view = view or model
     steps = round(duration / dt)  # simulate() checked that dt divides the duration
-    stepper = _engine.Stepper(model, _engine_inputs(model, external))
+    stepper = engine.Stepper(model, _engine_inputs(model, external))
     n = model.n_joints
     # the compiled steps stop where Python must look: a joint beyond a stop, a rate the guard must test
     quiet_guard = guard.budget is None  # no per-step energy test: the rate test is the kernel's

@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import engine
 from ..core.model import Model
-from ..mechanics import _drivers, _engine
 from ..mechanics.momentum import zero_momentum_rate
 from .trajectory import JointLimitEvent
 
@@ -109,10 +109,10 @@ class JointStops:
                 continue
             limit = self.upper[i] if side == "upper" else self.lower[i]
             # back on the limit, the angular momentum kept: omega0 = D^-1 (h0 - D_q qdot)
-            h_plus = _engine.inertia_matrix(self.model, np.ascontiguousarray(q, dtype=float))  # a computed state: no input checks
+            h_plus = engine.inertia_matrix(self.model, np.ascontiguousarray(q, dtype=float))  # a computed state: no input checks
             h0 = h_plus[3:6, 3:] @ np.concatenate([omega, qdot])
             q[i] = limit
-            h_plus = _engine.inertia_matrix(self.model, np.ascontiguousarray(q, dtype=float))
+            h_plus = engine.inertia_matrix(self.model, np.ascontiguousarray(q, dtype=float))
             omega[:] = zero_momentum_rate(h_plus, qdot, h0)
             block = h_plus[3:, 3:]
             rate = float(qdot[i])
@@ -135,16 +135,16 @@ def limit_violations(model: Model, t: np.ndarray, q: np.ndarray) -> list[JointLi
     trajectories (q (T, B, N): each event with its trajectory's index), ordered by trajectory, then by start, joint and
     bound (upper first). ``t`` (T,): the output times, increasing.
 
-    One compiled pass over the samples (:func:`~freefloat.mechanics._drivers.limit_spans_batch`), on one range of
+    One compiled pass over the samples (:func:`~freefloat.engine.limit_spans_batch`), on one range of
     trajectories per thread: a rollout of 1,024 trajectories of the Panda (9 joints, 501 outputs, 3,456 spans) took
     235 ms in a Python loop over its trajectories (the kernel that computed it: 250 ms), 46-70 ms in numpy array
     operations, 16 ms now (measured).
     """
     batched = q.ndim == 3
     q3 = q if batched else q[:, None, :]
-    lower = _engine._own(model.joint_lower)  # C-contiguous, writable float64: one compiled signature
-    upper = _engine._own(model.joint_upper)
-    spans, value = _drivers.limit_spans_batch(q3, lower, upper)  # (S, 5): trajectory, joint, bound, start, stop
+    lower = engine.owned(model.joint_lower)  # C-contiguous, writable float64: one compiled signature
+    upper = engine.owned(model.joint_upper)
+    spans, value = engine.limit_spans_batch(q3, lower, upper)  # (S, 5): trajectory, joint, bound, start, stop
     order = np.lexsort((spans[:, 2], spans[:, 1], spans[:, 3], spans[:, 0]))
     times = [*np.asarray(t, dtype=float).tolist(), None]  # a span still beyond at the end stops at None
     at_limit = (upper.tolist(), lower.tolist())

@@ -26,14 +26,14 @@ from typing import Any, overload
 
 import numpy as np
 
+from .. import engine
 from ..core.errors import FreefloatError, LongRunWarning, ShapeError, SimulationError
 from ..core.model import Model
 from ..core.numbers import tolerance_problem
 from ..core.resources import require_memory
 from ..core.state import Actuation, ActuatorLimits, State, dissipates, pack_state, state_size, unpack_state
 from ..core.wheels import wheel_joint_model
-from ..mechanics import _engine
-from ..mechanics._laws import actuator_bounds
+from ..engine import actuator_bounds
 from ._compiled_runs import PASSIVE as PASSIVE
 from ._compiled_runs import after_run, compiled_simulation, law_of, law_rows, passive_model, plant_models
 from ._guard import (
@@ -72,7 +72,7 @@ def _actuation(model: Model, raw: Any, batch: tuple[int, ...], kernel_checks: bo
     when not given), with errors that name what is wrong.
 
     ``kernel_checks``: plain torques (a float64 array of shape (*batch, N)) go through unchecked, because the caller's
-    kernel checks them before it steps (the RK4 loop of :func:`simulate`: ``_drivers.rk4_steps`` refuses an entry that is
+    kernel checks them before it steps (the RK4 loop of :func:`simulate`: the engine's ``rk4_steps`` refuses an entry that is
     not finite or beyond MAX_EFFORT, and the loop then names it with :func:`check_output`)."""
     n = model.n_joints
     if (
@@ -226,7 +226,7 @@ def simulate(
     stops where one crosses zero (scipy's ``terminal``/``direction`` attributes
     are honoured). ``external``: constant wrenches (:class:`ExternalWrench`).
     The equations of motion (the RK4 steps, or the right-hand side the
-    adaptive integrator calls) are the engine's (:mod:`freefloat.mechanics._engine`):
+    adaptive integrator calls) are the engine's (:mod:`freefloat.engine.calls`):
     runs of RK4 steps between controller samples are one compiled call.
 
     A failure part-way (controller error, non-finite state, integrator
@@ -641,7 +641,7 @@ def _rollout_pd(
         return None
     ext = _engine_inputs(model, external)
     per_trajectory = plant is not None and plant.shape[0] > 1
-    fast = law is None and not per_trajectory and _engine.specialised_rollouts(model, batch, ext)
+    fast = law is None and not per_trajectory and engine.specialised_rollouts(model, batch, ext)
     # chunks only for a long rollout (progress, Ctrl-C): joining the chunks copies every output once
     threads = max(1, os.cpu_count() or 1)
     seconds = _derivative_cost(model) * 4 * steps * batch / threads / (SPECIALISED_SPEEDUP if fast else 1.0)
@@ -657,10 +657,10 @@ def _rollout_pd(
                 chunk_law = None if law is None else law_rows(law, rows, batch)
                 pd = None if law is not None else (*(g[rows] for g in arrays), feed[:, rows])
                 plant_c = plant if plant is None or plant.shape[0] == 1 else plant[rows]
-                parts.append(_engine.law_rollout(model, plant_c, x0[rows], dt, steps, hold, stride, chunk_law, lim, ext, pd))
+                parts.append(engine.law_rollout(model, plant_c, x0[rows], dt, steps, hold, stride, chunk_law, lim, ext, pd))
             else:
                 gains_c = tuple(g[rows] for g in arrays)
-                parts.append(_engine.rollout(model, x0[rows], dt, steps, hold, stride, gains_c, feed[:, rows], lim, ext))  # type: ignore[arg-type]
+                parts.append(engine.rollout(model, x0[rows], dt, steps, hold, stride, gains_c, feed[:, rows], lim, ext))  # type: ignore[arg-type]
             bar.update(steps * dt * rows.stop / batch)
     except KeyboardInterrupt:
         if not parts:

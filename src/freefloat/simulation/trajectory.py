@@ -18,8 +18,8 @@ import numpy as np
 
 from ..core.conventions import attitude_matrix, euler321_from_matrix
 from ..core.model import Model
+from ..core.numbers import computed_states
 from ..core.state import State
-from ..mechanics._arrays import computed_states
 from ..mechanics.dynamics import passive_torque
 from ..mechanics.kinematics import end_effector_positions, end_effector_rotations, point_positions
 from ..mechanics.momentum import angular_momentum, kinetic_energy

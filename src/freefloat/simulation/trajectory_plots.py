@@ -21,7 +21,7 @@ import numpy as np
 
 from ..core._figures import draw_box, move_box, new_figure
 from ..core.conventions import attitude_matrix
-from ..mechanics._arrays import computed_states
+from ..core.numbers import computed_states
 from ..mechanics.kinematics import spacecraft_box, stick_figure
 from ._guard import Progress
 

@@ -1,6 +1,6 @@
 """Compile the engine's kernels once per machine: numba's on-disk cache, kept in the user's cache directory.
 
-Every kernel of :mod:`freefloat.mechanics._engine` takes the model as plain arrays, so it is
+Every kernel of :mod:`freefloat.engine.calls` takes the model as plain arrays, so it is
 compiled once for all models (a new model or a payload variant costs nothing) and numba keeps the
 machine code on disk between processes. This module only decides *where* that cache lives and what
 happens when it is unusable:
@@ -54,14 +54,17 @@ class CacheWarning(UserWarning):
 #: The modules whose kernels are cached; numba does not track calls across files, so the
 #: cache folder is keyed by a hash of all of them (an edit or an upgrade starts a fresh folder).
 KERNEL_MODULES = (
-    "_numba_cache.py",
-    "_tree.py",
-    "_recursions.py",
-    "_configuration.py",
-    "_drivers.py",
-    "_lanes.py",
-    "_laws.py",
-    "_threads.py",
+    "cache.py",
+    "layout.py",
+    "recursions.py",
+    "quantities.py",
+    "measures.py",
+    "drivers.py",
+    "stepper.py",
+    "stops.py",
+    "specialise/lanes.py",
+    "laws.py",
+    "threads.py",
 )
 
 

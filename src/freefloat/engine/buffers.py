@@ -1,28 +1,18 @@
-"""Shape checking and chunked evaluation shared by the batched functions (numpy side, private)."""
+"""The outputs of the batched calls: large ones carved out of recycled buffers."""
 
 from __future__ import annotations
 
-import contextvars
 import math
 import sys
 import threading
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..core.errors import ShapeError
-from ..core.numbers import check_joint_values, real_array
 from ..core.resources import require_memory
 
 if TYPE_CHECKING:
-    from ..core.model import Model
-
-#: Configurations evaluated at once by the numpy reference paths; keeps temporaries in cache.
-CHUNK = 4096
-#: Upper bound on (configurations x bodies^2) per call of a barycentric pair kernel; keeps the pair arrays small.
-PAIR_BUDGET = 1 << 17
+    pass
 
 
 #: Outputs of at least this many bytes are carved out of recycled buffers (:func:`new_output`).
@@ -146,104 +136,11 @@ def new_output(shape: tuple[int, ...], dtype: Any = np.float64) -> np.ndarray:
     return _recycled(int(nbytes))[:size].reshape(shape)
 
 
-#: Set within :func:`computed_states`: joint arrays a simulation computed (no magnitude bound: a diverged run is still plotted).
-_COMPUTED = contextvars.ContextVar("freefloat_computed_states", default=False)
+def owned(arr: Any, dtype: Any = np.float64) -> np.ndarray:
+    """arr as a C-contiguous, writable array of ``dtype``.
 
-
-@contextmanager
-def computed_states() -> Iterator[None]:
-    """Within this block, joint arrays are states a simulation computed, not a user's input: no magnitude bound."""
-    token = _COMPUTED.set(True)
-    try:
-        yield
-    finally:
-        _COMPUTED.reset(token)
-
-
-def joint_array(model: Model, q: Any, name: str = "q") -> np.ndarray:
-    """``q`` as a float array of shape (..., N); a clear error otherwise (not real numbers, NaN/inf, beyond
-    ``MAX_JOINT_VALUE`` of :mod:`freefloat.core.numbers`)."""
-    arr = real_array(q, name)
-    if not arr.flags.c_contiguous:  # one copy, which the engine makes anyway; the checks below then read it 3x faster
-        arr = np.ascontiguousarray(arr)
-    n = model.n_joints
-    if arr.ndim == 0 or arr.shape[-1] != n:
-        raise ShapeError(
-            f"{name}: expected shape (..., {n}) (one value per joint: {', '.join(model.joint_names) or 'none'}), got {arr.shape}"
-        )
-    if not np.isfinite(arr).all():
-        bad = np.argwhere(~np.isfinite(arr))[0]
-        raise ValueError(
-            f"{name}: has NaN or infinite entries (first at index {tuple(int(i) for i in bad)}, joint "
-            f"{model.joint_names[int(bad[-1])]!r}); every joint angle must be a finite number in rad"
-        )
-    if not _COMPUTED.get():
-        check_joint_values(arr, name, model.joint_names)
-    return arr
-
-
-def vector_array(value: Any, size: int, name: str, what: str) -> np.ndarray:
-    """``value`` as a float array of shape (..., size); a clear error otherwise (finiteness: :func:`finite_vector`)."""
-    arr = real_array(value, name)
-    if arr.ndim == 0 or arr.shape[-1] != size:
-        raise ShapeError(f"{name}: expected shape (..., {size}) ({what}), got {arr.shape}")
-    return arr
-
-
-def finite_vector(value: Any, size: int, name: str, what: str) -> np.ndarray:
-    """:func:`vector_array`, with NaN and infinite entries refused."""
-    arr = vector_array(value, size, name, what)
-    if not np.isfinite(arr).all():
-        raise ValueError(f"{name}: has NaN or infinite entries ({what}); every entry must be a finite number")
-    return arr
-
-
-def chunked(kernel: Callable[..., Any], *arrays: np.ndarray, core_ndims: tuple[int, ...]) -> Any:
-    """Evaluate ``kernel`` over the broadcast leading batch axes of ``arrays`` in chunks.
-
-    ``core_ndims[i]`` is the number of trailing (non-batch) axes of ``arrays[i]``.
-    The kernel takes arrays with one flat batch axis and returns an array or a
-    tuple of arrays with a leading batch axis. An unbatched input gives an
-    unbatched output.
+    numba types read-only arrays apart from writable ones, so a kernel called with both would be
+    compiled twice: every array passed to a kernel goes through here (a copy only when needed).
     """
-    batch_shapes = [a.shape[: a.ndim - nd] for a, nd in zip(arrays, core_ndims, strict=True)]
-    batch = np.broadcast_shapes(*batch_shapes)
-    size = math.prod(map(int, batch))
-    flat = [
-        np.broadcast_to(a, (*batch, *a.shape[a.ndim - nd :])).reshape((size, *a.shape[a.ndim - nd :]))
-        for a, nd in zip(arrays, core_ndims, strict=True)
-    ]
-    chunk = CHUNK
-    if size <= chunk:
-        first = kernel(*flat)
-        single = not isinstance(first, tuple)
-        outs = tuple(p.reshape(batch + p.shape[1:]) for p in ((first,) if single else first))
-        return outs[0] if single else outs
-    # one output array per result, filled chunk by chunk (no list of pieces, no concatenation)
-    results: tuple[np.ndarray, ...] = ()
-    single = False
-    for start in range(0, size, chunk):
-        piece = kernel(*(f[start : start + chunk] for f in flat))
-        if not results:
-            single = not isinstance(piece, tuple)
-            results = tuple(np.empty((size, *p.shape[1:]), dtype=p.dtype) for p in ((piece,) if single else piece))
-        for res, p in zip(results, (piece,) if single else piece, strict=True):
-            res[start : start + chunk] = p
-    outs = tuple(r.reshape(batch + r.shape[1:]) for r in results)
-    return outs[0] if single else outs
-
-
-def pieces(kernel: Callable[..., Any], n_bodies: int) -> Callable[..., Any]:
-    """Wrap a flat-batch kernel so that it runs on slices small enough for its B^2 pair arrays."""
-    step = max(1, PAIR_BUDGET // max(1, n_bodies * n_bodies))
-
-    def run(*arrays: np.ndarray) -> Any:
-        size = arrays[0].shape[0]
-        if size <= step:
-            return kernel(*arrays)
-        parts = [kernel(*(a[s : s + step] for a in arrays)) for s in range(0, size, step)]
-        if isinstance(parts[0], tuple):
-            return tuple(np.concatenate([p[i] for p in parts]) for i in range(len(parts[0])))
-        return np.concatenate(parts)
-
-    return run
+    out = np.ascontiguousarray(arr, dtype=dtype)
+    return out if out.flags.writeable else out.copy()

@@ -19,10 +19,14 @@ from typing import Any
 
 import numpy as np
 
-from . import _configuration, _drivers, _laws, _specialise
-from ._arrays import new_output
-from ._lanes import LANES, feed
-from ._tree import Tree, tree, work_size
+from . import drivers as _drivers
+from . import laws as _laws
+from . import stepper
+from .buffers import new_output, owned
+from .layout import Tree, tree, work_size
+from .measures import MEASURE_CODES
+from .specialise import build as _specialise
+from .specialise.lanes import LANES, feed
 
 __all__ = [
     "NO_WRENCHES",
@@ -54,22 +58,12 @@ _SPECIALISED_MIN = 64
 _SPECIALISED_ROLLOUTS_MIN = 8
 
 
-def _own(arr: Any, dtype: Any = np.float64) -> np.ndarray:
-    """arr as a C-contiguous, writable array of ``dtype``.
-
-    numba types read-only arrays apart from writable ones, so a kernel called with both would be
-    compiled twice: every array passed to a kernel goes through here (a copy only when needed).
-    """
-    out = np.ascontiguousarray(arr, dtype=dtype)
-    return out if out.flags.writeable else out.copy()
-
-
 def _flat(arr: np.ndarray, batch: tuple[int, ...], core: tuple[int, ...]) -> np.ndarray:
     """arr broadcast to batch + core, as a C-contiguous, writable float64 (C, *core) array."""
     size = math.prod(map(int, batch))
     target = batch + core
     arr = np.asarray(arr)
-    return _own(arr if arr.shape == target else np.broadcast_to(arr, target)).reshape((size, *core))
+    return owned(arr if arr.shape == target else np.broadcast_to(arr, target)).reshape((size, *core))
 
 
 def _batch(*arrays: tuple[np.ndarray, int]) -> tuple[int, ...]:
@@ -79,7 +73,7 @@ def _batch(*arrays: tuple[np.ndarray, int]) -> tuple[int, ...]:
 
 def _wrench_data(ext: tuple[np.ndarray, np.ndarray], batch: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
     ext_i, ext_f = ext
-    return _own(ext_i, np.int64), _flat(ext_f, batch, ext_f.shape[-2:])
+    return owned(ext_i, np.int64), _flat(ext_f, batch, ext_f.shape[-2:])
 
 
 def frames(model: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -95,8 +89,8 @@ def frames(model: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _point_data(bodies: Any, pts: Any) -> tuple[np.ndarray, np.ndarray]:
-    b = _own(np.atleast_1d(np.asarray(bodies, dtype=np.int64)), np.int64)
-    p = _own(np.asarray(pts, dtype=np.float64).reshape(-1, 3))
+    b = owned(np.atleast_1d(np.asarray(bodies, dtype=np.int64)), np.int64)
+    p = owned(np.asarray(pts, dtype=np.float64).reshape(-1, 3))
     return b, p
 
 
@@ -154,8 +148,8 @@ def jacobian_measures(model: Any, q: np.ndarray, rows: Any, measure: str) -> np.
     t = tree(model)
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
-    r = _own(np.atleast_1d(np.asarray(rows, dtype=np.int64)), np.int64)
-    code = _configuration.MEASURE_CODES[measure]
+    r = owned(np.atleast_1d(np.asarray(rows, dtype=np.int64)), np.int64)
+    code = MEASURE_CODES[measure]
     out = new_output((flat.shape[0],))
     fast = _specialise.find(t, "measure") if flat.shape[0] >= _SPECIALISED_MIN else None
     if fast is not None:
@@ -186,7 +180,7 @@ def _part(arr: np.ndarray | None, batch: tuple[int, ...], width: int) -> np.ndar
         return np.zeros((1, width))
     arr = np.asarray(arr)
     if arr.shape[:-1] != batch and arr.size == width:
-        return _own(arr).reshape((1, width))
+        return owned(arr).reshape((1, width))
     return _flat(arr, batch, (width,))
 
 
@@ -448,7 +442,7 @@ def rollout(
     n = t.n_joints
     k = x0.shape[0]
     xs, us, sat, done = _records(n, x0, steps, stride)
-    kp, kd, qref, vref = (_own(np.broadcast_to(g, (k, n))) for g in gains)
+    kp, kd, qref, vref = (owned(np.broadcast_to(g, (k, n))) for g in gains)
     ext_i, ext_f = _wrench_data(ext, (k,))
     wrenches = _specialise.layout(ext_i)
     timing = (float(dt), int(steps), int(hold), int(stride))
@@ -458,7 +452,7 @@ def rollout(
         size, given = fast.STATE, x0.shape[1]  # the module's flat state (with the dissipated energy or without), the caller's
         x_in = x0 if given == size else np.concatenate([x0[:, : 13 + 2 * n], np.zeros((k, size - 13 - 2 * n))], axis=1)
         x_out = xs if given == size else new_output((xs.shape[0], k, size))
-        args = (_own(x_in), *timing, (kp, kd, qref, vref, feed(feedforward)), _own(limit), x_out, us, sat, done)
+        args = (owned(x_in), *timing, (kp, kd, qref, vref, feed(feedforward)), owned(limit), x_out, us, sat, done)
         _specialise.rollout(fast, t, *args, ext_f.reshape(k, 9 * len(wrenches)))  # each trajectory's wrenches (K, 9W)
         if x_out is not xs:  # the states as given: the energy's slot dropped, or added (zero: the model dissipates nothing)
             common = min(size, given)
@@ -466,7 +460,7 @@ def rollout(
             xs[..., common:] = 0.0
         return xs, us, sat, done
     start = time.perf_counter()
-    _drivers.rollout_batch(k, t, _own(x0), *timing, kp, kd, qref, vref, feed(feedforward), _own(limit), ext_i, ext_f, xs, us, sat, done)
+    _drivers.rollout_batch(k, t, owned(x0), *timing, kp, kd, qref, vref, feed(feedforward), owned(limit), ext_i, ext_f, xs, us, sat, done)
     if k >= _SPECIALISED_ROLLOUTS_MIN and _drivers.rollout_batch.compiled:  # work they would take
         _specialise.account(t, "rollout", time.perf_counter() - start, wrenches)
     return xs, us, sat, done
@@ -498,12 +492,12 @@ def law_rollout(
     plant = t.floats[None] if plant is None else plant
     if law is None:
         assert pd is not None
-        C = ((*(_own(np.broadcast_to(g, (k, n))) for g in pd[:4]), feed(pd[4])), _no_law(t))
+        C = ((*(owned(np.broadcast_to(g, (k, n))) for g in pd[:4]), feed(pd[4])), _no_law(t))
     else:
         zero = np.zeros((1, n))
         C = ((zero, zero, zero, zero, feed(np.zeros((1, 1, n)))), law)  # no joint PD: the law
     _drivers.law_rollout_batch(
-        k, t, _own(x0), *timing, C, _own(limit), _own(t.ints, np.int64), _own(plant), ext_i, ext_f, xs, us, sat, done
+        k, t, owned(x0), *timing, C, owned(limit), owned(t.ints, np.int64), owned(plant), ext_i, ext_f, xs, us, sat, done
     )
     return xs, us, sat, done
 
@@ -556,7 +550,7 @@ class Stepper:
         watch = np.full(1 + 3 * t.n_joints, np.inf)
         watch[1 : 1 + t.n_joints] = -np.inf
         self.floats = np.concatenate([t.floats, ext_f.ravel(), watch, work])
-        self.rk4: Callable[[np.ndarray, np.ndarray, float, int], int] = functools.partial(_drivers.rk4_steps, self.ints, self.floats)
+        self.rk4: Callable[[np.ndarray, np.ndarray, float, int], int] = functools.partial(stepper.rk4_steps, self.ints, self.floats)
 
     def watch(self, rate: float = np.inf, lower: Any = None, upper: Any = None, joint_rates: Any = None) -> None:
         """Make :attr:`rk4` stop after a step that leaves a joint rate (or sqrt(3) |omega0_i|) above ``rate`` (the
@@ -577,7 +571,7 @@ class Stepper:
 
     #: :attr:`reason` when :attr:`rk4` refused u before stepping (an entry not finite, or beyond MAX_EFFORT); 1 and 2 are
     #: :meth:`watch`'s.
-    REFUSED = _drivers.REFUSED
+    REFUSED = stepper.REFUSED
 
     @property
     def reason_at(self) -> int:
@@ -586,4 +580,4 @@ class Stepper:
 
     def derivative(self, x: np.ndarray, u: np.ndarray, out: np.ndarray) -> bool:
         """out = d/dt x under u; False if H+ is not positive definite."""
-        return bool(_drivers.state_derivative(self.ints, self.floats, x, u, out))
+        return bool(stepper.state_derivative(self.ints, self.floats, x, u, out))

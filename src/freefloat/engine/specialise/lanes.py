@@ -23,7 +23,7 @@ from typing import Any
 import numba
 import numpy as np
 
-from ._numba_cache import LINE, bind, store_fence, stream_line
+from ..cache import LINE, bind, store_fence, stream_line
 
 __all__ = [
     "LANES",

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ._numba_cache import floats_view, ints_view, kernel
+from .cache import floats_view, ints_view, kernel
 
 __all__ = ["BODY_FIELDS", "Arrays", "Field", "Tree", "arrays", "tree", "work_size"]
 

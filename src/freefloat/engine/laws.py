@@ -26,18 +26,11 @@ from typing import Any
 
 import numpy as np
 
-from ._configuration import (
-    hplus_one,
-    inverse_one,
-    jacobian_measure_lanes,
-    measure_work,
-    point_bias_one,
-    point_jacobian_one,
-    quaternion_matrix,
-)
-from ._lanes import joint_pd
-from ._numba_cache import kernel
-from ._tree import BODY_FIELDS, arrays
+from .cache import kernel
+from .layout import BODY_FIELDS, arrays
+from .measures import jacobian_measure_lanes, measure_work
+from .quantities import hplus_one, inverse_one, point_bias_one, point_jacobian_one, quaternion_matrix
+from .specialise.lanes import joint_pd
 
 __all__ = [
     "DETUMBLE",

@@ -36,8 +36,11 @@ from typing import Any
 
 import numpy as np
 
-from . import _configuration, _recursions, _tree
-from ._numba_cache import slice_view
+from .. import layout as _tree
+from .. import measures as _measures
+from .. import quantities as _configuration
+from .. import recursions as _recursions
+from ..cache import slice_view
 
 __all__ = ["ENTRY_POINTS", "Graph", "Sym", "traced"]
 
@@ -331,7 +334,7 @@ def traced() -> types.SimpleNamespace:
     the shim above: the same code, run by the interpreter instead of numba (nothing is compiled, no file is read).
     """
     names: dict[str, Any] = {}
-    for module in (_tree, _recursions, _configuration):
+    for module in (_tree, _recursions, _measures, _configuration):
         names.update(vars(module))
     twins: dict[str, Any] = {}
     for key, value in list(names.items()):

@@ -7,7 +7,7 @@ inverse dynamics or an RK4 step ends here, at every batch size. The papers' bary
 forms (``method="barycentric"`` of the public calls) are the other, independent algorithm that checks it.
 
 The model enters as plain arrays (:class:`Tree`), so each kernel is compiled once for all models
-and kept on disk (:mod:`freefloat.mechanics._numba_cache`): a new model or a payload variant
+and kept on disk (:mod:`freefloat.engine.cache`): a new model or a payload variant
 compiles nothing. sin and cos are the C library's (``math.sin``, ``math.cos``).
 
 Formulation (docs/dynamics.md). Everything is in the spacecraft frame 0 with vectors measured
@@ -55,7 +55,7 @@ from typing import Any
 
 import numpy as np
 
-from ._numba_cache import floats_view, kernel
+from .cache import floats_view, kernel
 
 #: The joint speed (rad/s, m/s) over which Coulomb friction builds up: the friction torque of a joint is
 #: -F tanh(qdot / FRICTION_SPEED) (F = ``Model.joint_friction``), 76 % of F at this speed and 99.9 % at 4 times it.

@@ -44,7 +44,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 from numba.np.ufunc import parallel as numba_parallel
 
-from ._numba_cache import kernel
+from .cache import kernel
 
 __all__ = ["compiled_count", "range_count", "run_kernel", "run_ranges", "thread_count", "threads_for"]
 
@@ -222,7 +222,7 @@ def run_kernel(run: Any, pre: tuple[Any, ...], work: np.ndarray, post: tuple[Any
     """``run(*pre, work[r], first, last, *post)`` for the ``parts`` contiguous ranges r of ``[0, count)`` (at most
     ``count`` of them, their lengths differ by one at most) at once, on numba's threads (see the module docstring);
     ``run`` a compiled kernel (a numba dispatcher) that returns nothing, ``work`` one scratch row per range; the arrays
-    of native byte order, as the engine's are (``_engine._own``: numba's fingerprints of arrays, the key of
+    of native byte order, as the engine's are (``buffers.owned``: numba's fingerprints of arrays, the key of
     :func:`_address`, do not tell byte orders apart). Returns when every range has finished; a range that raised is
     run again in the calling thread, which raises its error."""
     count = int(count)

@@ -1,0 +1,88 @@
+"""The engine: freefloat's compiled kernels, one unit behind this door (private to freefloat).
+
+The rest of freefloat calls the engine through the names below and never imports its submodules (an import contract
+checks it). Every call takes a :class:`~freefloat.Model` (turned into flat arrays once per model: :func:`tree`) and
+batches of inputs over leading axes, and returns new arrays; frames and units are those of the public functions of
+:mod:`freefloat.mechanics` that call them.
+
+Inside, read from the bottom up: ``cache`` (the on-disk kernel cache), ``layout`` (the model and its scratch as named
+arrays), ``recursions`` (the O(N) recursions of one configuration), ``quantities`` (J*, J+, H+, accelerations, the
+state derivative and the RK4 step of one configuration), ``laws`` (the compiled control laws), ``threads`` (a batch on
+numba's threads), ``drivers`` (the batch loops), ``specialise/`` (the same recursions traced, emitted as SIMD code for
+one model structure and driven block by block) and ``calls`` (the Python side of every call below).
+"""
+
+from __future__ import annotations
+
+from .buffers import owned, release_buffers
+from .calls import (
+    Stepper,
+    accelerations,
+    frames,
+    generalized_jacobian,
+    inertia_matrix,
+    inertia_matrix_rate,
+    jacobian_measures,
+    law_rollout,
+    point_biases,
+    point_jacobians,
+    points,
+    residual_rows,
+    rk4_batch,
+    rollout,
+    specialised_rollouts,
+    state_derivative,
+)
+from .laws import DETUMBLE, OPERATIONAL_SPACE, PROFILES, TRANSPOSED_JACOBIAN, actuator_bounds, make_law, same_structure
+from .layout import Tree, tree
+from .recursions import FRICTION_SPEED
+from .specialise.build import AUTO_AFTER, WRENCH_KINDS, auto_enabled, set_auto
+from .specialise.build import KINDS as SPECIALISED_KINDS
+from .specialise.build import Layout as WrenchLayout
+from .specialise.build import find as find_specialised
+from .specialise.build import layout as wrench_layout
+from .specialise.build import specialise as specialise_structure
+from .stepper import REFUSED
+from .stops import limit_spans_batch
+
+__all__ = [
+    "AUTO_AFTER",
+    "DETUMBLE",
+    "FRICTION_SPEED",
+    "OPERATIONAL_SPACE",
+    "PROFILES",
+    "REFUSED",
+    "SPECIALISED_KINDS",
+    "TRANSPOSED_JACOBIAN",
+    "WRENCH_KINDS",
+    "Stepper",
+    "Tree",
+    "WrenchLayout",
+    "accelerations",
+    "actuator_bounds",
+    "auto_enabled",
+    "find_specialised",
+    "frames",
+    "generalized_jacobian",
+    "inertia_matrix",
+    "inertia_matrix_rate",
+    "jacobian_measures",
+    "law_rollout",
+    "limit_spans_batch",
+    "make_law",
+    "owned",
+    "point_biases",
+    "point_jacobians",
+    "points",
+    "release_buffers",
+    "residual_rows",
+    "rk4_batch",
+    "rollout",
+    "same_structure",
+    "set_auto",
+    "specialise_structure",
+    "specialised_rollouts",
+    "state_derivative",
+    "tree",
+    "wrench_layout",
+]
