@@ -36,9 +36,7 @@ import numpy as np
 import freefloat as ff
 from bench_core import best_of, machine_info, machine_line, panda_model, set_threads, thread_counts
 from freefloat.core.state import State
-from freefloat.engine.cache import store_fence
 from freefloat.engine.specialise.build import generic
-from freefloat.engine.specialise.lanes import stream_block
 from freefloat.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mujoco
 from freefloat.io.oracles import acceleration_from_pinocchio, pinocchio_configuration, pinocchio_velocity, to_pinocchio
 from freefloat.simulation.pd import JointPD
@@ -87,47 +85,22 @@ def _write_all(block: np.ndarray) -> None:  # pragma: no cover - compiled
         block[i] = 1.0
 
 
-#: Values a streamed write (:func:`_stream_all`) stores from one source row: 64 kB.
-_STREAM_CHUNK = 8192
-
-
-@numba.njit(parallel=True)
-def _stream_all(block: np.ndarray, row: np.ndarray) -> None:  # pragma: no cover - compiled
-    """block[:] = row's values, by the engine's streaming stores (whole cache lines past the caches, as the specialised
-    maps write outputs of STREAM_FROM bytes or more into reused memory), on all of numba's threads."""
-    chunks = -(-block.shape[0] // _STREAM_CHUNK)
-    for c in numba.prange(chunks):
-        at = c * _STREAM_CHUNK
-        stream_block(block, at, row, 0, min(_STREAM_CHUNK, block.shape[0] - at))
-        store_fence()
-
-
 def output_write_bound(per_config: int, configs: int, repeats: int) -> dict[str, Any]:
     """What writing a batched call's output alone costs: ``configs`` x ``per_config`` float64 values written once by all
     of numba's threads (best of ``repeats``), nothing computed. ``fresh``: into a new array each time (its pages zeroed
-    by the system at the first write, then written); ``reused``: into memory written before, as the engine's recycled
-    outputs are (``_arrays.new_output``: 4-256 MiB); ``streamed``: into memory written before, by the streaming stores
-    that the specialised maps use for outputs of ``_specialise.STREAM_FROM`` bytes or more there. No call that returns
-    that array can run faster than the one that applies (``applies``)."""
-    from freefloat.engine import buffers as _arrays
-    from freefloat.engine.specialise import build as _specialise
-
+    by the system at the first write, then written); ``reused``: into memory written before (a caller's ``out=``). No
+    call that returns a new array can run faster than ``fresh``, none into ``out=`` faster than ``reused``."""
     size = per_config * configs
-    row = np.ones(_STREAM_CHUNK)
     _write_all(np.empty(8))
-    _stream_all(np.empty(8), row)
     fresh = best_of(lambda: _write_all(np.empty(size)), repeats)
     block = np.empty(size)
     _write_all(block)
     reused = best_of(lambda: _write_all(block), repeats)
-    streamed = best_of(lambda: _stream_all(block, row), repeats)
     if not (block == 1.0).all():
-        raise AssertionError("the streamed write bound wrote the wrong values")
+        raise AssertionError("the write bound wrote the wrong values")
     out: dict[str, Any] = {"bytes_per_config": 8 * per_config}
-    for name, timing in (("fresh", fresh), ("reused", reused), ("streamed", streamed)):
+    for name, timing in (("fresh", fresh), ("reused", reused)):
         out[name] = {"GB_per_s": 8 * size / timing["best_wall_s"] / 1e9, "configs_per_s": configs / timing["best_wall_s"]}
-    recycled = _arrays.RECYCLE_MIN <= 8 * size <= _arrays.RECYCLE_MAX
-    out["applies"] = ("streamed" if 8 * size >= _specialise.STREAM_FROM else "reused") if recycled else "fresh"
     return out
 
 
@@ -213,7 +186,7 @@ def per_configuration(model: ff.Model, configs: int, pin_configs: int, repeats: 
         out[key]["ratio_specialised"] = a["configs_per_s"] / out[key]["pinocchio_loop"]["configs_per_s"]
     # H+ writes (6 + N)^2 values a configuration, far more than C+ and FD (6 + N): the bound of its output alone
     bound = output_write_bound((6 + model.n_joints) ** 2, configs, repeats)
-    for name in ("fresh", "reused", "streamed"):
+    for name in ("fresh", "reused"):
         bound[name]["ratio"] = bound[name]["configs_per_s"] / out["hplus"]["pinocchio_loop"]["configs_per_s"]
         bound[name]["specialised_share"] = out["hplus"]["freefloat_specialised"]["configs_per_s"] / bound[name]["configs_per_s"]
     out["hplus"]["output_write_bound"] = bound
@@ -403,9 +376,8 @@ def run(quick: bool, log: Callable[[str], None]) -> dict[str, Any]:
             "the rollout kernel specialised to the model's structure (ff.mechanics.specialise; specialise_s its compile or load); "
             "generic_threads_<k>: the generic kernels, same run.",
             "hplus.output_write_bound: H+'s output (configs x (6 + N)^2 float64) written once by all of numba's threads, "
-            "nothing computed, into a new array (fresh) or into memory written before (reused, as the engine's recycled "
-            "outputs of 4-256 MiB are), or streamed there (past the caches, as the specialised maps write outputs of "
-            "STREAM_FROM bytes or more into reused memory; 'applies' names the one the public call meets): "
+            "nothing computed, into a new array (fresh: a call without out=) or into memory written before (reused: "
+            "a call with out=): "
             "the fastest an H+ batch can run on "
             "this machine (its ratio against the same Pinocchio loop), and the specialised H+'s share of it.",
         ],
@@ -444,13 +416,12 @@ def table(report: dict[str, Any]) -> str:
                     f"{key:18s} {label + ' (specialised)':40s} {r['freefloat_specialised']['configs_per_s']:14,.0f} "
                     f"{r['pinocchio_loop']['configs_per_s']:14,.0f} {r['ratio_specialised']:7.1f}x"
                 )
-            for name in ("fresh", "reused", "streamed") if "output_write_bound" in r else ():
+            for name in ("fresh", "reused") if "output_write_bound" in r else ():
                 b = r["output_write_bound"][name]
-                applies = " (applies)" if r["output_write_bound"]["applies"] == name else ""
                 lines.append(
                     f"{key:18s} {'H+ output written alone, ' + name + ' memory':40s} {b['configs_per_s']:14,.0f} "
                     f"{r['pinocchio_loop']['configs_per_s']:14,.0f} {b['ratio']:7.1f}x  ({b['GB_per_s']:.1f} GB/s; "
-                    f"specialised H+ at {100 * b['specialised_share']:.0f}% of it){applies}"
+                    f"specialised H+ at {100 * b['specialised_share']:.0f}% of it)"
                 )
         s = res["simulation"]
         lines.append(

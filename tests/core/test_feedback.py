@@ -25,10 +25,15 @@ def test_the_first_compile_is_announced_once(monkeypatch: pytest.MonkeyPatch, ca
 def test_a_cache_miss_announces_and_a_hit_does_not(monkeypatch: pytest.MonkeyPatch) -> None:
     said: list[str] = []
     monkeypatch.setattr(_numba_cache, "_announce_compile", lambda folder: said.append(folder))
-    monkeypatch.setattr(_numba_cache.FunctionCache, "load_overload", lambda self, sig, ctx: None)  # a miss
-    cache = _numba_cache._Cache(_numba_cache.cache_dir)
+    from numba.core.caching import FunctionCache  # the gate's cache is numba's, with freefloat's folder
+
+    from freefloat.engine import gate
+
+    assert gate._CACHE is not None
+    monkeypatch.setattr(FunctionCache, "load_overload", lambda self, sig, ctx: None)  # a miss
+    cache = gate._CACHE[1](_numba_cache.cache_dir)
     assert cache.load_overload(None, None) is None and len(said) == 1
-    monkeypatch.setattr(_numba_cache.FunctionCache, "load_overload", lambda self, sig, ctx: "compiled")  # a hit
+    monkeypatch.setattr(FunctionCache, "load_overload", lambda self, sig, ctx: "compiled")  # a hit
     assert cache.load_overload(None, None) == "compiled" and len(said) == 1
 
 

@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 import numba
 import numpy as np
@@ -24,7 +23,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import freefloat as ff
-from freefloat.engine import buffers as _arrays
 from freefloat.engine import calls as _engine
 from freefloat.engine.cache import CacheWarning, cache_dir
 from freefloat.engine.layout import tree
@@ -264,10 +262,9 @@ def test_specialised_jstar_matches_pinocchio_and_the_generic_kernels(specialised
 
 
 @pytest.mark.parametrize("kind", ["jstar", "hplus"])
-def test_streamed_outputs_equal_the_plain_stores_bit_for_bit(specialised: Path, kind: str) -> None:
-    """The streaming path of the map driver (the tile, whole cache lines past the caches, the ends of a block by plain
-    stores, a fence): forced on small batches, at every start of the output within a cache line, around the tile, the
-    block and the thread threshold, and equal to the plain path to the bit."""
+def test_a_map_writes_its_rows_at_any_start_and_nothing_outside(specialised: Path, kind: str) -> None:
+    """The map driver writes a caller's output wherever it starts within a cache line (a view into a larger array, as
+    out= may be), around the block and the thread threshold: the same values to the bit, nothing written outside."""
     model = _prismatic_tree()
     t = tree(model)
     ff.mechanics.specialise(model, [kind])
@@ -276,49 +273,19 @@ def test_streamed_outputs_equal_the_plain_stores_bit_for_bit(specialised: Path, 
     n = model.n_joints
     width = module.COLUMNS.shape[0]
     rng = np.random.default_rng(11)
-    sizes = (1, 7, _lanes.TILE, _lanes.TILE + 1, LANES - 1, LANES, LANES + 3, 5 * LANES + 17, _specialise.THREADS_FROM + 65)
+    sizes = (1, 7, 8, 9, LANES - 1, LANES, LANES + 3, 5 * LANES + 17, _specialise.THREADS_FROM + 65)
     for size in sizes:
         q = rng.uniform(-np.pi, np.pi, (size, n))
         plain = np.full((size, width), np.nan)
-        _specialise._run(module, size, ((q,), _specialise.data_vector(t)[module.SLOTS], plain.reshape(-1), module.COLUMNS, False))
+        _specialise._run(module, size, ((q,), _specialise.data_vector(t)[module.SLOTS], plain.reshape(-1), module.COLUMNS))
         assert np.isfinite(plain).all()
         for shift in range(8):  # the output's first value at each place in a 64-byte line
             room = np.full(size * width + 16, np.nan)
             start = (-room.ctypes.data % 64) // 8 + shift
             out = room[start : start + size * width]
-            _specialise._run(module, size, ((q,), _specialise.data_vector(t)[module.SLOTS], out, module.COLUMNS, True))
+            _specialise._run(module, size, ((q,), _specialise.data_vector(t)[module.SLOTS], out, module.COLUMNS))
             np.testing.assert_array_equal(out.reshape(size, width), plain, err_msg=f"{kind}, {size} configurations, shift {shift}")
             assert np.isnan(room[:start]).all() and np.isnan(room[start + size * width :]).all()  # nothing written outside
-
-
-def test_large_maps_stream_into_reused_outputs_only(specialised: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """mapped() streams an output of STREAM_FROM bytes or more when a kernel has filled its memory before (a recycled
-    output), not a new mapping and not a small output; the results are the generic kernels'."""
-    model = ff.models.papadopoulos1992()
-    ff.mechanics.specialise(model, ["jstar"])
-    monkeypatch.setattr(_specialise, "STREAM_FROM", _arrays.RECYCLE_MIN)  # J* of 12 000 configurations is above both
-    monkeypatch.setattr(_arrays, "_RECYCLED", [])
-    monkeypatch.setattr(_arrays, "_WRITTEN", {})
-    monkeypatch.setattr(_specialise, "STREAMS", True)  # measured on x86-64; the path runs on any CPU
-    seen: list[bool] = []
-    run = _specialise._run
-
-    def spy(module: Any, size: int, args: tuple[Any, ...], **kw: Any) -> None:
-        if kw.get("threads") is None:  # the call from mapped() (it calls _run again with its threads)
-            seen.append(bool(args[-1]))
-        run(module, size, args, **kw)
-
-    monkeypatch.setattr(_specialise, "_run", spy)
-    rng = np.random.default_rng(12)
-    with _specialise.generic():
-        big_q = rng.uniform(-3, 3, (12_000, 4))
-        expected = ff.generalized_jacobian(model, big_q)
-    assert expected.nbytes >= _arrays.RECYCLE_MIN
-    for _ in range(3):
-        np.testing.assert_allclose(ff.generalized_jacobian(model, big_q), expected, rtol=0, atol=1e-12 * np.abs(expected).max())
-    small = rng.uniform(-3, 3, (2_000, 4))
-    ff.generalized_jacobian(model, small)
-    assert seen == [False, True, True, False]  # a new buffer, the same buffer twice, a small output
 
 
 def test_a_payload_variant_shares_the_kernels(specialised: Path) -> None:

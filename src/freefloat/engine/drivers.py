@@ -93,11 +93,11 @@ class Batched:
         buffers must outlive the call: they are arguments, held by this frame.
         """
         length = work_size(t.n_bodies, t.ee_body.shape[0])
-        before = (len(self.serial.overloads), compiled_count())
+        before = (len(self.serial.signatures), compiled_count())
         parts = threads_for(size, self.PARALLEL_MIN)
         work = np.empty((range_count(size, parts), length))
         run_kernel(self.serial, (t.ints, t.floats), work, a, size, parts)
-        self.compiled = before[0] > 0 and before == (len(self.serial.overloads), compiled_count())
+        self.compiled = before[0] > 0 and before == (len(self.serial.signatures), compiled_count())
 
 
 def driver(name: str, row: Any, *, parallel_min: int | None = None) -> Batched:

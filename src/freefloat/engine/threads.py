@@ -38,12 +38,8 @@ from typing import Any
 
 import numba
 import numpy as np
-from numba import types as nbtypes
-from numba._dispatcher import compute_fingerprint
-from numba.core import cgutils
-from numba.extending import intrinsic
-from numba.np.ufunc import parallel as numba_parallel
 
+from . import gate
 from .cache import kernel
 
 __all__ = ["compiled_count", "range_count", "run_kernel", "run_ranges", "thread_count", "threads_for"]
@@ -63,7 +59,7 @@ def _after_fork() -> None:
     if the parent had launched them, are not used (GNU OpenMP ends the child at its first parallel loop)."""
     _POOL.clear()
     _LOCK[0] = threading.Lock()
-    if numba_parallel._is_initialized:
+    if gate.threads_launched():
         _NUMBA_THREADS[0] = False
 
 
@@ -135,25 +131,8 @@ def run_ranges(run: Callable[[int, int, int], object], count: int, parts: int) -
 
 
 # ----------------------------------------------------------------- a compiled kernel on numba's threads
-@intrinsic
-def _call_range(typingctx: Any, address: Any, pre: Any, work: Any, first: Any, last: Any, post: Any) -> Any:  # pragma: no cover - compiled
-    """Call the compiled function at the integer ``address`` (numba's calling convention, returning nothing) with the
-    arguments ``(*pre, work, first, last, *post)``: 0 when it returned, 1 when it raised (its exception is dropped:
-    :func:`run_kernel` runs that range again in the calling thread, where it is raised). An argument that is a tuple (a
-    function's ``*args`` are one) is given as its items one after another: numba's calling convention passes every
-    argument as its fields, flattened, so the machine code takes the same values either way (:func:`_flat`)."""
-    if not (isinstance(address, nbtypes.Integer) and isinstance(pre, nbtypes.BaseTuple) and isinstance(post, nbtypes.BaseTuple)):
-        return None  # a typing error
-    argtypes = [*pre.types, work, first, last, *post.types]  # type: ignore[attr-defined]
-
-    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-        function = context.call_conv.get_function_type(nbtypes.none, argtypes)
-        callee = builder.inttoptr(args[0], function.as_pointer())
-        values = [*cgutils.unpack_tuple(builder, args[1]), args[2], args[3], args[4], *cgutils.unpack_tuple(builder, args[5])]
-        status, _ = context.call_conv.call_function(builder, callee, nbtypes.none, argtypes, values)
-        return builder.select(status.is_ok, context.get_constant(nbtypes.int64, 0), context.get_constant(nbtypes.int64, 1))
-
-    return nbtypes.int64(address, pre, work, first, last, post), codegen
+#: The intrinsic that calls a kernel's machine code (:func:`.gate.call_range`; None when that internal is off).
+_call_range: Any = gate.call_range
 
 
 @kernel(parallel=True)
@@ -164,43 +143,14 @@ def _fan_out(address: int, pre: Any, work: np.ndarray, post: Any, count: int, fa
     for r in numba.prange(parts):
         first = np.int64(r) * count // parts
         last = (np.int64(r) + 1) * count // parts
-        failed[r] = _call_range(address, pre, work[r], first, last, post)  # type: ignore[call-arg]
+        failed[r] = _call_range(address, pre, work[r], first, last, post)
     return failed.sum()
 
 
 def compiled_count() -> int:
     """How many signatures of :func:`_fan_out` this process has compiled or loaded (one per signature of the kernels it
     has called on threads): a call that raised it compiled one."""
-    return len(_fan_out.overloads)
-
-
-#: The machine code's address of each (kernel, argument types) that :func:`run_kernel` has called, keyed by numba's
-#: fingerprints of the arguments (what its dispatcher keys its own types by: 0.1 us an argument, where typing them is
-#: 5 us).
-_ADDRESSES: dict[tuple[Any, ...], int] = {}
-
-
-def _address(run: Any, args: tuple[Any, ...]) -> int:
-    """The address of the machine code that ``run`` (a numba dispatcher of a kernel that returns nothing) runs for
-    ``args``: the overload that a call from Python compiles (or loads from the cache), compiled here if it has not run
-    yet. A kernel's ``*args`` are one tuple: numba's dispatcher types them as the tuple of their types (``Tuple``,
-    ``UniTuple``), not as the ``StarArgTuple`` that ``fold_argument_types`` makes, so they are typed as it does (else
-    the kernel would be compiled a second time, and kept twice on disk)."""
-    key = (run, *(compute_fingerprint(a) for a in args))
-    found = _ADDRESSES.get(key)
-    if found is None:
-        _, folded = run.fold_argument_types(tuple(run.typeof_pyval(a) for a in args), {})
-        types = tuple(
-            nbtypes.BaseTuple.from_types(t.types) if isinstance(t, (nbtypes.StarArgTuple, nbtypes.StarArgUniTuple)) else t for t in folded
-        )
-        result = run.overloads.get(types)
-        if result is None:
-            run.compile(types)
-            result = run.overloads[types]
-        if result.signature.return_type != nbtypes.none:
-            raise TypeError(f"freefloat: run_kernel calls kernels that return nothing, not {result.signature.return_type}")
-        found = _ADDRESSES[key] = int(result.library.get_pointer_to_function(result.fndesc.llvm_func_name))
-    return found
+    return len(_fan_out.signatures)
 
 
 def _flat(values: tuple[Any, ...]) -> tuple[Any, ...]:
@@ -214,7 +164,7 @@ def _flat(values: tuple[Any, ...]) -> tuple[Any, ...]:
 @functools.cache
 def _layer() -> str:
     """numba's threading layer, its threads launched here if they were not yet."""
-    numba_parallel._launch_threads()
+    gate.launch_threads()
     return str(numba.threading_layer())
 
 
@@ -236,13 +186,24 @@ def run_kernel(run: Any, pre: tuple[Any, ...], work: np.ndarray, post: tuple[Any
     def one(r: int, first: int, last: int) -> None:  # range r in the calling thread, a Python call of the kernel
         run(*pre, work[r], first, last, *post)
 
-    queue = _NUMBA_THREADS[0] and _layer() == "workqueue"
-    if not _NUMBA_THREADS[0] or (queue and not _WORKQUEUE.acquire(blocking=False)):  # forked, or the layer is busy
+    if not (gate.THREADS and _NUMBA_THREADS[0]):  # numba's internals off, or forked
+        run_ranges(one, count, parts)
+        return
+    try:
+        address = gate.machine_address(run, (*pre, work[0], 0, count, *post))
+    except gate.NotAVoidKernel:
+        raise
+    except Exception as exc:  # a lookup of numba's internals failed at its first use: the pool from now on
+        gate.turn_off("threads", exc)
+        run_ranges(one, count, parts)
+        return
+    queue = _layer() == "workqueue"
+    if queue and not _WORKQUEUE.acquire(blocking=False):  # the layer is busy
         run_ranges(one, count, parts)
         return
     failed = np.empty(parts, dtype=np.int64)
     try:
-        raised = _fan_out(_address(run, (*pre, work[0], 0, count, *post)), _flat(pre), work, _flat(post), count, failed)
+        raised = _fan_out(address, _flat(pre), work, _flat(post), count, failed)
     finally:
         if queue:
             _WORKQUEUE.release()

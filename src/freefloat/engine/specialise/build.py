@@ -36,7 +36,6 @@ import hashlib
 import importlib.util
 import logging
 import os
-import platform
 import sys
 import tempfile
 import threading
@@ -55,7 +54,6 @@ from .. import layout as _tree
 from .. import measures as _measures
 from .. import quantities as _configuration
 from .. import recursions as _recursions
-from ..buffers import RECYCLE_MIN, mark_written, written_before
 from ..cache import CacheWarning, cache_dir
 from ..layout import BODY_FIELDS, Arrays, Tree, work_size
 from ..threads import range_count, run_kernel, threads_for
@@ -341,8 +339,8 @@ def distinct(outputs: list[Any]) -> tuple[list[Any], list[int]]:
 #: contiguous range of blocks per thread (:func:`_run`, :func:`~._threads.run_kernel`): no threaded twin is compiled.
 _DRIVERS = {
     "map": (
-        "parts, P, OUT, rows, stream",
-        "    _lanes.map_blocks(lane, gather, parts, P, OUT, rows, stream, W, first, last)\n",
+        "parts, P, OUT, rows",
+        "    _lanes.map_blocks(lane, gather, parts, P, OUT, rows, W, first, last)\n",
     ),
     "measure": (
         "Q, P, rows, kind, OUT",
@@ -389,10 +387,10 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
         lane += '\n\n@kernel(inline="always")\n' + gather_source(columns)
     if kind == "measure":  # the smallest singular value of all the rows of J*: the engine's reduction, traced
         reduction, reduced, k_n = trace_reduction(6 * t.ee_body.shape[0], t.n_joints)  # K = 6E rows: {k} below
-        lane += "\n\n@kernel(straight=True)\n" + emit(reduction, reduced, k_n, "reduce")[0]
+        lane += "\n\n@kernel()\n" + emit(reduction, reduced, k_n, "reduce")[0]
     ext_at = 0
     if kind in MAPS:
-        rows = n_in + len(outputs) + 1 + _lanes.tile_rows.py_func(len(columns))  # then the guards' row, a tile (_lanes.map_blocks)
+        rows = n_in + len(outputs) + 1  # then the guards' row (lanes.map_blocks)
     elif kind == "measure":
         rows = n_in + len(outputs) + _measures.measure_work.py_func(t.n_joints)  # then the measure's work space
     else:
@@ -407,7 +405,7 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
         f"SLOTS = {slots!r}\nROWS = {rows}\nWRENCHES = {wrenches!r}\nEXT_AT = {ext_at}\n"
         f"COLUMNS = np.array({columns!r}, dtype=np.int64)\n"
         + (f"STATE = {t.state_size}  # the flat state (13 + 2N; 14 + 2N with the dissipated energy)\n" if kind == "rollout" else "")
-        + "\n\n@kernel(straight=True)\n"
+        + "\n\n@kernel()\n"
     )
     guarded = f"GUARDED = {bool(g.guards)}\n\n\n"
     group = "map" if kind in MAPS else kind
@@ -416,7 +414,7 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
     drivers = drivers.replace("{k}", str(6 * t.ee_body.shape[0]))
     drivers += _BLOCKS.format(args=arguments, body=body)
     return (
-        head.replace("\n\n\n@kernel(straight=True)\n", "\n" + guarded + "@kernel(straight=True)\n") + lane + drivers,
+        head.replace("\n\n\n@kernel()\n", "\n" + guarded + "@kernel()\n") + lane + drivers,
         slots,
         rows,
     )
@@ -713,7 +711,7 @@ def _warm(module: types.ModuleType, t: Tree, kind: str, wrenches: Layout = ()) -
         parts = [np.zeros((1, width)) for width in map_parts(kind, n, wrenches)]
         if kind == "forward":
             parts[5][0, ::4] = 1.0  # T0 = 1
-        args: tuple[Any, ...] = (tuple(parts), data, np.empty(module.COLUMNS.shape[0]), module.COLUMNS, True)  # streamed
+        args: tuple[Any, ...] = (tuple(parts), data, np.empty(module.COLUMNS.shape[0]), module.COLUMNS)
     elif kind == "measure":
         args = (np.zeros((1, n)), data, np.zeros(1, dtype=np.int64), 1, np.empty(1))
     else:
@@ -735,20 +733,6 @@ def _warm(module: types.ModuleType, t: Tree, kind: str, wrenches: Layout = ()) -
 #: at each call, it cost 50-120 us: the threshold was 4096.) Rollouts: from two blocks of trajectories (each a long
 #: run).
 THREADS_FROM = 8 * LANES
-
-
-#: Outputs of a map of this many bytes or more, in memory that an earlier output used (:func:`~._arrays.written_before`:
-#: the engine's recycled outputs), are written past the caches (:func:`~._lanes.stream_block`): ordinary stores read
-#: every line from memory before writing it. Streamed against plain, 10^5 configurations unless said, 2 threads of the
-#: 2-core Intel VM, best of 24 calls alternated (measured): H+ of the 7-DOF arm 41 MB 0.91x, 61 MB 1.34x, 81 MB 1.34x,
-#: 135 MB 1.34x (6.75 -> 9.01 M/s); of the 1992 system 24 MB 1.16x, 80 MB 1.33x; J* of the 1992 system 12 MB 0.81x,
-#: 38 MB 0.84x; of the 7-DOF arm 10-20 MB 0.91-1.10x, 34 MB 1.05x, 67 MB 1.14x. Smaller outputs stay in the caches,
-#: where the caller reads them next. In a new mapping streamed stores lose (H+ of 270 MB: 0.71x): the system zeroes
-#: each page at its first write, through the caches.
-STREAM_FROM = 48 << 20
-#: Streaming stores on this machine's CPU: x86-64, where STREAM_FROM was measured (other CPUs may treat the stores'
-#: hint differently; they write as before).
-STREAMS = platform.machine().lower() in ("x86_64", "amd64")
 
 
 def _run(
@@ -812,13 +796,10 @@ def mapped(module: types.ModuleType, t: Tree, parts: tuple[np.ndarray, ...], out
     """The outputs of a map kind for C configurations into out (C, outputs [+ 1: the guards, 1.0 where every guard held,
     else 0.0]; C-contiguous) by the specialised kernel (J*: 6E * N of them, row-major; H+: (6 + N)^2). ``parts``: the
     inputs (:func:`map_parts`), each a C-contiguous float64 array (C, width), or (1, width) for a row that every
-    configuration shares. Outputs of :data:`STREAM_FROM` bytes or more are streamed past the caches."""
+    configuration shares."""
     if not (out.flags.c_contiguous and out.dtype == np.float64 and out.flags.aligned):
         raise ValueError("freefloat: a specialised map writes into a C-contiguous, aligned float64 array")
-    stream = STREAMS and out.nbytes >= STREAM_FROM and written_before(out)
-    _run(module, out.shape[0], (parts, data_vector(t)[module.SLOTS], out.reshape(-1), module.COLUMNS, stream))
-    if STREAMS and out.nbytes >= RECYCLE_MIN:  # smaller outputs are never in a kept buffer; only streaming reads this
-        mark_written(out)
+    _run(module, out.shape[0], (parts, data_vector(t)[module.SLOTS], out.reshape(-1), module.COLUMNS))
 
 
 def measured(module: types.ModuleType, t: Tree, q: np.ndarray, rows: np.ndarray, code: int, out: np.ndarray) -> None:

@@ -23,11 +23,10 @@ from typing import Any
 import numba
 import numpy as np
 
-from ..cache import LINE, bind, store_fence, stream_line
+from ..cache import bind
 
 __all__ = [
     "LANES",
-    "TILE",
     "block_rows",
     "bound_loops",
     "feed",
@@ -36,18 +35,11 @@ __all__ = [
     "measure_loop",
     "rollout_loop",
     "rollout_rows",
-    "stream_block",
-    "tile_rows",
 ]
 
 #: Configurations per lane block (a multiple of the SIMD width). Measured on the 7-DOF arm: 16 is 10-20% slower,
 #: 32, 64 and 128 within the machine's noise of each other.
 LANES = 64
-#: Configurations whose outputs :func:`map_blocks` gathers at a time before streaming them: 8 rows of H+ of the
-#: 7-DOF arm are 10.8 kB, in the first-level cache with the lane rows (48 kB on the 2-core VM). H+ of 10^5
-#: configurations, 2 threads, M/s, TILE 8 / 16 / 32 / 64 (the whole block, 86.5 kB): 7-DOF arm 10.1-10.2 / 9.3-10.1 /
-#: 8.9-9.0 / 9.2-9.6, 1992 system 20.0-20.7 / 18.4-20.9 / 18.4-18.5 / 17.6-18.2 (measured, two runs each, load 1).
-TILE = 8
 
 
 @numba.njit(inline="always", nogil=True, error_model="numpy")
@@ -117,7 +109,6 @@ def map_blocks(
     P: np.ndarray,
     OUT: np.ndarray,
     rows: np.ndarray,
-    stream: bool,
     W: np.ndarray,
     first: int,
     last: int,
@@ -130,17 +121,11 @@ def map_blocks(
     entries). ``gather(W, dst, at, first, last)``: the module's copy of the outputs of the lanes first..last into
     ``dst[at:]``, a configuration's row after another, each value from its row of W (``rows``, as constant offsets).
     OUT: the outputs (C, columns), C-contiguous, flat (C * columns,). W: the lane rows, the guards' row (reset to 1.0
-    before each block; a lane kernel with guards multiplies it), then a tile of :data:`TILE` * columns values.
-    The outputs are written a configuration's row at a time, contiguous: J* of the 7-DOF arm 56 ns a configuration on
-    one thread, against 72 ns with eight configurations' values of one column at a time (one load, eight stores 42
-    values apart), 1992 system 37 against 43 ns (measured, with the rows read from ``rows``). With ``stream`` (a large
-    batch, :data:`~._specialise.STREAM_FROM`) the rows of :data:`TILE` configurations at a time are gathered into the
-    tile (in the first-level cache) and go to memory, contiguous in OUT, a cache line at a time past the caches
-    (:func:`stream_block`).
+    before each block; a lane kernel with guards multiplies it). The outputs are written a configuration's row at a
+    time, contiguous (faster than one column of eight configurations at a time).
     """
     n_out = rows.shape[0]
-    guard = W.shape[0] // LANES - tile_rows(n_out) - 1
-    tile = (guard + 1) * LANES
+    guard = W.shape[0] // LANES - 1
     size = OUT.shape[0] // n_out
     for block in range(first, last):
         b0 = block * LANES
@@ -161,37 +146,7 @@ def map_blocks(
         for lane_ in range(LANES):
             W[guard * LANES + lane_] = 1.0
         lane(W, P)
-        if stream:
-            for lo in range(0, count, TILE):
-                hi = min(count, lo + TILE)
-                gather(W, W, tile, lo, hi)
-                stream_block(OUT, (b0 + lo) * n_out, W, tile, (hi - lo) * n_out)
-        else:
-            gather(W, OUT, b0 * n_out, 0, count)
-    if stream:
-        store_fence()  # type: ignore[call-arg]  # the streamed lines visible to the thread that joins this one
-
-
-@numba.njit(inline="always", nogil=True, error_model="numpy")
-def tile_rows(columns: int) -> int:  # pragma: no cover
-    """The rows of LANES values of :func:`map_blocks`'s tile for outputs of ``columns`` values: TILE rows of them."""
-    return -(-(TILE * columns) // LANES)
-
-
-@numba.njit(inline="always", nogil=True, error_model="numpy")
-def stream_block(OUT: np.ndarray, at: int, src: np.ndarray, k: int, count: int) -> None:  # pragma: no cover
-    """OUT[at : at + count] = src[k : k + count] (float64, contiguous): the whole cache lines of OUT by
-    :func:`~._numba_cache.stream_line` (past the caches), the parts of a line at either end by ordinary stores."""
-    address = OUT.ctypes.data + 8 * at
-    head = min(count, ((-address) % 64) // 8)  # values before OUT's first whole line (OUT: float64, 8-byte aligned)
-    for j in range(head):
-        OUT[at + j] = src[k + j]
-    j = head
-    while j + LINE <= count:
-        stream_line(address + 8 * j, src, k + j)  # type: ignore[call-arg]
-        j += LINE
-    for i in range(j, count):
-        OUT[at + i] = src[k + i]
+        gather(W, OUT, b0 * n_out, 0, count)
 
 
 @numba.njit(inline="always", nogil=True, error_model="numpy")
