@@ -372,3 +372,70 @@ CASES += [  # a broken link on the way to --out: named, with the target it misse
         r"^--out dl/sub: dl is a symbolic link to /\S+/work/gone/x, which does not exist",
     ),
 ]
+
+# out= on the batched calls: refused before the work, naming out, the expected shape or layout and the fix
+_Q70 = np.tile(_Q, (70, 1))
+
+
+def _read_only(shape: tuple[int, ...]) -> np.ndarray:
+    out = np.empty(shape)
+    out.flags.writeable = False
+    return out
+
+
+CASES += [
+    api(
+        "out-wrong-shape",
+        lambda f: ff.generalized_jacobian(_model(), _Q70, out=np.empty((70, 12, 5))),
+        ShapeError,
+        r"^out: expected shape \(70, 12, 4\) \(the result's\), got \(70, 12, 5\); pass out=np\.empty\(\(70, 12, 4\)\)",
+    ),
+    api(
+        "out-batched-for-one-configuration",
+        lambda f: ff.system_inertia_matrix(_model(), _Q, out=np.empty((1, 10, 10))),
+        ShapeError,
+        r"^out: expected shape \(10, 10\) \(the result's\), got \(1, 10, 10\)",
+    ),
+    api(
+        "out-float32",
+        lambda f: ff.system_inertia_matrix(_model(), _Q70, out=np.empty((70, 10, 10), dtype=np.float32)),
+        TypeError,
+        r"^out: expected dtype float64, got float32; pass out=np\.empty\(\(70, 10, 10\)\) \(float64\)",
+    ),
+    api(
+        "out-a-list",
+        lambda f: ff.nonlinear_forces(_model(), _Q70, np.zeros(10), out=[0.0] * 10),
+        TypeError,
+        r"^out: expected a float64 numpy array of shape \(70, 10\), got list",
+    ),
+    api(
+        "out-transposed",
+        lambda f: ff.generalized_jacobian(_model(), _Q70, out=np.empty((4, 12, 70)).T),
+        ValueError,
+        r"^out: is not C-contiguous and aligned .*; pass out=np\.empty\(\(70, 12, 4\)\)",
+    ),
+    api(
+        "out-read-only",
+        lambda f: ff.forward_dynamics(_model(), _Q70, np.zeros(10), out=_read_only((70, 10))),
+        ValueError,
+        r"^out: is read-only; pass out=np\.empty\(\(70, 10\)\)",
+    ),
+    api(
+        "out-is-the-input",
+        lambda f: ff.nonlinear_forces(_model(), _Q70, (v := np.zeros((70, 10))), out=v),
+        ValueError,
+        r"^out: shares memory with velocity, which the call reads while it writes out; pass an array of its own",
+    ),
+    api(
+        "out-barycentric",
+        lambda f: ff.generalized_jacobian(_model(), _Q70, method="barycentric", out=np.empty((70, 12, 4))),
+        ValueError,
+        r"^out: method='barycentric' \(the numpy reference\) makes its own arrays and takes no out=",
+    ),
+    api(
+        "out-inverse-dynamics-one-array",
+        lambda f: ff.inverse_dynamics(_model(), _Q70, np.zeros(10), np.zeros(10), out=np.empty((70, 10))),
+        TypeError,
+        r"^out: expected a tuple of three arrays \(spacecraft_force, spacecraft_torque, joint_torque",
+    ),
+]

@@ -2,7 +2,8 @@
 
 The rest of freefloat calls the engine through the names below and never imports its submodules (an import contract
 checks it). Every call takes a :class:`~freefloat.Model` (turned into flat arrays once per model: :func:`tree`) and
-batches of inputs over leading axes, and returns new arrays; frames and units are those of the public functions of
+batches of inputs over leading axes, and returns new arrays (or fills the caller's ``out`` where a call takes one:
+:func:`check_out`); frames and units are those of the public functions of
 :mod:`freefloat.mechanics` that call them.
 
 Inside, read from the bottom up: ``cache`` (the on-disk kernel cache), ``layout`` (the model and its scratch as named
@@ -14,7 +15,7 @@ one model structure and driven block by block) and ``calls`` (the Python side of
 
 from __future__ import annotations
 
-from .buffers import owned, release_buffers
+from .buffers import check_out, owned
 from .calls import (
     Stepper,
     accelerations,
@@ -61,6 +62,7 @@ __all__ = [
     "accelerations",
     "actuator_bounds",
     "auto_enabled",
+    "check_out",
     "find_specialised",
     "frames",
     "generalized_jacobian",
@@ -74,7 +76,6 @@ __all__ = [
     "point_biases",
     "point_jacobians",
     "points",
-    "release_buffers",
     "residual_rows",
     "rk4_batch",
     "rollout",

@@ -6,7 +6,8 @@ threads for large ones: the same compiled source) and gives the batch shape back
 inverse dynamics batches and rollouts (with or without external wrenches) take the kernels specialised to the
 model's structure (and the wrenches' layout) instead when :func:`~freefloat.mechanics.specialise` made them
 (:mod:`._specialise`; the same recursions, traced). Inputs are checked by the public functions that call these; here they are only made
-contiguous float64.
+contiguous float64. The calls whose result is one large array take ``out``: the caller's array of the result's shape
+(float64, C-contiguous, writable; :func:`~.buffers.check_out`), which they fill and return instead of a new one.
 """
 
 from __future__ import annotations
@@ -129,35 +130,38 @@ def point_biases(model: Any, q: np.ndarray, velocity: np.ndarray, bodies: Any, p
     return out.reshape((*batch, b.shape[0], 6))
 
 
-def generalized_jacobian(model: Any, q: np.ndarray) -> np.ndarray:
-    """J* (..., 6E, N), spacecraft frame (1992 eq. 14)."""
+def generalized_jacobian(model: Any, q: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """J* (..., 6E, N), spacecraft frame (1992 eq. 14); into ``out`` when given (then returned)."""
     t = tree(model)
     batch = q.shape[:-1]
-    flat = _flat(q, batch, (t.n_joints,))
     rows = 6 * t.ee_body.shape[0]
-    out = new_output((flat.shape[0], rows, t.n_joints))
-    if not _specialised_map(t, "jstar", (flat,), out.reshape((flat.shape[0], rows * t.n_joints))):
-        _timed(t, "jstar", flat.shape[0], _drivers.jstar_batch, flat.shape[0], t, flat, out)
-    return out.reshape((*batch, rows, t.n_joints))
+    result = new_output((*batch, rows, t.n_joints), out=out)
+    flat = _flat(q, batch, (t.n_joints,))
+    size = flat.shape[0]
+    if not _specialised_map(t, "jstar", (flat,), result.reshape((size, rows * t.n_joints))):
+        _timed(t, "jstar", size, _drivers.jstar_batch, size, t, flat, result.reshape((size, rows, t.n_joints)))
+    return result
 
 
-def jacobian_measures(model: Any, q: np.ndarray, rows: Any, measure: str) -> np.ndarray:
+def jacobian_measures(model: Any, q: np.ndarray, rows: Any, measure: str, out: np.ndarray | None = None) -> np.ndarray:
     """A measure (``"det"``, ``"sigma_min"``, ``"manipulability"``, ``"condition"``) of the rows ``rows`` of J* at
     each configuration, (...): computed per configuration in the kernel, no J* batch written (the specialised kernel
-    of the model's structure, kind "measure", when made; the rows must be distinct: they are reduced in place)."""
+    of the model's structure, kind "measure", when made; the rows must be distinct: they are reduced in place); into
+    ``out`` (...) when given (then returned)."""
     t = tree(model)
     batch = q.shape[:-1]
+    result = new_output(batch, out=out)
     flat = _flat(q, batch, (t.n_joints,))
     r = owned(np.atleast_1d(np.asarray(rows, dtype=np.int64)), np.int64)
     code = MEASURE_CODES[measure]
-    out = new_output((flat.shape[0],))
+    out = result.reshape((flat.shape[0],))
     fast = _specialise.find(t, "measure") if flat.shape[0] >= _SPECIALISED_MIN else None
     if fast is not None:
         _specialise.measured(fast, t, flat, r, code, out)
     else:
         blocks = -(-flat.shape[0] // LANES)  # the generic measure's rows are lane blocks too
         _timed(t, "measure", flat.shape[0], _drivers.measure_batch, blocks, t, flat, r, code, out)
-    return out.reshape(batch)
+    return result
 
 
 def _specialised_map(t: Tree, kind: str, parts: Any, out: np.ndarray, wrenches: _specialise.Layout = ()) -> bool:
@@ -194,16 +198,17 @@ def _timed(t: Tree, kind: str, counted: int, driver: Any, *args: Any, wrenches: 
         _specialise.account(t, kind, time.perf_counter() - start, wrenches)
 
 
-def inertia_matrix(model: Any, q: np.ndarray) -> np.ndarray:
-    """H+ (..., 6 + N, 6 + N), order [r_cm, omega0, q] (1991 eq. 15)."""
+def inertia_matrix(model: Any, q: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """H+ (..., 6 + N, 6 + N), order [r_cm, omega0, q] (1991 eq. 15); into ``out`` when given (then returned)."""
     t = tree(model)
     batch = q.shape[:-1]
-    flat = _flat(q, batch, (t.n_joints,))
     size = 6 + t.n_joints
-    out = new_output((flat.shape[0], size, size))
-    if not _specialised_map(t, "hplus", (flat,), out.reshape((flat.shape[0], size * size))):
-        _timed(t, "hplus", flat.shape[0], _drivers.hplus_batch, flat.shape[0], t, flat, out)
-    return out.reshape((*batch, size, size))
+    result = new_output((*batch, size, size), out=out)
+    flat = _flat(q, batch, (t.n_joints,))
+    c = flat.shape[0]
+    if not _specialised_map(t, "hplus", (flat,), result.reshape((c, size * size))):
+        _timed(t, "hplus", c, _drivers.hplus_batch, c, t, flat, result.reshape((c, size, size)))
+    return result
 
 
 def inertia_matrix_rate(model: Any, q: np.ndarray, qdot: np.ndarray) -> np.ndarray:
@@ -290,20 +295,22 @@ def residual_rows(
     u: np.ndarray | None = None,
     t0: np.ndarray | None = None,
     ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """H+ zddot0 + C+ - Q (..., 6 + N) by Newton-Euler (1991 eq. 19), its first block in the spacecraft frame:
     M T0^T rddot_cm less the thrusters' and the external forces.
 
     ``acceleration`` None: zddot0 = 0 (then C+ - Q; C+ alone with no ``u`` and no ``ext``: its first block is zero);
     ``u`` = [tau, f_S, n_S] (None: zero); ``t0`` the attitude (..., 3, 3) (None: the identity) for rddot_cm and
-    inertial-frame wrenches; ``ext`` = (ext_i, ext_f (..., W, 9)).
+    inertial-frame wrenches; ``ext`` = (ext_i, ext_f (..., W, 9)). Into ``out`` (..., 6 + N) when given (then returned).
     """
     t = tree(model)
     n = t.n_joints
     acc_in = np.zeros(6 + n) if acceleration is None else acceleration
     wrenches = _specialise.layout(ext[0])
     batch = _dynamics_batch(q, velocity, u, t0, ext, acc_in)
-    out = new_output((math.prod(map(int, batch)), 6 + n))
+    result = new_output((*batch, 6 + n), out=out)
+    out = result.reshape((math.prod(map(int, batch)), 6 + n))
 
     def parts() -> list[np.ndarray]:  # the specialised kernel's inputs: q, zdot0, zddot0, u, T0 and with wrenches ext_f
         rows = [_part(q, batch, n), _part(velocity, batch, 6 + n), _part(acceleration, batch, 6 + n), _part(u, batch, n + 6)]
@@ -334,7 +341,7 @@ def residual_rows(
             out,
             wrenches=wrenches,
         )
-    return out.reshape((*batch, 6 + n))
+    return result
 
 
 def accelerations(
@@ -344,13 +351,19 @@ def accelerations(
     u: Actuation = None,
     t0: np.ndarray | None = None,
     ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES,
+    out: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Forward dynamics: (zddot0 (..., 6 + N) = [rddot_cm inertial, d/dt omega0, qddot], ok (...) False where H+ failed)."""
+    """Forward dynamics: (zddot0 (..., 6 + N) = [rddot_cm inertial, d/dt omega0, qddot], ok (...) False where H+ failed);
+    zddot0 into ``out`` when given (then returned; the specialised kernel writes its rows with the guards' flag, copied
+    from there)."""
     t = tree(model)
     n = t.n_joints
     wrenches = _specialise.layout(ext[0])
     batch = _dynamics_batch(q, velocity, u, t0, ext)
-    both = new_output((math.prod(map(int, batch)), 7 + n))  # zddot0 and the guards' flag
+    if out is not None:
+        new_output((*batch, 6 + n), out=out)  # checked before the work
+    size = math.prod(map(int, batch))
+    both = new_output((size, 7 + n))  # zddot0 and the guards' flag
 
     def parts() -> list[np.ndarray]:  # the specialised kernel's inputs: q, zdot0, tau, f_S, n_S, T0 and with wrenches ext_f
         rows = [_part(q, batch, n), _part(velocity, batch, 6 + n)]
@@ -362,10 +375,14 @@ def accelerations(
         return rows
 
     if _specialised_map(t, "forward", parts, both, wrenches):
-        return both[:, : 6 + n].reshape((*batch, 6 + n)), (both[:, 6 + n] != 0.0).reshape(batch)
+        ok = (both[:, 6 + n] != 0.0).reshape(batch)
+        if out is None:
+            return both[:, : 6 + n].reshape((*batch, 6 + n)), ok
+        out.reshape((size, 6 + n))[...] = both[:, : 6 + n]
+        return out, ok
     batch, (qf, vf, uf, t0f, ext_i, ext_f) = _dynamics_inputs(t, q, velocity, u, t0, ext)
-    size = qf.shape[0]
-    out = new_output((size, 6 + n))
+    result = new_output((*batch, 6 + n), out=out)
+    out = result.reshape((size, 6 + n))
     ok = np.empty(size, dtype=np.bool_)
     _timed(
         t,
@@ -384,7 +401,7 @@ def accelerations(
         ok,
         wrenches=wrenches,
     )
-    return out.reshape((*batch, 6 + n)), ok.reshape(batch)
+    return result, ok.reshape(batch)
 
 
 def state_derivative(

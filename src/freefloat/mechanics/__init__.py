@@ -18,7 +18,8 @@ Layer: imports :mod:`freefloat.core` and :mod:`freefloat.engine`.
 
 from __future__ import annotations
 
-from ..engine import release_buffers
+import warnings
+
 from . import planar
 from .dynamics import (
     forward_dynamics,
@@ -62,6 +63,22 @@ from .momentum import (
     zero_momentum_rate,
 )
 from .specialised import auto_specialise, is_specialised, specialise
+
+
+def release_buffers() -> int:
+    """Deprecated, to be removed in the next release: does nothing and returns 0 (bytes given back).
+
+    The batched calls no longer keep output buffers for reuse: each result is a new array, or the caller's own
+    array given as ``out=`` (``ff.generalized_jacobian(model, q, out=jac)``), which a loop of calls of one size
+    fills again instead of making a new one. Emits a :class:`DeprecationWarning`.
+    """
+    warnings.warn(
+        "ff.mechanics.release_buffers() does nothing: results are no longer recycled; pass out= to reuse an output",
+        DeprecationWarning,
+        stacklevel=2,
+    )
+    return 0
+
 
 __all__ = [
     "ExternalWrench",

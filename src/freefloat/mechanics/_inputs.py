@@ -69,6 +69,42 @@ def check_method(method: str, reference: str) -> str:
     return method
 
 
+def check_out_inputs(out: Any, method: str, name: str = "out", **inputs: Any) -> None:
+    """Refuse an ``out=`` (given as ``name``) that the call cannot fill: with ``method="barycentric"`` (the numpy
+    reference makes its own arrays), or sharing memory with one of the call's ``inputs`` (by argument name; the fields
+    of :class:`~freefloat.mechanics.ExternalWrench` items too), which the kernels would overwrite while they read it.
+    Nothing when ``out`` is None; its type, dtype, shape and layout are the engine's checks (``engine.check_out``)."""
+    if out is None:
+        return
+    if method != "recursive":
+        raise ValueError(
+            f"{name}: method={method!r} (the numpy reference) makes its own arrays and takes no out=; "
+            "call with method='recursive' (the default) or without out"
+        )
+    if not isinstance(out, np.ndarray):
+        return
+    for arg, value in inputs.items():
+        for label, arr in _input_arrays(arg, value):
+            if np.may_share_memory(out, arr) and np.shares_memory(out, arr):
+                raise ValueError(
+                    f"{name}: shares memory with {label}, which the call reads while it writes {name}; "
+                    f"pass an array of its own ({name}=np.empty({tuple(out.shape)})) or a copy of {label}"
+                )
+
+
+def _input_arrays(name: str, value: Any) -> list[tuple[str, np.ndarray]]:
+    """The numpy arrays of one argument: itself, or the fields of an ExternalWrench, or of each of a sequence of them
+    (``external=``; other lists are copied into new arrays before any kernel reads them)."""
+    if isinstance(value, np.ndarray):
+        return [(name, value)]
+    fields = ("point", "force", "torque")
+    if any(hasattr(value, f) for f in fields):
+        return [(f"{name}.{f}", getattr(value, f)) for f in fields if isinstance(getattr(value, f), np.ndarray)]
+    if name == "external" and isinstance(value, tuple | list):
+        return [pair for i, item in enumerate(value) for pair in _input_arrays(f"external[{i}]", item)]
+    return []
+
+
 def revolute_only(model: Model, what: str) -> None:
     """Refuse a model with prismatic joints (mimic ones included) in a closed form written for revolute joints only."""
     model = model.expanded()

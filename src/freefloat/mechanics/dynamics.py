@@ -69,6 +69,7 @@ from ._inputs import (
     body_joints,
     body_velocity,
     check_method,
+    check_out_inputs,
     gather_columns,
     gather_square,
     revolute_only,
@@ -183,7 +184,7 @@ def _c_plus_barycentric(model: Model, q: np.ndarray, velocity: np.ndarray) -> np
     return out
 
 
-def nonlinear_forces(model: Model, q: Any, velocity: Any, *, method: str = "recursive") -> np.ndarray:
+def nonlinear_forces(model: Model, q: Any, velocity: Any, *, method: str = "recursive", out: np.ndarray | None = None) -> np.ndarray:
     """C+ of 1991 eq. 19, (..., 6 + N): H+ zddot0 + C+ = Q.
 
     ``velocity`` is zdot0 = [rdot_cm (inertial), omega0 (spacecraft frame),
@@ -193,12 +194,17 @@ def nonlinear_forces(model: Model, q: Any, velocity: Any, *, method: str = "recu
     engine's O(N) Newton-Euler recursion (:mod:`._recursions`);
     ``method="barycentric"`` is the closed form of the module docstring
     (quasi-Lagrangian, barycentric vectors). Both give the same numbers.
+
+    ``out``: an array of the result's shape (..., 6 + N), float64, C-contiguous and writable, sharing no memory with
+    the inputs: C+ is written into it and it is returned (``method="recursive"`` only), so that a loop of calls of
+    one size reuses one array instead of a new one per call.
     """
     method = _method(method)
+    check_out_inputs(out, method, q=q, velocity=velocity)
     q = _joints(model, q, "q")
     v = _velocity(model, velocity)
-    if method == "recursive":
-        return engine.residual_rows(model.without_passive(), q, v)  # the engine counts passive torques in Q
+    if method == "recursive":  # the engine counts passive torques in Q
+        return engine.residual_rows(model.without_passive(), q, v, out=out)
     revolute_only(model, "nonlinear_forces(method='barycentric') (1991 eqs. 18-21)")
     kernel = _c_plus_barycentric
     return chunked(pieces(lambda qq, vv: kernel(model, qq, vv), model.n_bodies), q, v, core_ndims=(1, 1))
@@ -364,6 +370,7 @@ def forward_dynamics(
     *,
     external: Any = (),
     method: str = "recursive",
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """zddot0 = [rddot_cm (inertial), d/dt omega0 (spacecraft frame), qddot], (..., 6 + N).
 
@@ -375,14 +382,21 @@ def forward_dynamics(
     H+ by composite rigid bodies and C+ - Q by Newton-Euler, one Cholesky
     solve, at every batch size; ``method="barycentric"``: the barycentric H+
     (1991 eq. 16) and closed-form C+ with a Cholesky solve.
+
+    ``out``: an array of the result's shape (..., 6 + N), float64, C-contiguous and writable, sharing no memory with
+    the inputs: zddot0 is written into it and it is returned (``method="recursive"`` only; after a
+    SingularConfigurationError its content is undefined), so that a loop of calls of one size reuses one array
+    instead of a new one per call.
     """
     method = _method(method)
+    given = {"q": q, "velocity": velocity, "joint_torque": joint_torque, "spacecraft_force": spacecraft_force}
+    check_out_inputs(out, method, **given, spacecraft_torque=spacecraft_torque, attitude=attitude, external=external)
     q = _joints(model, q, "q")
     v = _velocity(model, velocity)
     t0 = _attitude(attitude)
     if method == "recursive":
         u = _actuation_parts(model, joint_torque, spacecraft_force, spacecraft_torque)
-        acc, ok = engine.accelerations(model, q, v, u, t0, _engine_wrenches(model, _wrenches(external)))
+        acc, ok = engine.accelerations(model, q, v, u, t0, _engine_wrenches(model, _wrenches(external)), out)
         if not np.all(ok):
             h = system_inertia_matrix(model, q)[..., 3:, 3:]
             raise SingularConfigurationError("H+ (1991 eq. 15)", float(np.min(np.linalg.det(h))), "the mass properties are not physical")
@@ -400,7 +414,15 @@ def forward_dynamics(
 
 
 def inverse_dynamics(
-    model: Model, q: Any, velocity: Any, acceleration: Any, attitude: Any = None, *, external: Any = (), method: str = "recursive"
+    model: Model,
+    q: Any,
+    velocity: Any,
+    acceleration: Any,
+    attitude: Any = None,
+    *,
+    external: Any = (),
+    method: str = "recursive",
+    out: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(spacecraft_force, spacecraft_torque, joint_torque) that produce ``acceleration``.
 
@@ -412,15 +434,29 @@ def inverse_dynamics(
     engine's Newton-Euler recursion, the wrenches included (as forward dynamics);
     ``method="barycentric"`` from the barycentric H+ and C+ and Q_external by
     :func:`~freefloat.generalized_forces`.
+
+    ``out``: a tuple of three arrays of the results' shapes, (..., 3), (..., 3) and (..., N), each float64,
+    C-contiguous and writable, sharing no memory with the inputs or with each other: the force, torque and joint
+    torques are written into them and the tuple is returned (``method="recursive"`` only), so that a loop of calls
+    of one size reuses them instead of new arrays per call.
     """
     method = _method(method)
+    given = {"q": q, "velocity": velocity, "acceleration": acceleration, "attitude": attitude, "external": external}
+    outs = _output_triple(out, method, given)
     q = _joints(model, q, "q")
     v = _velocity(model, velocity)
     acc = _velocity(model, acceleration, "acceleration")
     t0 = _attitude(attitude)
     wrenches = _wrenches(external)
     if method == "recursive":  # the engine: H+ zddot0 + C+ - Q_ext, the passive torques and the wrenches counted in Q
-        return _actuation_0(model, q, engine.residual_rows(model, q, v, acc, None, t0, _engine_wrenches(model, wrenches)))
+        ext = _engine_wrenches(model, wrenches)
+        if outs is not None:  # checked before the work: the batch of every input, the attitude's and the wrenches' too
+            shapes = (q.shape[:-1], v.shape[:-1], acc.shape[:-1], () if t0 is None else t0.shape[:-2], ext[1].shape[:-2])
+            batch = np.broadcast_shapes(*shapes)
+            for i, (o, width) in enumerate(zip(outs, (3, 3, model.n_joints), strict=True)):
+                engine.check_out(o, (*batch, width), f"out[{i}] ({_OUT_NAMES[i]})")
+        rows = engine.residual_rows(model, q, v, acc, None, t0, ext)
+        return _actuation_0(model, q, rows, outs)
     rows = (
         np.einsum("...ij,...j->...i", system_inertia_matrix(model, q, method="barycentric")[..., 3:, 3:], acc[..., 3:])
         + nonlinear_forces(model, q, v, method="barycentric")[..., 3:]
@@ -434,6 +470,28 @@ def inverse_dynamics(
     if model.has_passive:
         total = _plus_joint_rows(total, -passive_torque(model, v[..., 6:]))
     return _actuation_0(model, q, total)
+
+
+#: The results of :func:`inverse_dynamics`, in the order of its ``out`` tuple.
+_OUT_NAMES = ("spacecraft_force", "spacecraft_torque", "joint_torque")
+
+
+def _output_triple(out: Any, method: str, given: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """:func:`inverse_dynamics`'s ``out``: None, or a tuple of three arrays that share no memory with the inputs
+    ``given`` or with each other (their shapes and layout: ``engine.check_out``)."""
+    if out is None:
+        return None
+    check_out_inputs(out, method)  # a method that takes no out: refused as a whole
+    if not (isinstance(out, tuple) and len(out) == 3):
+        got = f"a {type(out).__name__} of {len(out)}" if isinstance(out, tuple | list) else type(out).__name__
+        raise TypeError(
+            f"out: expected a tuple of three arrays ({', '.join(_OUT_NAMES)}: shapes (..., 3), (..., 3), (..., N)), "
+            f"got {got}; pass such a tuple or call without out"
+        )
+    for i, o in enumerate(out):
+        earlier = {f"out[{j}] ({_OUT_NAMES[j]})": out[j] for j in range(i)}
+        check_out_inputs(o, method, f"out[{i}] ({_OUT_NAMES[i]})", **given, **earlier)
+    return out
 
 
 def _plus_joint_rows(total: np.ndarray, joint_rows: np.ndarray) -> np.ndarray:

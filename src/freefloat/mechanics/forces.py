@@ -164,14 +164,21 @@ def generalized_forces(
     return _to_inertial_first_block(q_0, t0)
 
 
-def _actuation_0(model: Model, q: np.ndarray, q_0: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(f_S, n_S, tau) = J_q0^-T Q_0 by forward substitution (first block of Q_0 in the spacecraft frame)."""
+def _actuation_0(
+    model: Model, q: np.ndarray, q_0: np.ndarray, out: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(f_S, n_S, tau) = J_q0^-T Q_0 by forward substitution (first block of Q_0 in the spacecraft frame); into
+    ``out`` (three arrays of the results' shapes, checked by the caller) when given, which is then returned."""
     j_q = actuation_jacobian(model, q)
     j11, j12, j22 = j_q[..., 0:3, 3:6], j_q[..., 0:3, 6:], j_q[..., 3:6, 6:]
     force = q_0[..., 0:3]
     torque = q_0[..., 3:6] - np.einsum("...ji,...j->...i", j11, force)
     tau = q_0[..., 6:] - np.einsum("...ji,...j->...i", j12, force) - np.einsum("...ji,...j->...i", j22, torque)
     batch = np.broadcast_shapes(force.shape[:-1], torque.shape[:-1], tau.shape[:-1])
+    if out is not None:
+        for o, x in zip(out, (force, torque, tau), strict=True):
+            o[...] = x
+        return out
     return tuple(np.broadcast_to(x, batch + x.shape[-1:]).copy() for x in (force, torque, tau))  # type: ignore[return-value]
 
 

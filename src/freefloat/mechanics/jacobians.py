@@ -31,7 +31,7 @@ from ..core.errors import ShapeError
 from ..core.model import Model
 from ..core.numbers import finite_vector, joint_array
 from ._batches import chunked, pieces
-from ._inputs import body_joints, check_method, gather_columns
+from ._inputs import body_joints, check_method, check_out_inputs, gather_columns
 from .kinematics import _rotations, _slides, body_rotations
 from .momentum import _hplus_barycentric, zero_momentum_rate
 
@@ -228,17 +228,23 @@ def _gj_barycentric(model: Model, qq: np.ndarray) -> np.ndarray:
     return out.reshape(qq.shape[0], 6 * n_e, model.n_joints)
 
 
-def generalized_jacobian(model: Model, q: Any, *, method: str = "recursive") -> np.ndarray:
+def generalized_jacobian(model: Model, q: Any, *, method: str = "recursive", out: np.ndarray | None = None) -> np.ndarray:
     """The generalized Jacobian ⁰J* of 1992 eq. 14, (..., 6E, N), spacecraft frame.
 
     Rows [v; w] for each end effector in ``model.end_effector_names`` order:
     end-effector velocities V_E = diag(T0, ..., T0) ⁰J* qdot of a free-floating
     system with zero linear and angular momentum. For nonzero momentum add
     :func:`generalized_jacobian_drift`. ``method``: see the module docstring.
+
+    ``out``: an array of the result's shape (..., 6E, N), float64, C-contiguous and writable, sharing no memory with
+    ``q``: J* is written into it and it is returned (``method="recursive"`` only), so that a loop of calls of one size
+    reuses one array instead of a new one per call.
     """
+    method = _method(method)
+    check_out_inputs(out, method, q=q)
     q = joint_array(model, q)
-    if _method(method) == "recursive":
-        return engine.generalized_jacobian(model, q)
+    if method == "recursive":
+        return engine.generalized_jacobian(model, q, out)
     return chunked(pieces(lambda qq: _gj_barycentric(model, qq), model.n_bodies), q, core_ndims=(1,))
 
 
@@ -281,14 +287,16 @@ def _singularity_rows(model: Model, jac: np.ndarray) -> np.ndarray:
     return jac[..., _singularity_row_indices(model), :]
 
 
-def jacobian_determinant(model: Model, q: Any) -> np.ndarray:
+def jacobian_determinant(model: Model, q: Any, *, out: np.ndarray | None = None) -> np.ndarray:
     """det ⁰J*(q) (1992 eq. 17), (...). Zero at dynamic singularities.
 
     For a planar model J* is taken in the plane: the rows [v_x, v_y] of every
     end effector (2E x N, as in the 1992 paper's examples); otherwise all 6E
     rows. That matrix must be square; for redundant systems use
-    :func:`manipulability`.
+    :func:`manipulability`. ``out``: an array (...) that receives the
+    determinants and is returned, as in :func:`generalized_jacobian`.
     """
+    check_out_inputs(out, "recursive", q=q)
     q = joint_array(model, q)
     n_rows = len(_singularity_row_indices(model))
     if n_rows != model.n_joints:
@@ -296,21 +304,23 @@ def jacobian_determinant(model: Model, q: Any) -> np.ndarray:
             f"J* has shape {(n_rows, model.n_joints)} here, not square, so it has no determinant; "
             "use ff.manipulability(model, q) (sqrt det J* J*^T) or the smallest singular value"
         )
-    return engine.jacobian_measures(model, q, _singularity_row_indices(model), "det")
+    return engine.jacobian_measures(model, q, _singularity_row_indices(model), "det", out)
 
 
-def manipulability(model: Model, q: Any) -> np.ndarray:
+def manipulability(model: Model, q: Any, *, out: np.ndarray | None = None) -> np.ndarray:
     """sqrt(det(J* J*^T)) with J* in the plane for planar models (see :func:`jacobian_determinant`), (...): the product
-    of the singular values of those rows."""
+    of the singular values of those rows. ``out``: an array (...) that receives them and is returned, as in
+    :func:`generalized_jacobian`."""
+    check_out_inputs(out, "recursive", q=q)
     q = joint_array(model, q)
-    return engine.jacobian_measures(model, q, _singularity_row_indices(model), "manipulability")
+    return engine.jacobian_measures(model, q, _singularity_row_indices(model), "manipulability", out)
 
 
 #: The measures of :func:`jacobian_measure`.
 JACOBIAN_MEASURES = ("det", "sigma_min", "manipulability", "condition", "sigma_max")
 
 
-def jacobian_measure(model: Model, q: Any, rows: Any = None, measure: str = "sigma_min") -> np.ndarray:
+def jacobian_measure(model: Model, q: Any, rows: Any = None, measure: str = "sigma_min", *, out: np.ndarray | None = None) -> np.ndarray:
     """A measure of the rows ``rows`` of ⁰J* (1992 eq. 14) at each configuration, (...).
 
     ``rows``: distinct indices into the 6E rows of J* ([v; ω] per end effector); None: the rows of
@@ -322,8 +332,10 @@ def jacobian_measure(model: Model, q: Any, rows: Any = None, measure: str = "sig
     within a few ulps of σ_max near a singularity), 64 configurations at a time (SIMD across them): no batch of J* is
     written, so a map of millions of configurations needs memory for the measures only. Batches of 64 or more run on
     the kernels specialised to the model's structure when made (kind ``"measure"`` of
-    :func:`~freefloat.mechanics.specialise`; automatic after a few seconds of this work).
+    :func:`~freefloat.mechanics.specialise`; automatic after a few seconds of this work). ``out``: an array (...)
+    that receives the measures and is returned, as in :func:`generalized_jacobian`.
     """
+    check_out_inputs(out, "recursive", q=q)
     if measure not in JACOBIAN_MEASURES:
         raise ValueError(f"measure: expected one of {', '.join(JACOBIAN_MEASURES)}, got {measure!r}")
     q = joint_array(model, q)
@@ -339,4 +351,4 @@ def jacobian_measure(model: Model, q: Any, rows: Any = None, measure: str = "sig
         raise ValueError(f"rows: expected distinct indices of rows of J* (0 .. {6 * model.n_end_effectors - 1}), got {rows!r}")
     if measure == "det" and idx.size != model.n_joints:
         raise ShapeError(f"measure='det': the chosen rows form a {idx.size} x {model.n_joints} matrix, not square; use 'sigma_min'")
-    return engine.jacobian_measures(model, q, idx, measure)
+    return engine.jacobian_measures(model, q, idx, measure, out)

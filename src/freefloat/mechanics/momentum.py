@@ -38,7 +38,7 @@ from ..core.model import Model
 from ..core.numbers import joint_array, vector_array
 from ..core.wheels import wheel_arrays
 from ._batches import chunked, pieces
-from ._inputs import body_joints, check_method, gather_square
+from ._inputs import body_joints, check_method, check_out_inputs, gather_square
 from .kinematics import _rotations, _slides, joint_axes
 
 __all__ = [
@@ -161,17 +161,23 @@ def _method(method: str) -> str:
     return check_method(method, "1991 eq. 16")
 
 
-def system_inertia_matrix(model: Model, q: Any, *, method: str = "recursive") -> np.ndarray:
+def system_inertia_matrix(model: Model, q: Any, *, method: str = "recursive", out: np.ndarray | None = None) -> np.ndarray:
     """H+ of 1991 eq. 15, (..., 6+N, 6+N), for zdot0 = [rdot_cm, omega0, qdot].
 
     ``T = 1/2 zdot0^T H+ zdot0`` (eq. 14). H+ does not depend on the attitude;
     the CM block ``M 1`` is the same whether rdot_cm is in the inertial or the
     spacecraft frame. ``method="recursive"`` (default): composite rigid bodies
     (the engine); ``method="barycentric"``: the pair-inertia sums of eq. 16.
+
+    ``out``: an array of the result's shape (..., 6+N, 6+N), float64, C-contiguous and writable, sharing no memory
+    with ``q``: H+ is written into it and it is returned (``method="recursive"`` only), so that a loop of calls of one
+    size reuses one array instead of a new one per call.
     """
+    method = _method(method)
+    check_out_inputs(out, method, q=q)
     q = joint_array(model, q)
-    if _method(method) == "recursive":
-        return engine.inertia_matrix(model, q)
+    if method == "recursive":
+        return engine.inertia_matrix(model, q, out)
     return chunked(pieces(lambda qq: _hplus_barycentric(model, qq), model.n_bodies), q, core_ndims=(1,))
 
 
