@@ -321,8 +321,9 @@ def specialise_command(
     end_effector: EndEffectorOption = None,
     strict: StrictOption = False,
 ) -> None:
-    """Compile J* and the rollouts for the structure of MODEL, once per machine (seconds), for sweeps and
-    campaigns: later J* batches and rollouts of this robot, in every process, run 4-8x faster (docs/performance.md)."""
+    """Compile the specialised kernels (J*, rollouts, H+, dynamics, measures) for the structure of MODEL, once per machine
+    (seconds per kind), for sweeps and campaigns: later large batches and rollouts of this robot, in every process, run
+    several times faster (docs/performance.md)."""
     from .mechanics.specialised import KINDS, specialise
 
     with user_errors():

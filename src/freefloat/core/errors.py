@@ -12,6 +12,7 @@ from typing import Any
 
 __all__ = [
     "CampaignError",
+    "EngineWarning",
     "FreefloatError",
     "LongRunWarning",
     "MemoryBudgetError",
@@ -113,6 +114,12 @@ class StiffGainsWarning(UserWarning):
 
     The message names each joint, its effective inertia and the largest stable gains for the sample period.
     """
+
+
+class EngineWarning(UserWarning):
+    """One of numba's internals that the compiled engine uses for speed is not available (a numba outside the tested
+    range, a renamed lookup, or ``FREEFLOAT_NUMBA_INTERNALS=0``): the engine runs on numba's public interface instead,
+    with the same results. Said once per process."""
 
 
 class LongRunWarning(UserWarning):

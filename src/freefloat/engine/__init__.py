@@ -6,11 +6,15 @@ batches of inputs over leading axes, and returns new arrays (or fills the caller
 :func:`check_out`); frames and units are those of the public functions of
 :mod:`freefloat.mechanics` that call them.
 
-Inside, read from the bottom up: ``cache`` (the on-disk kernel cache), ``layout`` (the model and its scratch as named
-arrays), ``recursions`` (the O(N) recursions of one configuration), ``quantities`` (J*, J+, H+, accelerations, the
-state derivative and the RK4 step of one configuration), ``laws`` (the compiled control laws), ``threads`` (a batch on
-numba's threads), ``drivers`` (the batch loops), ``specialise/`` (the same recursions traced, emitted as SIMD code for
-one model structure and driven block by block) and ``calls`` (the Python side of every call below).
+Inside, read from the bottom up (the order an import contract checks): ``gate`` (the one module that uses numba's
+internals, each with a fallback on public numba), ``cache`` (the on-disk kernel cache) and ``buffers`` (the outputs: a
+new array or the caller's ``out``), ``layout`` (the model as named arrays, the scratch's size) and ``threads`` (a batch on
+numba's threads), ``recursions`` (the O(N) recursions of one configuration), ``quantities`` (J*, J+, H+,
+accelerations, the state derivative and the RK4 step of one configuration), ``measures`` (the measures of a Jacobian,
+SIMD across configurations) and ``specialise/lanes`` (the lane loops), ``laws`` (the compiled control laws),
+``drivers`` (the batch loops), ``stepper`` (one trajectory stepped from Python), ``stops`` (joint-limit spans of
+recorded trajectories) and ``specialise/trace``, ``specialise/build`` (the same recursions traced, emitted as SIMD
+code for one model structure and driven block by block), and ``calls`` (the Python side of every call below).
 """
 
 from __future__ import annotations

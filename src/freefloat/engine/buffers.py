@@ -35,7 +35,7 @@ def new_output(shape: tuple[int, ...], dtype: Any = np.float64, *, out: Any = No
     ``np.empty(shape, dtype)`` after a check that it fits in the free memory."""
     if out is not None:
         return check_out(out, shape)
-    size = math.prod(map(int, shape))  # Python integers: exact at any size (np.prod: 1.5 us a call)
+    size = math.prod(map(int, shape))  # Python integers: exact at any size, and cheaper than np.prod
     nbytes = float(size * np.dtype(dtype).itemsize)
     require_memory(nbytes, f"a result of shape {shape}", "pass fewer configurations per call (a loop over chunks of the batch)")
     return np.empty(shape, dtype=dtype)

@@ -1,6 +1,6 @@
 """Compile the engine's kernels once per machine: numba's on-disk cache, kept in the user's cache directory.
 
-Every kernel of :mod:`freefloat.engine.calls` takes the model as plain arrays, so it is
+Every generic kernel of the engine (those :mod:`.calls` runs) takes the model as plain arrays, so it is
 compiled once for all models (a new model or a payload variant costs nothing) and numba keeps the
 machine code on disk between processes. This module only decides *where* that cache lives and what
 happens when it is unusable:

@@ -1,13 +1,14 @@
-"""The engine: the fast path of the physics, called from Python with batches of any shape.
+"""The Python side of every engine call: the fast path of the physics, called with batches of any shape.
 
-Each call takes a model and arrays with any leading batch shape (broadcast against each other),
-flattens them, runs one batch driver of :mod:`._drivers` (serial for small batches, numba's
-threads for large ones: the same compiled source) and gives the batch shape back. J*, H+, forward and
-inverse dynamics batches and rollouts (with or without external wrenches) take the kernels specialised to the
-model's structure (and the wrenches' layout) instead when :func:`~freefloat.mechanics.specialise` made them
-(:mod:`._specialise`; the same recursions, traced). Inputs are checked by the public functions that call these; here they are only made
-contiguous float64. The calls whose result is one large array take ``out``: the caller's array of the result's shape
-(float64, C-contiguous, writable; :func:`~.buffers.check_out`), which they fill and return instead of a new one.
+Each call takes a model and arrays with any leading batch shape (broadcast against each other), flattens them, runs
+one batch driver of :mod:`.drivers` (in the calling thread for small batches, on numba's threads for large ones: the
+same compiled kernel) and gives the batch shape back. J*, the measures of J*, H+, forward and inverse dynamics batches
+and rollouts (with or without external wrenches) take the kernels specialised to the model's structure (and the
+wrenches' layout) instead when :func:`~freefloat.mechanics.specialise` or the automatic specialisation made them
+(:mod:`.specialise.build`; the same recursions, traced). Inputs are checked by the public functions that call these;
+here they are only made contiguous float64. The calls whose result is one large array take ``out``: the caller's array
+of the result's shape (float64, C-contiguous, writable; :func:`~.buffers.check_out`), which they fill and return
+instead of a new one.
 """
 
 from __future__ import annotations
@@ -145,8 +146,9 @@ def generalized_jacobian(model: Any, q: np.ndarray, out: np.ndarray | None = Non
 
 def jacobian_measures(model: Any, q: np.ndarray, rows: Any, measure: str, out: np.ndarray | None = None) -> np.ndarray:
     """A measure (``"det"``, ``"sigma_min"``, ``"manipulability"``, ``"condition"``) of the rows ``rows`` of J* at
-    each configuration, (...): computed per configuration in the kernel, no J* batch written (the specialised kernel
-    of the model's structure, kind "measure", when made; the rows must be distinct: they are reduced in place); into
+    each configuration, (...): computed in the kernel a lane block of configurations at a time, no J* batch written
+    (the specialised kernel of the model's structure, kind "measure", when made; the rows must be distinct: they are
+    reduced in place, in the block's buffer); into
     ``out`` (...) when given (then returned)."""
     t = tree(model)
     batch = q.shape[:-1]
@@ -177,7 +179,7 @@ def _specialised_map(t: Tree, kind: str, parts: Any, out: np.ndarray, wrenches: 
 
 
 def _part(arr: np.ndarray | None, batch: tuple[int, ...], width: int) -> np.ndarray:
-    """An input of a specialised map (:func:`~._specialise.map_parts`): ``arr`` (..., width) as the rows (C, width) of
+    """An input of a specialised map (:func:`~.specialise.build.map_parts`): ``arr`` (..., width) as the rows (C, width) of
     the batch ``batch``, or as one row (1, width) that every configuration shares (None: zeros); C-contiguous,
     writable float64, a copy only when needed (the kernel reads each row into its lanes: no broadcast copy)."""
     if arr is None:
@@ -452,8 +454,8 @@ def rollout(
     the thrusters, its last sample held), clipped to +-limit (N + 6). Records at step 0, every
     ``stride`` steps and the last: (states (T, K, S), u (T, K, N + 6), saturated (T, K), steps done (K)).
     S = 13 + 2N, or 14 + 2N with the energy the joints' damping and friction dissipate in the last slot (integrated
-    with the state: ``_configuration.state_derivative_one``). The specialised kernels of a model with damping or friction
-    integrate it always (:attr:`~._tree.Tree.state_size`): states without the slot run there with one added (and dropped).
+    with the state: :func:`~.quantities.state_derivative_one`). The specialised kernels of a model with damping or friction
+    integrate it always (:attr:`~.layout.Tree.state_size`): states without the slot run there with one added (and dropped).
     """
     t = tree(model)
     n = t.n_joints
@@ -496,7 +498,7 @@ def law_rollout(
     ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES,
     pd: tuple[np.ndarray, ...] | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Fixed-step RK4 of the states x0 (K, S) with the control law ``law`` (:data:`~._laws.Law`) in the loop, or (law
+    """Fixed-step RK4 of the states x0 (K, S) with the control law ``law`` (:data:`~.laws.Law`) in the loop, or (law
     None) the joint PD ``pd`` = (kp, kd, q_ref, qdot_ref (K, N), feedforward (S, K, W)) as in :func:`rollout`; all
     compiled, trajectories on threads: :func:`rollout`'s loop and records, on the generic kernels, with the plant's mass
     properties ``plant`` (1 or K rows of floats of ``model``'s structure: payload variants per trajectory)."""
@@ -547,7 +549,7 @@ class Stepper:
     """One trajectory stepped from Python (a controller in the loop): scratch space kept between calls.
 
     ``rk4(x, u, dt, steps)`` advances the flat state x (13 + 2N, or 14 + 2N with the energy the joints' damping and
-    friction have dissipated last: ``_configuration.state_derivative_one``; float64, contiguous) in place by
+    friction have dissipated last: :func:`~.quantities.state_derivative_one`; float64, contiguous) in place by
     ``steps`` RK4 steps with u held, in one compiled call, and returns ``steps``; or k < steps when
     H+ was not positive definite in step k; or -(k + 1) when x became non-finite in step k. (A
     partial of the kernel: a controller every step makes this call the hot path.)
@@ -559,7 +561,7 @@ class Stepper:
         self.size = 13 + 2 * t.n_joints
         ext_i = np.asarray(ext[0], dtype=np.int64).reshape(-1, 2)
         ext_f = np.asarray(ext[1], dtype=np.float64).reshape(-1, 9)
-        header = [ext_i.shape[0], 0, 0]  # W, WATCH, REASON (see _configuration.unpack)
+        header = [ext_i.shape[0], 0, 0]  # W, WATCH, REASON (see stepper.unpack)
         self._header = t.ints.shape[0]
         self.ints = np.concatenate([t.ints, header, ext_i.ravel()]).astype(np.int64)
         work = np.empty(work_size(t.n_bodies, t.ee_body.shape[0]))

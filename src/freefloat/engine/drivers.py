@@ -1,11 +1,11 @@
 """Batch drivers of the engine: each one-configuration kernel, looped over a batch, in one thread or on several.
 
 A driver is made from one *row* kernel, ``row(i, m, s, a)``: the work of row i of a batch, given the
-model ``m`` (:data:`~._tree.Arrays`), the scratch views ``s`` (:data:`~._recursions.Scratch`) and
+model ``m`` (:data:`~.layout.Arrays`), the scratch views ``s`` (:data:`~.recursions.Scratch`) and
 the call's arrays ``a`` (a tuple: inputs, outputs and scalars). :func:`driver` makes from it, by
 binding it into the template written once below (:func:`_serial_template`), one range kernel over the rows
 ``[start, stop)`` of a batch (one scratch buffer per range); :class:`Batched` runs it on the whole batch, or from
-:attr:`Batched.PARALLEL_MIN` rows on one contiguous range per thread at once (:func:`~._threads.run_kernel`: numba's
+:attr:`Batched.PARALLEL_MIN` rows on one contiguous range per thread at once (:func:`~.threads.run_kernel`: numba's
 threads call the kernel's machine code; no threaded twin is compiled). A new batched quantity is one row kernel and one line
 ``driver(...)``.
 
@@ -71,11 +71,9 @@ class Batched:
     """A driver: the range kernel on the whole batch in the calling thread, or from :attr:`PARALLEL_MIN` rows on one
     contiguous range per thread (numba's thread count of the calling thread), each with its own scratch buffer."""
 
-    #: Batches at least this large run on several threads (when numba has more than one). Handing the ranges to numba's
-    #: threads costs 1-3 us (:func:`~._threads.run_kernel`); a call of 2 threads against 1 on the 2-core VM, in us
-    #: (measured): J* of the 1992 system 32 rows 34 / 30, 64 41 / 41, 128 50 / 56, 256 69 / 88; of the 7-DOF arm 64
-    #: 45 / 54, 256 88 / 137; H+ of the 7-DOF arm 64 54 / 58, 256 115 / 159; forward dynamics of the 1992 system 32
-    #: 133 / 136, 64 146 / 151, 256 195 / 237. (On a pool's threads, woken at each call, it cost 50-120 us.)
+    #: Batches at least this large run on several threads (when numba has more than one): below it, handing the ranges
+    #: to numba's threads (:func:`~.threads.run_kernel`) costs more than a second thread saves (sizes in
+    #: benchmarks/README.md, Measurement history).
     PARALLEL_MIN = 64
     #: Whether the last call compiled nothing (its kernel, and the parallel loop that calls it on threads, were compiled
     #: or loaded already): its time was work, not compiling.
@@ -105,9 +103,10 @@ def driver(name: str, row: Any, *, parallel_min: int | None = None) -> Batched:
     return Batched(kernel()(bind(_serial_template, f"{name}_serial", ROW=row)), parallel_min)
 
 
-# ----------------------------------------------------------------- one trajectory stepped from Python (the Stepper)
-#: The rollout loop of _lanes, one trajectory at a time, stepped by the engine's RK4 step (bound as a global: inlined),
-#: with the joint PD in it; and the same loop with a control law of _laws (or the joint PD) in it.
+# ----------------------------------------------------------------- the rollout loop, one trajectory at a time
+#: The rollout loop of specialise.lanes, one trajectory at a time, stepped by the engine's RK4 step of one state
+#: (quantities.rk4_step_rows, bound as a global: inlined), with the joint PD in it; and the same loop with
+#: laws.law_control (a control law, or the joint PD) in it.
 _rollout_blocks = rollout_loop(rk4_step_rows, "generic")
 _law_rollout_blocks = rollout_loop(rk4_step_rows, "law", law_control)
 
@@ -151,7 +150,7 @@ def _jstar_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
 @kernel(inline="always")
 def _measure_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
     """a = (Q, rows (K,), kind, OUT (C,)): a measure of the rows ``rows`` of J* for the configurations of lane block b
-    (:data:`~._lanes.LANES` of them, fewer in the last block): their J* one by one into the rows of a block buffer, then
+    (:data:`~.specialise.lanes.LANES` of them, fewer in the last block): their J* one by one into the rows of a block buffer, then
     the measure of the whole block at once (SIMD across it, as in the specialised kernels); no J* batch written."""
     Q, rows, kind, OUT = a
     c0 = b * LANES
@@ -205,8 +204,8 @@ def _derivative_row(i: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
 
 @kernel(inline="always")
 def _rollout_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
-    """Trajectory b of a rollout (the loop of :func:`~._lanes.rollout_blocks`, one lane wide, on the engine's state
-    derivative) with the joint PD. a = (X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, ext_i, EXT, XS, US,
+    """Trajectory b of a rollout (the loop of ``specialise.lanes._rollout_blocks``, one lane wide, stepped by the engine's
+    RK4 step of one state) with the joint PD. a = (X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, ext_i, EXT, XS, US,
     SAT, DONE)."""
     X0, dt, steps, hold, stride, kp, kd, qref, vref, ff, lim, ext_i, EXT, XS, US, SAT, DONE = a
     C = (kp, kd, qref, vref, ff)
@@ -215,7 +214,7 @@ def _rollout_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
 
 @kernel(inline="always")
 def _law_rollout_row(b: int, m: Any, s: Any, a: Any) -> None:  # pragma: no cover
-    """Trajectory b of a rollout with a control law (:func:`~._laws.law_control`; or the joint PD, law code 0) in the
+    """Trajectory b of a rollout with a control law (:func:`~.laws.law_control`; or the joint PD, law code 0) in the
     loop, on the model of the buffers (plant_ints, PLANT[b] or PLANT[0]: a payload variant per trajectory; both kernel
     arguments). a = (X0, dt, steps, hold, stride, C = ((kp, kd, qref, vref, ff), law), lim, plant_ints, PLANT (K, F),
     ext_i, EXT, XS, US, SAT, DONE). Its own kernel (the law's loop), so that a joint PD rollout compiles no law."""

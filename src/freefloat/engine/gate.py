@@ -34,6 +34,8 @@ from typing import Any
 import numba
 import numpy as np
 
+from ..core.errors import EngineWarning
+
 __all__ = [
     "CACHE",
     "ENV",
@@ -64,10 +66,6 @@ ENV = "FREEFLOAT_NUMBA_INTERNALS"
 class NotAVoidKernel(TypeError):
     """:func:`machine_address` of a kernel that returns something (the engine's threads call kernels that return
     nothing)."""
-
-
-class EngineWarning(UserWarning):
-    """One of numba's internals that the engine uses is not available; the engine runs on public numba instead."""
 
 
 #: Why each internal is off (its name: the reason), for the one warning and for :func:`off`.
@@ -363,8 +361,7 @@ THREADS = _THREADS is not None
 call_range: Any = _THREADS[0] if _THREADS is not None else None
 
 #: The machine code's address of each (kernel, argument types) that :func:`machine_address` has looked up, keyed by
-#: numba's fingerprints of the arguments (what its dispatcher keys its own types by: 0.1 us an argument, where typing
-#: them is 5 us).
+#: numba's fingerprints of the arguments (what its dispatcher keys its own types by: far cheaper than typing them).
 _ADDRESSES: dict[tuple[Any, ...], int] = {}
 
 

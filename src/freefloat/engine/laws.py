@@ -1,10 +1,12 @@
-"""The control laws of the built-in controllers, written once as numba kernels (1991 eqs. 22-30, the detumbling law).
+"""The control laws of the built-in controllers as numba kernels (1991 eqs. 22-30, the detumbling law).
 
-:mod:`freefloat.control` (the controllers' ``__call__``) and the compiled simulation loops (:mod:`._lanes`, through
-:mod:`._drivers`) both run :func:`law_one`: one implementation, compiled once per machine, kept on disk
-(:mod:`._numba_cache`). A controller is described to it by a :data:`Law` (arrays only, so every controller and every
-model share one compiled kernel): the task z1 (eq. 22), the gains, the desired motion and the controller's own model,
-each parameter with a leading axis of 1 (shared) or B (one row per trajectory of a rollout).
+The compiled simulation loops (the rollout loop of :mod:`.specialise.lanes`, bound by :mod:`.drivers` with
+:func:`law_control`) run :func:`law_one`, compiled once per machine and kept on disk (:mod:`.cache`); nothing else
+calls it. The controllers' ``__call__`` (:mod:`freefloat.control`) is the numpy form of the same laws, the reference
+``tests/control/test_compiled.py`` checks :func:`law_one` against. A controller is described to it by a :data:`Law`
+(arrays only, so every controller and every model share one compiled kernel): the task z1 (eq. 22), the gains, the
+desired motion and the controller's own model, each parameter with a leading axis of 1 (shared) or B (one row per
+trajectory of a rollout).
 
 The laws, at a state x = [r_cm, v_cm, quat, omega0, q, qdot]:
 
@@ -14,8 +16,8 @@ The laws, at a state x = [r_cm, v_cm, quat, omega0, q, qdot]:
 * detumbling (eq. 27 with J_z = 1): Q_c = H+ z̈0,des + C+, z̈0,des = −k ż0 (+ K_att e_att on the ω0 rows);
 
 then [f_S; n_S; τ] = J_q⁻ᵀ Q_c (eq. 30) by forward substitution on J_q (eq. 21, the spacecraft CM's J+), and the
-controller's own actuator limits. J+, J̇+ ż0, H+ and C+ are the engine's (:mod:`._configuration`); the singular-value
-ratio of J_z is the engine's measure (:func:`~._configuration.jacobian_measure_lanes`).
+controller's own actuator limits. J+, J̇+ ż0, H+ and C+ are the engine's (:mod:`.quantities`); the singular-value
+ratio of J_z is the engine's measure (:func:`~.measures.jacobian_measure_lanes`).
 """
 
 from __future__ import annotations
@@ -55,7 +57,7 @@ LAW_FIELDS = (
     ("setup", "(5,) int: law code, planar (0/1), quaternion orientations (0/1), force (detumble: 0/1), profile (-1: a set point)"),
     ("items", "(I, 2) int: each task item's kind (0 position, 1 orientation) and body"),
     ("points", "(I, 3): each position item's point, its body's frame"),
-    ("ints", "the controller model's ints (mechanics._tree.Tree.ints)"),
+    ("ints", "the controller model's ints (layout.Tree.ints)"),
     ("floats", "(K, F): the controller model's floats, without passive torques (payload variants per trajectory)"),
     ("kp", "(K, d, d): K_p"),
     ("kd", "(K, d, d): K_d"),
@@ -575,8 +577,8 @@ def law_one(
 def law_control(
     C: Any, P: Any, sample: int, t: float, b: int, lim: np.ndarray, x: np.ndarray, x0: int, u: np.ndarray, u0: int, step: int
 ) -> bool:  # pragma: no cover - compiled
-    """The controller of the generic rollout loop (:func:`~._lanes.rollout_blocks`, one lane wide: ``step`` 1), C = (the
-    joint PD's arrays, a :data:`Law`): the joint PD (:func:`~._lanes.joint_pd`) when the law's code is 0, else
+    """The controller of the generic rollout loop (``specialise.lanes._rollout_blocks``, one lane wide: ``step`` 1), C = (the
+    joint PD's arrays, a :data:`Law`): the joint PD (:func:`~.specialise.lanes.joint_pd`) when the law's code is 0, else
     u[u0 ...] = :func:`law_one` at the state x[x0 ...] of trajectory b at time t, clipped to the controller's own
     limits, then to the simulation's +-lim (True if any component was: as ``ActuatorLimits.apply`` of the controller,
     then of the simulation); P = (plant model, ext_i, ext_f, scratch)."""
@@ -635,7 +637,7 @@ def make_law(ints: np.ndarray, floats: np.ndarray, **given: Any) -> Any:
 
 
 def same_structure(a: Any, b: Any) -> bool:
-    """Whether two models' :class:`~._tree.Tree` have one structure (the same ints and "structure" fields: payload
+    """Whether two models' :class:`~.layout.Tree` have one structure (the same ints and "structure" fields: payload
     variants of one robot), so that one compiled law or loop runs both with per-trajectory mass properties."""
     if a.ints.shape != b.ints.shape or not np.array_equal(a.ints, b.ints):
         return False

@@ -12,8 +12,8 @@ the spacecraft; the joint of body k is driven by column ``coordinate[k]`` of q, 
 ``multiplier[k] q[coordinate[k]] + offset[k]``: k - 1, 1 and 0 unless it is a mimic joint): add a
 :class:`Field` to :data:`BODY_FIELDS` (its shape, its role, and how it is read from the model), the
 same name to :data:`Arrays` and its view to :func:`arrays` (all three in this file; ``tests/mechanics/test_engine.py`` checks that they
-agree), then use ``m.<name>`` in the recursions (:mod:`._recursions`). The specialiser
-(:mod:`._specialise`) reads the layout from :data:`BODY_FIELDS`: a ``"data"`` field is read at run
+agree), then use ``m.<name>`` in the recursions (:mod:`.recursions`). The specialiser
+(:mod:`.specialise.build`) reads the layout from :data:`BODY_FIELDS`: a ``"data"`` field is read at run
 time by the specialised kernels (so payload variants share them), a ``"structure"`` field is folded
 into them as numbers.
 """
@@ -188,7 +188,7 @@ def arrays(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - c
 
     ints = [B, E, N, parent (B), ancestor (B x B), ee_body (E)]; floats = [the body fields of :data:`BODY_FIELDS`,
     each (B, *shape), total mass, ee_point (E x 3)]. The views count no references and check no bounds (cheaper:
-    :func:`~._numba_cache.floats_view`; the buffers' lengths are checked here once): the buffers must be arguments of
+    :func:`~.gate.floats_view`; the buffers' lengths are checked here once): the buffers must be arguments of
     the calling kernel, held by its caller.
     """
     if ints.shape[0] < 3 or ints[0] < 1 or ints[1] < 0:
@@ -304,7 +304,7 @@ class Tree:
     @property
     def state_size(self) -> int:
         """The flat state the rollouts of this model integrate: 13 + 2N, and the dissipated energy (14 + 2N) when
-        :attr:`passive` (``_configuration.state_derivative_one``)."""
+        :attr:`passive` (:func:`~.quantities.state_derivative_one`)."""
         return 13 + 2 * self.n_joints + (1 if self.passive else 0)
 
     def field_offset(self, name: str) -> int:
@@ -360,7 +360,7 @@ def tree(model: Any) -> Tree:
 
 
 def work_size(n_bodies: int, n_ee: int) -> int:
-    """Length of the scratch buffer of one configuration (the views of ``_recursions.Scratch``) for ``n_bodies`` bodies
+    """Length of the scratch buffer of one configuration (the views of :data:`~.recursions.Scratch`) for ``n_bodies`` bodies
     and ``n_ee`` end effectors (for B - 1 joint coordinates: enough for the N <= B - 1 of a model with mimic joints)."""
     n = n_bodies - 1
     m = 3 + n

@@ -30,7 +30,7 @@ def _b(rows: np.ndarray, n: int, by_rows: bool, i: int, j: int) -> int:  # pragm
 
 @kernel(inline="always")
 def _pick(x: float, y: float, a: float, b: float) -> float:  # pragma: no cover - compiled
-    """``a if x > y else b``: a select on data, which the specialiser traces as one (:mod:`._trace`)."""
+    """``a if x > y else b``: a select on data, which the specialiser traces as one (:mod:`.specialise.trace`)."""
     return a if x > y else b
 
 
@@ -54,7 +54,7 @@ def jacobian_measure_lanes(
     """A measure of the rows ``rows`` (K distinct rows, N = ``n`` columns) of the J* of ``width`` configurations at
     once: out[o0 + l] for the configurations l < ``count``. Element (r, c) of configuration l's J* is
     ``W[at + (r n + c) width + l]`` (the generic kernels: one J*, width 1; the specialised ones: the rows of a lane
-    block, width :data:`~._lanes.LANES`); the chosen rows are overwritten. ``tmp``: at least :func:`measure_work` (N)
+    block, width :data:`~.specialise.lanes.LANES`); the chosen rows are overwritten. ``tmp``: at least :func:`measure_work` (N)
     ``width`` floats.
 
     ``kind`` (:data:`MEASURE_CODES`): 0 det (K = N; LU with partial pivoting, signed); 1 the smallest singular value;
@@ -87,7 +87,7 @@ def jacobian_measure_lanes(
     run-time offset is not vectorised: numba's negative-index wraparound makes it a gather). Between Laguerre's
     iterations one scalar pass moves the configurations still iterating to the front of the block. The specialised
     kernels trace :func:`_reduce_views` for their structure's smallest singular value of all the rows of J* (one
-    configuration, the same source: straight-line code SIMD across a block, :func:`~._specialise.trace_reduction`) and
+    configuration, the same source: straight-line code SIMD across a block, :func:`~.specialise.build.trace_reduction`) and
     run :func:`_finish_views` after it (:func:`measure_finish_lanes`).
     """
     top = 0
@@ -148,7 +148,7 @@ def _column_dot(
 @kernel(inline="always")
 def _strided_dot(T: np.ndarray, acc: int, a0: int, sa: int, b0: int, sb: int, m: int, add: bool) -> None:  # pragma: no cover
     """T[acc] (+)= sum over t < m of T[a0 + t sa] T[b0 + t sb], row by row for every configuration, two terms per
-    pass (four, reading T while writing it, were not vectorised: measured 20 ns a configuration slower)."""
+    pass (four, reading T while writing it, were not vectorised, and slower)."""
     if not add:
         for l in range(T.shape[1]):
             T[acc, l] = 0.0
@@ -172,7 +172,7 @@ def _measure_views(
     """:func:`jacobian_measure_lanes` on the 2-D views V (rows of J*, configurations) and T (work rows, configurations).
     Not inlined: compiled once for every caller (the generic drivers, the specialised kernels, the control laws), its
     loops SIMD across the configurations whether or not N is a constant (inlined into the specialised kernels, where N
-    is, it compiled 3.6 times slower and ran no faster)."""
+    is, it compiled several times slower and ran no faster)."""
     _reduce_views(V, T, n, rows, kind)
     _finish_views(T, min(rows.shape[0], n), kind, out, o0, count)
 
@@ -183,7 +183,7 @@ def _reduce_views(V: np.ndarray, T: np.ndarray, n: int, rows: np.ndarray, kind: 
     row 0 the determinant (``kind`` 0) or the product of the singular values; rows 1 .. 2r - 1 the diagonal (r rows)
     and off-diagonal (r - 1) of a tridiagonal matrix whose largest eigenvalue is 1 / sigma_min^2 (kinds 1, 3); rows
     2r .. 4r - 2 those of one whose largest eigenvalue is sigma_max^2 (kinds 3, 4). One configuration of it, traced
-    (``width`` 1, the structure as numbers), is the specialised kernels' reduction (:func:`~._specialise.trace_reduction`):
+    (``width`` 1, the structure as numbers), is the specialised kernels' reduction (:func:`~.specialise.build.trace_reduction`):
     it branches on data only through :func:`_pick`."""
     width = V.shape[1]
     k_rows = rows.shape[0]

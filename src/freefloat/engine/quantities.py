@@ -1,10 +1,10 @@
-"""Results of one configuration from the recursions of :mod:`._recursions`: J*, J+, H+, forward dynamics, RK4.
+"""Results of one configuration from the recursions of :mod:`.recursions`: J*, J+, H+, forward dynamics, RK4.
 
-Each is a numba kernel with the recursions of :mod:`._recursions` inlined into it, and is itself
-inlined into its one caller: the serial range kernels of the batch drivers (:mod:`._drivers`),
-:func:`rk4_steps` (the stepper that runs one trajectory with a Python controller,
-:class:`~._engine.Stepper`) and :func:`state_derivative`. Each takes the scratch views ``s``
-(:data:`~._recursions.Scratch`), made once per call of its caller: passing the views into a
+Each is a numba kernel with the recursions of :mod:`.recursions` inlined into it, and is itself
+inlined into its callers: the serial range kernels of the batch drivers (:mod:`.drivers`), the control laws
+(:mod:`.laws`), :func:`~.stepper.rk4_steps` (the stepper that runs one trajectory with a Python controller,
+:class:`~.calls.Stepper`) and :func:`~.stepper.state_derivative`. Each takes the scratch views ``s``
+(:data:`~.recursions.Scratch`), made once per call of its caller: passing the views into a
 non-inlined kernel per configuration costs more than the arithmetic of a small tree. RK4 runs its
 four stages in a loop so that the derivative is inlined once (compile time).
 """
@@ -31,7 +31,7 @@ from .recursions import (
 
 @kernel(inline="always")
 def jstar_one(q: np.ndarray, m: Any, s: Any, out: np.ndarray) -> None:  # pragma: no cover - compiled
-    """J* (6E, N) at q of the model ``m`` (:data:`~._tree.Arrays`; 1992 eq. 14, the formula is in :mod:`._recursions`)."""
+    """J* (6E, N) at q of the model ``m`` (:data:`~.layout.Arrays`; 1992 eq. 14, the formula is in :mod:`.recursions`)."""
     nb = m.parent.shape[0]
     ancestor, total_mass, ee_body, ee_point = m.ancestor, m.total_mass, m.ee_body, m.ee_point
     prepare(q, m, s, True)
@@ -209,7 +209,7 @@ def hplus_rate_one(q: np.ndarray, qdot: np.ndarray, m: Any, s: Any, out: np.ndar
     [w_l x u_l; w_l x m_l + v_l x u_l]; a body's first moment about O changes at m_k (v_k + w_k x c_k) and its
     inertia about O at [w]x I_C - I_C [w]x + m_k (2 c.cdot 1 - cdot c^T - c cdot^T) (I_C about its CM, spacecraft
     axes; c its CM and cdot = v_k + w_k x c_k); composite rates add up the tree. Then the product rule on
-    g_l, h_l and the blocks D, D_q, D_qq (see :mod:`._recursions`).
+    g_l, h_l and the blocks D, D_q, D_qq (see :mod:`.recursions`).
     """
     nb = m.parent.shape[0]
     parent, ancestor, per_mass = m.parent, m.ancestor, 1.0 / m.total_mass  # products below, not divisions
@@ -429,7 +429,7 @@ def state_derivative_one(
 
     dquat/dt = 1/2 quat ⊗ [omega0, 0] (omega0 in the spacecraft frame). False if H+ is not positive definite.
     A state with a trailing slot (14 + 2N: the energy the joints' damping and friction have dissipated since the start)
-    gets its rate there, the dissipated power (:func:`~._recursions.dissipated_power`): the integrators integrate it
+    gets its rate there, the dissipated power (:func:`~.recursions.dissipated_power`): the integrators integrate it
     with the state, to their own accuracy. A state without it (13 + 2N) computes no power.
     """
     n = m.n_joints
@@ -465,8 +465,9 @@ def state_derivative_one(
 def rk4_step(x: np.ndarray, u: np.ndarray, dt: float, m: Any, ext_i: np.ndarray, ext_f: np.ndarray, s: Any) -> bool:  # pragma: no cover
     """One classical RK4 step of one state x in place (u held), then the quaternion renormalised; False if H+ failed.
 
-    The RK4 of one trajectory (the stepper of a Python-controlled simulation, the generic rollout); the specialised
-    rollouts step 64 lanes at once by the same formulas (``_lanes._rk4_rows``; tests/mechanics/test_specialise.py
+    The RK4 of one trajectory (the stepper of a Python-controlled simulation, the generic rollout and the compiled
+    single simulations, through :func:`rk4_step_rows`); the specialised rollouts step 64 lanes at once by the same
+    formulas, written a second time for rows of lanes (``specialise.lanes._rk4_rows``; tests/mechanics/test_specialise.py
     checks the two paths against each other). The four stages run in one loop so that the derivative is compiled
     (inlined) once; the stage derivatives stay in ``s.k`` (4, S). x may carry the dissipated energy's slot (14 + 2N:
     :func:`state_derivative_one`); the stage state is cut to x's size, which says whether it does.
@@ -493,7 +494,7 @@ def rk4_step(x: np.ndarray, u: np.ndarray, dt: float, m: Any, ext_i: np.ndarray,
 
 @kernel(inline="always")
 def rk4_step_rows(P: Any, W: np.ndarray, width: int, size: int, nu: int, dt: float) -> None:  # pragma: no cover - compiled
-    """:func:`rk4_step` on the rows of one trajectory in the rollout loop's buffer (``_lanes._rollout_blocks``, width 1):
+    """:func:`rk4_step` on the rows of one trajectory in the rollout loop's buffer (``specialise.lanes._rollout_blocks``, width 1):
     x at W[2 S + N + 7 ...], u at W[S ...], the ok row at W[2 S + N + 6]; P = (model, ext_i, ext_f, scratch)."""
     m, ext_i, ext_f, s = P
     o_ok = 2 * size + nu

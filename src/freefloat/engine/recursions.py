@@ -6,7 +6,7 @@ eq. 14), the inertia matrix (H+, 1991 eq. 15), the nonlinear forces (C+, 1991 eq
 inverse dynamics or an RK4 step ends here, at every batch size. The papers' barycentric closed
 forms (``method="barycentric"`` of the public calls) are the other, independent algorithm that checks it.
 
-The model enters as plain arrays (:class:`Tree`), so each kernel is compiled once for all models
+The model enters as plain arrays (:class:`~.layout.Tree`), so each kernel is compiled once for all models
 and kept on disk (:mod:`freefloat.engine.cache`): a new model or a payload variant
 compiles nothing. sin and cos are the C library's (``math.sin``, ``math.cos``).
 
@@ -41,10 +41,10 @@ from the spacecraft frame origin O, so composite (subtree) quantities add withou
   joint k lands in column (row) c_k times r_k, so H+ = T^T H_body T, J* = J*_body M and the joint rows
   are M^T (rows of the body joints), with M the (B - 1) x N map (``Model.mimic_matrix``).
 
-This module holds the recursions of one configuration; :mod:`._configuration` combines them into
-J*, J+, H+, forward dynamics and RK4; :mod:`._drivers` loops them over batches; :mod:`._engine`
+This module holds the recursions of one configuration; :mod:`.quantities` combines them into
+J*, J+, H+, forward dynamics and RK4; :mod:`.drivers` loops them over batches; :mod:`.calls`
 is the Python side. These kernels are inlined (``inline="always"``) into each one-configuration
-kernel of :mod:`._configuration`: measured 1.4x faster than calls that pass array views.
+kernel of :mod:`.quantities`: faster than calls that pass array views.
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ def passive_resistance(m: Any, k: int, qd: float) -> float:  # pragma: no cover 
     (its own, or a mimic joint's: multiplier times its leader's): d_k qd + F_k tanh(qd / FRICTION_SPEED); the joint feels
     minus this (``mechanics.passive_torque`` is the numpy reference)."""
     tau = m.damping[k] * qd
-    if m.friction[k] > 0.0:  # (a zero friction is folded away by the specialiser: see _tree.Field.fold_zeros)
+    if m.friction[k] > 0.0:  # (a zero friction is folded away by the specialiser: see layout.Field.fold_zeros)
         tau += m.friction[k] * math.tanh(qd / FRICTION_SPEED)
     return tau
 
@@ -79,7 +79,7 @@ def dissipated_power(m: Any, qdot: np.ndarray, o: int) -> float:  # pragma: no c
     """The power (W) the joints' damping and friction dissipate at the joint rates ``qdot[o : o + N]``:
     sum over the body joints k of qd_k (d_k qd_k + F_k tanh(qd_k / FRICTION_SPEED)) >= 0 (:func:`passive_resistance`),
     qd_k = multiplier_k qdot[o + coordinate_k]. The integrators integrate it with the state (its trailing slot:
-    :func:`~._configuration.state_derivative_one`)."""
+    :func:`~.quantities.state_derivative_one`)."""
     power = 0.0
     for k in range(1, m.parent.shape[0]):
         qd = m.multiplier[k] * qdot[o + int(m.coordinate[k])]
@@ -88,7 +88,7 @@ def dissipated_power(m: Any, qdot: np.ndarray, o: int) -> float:  # pragma: no c
 
 
 #: Scratch space of one configuration: views of one flat buffer, made once per batch range (or per
-#: stepper call) and passed down, so no kernel makes a view per configuration (each costs ~25 ns).
+#: stepper call) and passed down, so no kernel pays for making views at every configuration.
 Scratch = namedtuple(
     "Scratch",
     [
@@ -123,19 +123,19 @@ Scratch = namedtuple(
         "k",
         "y",  # RK4: the four stage derivatives (4, S), the stage state (S = 14 + 2N: room for the dissipated energy)
         "joints",  # (N): joint values read from a state
-        "rows",  # (4 S + N + 9): the rows of one trajectory in the rollout loop (_lanes.rollout_blocks, width 1)
+        "rows",  # (4 S + N + 9): the rows of one trajectory in the rollout loop (specialise.lanes._rollout_blocks, width 1)
         "jac",  # (6E, N): a J* whose measure is wanted
-        "sel",  # (6E N): the work space of the measure (its chosen rows are rotated or reduced in jac itself)
+        "sel",  # (6E N): spare room after jac (no kernel reads it: the measures work in their own block buffer)
     ],
 )
 
 
 @kernel(inline="always")
 def scratch(work: np.ndarray, nb: int, ne: int, n: int) -> Any:  # pragma: no cover - compiled
-    """The :data:`Scratch` views of ``work`` (length :func:`~._tree.work_size`) for ``nb`` bodies, ``ne`` end effectors
+    """The :data:`Scratch` views of ``work`` (length :func:`~.layout.work_size`) for ``nb`` bodies, ``ne`` end effectors
     and ``n`` joint coordinates (``m.n_joints``: B - 1 less the mimic joints).
 
-    The views neither count references to ``work`` nor check bounds (cheaper: :func:`~._numba_cache.floats_view`;
+    The views neither count references to ``work`` nor check bounds (cheaper: :func:`~.gate.floats_view`;
     the length is checked here once), so ``work`` must outlive them: it is always an argument of the calling kernel
     (or a contiguous slice of one), held by the Python caller for the whole call; never a buffer made inside a kernel,
     which numba may free after its last use (``tests/mechanics/test_engine.py`` checks every call).
@@ -619,6 +619,6 @@ def newton_euler(
 # ----------------------------------------------------------------- one configuration
 @kernel(inline="always")
 def prepare(q: np.ndarray, m: Any, s: Any, inertia: bool) -> None:  # pragma: no cover - compiled
-    """Kinematics and mass properties at q into the scratch ``s`` (the model ``m``: :data:`~._tree.Arrays`)."""
+    """Kinematics and mass properties at q into the scratch ``s`` (the model ``m``: :data:`~.layout.Arrays`)."""
     kinematics(q, m, s.rot, s.pos, s.axis, s.mom)
     mass_properties(m, s.rot, s.pos, s.own_f, s.own_i, s.cf, s.ci, inertia)

@@ -22,9 +22,9 @@ REFUSED = 4
 @kernel(inline="always")
 def unpack(ints: np.ndarray, floats: np.ndarray) -> Any:  # pragma: no cover - compiled
     """The model, its external wrenches and the scratch of one trajectory from the two buffers of
-    :func:`~._engine.Stepper` (fewer arguments: numba unboxes each array argument at ~0.1 us a call).
+    :class:`~.calls.Stepper` (fewer arguments: numba unboxes each array argument at every call).
 
-    ints = [the model's ints (:func:`~._tree.arrays`), W, WATCH, REASON, ext_i (W x 2)];
+    ints = [the model's ints (:func:`~.layout.arrays`), W, WATCH, REASON, ext_i (W x 2)];
     floats = [the model's floats, ext_f (W x 9), watch (1 + 3N), work (work_size(B, E))].
     WATCH 1: :func:`rk4_steps` watches the state (see there); REASON: why it stopped early (ints[o + 2]).
     """

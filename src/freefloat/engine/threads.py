@@ -1,20 +1,20 @@
 """The engine's threads: a batch cut into contiguous ranges, one per thread, each run by the same compiled kernel.
 
-Every batched kernel of the engine (:mod:`._drivers`' serial range kernels, a specialised module's ``blocks``) is
+Every batched kernel of the engine (:mod:`.drivers`' serial range kernels, a specialised module's ``blocks``) is
 compiled once, without ``parallel=True``, and releases the GIL (``nogil``). :func:`run_kernel` runs it on the ranges of
 a batch at once on numba's own threads (its threading layer, as a ``prange`` would): one small parallel loop,
-:func:`_fan_out`, calls the kernel's machine code through its address, so that no kernel is compiled twice. A
-``prange`` driver of the kernel itself would link the kernel and everything it inlines into a module of its own and
-optimise it again (measured on the 2-core VM: J* of the 1992 system 10 s for its serial kernel, 14 s more for the
-threaded one; the specialised measure of the 7-DOF arm 8 s, 13 s more); :func:`_fan_out` compiles in 0.3 s per
-signature of the kernels it calls, once per machine (numba's cache). numba's threads wait for work spinning a while
-before they sleep: a hand-over costs 1-3 us, where waking a thread of a pool (:func:`run_ranges`, which runs a Python
-callable on the ranges: the calling thread takes the first, the threads of a pool kept for the process the others)
-costs 50-120 us on the 2-core VM. The number of ranges is numba's thread count of the calling thread
-(``numba.set_num_threads``, the environment variable ``NUMBA_NUM_THREADS``), so a user limits the engine's threads as
-before.
+:func:`_fan_out`, calls the kernel's machine code through its address (:func:`.gate.machine_address`,
+:data:`.gate.call_range`), so that no kernel is compiled twice. A ``prange`` driver of the kernel itself would link the
+kernel and everything it inlines into a module of its own and optimise it again, which more than doubled a kernel's
+compile time; :func:`_fan_out` is small and compiles quickly, once per signature of the kernels it calls and per
+machine (numba's cache). numba's threads wait for work spinning a while before they sleep, so handing them the ranges
+is far cheaper than waking a thread of a pool (:func:`run_ranges`, which runs a Python callable on the ranges: the
+calling thread takes the first, the threads of a pool kept for the process the others). The number of ranges is
+numba's thread count of the calling thread (``numba.set_num_threads``, the environment variable
+``NUMBA_NUM_THREADS``), so a user limits the engine's threads as with numba's own parallel loops.
 
-Where numba's threads cannot serve, :func:`run_kernel` runs the ranges on the pool instead: in a child made by
+Where numba's threads cannot serve, :func:`run_kernel` runs the ranges on the pool instead: with the ``threads``
+internal off (:mod:`.gate`: an untested numba, a failed lookup, ``FREEFLOAT_NUMBA_INTERNALS=0``), in a child made by
 ``fork`` after the parent launched them (GNU OpenMP, numba's usual layer on Linux, ends such a child at its first
 parallel loop), and while another thread of the process has a loop of the engine's on the ``workqueue`` layer (it takes
 one at a time; numba falls back to it where neither TBB nor an OpenMP runtime is installed; a user's own ``prange``
@@ -23,8 +23,8 @@ calling thread gets a team of numba's threads of its own (many threads calling a
 
 A kernel's ranges write into the call's outputs: :func:`run_kernel` and :func:`run_ranges` return, or raise, only when every range has
 finished, Ctrl-C included (an interrupt is raised once the ranges running have finished, as numba's threads did), so
-that no output is written after its call has ended (a recycled output buffer, :func:`~._arrays.new_output`, serves the
-next call).
+that no output is written after its call has ended (the caller may read or reuse its outputs as soon as the call
+returns).
 """
 
 from __future__ import annotations
@@ -172,8 +172,8 @@ def run_kernel(run: Any, pre: tuple[Any, ...], work: np.ndarray, post: tuple[Any
     """``run(*pre, work[r], first, last, *post)`` for the ``parts`` contiguous ranges r of ``[0, count)`` (at most
     ``count`` of them, their lengths differ by one at most) at once, on numba's threads (see the module docstring);
     ``run`` a compiled kernel (a numba dispatcher) that returns nothing, ``work`` one scratch row per range; the arrays
-    of native byte order, as the engine's are (``buffers.owned``: numba's fingerprints of arrays, the key of
-    :func:`_address`, do not tell byte orders apart). Returns when every range has finished; a range that raised is
+    of native byte order, as the engine's are (:func:`.buffers.owned`: numba's fingerprints of arrays, the key of
+    :func:`.gate.machine_address`, do not tell byte orders apart). Returns when every range has finished; a range that raised is
     run again in the calling thread, which raises its error."""
     count = int(count)
     parts = range_count(count, parts)

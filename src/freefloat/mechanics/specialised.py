@@ -1,23 +1,22 @@
-"""Faster J* batches and rollouts for one model structure, compiled once per machine (``ff.mechanics.specialise``).
+"""Faster batches and rollouts for one model structure, compiled once per machine (``ff.mechanics.specialise``).
 
 Every call of freefloat starts on the engine's generic kernels, which compile nothing per model.
-Sweeps and campaigns on one robot get more **without asking**: once a process has spent about as long on J*
-batches of one model structure as their specialisation takes to compile (3 s of J* work, 12 s of rollouts;
-:data:`AUTO_AFTER`), it specialises that structure in a background thread, says so once on standard error
-(and to the ``freefloat`` logger), and every later call and process uses the result; the calls never wait
-for it. ``FREEFLOAT_AUTO_SPECIALISE=0`` or :func:`auto_specialise` (False) turns this off. :func:`specialise`
-does it up front: it compiles J* and the RK4 rollouts for the model's *structure* (its tree, joint types, joint placements and axes), from
-the same recursions, with the structure folded into the code and several configurations per SIMD
-instruction (eight on AVX-512, four on AVX2). It takes 2-5 s (J*) and 4-12 s (rollouts) once per
-machine on the paper systems (kept in the user's cache folder); from then on, in every process,
-:func:`~freefloat.generalized_jacobian` on batches of 64 configurations or more and
-:func:`~freefloat.rollout` of 8 trajectories or more use it for every model of that
+Sweeps and campaigns on one robot get more **without asking**: once a process has spent, on the generic kernels of
+one kind (J* batches, rollouts, H+, dynamics, the measures of J*) for one model structure, about half of what that
+kind's specialisation takes to compile (:data:`AUTO_AFTER`, seconds per kind), it specialises that structure in a
+background thread, says so once on standard error (and to the ``freefloat`` logger), and every later call and process
+uses the result; the calls never wait for it. ``FREEFLOAT_AUTO_SPECIALISE=0`` or :func:`auto_specialise` (False) turns
+this off. :func:`specialise` does it up front: it compiles the kinds of :data:`KINDS` (J*, the RK4 rollouts, H+,
+forward and inverse dynamics, the measures of J*) for the model's *structure* (its tree, joint types, joint placements
+and axes), from the same recursions, with the structure folded into the code and several configurations per SIMD
+instruction (eight on AVX-512, four on AVX2). It compiles once per machine, seconds per kind (kept in the user's cache
+folder); from then on, in every process, :func:`~freefloat.generalized_jacobian`, H+, the dynamics and the measures
+of J* on batches of 64 configurations or more and :func:`~freefloat.rollout` of 8 trajectories or more use it for every model of that
 structure (with external wrenches: for the wrenches' layout, their bodies and frames, given as ``external``; their
-forces, couples and points are read at run time): masses, inertias and end-effector points are read at run time, so every
-:meth:`~freefloat.Model.with_payload` variant shares it. Results agree with the generic kernels
-to rounding (sin and cos within 1 ulp of the C library's over |q| <= 7 rad, 2 ulp over
-|q| <= 1e5 rad). Measured on a 2-core AVX-512 machine: J* 4-6x and rollouts 4-8x the generic
-kernels (docs/performance.md).
+forces, couples and points are read at run time): masses, inertias and end-effector points are read at run time, so
+every :meth:`~freefloat.Model.with_payload` variant shares it. Results agree with the generic kernels to rounding (sin
+and cos within 1 ulp of the C library's over |q| <= 7 rad, 2 ulp over |q| <= 1e5 rad). On large batches the
+specialised kernels are several times faster than the generic ones (docs/performance.md).
 """
 
 from __future__ import annotations

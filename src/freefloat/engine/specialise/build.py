@@ -1,29 +1,27 @@
 """The specialiser: the engine's recursions compiled for one model *structure*, SIMD across configurations.
 
-The generic kernels (:mod:`._drivers`) take any model as arrays and compile nothing per model. For
-large batches on one model this module compiles, per model structure, faster kernels **from the
-same source**: :mod:`._trace` runs :func:`~._configuration.jstar_one` and
-:func:`~._configuration.state_derivative_one` on symbols, with the structure as numbers (the tree,
-joint types, placements and axes: folded) and the data as symbols (masses, CMs, inertias, the
-total mass, end-effector points: read at run time, so :meth:`~freefloat.Model.with_payload`
-variants share the kernels; the layout of external wrenches, their bodies and frames, is structure too and
-their values are inputs). :func:`emit` writes the graph as straight-line code over one block
-of :data:`~._lanes.LANES` configurations (rows of a flat buffer), which LLVM vectorises; sin and
-cos become :data:`SINCOS` (a vectorisable sin/cos: within 1 ulp of the C library's over
-|q| <= 7 rad and 2 ulp over |q| <= 1e5 rad, checked by ``tests/mechanics/test_specialise.py``;
-beyond about 1e6 rad the reduction is no longer exact). :mod:`._lanes` drives the blocks.
+The generic kernels (:mod:`freefloat.engine.drivers`) take any model as arrays and compile nothing per model. For
+large batches on one model this module compiles, per model structure, faster kernels **from the same source**:
+:mod:`.trace` runs the one-configuration kernels of :mod:`freefloat.engine.quantities` (:data:`~.trace.ENTRY_POINTS`:
+``jstar_one``, ``state_derivative_one``, ``hplus_one``, ``accelerations_one``, ``inverse_one``) on symbols, with the
+structure as numbers (the tree, joint types, placements and axes: folded) and the data as symbols (masses, CMs,
+inertias, the total mass, end-effector points: read at run time, so :meth:`~freefloat.Model.with_payload` variants
+share the kernels; the layout of external wrenches, their bodies and frames, is structure too and their values are
+inputs). :func:`emit` writes the graph as straight-line code over one block of :data:`~.lanes.LANES` configurations
+(rows of a flat buffer), which LLVM vectorises; sin and cos become :data:`SINCOS` (a vectorisable sin/cos: within 1 ulp
+of the C library's over |q| <= 7 rad and 2 ulp over |q| <= 1e5 rad, checked by ``tests/mechanics/test_specialise.py``;
+beyond about 1e6 rad the reduction is no longer exact). :mod:`.lanes` drives the blocks.
 
-A structure is specialised when asked (:func:`specialise`, public as ``ff.mechanics.specialise``), or by
-itself in a background thread once a process has spent :data:`AUTO_AFTER` seconds on its generic kernels
-(:func:`account`; ``FREEFLOAT_AUTO_SPECIALISE=0`` turns that off): a structure takes 2-5 s (J*) and 4-12 s
-(rollouts) to compile once per machine, measured on the paper
-systems, and its calls use it once the lane kernel and the driver ``blocks`` are compiled (a large call on one range of
-blocks per thread: :func:`_run`); the generated source and numba's machine code are then kept in the user's cache folder
-(inside the generic kernels' folder for this numba version and engine source, keyed by the
-structure) and found by every later process, which then uses them for J*, H+ and dynamics batches and rollouts of
-every model of that structure (with external wrenches: of their layout, each layout apart). The kind "measure" is J*'s
-lane kernel followed, on each block, by the engine's :func:`~._configuration.jacobian_measure_lanes` (det, singular
-values: written once, SIMD across the block), for the singularity measures of chosen rows (:func:`measured`).
+A structure is specialised when asked (:func:`specialise`, public as ``ff.mechanics.specialise``), or by itself in a
+background thread once a process has spent :data:`AUTO_AFTER` seconds on its generic kernels (:func:`account`;
+``FREEFLOAT_AUTO_SPECIALISE=0`` turns that off): a structure compiles once per machine (:data:`COMPILE_TIME`), and its
+calls use it once the lane kernel and the driver ``blocks`` are compiled (a large call on one range of blocks per
+thread: :func:`_run`); the generated source and numba's machine code are then kept in the user's cache folder (inside
+the generic kernels' folder for this numba version and engine source, keyed by the structure) and found by every later
+process, which then uses them for J*, H+ and dynamics batches and rollouts of every model of that structure (with
+external wrenches: of their layout, each layout apart). The kind "measure" is J*'s lane kernel followed, on each
+block, by the engine's :func:`freefloat.engine.measures.jacobian_measure_lanes` (det, singular values: written once,
+SIMD across the block), for the singularity measures of chosen rows (:func:`measured`).
 Everything else, and every model not specialised, runs on the generic kernels. Two processes specialising the same
 structure at once both compile; the file each writes is the same and replaced atomically.
 """
@@ -88,7 +86,7 @@ logger = logging.getLogger("freefloat")
 #: dynamics and inverse dynamics (C+ - Q); the last three with or without external wrenches (:data:`WRENCH_KINDS`); and
 #: the measures of J* (det, smallest singular value, manipulability, condition number of chosen rows: :func:`measured`).
 KINDS = ("jstar", "rollout", "hplus", "forward", "inverse", "measure")
-#: The kinds that map a batch of inputs to a batch of outputs (lane by lane: :func:`~._lanes.map_blocks`).
+#: The kinds that map a batch of inputs to a batch of outputs (lane by lane: :func:`~.lanes.map_blocks`).
 MAPS = ("jstar", "hplus", "forward", "inverse")
 #: The kinds that take external wrenches: each layout of wrenches (:func:`layout`) is specialised apart.
 WRENCH_KINDS = ("rollout", "forward", "inverse")
@@ -133,13 +131,13 @@ SINCOS = """\
 
 # ----------------------------------------------------------------- tracing
 def data_vector(t: Tree) -> np.ndarray:
-    """The model's data as the kernels read it: the model's float buffer (:func:`~._tree.arrays`)."""
+    """The model's data as the kernels read it: the model's float buffer (:func:`freefloat.engine.layout.arrays`)."""
     return t.floats
 
 
 def _symbolic_model(t: Tree, g: Graph) -> Any:
-    """The model's :data:`~._tree.Arrays` with the structure as numbers and the data as inputs "data" (slots of
-    ``t.floats``): every body field of role "data" in :data:`~._tree.BODY_FIELDS`, the total mass and the
+    """The model's :data:`freefloat.engine.layout.Arrays` with the structure as numbers and the data as inputs "data"
+    (slots of ``t.floats``): every body field of role "data" in :data:`freefloat.engine.layout.BODY_FIELDS`, the total mass and the
     end-effector points."""
     fields: dict[str, np.ndarray] = {}
     for f in BODY_FIELDS:
@@ -177,7 +175,7 @@ def trace(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[Graph, list[Any], 
     the dissipated power, the engine's, when S = 14 + 2N). Guards: the Cholesky pivots.
     ``wrenches`` (kinds :data:`WRENCH_KINDS`): the external wrenches' layout (:func:`layout`: bodies and frames,
     numbers while tracing); their values ext_f (W x 9) are inputs: of a map, the rows after its other inputs
-    (:func:`wrench_inputs`); of a rollout, the rows after the rollout loop's buffer (:func:`~._lanes.rollout_rows`),
+    (:func:`wrench_inputs`); of a rollout, the rows after the rollout loop's buffer (:func:`~.lanes.rollout_rows`),
     filled once per block of trajectories (a trajectory's wrenches are constant).
     """
     if wrenches and kind not in WRENCH_KINDS:
@@ -234,9 +232,9 @@ def trace(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[Graph, list[Any], 
 
 
 def trace_reduction(k_rows: int, n: int) -> tuple[Graph, list[Any], int]:
-    """The graph of the engine's reduction (:func:`~._configuration._reduce_views`) for the smallest singular value of
+    """The graph of the engine's reduction (``measures._reduce_views``) for the smallest singular value of
     K = ``k_rows`` rows of N = ``n`` columns, one configuration: (graph, outputs, inputs). Inputs "W": the K N entries,
-    row-major; outputs: the reduced rows that :func:`~._configuration._finish_views` reads for it (the product of the
+    row-major; outputs: the reduced rows that ``measures._finish_views`` reads for it (the product of the
     singular values, the 2r - 1 rows of the tridiagonal matrix; r = min(K, N))."""
     mod = traced()
     g = Graph()
@@ -308,10 +306,9 @@ def emit(g: Graph, outputs: list[Any], n_in: int, name: str = "lane") -> tuple[s
 
 
 def gather_source(columns: list[int]) -> str:
-    """Python source of ``gather(W, dst, at, first, last)`` (:func:`~._lanes.map_blocks`): the outputs of the lanes
+    """Python source of ``gather(W, dst, at, first, last)`` (:func:`~.lanes.map_blocks`): the outputs of the lanes
     first..last of W into ``dst[at:]``, a configuration's row (``columns`` values: column c from the lane row columns[c])
-    after another. The rows are constant offsets: on H+ of the 7-DOF arm 39 ns a configuration, against 99 ns with
-    the rows read from an array (one thread, into the caches, measured)."""
+    after another. The rows are constant offsets: more than twice as fast as reading the rows from an array."""
     lines = ["def gather(W, dst, at, first, last):  # pragma: no cover - compiled", "    for i in range(first, last):"]
     lines.append(f"        o = at + (i - first) * {len(columns)}")
     lines += [f"        dst[o + {c}] = W[{row * LANES} + i]" for c, row in enumerate(columns)]
@@ -336,7 +333,8 @@ def distinct(outputs: list[Any]) -> tuple[list[Any], list[int]]:
 
 #: Each kind's one driver, ``blocks(<its arguments>, W, first, last)``: the blocks first..last of a batch, W a scratch
 #: buffer (ROWS x LANES); (its arguments, the body). A large batch runs it on one
-#: contiguous range of blocks per thread (:func:`_run`, :func:`~._threads.run_kernel`): no threaded twin is compiled.
+#: contiguous range of blocks per thread (:func:`_run`, :func:`freefloat.engine.threads.run_kernel`): no threaded twin is
+#: compiled.
 _DRIVERS = {
     "map": (
         "parts, P, OUT, rows",
@@ -395,7 +393,7 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
         rows = n_in + len(outputs) + _measures.measure_work.py_func(t.n_joints)  # then the measure's work space
     else:
         size = t.state_size
-        ext_at = _lanes.rollout_rows(size, t.n_joints + 6)  # the W layout of _lanes.rollout_blocks, then the wrenches
+        ext_at = _lanes.rollout_rows(size, t.n_joints + 6)  # the W layout of lanes._rollout_blocks, then the wrenches
         rows = ext_at + 9 * len(wrenches)
     head = (
         f'"""freefloat: {kind} specialised for one model structure (generated by freefloat.engine.specialise.build; do not edit)."""\n\n'
@@ -560,14 +558,15 @@ def find(t: Tree, kind: str, wrenches: Layout = ()) -> types.ModuleType | None:
 
 # ----------------------------------------------------------------- automatic specialisation
 #: Seconds of generic-kernel work on one model structure (in this process) after which that structure is specialised
-#: in the background: about half the compile time of each kind (J* 2-5 s, rollouts 4-12 s on the paper systems). Waiting
-#: until the work done equals the cost of the compile spends at most twice the best choice made knowing the future work
-#: (the ski-rental rule), and a one-off call never pays for a compile. The compile runs on one core while the calls go
-#: on, so on the 2-core machines this was measured on it costs them about half its time (less with more cores); and
-#: its result serves every later process on the machine. (At 3 s, the full compile time, the 10^8-configuration sweep of
-#: the 1992 system ran at 102x the Pinocchio loop, the 7-DOF arm's at 73x; benchmarks/bench_sweep.py.)
+#: in the background: about half the compile time of each kind (:data:`COMPILE_TIME`). Waiting until the work done
+#: equals the cost of the compile spends at most twice the best choice made knowing the future work (the ski-rental
+#: rule), and a one-off call never pays for a compile. The compile runs on one core while the calls go on, so on two
+#: cores it costs them about half its time (less with more cores); and its result serves every later process on the
+#: machine. (The full compile time as the threshold made the sweeps of benchmarks/bench_sweep.py slower: the history
+#: is in benchmarks/README.md.)
 AUTO_AFTER = {"jstar": 1.5, "rollout": 4.0, "hplus": 1.5, "forward": 3.0, "inverse": 2.5, "measure": 4.0}
-#: What each kind usually takes to compile (measured on the paper systems and the 7-DOF arm; docs/performance.md).
+#: What each kind usually takes to compile, once per machine (the paper systems and the 7-DOF arm; docs/performance.md).
+#: The notice of an automatic specialisation quotes it.
 COMPILE_TIME = {
     "jstar": "2-5 s",
     "rollout": "4-12 s",
@@ -592,9 +591,8 @@ COMPILING = [0]
 @contextlib.contextmanager
 def leave_a_core() -> Iterator[None]:
     """Within: this thread's numba calls run on one thread fewer (at least one), leaving a core to the background
-    compile (entered by the engine's calls while :data:`COMPILING`). On the 2-core machine, the 7-DOF arm's J*
-    compiled in 4.2 s instead of 5.2 s while generic calls of 10^5 went on, and the calls were as fast (1.4-1.5 M
-    configurations/s on one thread or two: the compile holds the GIL and a core either way; measured)."""
+    compile (entered by the engine's calls while :data:`COMPILING`). The compile then finishes sooner, and the calls
+    going on meanwhile are as fast (the compile holds the GIL and a core either way)."""
     import numba
 
     before = numba.get_num_threads()
@@ -725,13 +723,10 @@ def _warm(module: types.ModuleType, t: Tree, kind: str, wrenches: Layout = ()) -
     _run(module, 1, args, threads=1)
 
 
-#: A specialised module's calls of this many configurations or more run on several threads: a block of LANES of them
-#: takes 2-15 us, and handing the ranges to numba's threads costs about 5-10 us here (:func:`~._threads.run_kernel`).
-#: 2 threads against 1 on the 2-core VM, in us (measured): J* of the 1992 system 256 configurations 42 / 34, 512 50 / 44,
-#: 1024 63 / 63, 2048 81 / 109; of the 7-DOF arm 256 49 / 46, 512 63 / 68, 1024 79 / 106; H+ of the 7-DOF arm 256
-#: 60 / 63, 512 75 / 101; forward dynamics of the 7-DOF arm 256 115 / 102, 512 124 / 139. (On a pool's threads, woken
-#: at each call, it cost 50-120 us: the threshold was 4096.) Rollouts: from two blocks of trajectories (each a long
-#: run).
+#: A specialised module's calls of this many configurations or more run on several threads: below it, a block of LANES
+#: configurations is so quick that handing the ranges to numba's threads (:func:`freefloat.engine.threads.run_kernel`)
+#: costs more than a second thread saves (sizes in benchmarks/README.md, Measurement history). Rollouts: from two
+#: blocks of trajectories (each a long run).
 THREADS_FROM = 8 * LANES
 
 
@@ -803,13 +798,13 @@ def mapped(module: types.ModuleType, t: Tree, parts: tuple[np.ndarray, ...], out
 
 
 def measured(module: types.ModuleType, t: Tree, q: np.ndarray, rows: np.ndarray, code: int, out: np.ndarray) -> None:
-    """out (C,) = the measure ``code`` (:data:`~._measures.MEASURE_CODES`) of the distinct rows ``rows`` (K,) of J*
+    """out (C,) = the measure ``code`` (:data:`freefloat.engine.measures.MEASURE_CODES`) of the distinct rows ``rows`` (K,) of J*
     at the rows of q (C, N), by the specialised "measure" kernel: J* of a lane block, then the engine's measure."""
     _run(module, q.shape[0], (q, data_vector(t)[module.SLOTS], rows, code, out))
 
 
 def rollout(module: types.ModuleType, t: Tree, *args: Any) -> None:
-    """:func:`~._lanes.rollout_blocks` (the generic rollout's loop) with the specialised lane kernel: the same
+    """The rollout loop (``lanes._rollout_blocks``, the generic rollout's loop too) with the specialised lane kernel: the same
     arguments as the generic rollout, less the model, with the wrenches' values (K, 9W) after the outputs (W = 0:
     none; their layout is the module's)."""
     _run(module, args[0].shape[0], (data_vector(t)[module.SLOTS], *args), threads_from=LANES + 1)  # from two blocks

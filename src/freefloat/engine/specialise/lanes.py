@@ -1,4 +1,4 @@
-"""Batch drivers of the specialised lane kernels (:mod:`._specialise`): blocks of :data:`LANES` configurations.
+"""Batch drivers of the specialised lane kernels (:mod:`.build`): blocks of :data:`LANES` configurations.
 
 A lane kernel ``lane(W, P)`` computes one result for :data:`LANES` configurations at once: W is a
 flat buffer of rows of LANES values (its inputs first, then its outputs), P the model's data
@@ -6,12 +6,13 @@ flat buffer of rows of LANES values (its inputs first, then its outputs), P the 
 adjacent memory with constant offsets, which the compiler turns into SIMD instructions (eight
 float64 lanes on AVX-512). These drivers copy each block of a user's batch into W (rows), call the
 lane kernel, and copy the outputs back; they hold no physics: J* and the state derivative are the
-traced recursions of :mod:`._recursions`. The rollout loop (:func:`rollout_blocks`: RK4, the joint PD, the
-records and the failures) is written once (``_rollout_blocks``, ``_rk4_rows``), for rows of ``width`` lanes, and bound
-to a lane kernel by :func:`bound_loops`: the specialised rollouts run it with
-:data:`LANES` lanes and their lane kernel, the generic rollout (:mod:`._drivers`) with one lane and the engine's
-state derivative. They are inlined into the kernels of each generated module (:func:`~._specialise.load`) and
-into the generic rollout kernel.
+traced recursions of :mod:`freefloat.engine.recursions`. The rollout loop (``_rollout_blocks``: the controller, the
+records and the failures) is written once, for rows of ``width`` lanes, and bound to an RK4 step and a controller by
+:func:`rollout_loop`: the specialised rollouts run it :data:`LANES` lanes wide with :func:`_rk4_rows` on their lane
+kernel (:func:`bound_loops`), the generic rollout and the compiled single simulations (:mod:`freefloat.engine.drivers`)
+one lane wide with the engine's RK4 step of one state (:func:`freefloat.engine.quantities.rk4_step`, through
+``rk4_step_rows``). They are inlined into the kernels of each generated module (:func:`~.build.load`) and into the
+generic rollout kernels.
 """
 
 from __future__ import annotations
@@ -37,8 +38,8 @@ __all__ = [
     "rollout_rows",
 ]
 
-#: Configurations per lane block (a multiple of the SIMD width). Measured on the 7-DOF arm: 16 is 10-20% slower,
-#: 32, 64 and 128 within the machine's noise of each other.
+#: Configurations per lane block (a multiple of the SIMD width): 16 was slower on the 7-DOF arm; 32, 64 and 128 were
+#: as fast as each other.
 LANES = 64
 
 
@@ -52,7 +53,7 @@ def joint_pd(
     ``feed``), u = ff[sample, b] (its last sample held) + kp (qref - q) + kd (vref - qdot), clipped to +-lim.
 
     The state is x[x0 + i * step] (i = 0 .. 13 + 2N) and u is written to u[u0 + j * step] (j = 0 .. N + 6):
-    step 1 for one trajectory, LANES for a lane of a block (:func:`rollout_blocks`). True if any
+    step 1 for one trajectory, LANES for a lane of a block (``_rollout_blocks``). True if any
     component was clipped. A controller of the rollout loop has this signature (``P``: the lane kernel's data).
     """
     kp, kd, qref, vref, (ff, samples, sample_stride, trajectory_stride, width) = C
@@ -83,8 +84,8 @@ def feed(ff: np.ndarray) -> Feed:
     memory with the strides of its first two axes (in values), read in place whatever its layout: a series that every
     trajectory shares (broadcast: trajectory stride 0), per-trajectory series laid out (K, S, W) (as
     ``mujoco.rollout`` takes them) and swapped to (S, K, W), a chunk of the trajectories. A copy only when its values
-    are not float64 a stride apart along W, or a stride is negative. (The Panda's 500 x 1,024 x 9 swapped series: a 37 MB
-    copy, 21 ms of a 0.32 s rollout, before.) Always read-only: numba compiles one signature for it."""
+    are not float64 a stride apart along W, or a stride is negative (a large swapped series is read in place, not
+    copied). Always read-only: numba compiles one signature for it."""
     a = np.asarray(ff, dtype=np.float64)
     item = a.itemsize
     if a.size == 0:  # no samples (or no trajectories): no feed-forward, width 0 (joint_pd reads none of it)
@@ -131,7 +132,7 @@ def map_blocks(
         b0 = block * LANES
         count = min(LANES, size - b0)
         at = 0
-        for part in parts:  # part by part: a configuration at a time, with this loop inside, ran 3-4x slower (measured)
+        for part in parts:  # part by part: a configuration at a time, with this loop inside, ran several times slower
             width = part.shape[1]
             if part.shape[0] != 1:
                 for lane_ in range(LANES):
@@ -168,11 +169,10 @@ def _measure_blocks(
     J* of a block into W (inputs, then the K = 6E rows of J* (N each), then ``WORK`` rows of work space), and the engine's
     measure reduces them, :data:`LANES` configurations at a time: the smallest singular value of all the rows, in
     order (kind 1), by the traced reduction ``REDUCE`` (straight-line, the reduced rows written after J*, at the work
-    space) and ``FINISH`` (:func:`~._configuration.measure_finish_lanes`); any other measure or rows by ``MEASURE``
-    (:func:`~._configuration.jacobian_measure_lanes`). ``LANE``, ``MEASURE``, ``REDUCE``, ``FINISH``, ``N`` (the joints),
+    space) and ``FINISH`` (:func:`freefloat.engine.measures.measure_finish_lanes`); any other measure or rows by ``MEASURE``
+    (:func:`freefloat.engine.measures.jacobian_measure_lanes`). ``LANE``, ``MEASURE``, ``REDUCE``, ``FINISH``, ``N`` (the joints),
     ``K``, ``R`` (min(K, N)) and ``WORK`` are bound by :func:`measure_loop` as constants; ``MEASURE`` and ``FINISH`` hand the
-    block to the engine's compiled measure (:func:`~._configuration._measure_views`, :func:`~._configuration._finish_views`,
-    not inlined)."""
+    block to the engine's compiled measure (``measures._measure_views``, ``measures._finish_views``, not inlined)."""
     size = Q.shape[0]
     off = N * LANES  # type: ignore[name-defined]  # noqa: F821 (bound by measure_loop)
     tmp = W[W.shape[0] - WORK * LANES :]  # type: ignore[name-defined]  # noqa: F821
@@ -218,9 +218,10 @@ def measure_loop(lane: Any, measure: Any, reduce: Any, finish: Any, n: int, k: i
 
 
 def _rk4_rows(P: Any, W: np.ndarray, width: int, size: int, nu: int, dt: float) -> None:  # pragma: no cover
-    """One classical RK4 step, written once, of the ``width`` states in the x rows of W (u held), each quaternion
-    renormalised after it; the ok row is 1.0 where every stage's H+ was positive definite, else 0.0. ``LANE`` (bound by :func:`bound_loops`)
-    is the lane kernel.
+    """One classical RK4 step of the ``width`` states in the x rows of W (u held), each quaternion renormalised after it
+    (the same formulas as :func:`freefloat.engine.quantities.rk4_step`, written for rows of lanes;
+    ``tests/mechanics/test_specialise.py`` checks the two against each other); the ok row is 1.0 where every stage's H+
+    was positive definite, else 0.0. ``LANE`` (bound by :func:`bound_loops`) is the lane kernel.
 
     W = [y (S rows), u (N + 6 rows), dy/dt (S rows), ok (1 row), x (S rows), sum of the stage derivatives (S rows),
     ...], rows of ``width`` values; ``LANE(W, P)`` writes dy/dt at y and u (and multiplies ok by 0.0 where H+
@@ -276,18 +277,20 @@ def _rollout_blocks(
 ) -> None:  # pragma: no cover
     """The rollout loop, written once: fixed-step RK4 of the trajectories of blocks first..last, ``width`` at a time,
     with a controller in the loop: ``CONTROL(C, P, k, t, b, lim, W, x0, u0, width)`` (bound by :func:`rollout_loop`: the
-    joint PD :func:`joint_pd`, C its gains; or a control law of :mod:`._laws`, width 1, C its :data:`~._laws.Law`).
-    The generic rollout runs it with width 1, the specialised one with :data:`LANES`. Each step is ``_rk4_rows``.
+    joint PD :func:`joint_pd`, C its gains; or a control law of :mod:`freefloat.engine.laws`, width 1, C its
+    :data:`~freefloat.engine.laws.Law`). The generic rollout runs it with width 1, the specialised one with
+    :data:`LANES`. Each step is ``RK4_ROWS(P, W, width, size, nu, dt)`` (bound by :func:`rollout_loop`: :func:`_rk4_rows`
+    on a lane kernel, or the engine's ``rk4_step_rows``).
 
     Trajectory b (a row of X0 (K, S)): u = the controller's output at sample k (every ``hold``
     steps), clipped to +-lim; states, actuations and saturation flags recorded at step 0,
     every ``stride`` steps and the last step into XS, US, SAT; DONE[b] = the steps completed (fewer: a non-finite
     state or H+ not positive definite; the records after it are NaN).
 
-    ``LANE(W, P)`` (bound by :func:`bound_loops`) computes the state derivative of ``width`` trajectories: W = [y (S rows), u (N + 6 rows),
-    dy/dt (S rows), ok (1 row), x (S rows), sum of the stage derivatives (S rows), failed (1 row), saturated
-    (1 row)], rows of ``width`` values; the lane kernel reads y and u and writes dy/dt, and multiplies ok by 0.0 in
-    a lane whose H+ was not positive definite. ``P``: what the lane kernel reads besides W (the model's data).
+    W = [y (S rows), u (N + 6 rows), dy/dt (S rows), ok (1 row), x (S rows), sum of the stage derivatives (S rows),
+    failed (1 row), saturated (1 row)], rows of ``width`` values (:func:`rollout_rows`); the step reads x and u,
+    advances x and sets ok to 0.0 in a lane whose H+ was not positive definite. ``P``: what the step reads besides W
+    (a lane kernel's data; the generic step's model, wrenches and scratch).
     """
     size = X0.shape[1]
     n = (size - 13) // 2
@@ -361,12 +364,12 @@ def bound_loops(lane: Any, name: str) -> tuple[Any, Any]:
 @functools.cache
 def rollout_loop(rk4_rows: Any, name: str, control: Any = joint_pd) -> Any:
     """The rollout loop above with the RK4 step ``rk4_rows(P, W, width, size, nu, dt)`` and the controller ``control``
-    (:func:`joint_pd`, or a control law's adapter: :func:`~._laws.law_control`), bound as globals: inlined."""
+    (:func:`joint_pd`, or a control law's adapter: :func:`freefloat.engine.laws.law_control`), bound as globals: inlined."""
     return numba.njit(inline="always", nogil=True, error_model="numpy")(
         bind(_rollout_blocks, f"rollout_blocks_{name}", RK4_ROWS=rk4_rows, CONTROL=control)
     )
 
 
 def rollout_rows(size: int, nu: int) -> int:
-    """Rows of the W buffer of :func:`rollout_blocks` for states of ``size`` and actuations of ``nu`` components."""
+    """Rows of the W buffer of ``_rollout_blocks`` for states of ``size`` and actuations of ``nu`` components."""
     return 4 * size + nu + 3

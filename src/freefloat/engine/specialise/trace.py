@@ -1,11 +1,11 @@
 """Trace the engine's one-configuration kernels on symbols: the expression graph a specialiser compiles.
 
-The recursions of :mod:`._recursions` and :mod:`._configuration` are plain scalar Python over
-arrays (numba compiles them as written). Run on :class:`Sym` values instead of floats, with the
-model's *structure* (tree, joint types, joint placements and axes) as numbers and its *data* (mass
-properties, end-effector points, the state) as symbols, the same source yields the graph of one
-configuration for one model structure. Nothing of the physics is written here: this module only
-knows arithmetic.
+The recursions of :mod:`freefloat.engine.recursions`, :mod:`freefloat.engine.quantities` and
+:mod:`freefloat.engine.measures` are plain scalar Python over arrays (numba compiles them as written). Run on
+:class:`Sym` values instead of floats, with the model's *structure* (tree, joint types, joint placements and axes) as
+numbers and its *data* (mass properties, end-effector points, the state) as symbols, the same source yields the graph
+of one configuration for one model structure. Nothing of the physics is written here: this module only knows
+arithmetic.
 
 Rules applied while tracing:
 
@@ -298,7 +298,7 @@ def _tanh(x: Any) -> Any:
 
 
 def _pick(x: Any, y: Any, a: Any, b: Any) -> Any:
-    """The traced :func:`~._configuration._pick` (``a if x > y else b``): chosen while tracing when x and y are numbers,
+    """The traced ``measures._pick`` (``a if x > y else b``): chosen while tracing when x and y are numbers,
     else a "pick" node (the one select on data the engine's measures make)."""
     if not isinstance(x, Sym) and not isinstance(y, Sym):
         return a if x > y else b
@@ -327,7 +327,8 @@ ENTRY_POINTS = {
 
 @functools.cache
 def traced() -> types.SimpleNamespace:
-    """The engine's kernels (:mod:`._tree`, :mod:`._recursions`, :mod:`._configuration`) as plain Python on :class:`Sym` values.
+    """The engine's kernels (of :mod:`freefloat.engine.layout`, :mod:`~freefloat.engine.recursions`,
+    :mod:`~freefloat.engine.measures`, :mod:`~freefloat.engine.quantities`) as plain Python on :class:`Sym` values.
 
     Each kernel's Python function (``py_func``, the one source numba compiles) is rebound to a namespace in which
     every kernel name is its traced twin, the views without reference counting are checked slices and ``math`` is
