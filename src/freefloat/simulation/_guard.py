@@ -1,8 +1,7 @@
-"""What keeps a simulation from hanging (private): the cost estimate, the stiff-gain check, progress, the divergence guard.
+"""What keeps a simulation from hanging (private): the cost estimate, progress, the divergence guard.
 
-- :func:`estimate_run`: steps, controller samples, outputs, memory and wall time of a run, before it starts.
-- :func:`check_pd_gains`: a sampled joint PD against the stability bound of a zero-order-hold PD on
-  each joint's free-floating effective inertia (:func:`freefloat.mechanics.free_floating_joint_inertia`).
+- :func:`estimate_run`: steps, controller samples, outputs, memory and wall time of a run, before it starts (the
+  other checks before a run, which need the engine too, are :mod:`._prerun`'s, made with it in one call).
 - :class:`Progress`: a progress bar that appears once a run has lasted ``delay`` seconds, or a callback.
 - :class:`DivergenceGuard`: stops a run whose state grows without bound (see its docstring).
 """
@@ -10,7 +9,6 @@
 from __future__ import annotations
 
 import time
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -18,11 +16,10 @@ from typing import Any
 import numpy as np
 
 from .. import engine
-from ..core.errors import SimulationError, StiffGainsWarning
+from ..core.errors import SimulationError
 from ..core.feedback import LOG_PERIOD, interactive, progress_log
 from ..core.model import Model
 from ..core.numbers import MAX_RATE  # beyond it a run stops: the actuation or the initial state is not physical
-from ..mechanics.momentum import free_floating_joint_inertia
 
 __all__ = [
     "DIVERGENCE_ANGLE",
@@ -30,15 +27,12 @@ __all__ = [
     "DivergenceGuard",
     "Progress",
     "RunEstimate",
-    "check_pd_gains",
     "estimate_run",
-    "pd_gain_bounds",
-    "pd_stability",
 ]
 
 #: A joint (or the spacecraft) turning more than this many radians within one controller sample or
 #: RK4 step, with the kinetic energy grown tenfold, is a diverging run. A stable sampled PD turns a
-#: joint at most 4 x its angle error per sample (see :func:`pd_gain_bounds`), so 20 rad is never met
+#: joint at most 4 x its angle error per sample (see :func:`._prerun.pd_gain_bounds`), so 20 rad is never met
 #: by a stable loop, and nothing a sampled controller or an RK4 step computes is meaningful there.
 DIVERGENCE_ANGLE = 20.0
 #: A joint PD (no feed-forward, no reference rate, no external wrench) whose kinetic energy exceeds
@@ -143,144 +137,6 @@ def estimate_run(
         seconds = steps * 12 * cost + samples * _SAMPLE_COST + outputs * _SAMPLE_COST
     width = 13 + 2 * model.n_joints + model.n_joints + 7
     return RunEstimate(int(steps), int(samples), int(outputs), int(outputs * width * 8), float(seconds), fixed_step is None)
-
-
-def pd_gain_bounds(inertia: Any, period: float, kd: Any) -> tuple[np.ndarray, np.ndarray]:
-    """Largest stable gains of a PD sampled every ``period`` (zero-order hold) on a free inertia m.
-
-    For m q'' = u, u_k = -kp q_k - kd q'_k held over [kh, (k+1)h), the exact discrete map has
-    trace 2 - a/2 - b and determinant 1 - b + a/2 with a = kp h^2/m, b = kd h/m; the Jury
-    conditions give 0 < kd < 2 m / h and 0 < kp < 2 kd / h. Returns (kd_max, kp_max) with kp_max
-    for the given kd, or for kd_max where kd is above it.
-    """
-    m = np.asarray(inertia, dtype=float)
-    kd_max = 2.0 * m / period
-    kd_eff = np.minimum(np.asarray(kd, dtype=float), kd_max)
-    return kd_max, 2.0 * kd_eff / period
-
-
-def _sampled_pd_map(inertia: np.ndarray, kp: np.ndarray, kd: np.ndarray, period: float) -> np.ndarray:
-    """The exact one-sample map of M q'' = u, u held at -kp q_k - kd q'_k, on the state (q, q') (2N x 2N)."""
-    n = inertia.shape[0]
-    h, eye = period, np.eye(n)
-    a_p = np.linalg.solve(inertia, np.diag(kp))
-    a_d = np.linalg.solve(inertia, np.diag(kd))
-    return np.block([[eye - 0.5 * h * h * a_p, h * eye - 0.5 * h * h * a_d], [-h * a_p, eye - h * a_d]])
-
-
-def pd_stability(model: Model, kp: Any, kd: Any, q0: Any, period: float) -> tuple[float, float, int]:
-    """The sampled joint PD, all joints together, linearised at the angles ``q0`` (zero rates, spacecraft free).
-
-    Returns (spectral radius of the one-sample map, largest factor s <= 4 such that s kp, s kd is
-    stable (radius < 1), the joint that moves most in the least stable mode). The radius is below 1
-    exactly when the linearised sampled loop is stable; the coupling of the joints through the
-    free-floating inertia makes it stricter than the per-joint bounds of :func:`pd_gain_bounds`.
-    """
-    n = model.n_joints
-    m = free_floating_joint_inertia(model, np.asarray(q0, dtype=float))
-    kp_n = np.broadcast_to(np.asarray(kp, dtype=float), (n,))
-    kd_n = np.broadcast_to(np.asarray(kd, dtype=float), (n,))
-
-    def radius(scale: float) -> tuple[float, np.ndarray]:
-        with np.errstate(over="ignore", invalid="ignore"):
-            step = _sampled_pd_map(m, scale * kp_n, scale * kd_n, period)
-        if not np.all(np.isfinite(step)):  # a period or gains so large that the map overflows: unstable
-            return float("inf"), np.ones(n)
-        values, vectors = np.linalg.eig(step)
-        worst = int(np.argmax(np.abs(values)))
-        return float(np.abs(values[worst])), np.abs(vectors[:n, worst])
-
-    rho, mode = radius(1.0)
-    lo, hi = 0.0, 4.0
-    if radius(hi)[0] < 1.0:
-        lo = hi
-    else:
-        for _ in range(40):
-            mid = 0.5 * (lo + hi)
-            lo, hi = (mid, hi) if radius(mid)[0] < 1.0 else (lo, mid)
-    return rho, lo, int(np.argmax(mode))
-
-
-def check_pd_gains(model: Model, controller: Any, q0: np.ndarray, period: float | None) -> list[str]:
-    """Warn (:class:`StiffGainsWarning`) where a :class:`~freefloat.JointPD` sampled every ``period`` is unstable.
-
-    Two tests, at the initial angles ``q0`` with the spacecraft free: each joint against
-    :func:`pd_gain_bounds` on its effective inertia (the diagonal of
-    :func:`~freefloat.mechanics.free_floating_joint_inertia`), and all joints together
-    (:func:`pd_stability`). Returns the messages (one per offending joint, then the coupled one).
-    """
-    from .pd import JointPD
-
-    if not isinstance(controller, JointPD) or period is None or model.n_joints == 0:
-        return []
-    n = model.n_joints
-    try:
-        kp = np.broadcast_to(np.asarray(controller.kp, dtype=float), (n,))
-        kd = np.broadcast_to(np.asarray(controller.kd, dtype=float), (n,))
-    except ValueError:
-        return []  # gains per trajectory of a batch, or that do not broadcast: the controller call reports them
-    m = np.diagonal(free_floating_joint_inertia(model, q0))
-    kd_max, kp_max = pd_gain_bounds(m, period, kd)
-    lines = []
-    for i in np.argsort(m):
-        if kd[i] >= kd_max[i] or kp[i] >= kp_max[i]:
-            lines.append(
-                f"joint {model.joint_names[i]!r} (effective inertia {m[i]:.3g} kg m^2, spacecraft free): "
-                f"kp = {kp[i]:.3g}, kd = {kd[i]:.3g}; stable needs kd < {kd_max[i]:.3g} N m s/rad and kp < {kp_max[i]:.3g} N m/rad"
-            )
-    rho, scale, joint = pd_stability(model, kp, kd, q0, period)
-    if rho >= 1.0:
-        lines.append(
-            f"all joints together (coupled through the free-floating inertia, linearised at the initial angles) grow by "
-            f"{rho:.3g} per sample, mostly joint {model.joint_names[joint]!r}; gains times {scale:.3g} or less are stable"
-        )
-    if lines:
-        warnings.warn(
-            f"JointPD sampled every {period:.3g} s is unstable: " + "; ".join(lines) + ". Lower the gains below these bounds "
-            "(half of them leaves a margin) or sample faster; the run will diverge.",
-            StiffGainsWarning,
-            stacklevel=3,
-        )
-    return lines
-
-
-#: RK4's stability limit on the negative real axis: a decay rate c (1/s) is integrated stably by steps dt with c dt below it.
-RK4_REAL_LIMIT = 2.785
-
-
-def check_passive_step(model: Model, q0: np.ndarray, step: float | None) -> list[str]:
-    """Warn (:class:`StiffGainsWarning`) where fixed RK4 steps of ``step`` s cannot follow a joint's damping or friction.
-
-    Near rest the smooth friction acts as a damping of F / v_s (:data:`~freefloat.engine.recursions.FRICTION_SPEED`);
-    with the joint's viscous damping d and its effective inertia m (the diagonal of
-    :func:`~freefloat.mechanics.free_floating_joint_inertia` at ``q0``), the joint's rate decays at c = (d + F / v_s) / m,
-    and RK4 needs c step < :data:`RK4_REAL_LIMIT`. Returns the messages (one per offending joint).
-    """
-    from ..engine import FRICTION_SPEED
-
-    if step is None or model.n_joints == 0 or not model.has_passive:
-        return []
-    m = np.diagonal(free_floating_joint_inertia(model, q0))
-    # a column of q feels its joint's damping and friction and its mimic joints' (multiplier r): r^2 d, and near rest r^2 F / v_s
-    own, law = model.expanded(), model.mimic_matrix
-    damping = own.joint_damping @ law**2
-    friction = own.joint_friction @ law**2
-    rate = (damping + friction / FRICTION_SPEED) / m
-    lines = [
-        f"joint {model.joint_names[i]!r} (effective inertia {m[i]:.3g}, damping {damping[i]:.3g}, friction "
-        f"{friction[i]:.3g}: its rate decays at {rate[i]:.3g} 1/s) needs steps below {RK4_REAL_LIMIT / rate[i]:.3g} s"
-        for i in np.argsort(-rate)
-        if rate[i] * step >= RK4_REAL_LIMIT
-    ]
-    if lines:
-        warnings.warn(
-            f"RK4 steps of {step:.3g} s cannot follow the joints' damping and friction: " + "; ".join(lines) + ". Take shorter "
-            "steps, use the adaptive integrator (no fixed_step), or simulate without them (passive='ignore'); the run will "
-            "diverge.",
-            StiffGainsWarning,
-            stacklevel=3,
-        )
-    return lines
 
 
 class Progress:

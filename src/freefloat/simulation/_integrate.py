@@ -1,56 +1,76 @@
-"""The integration loops behind :func:`freefloat.simulate` and :func:`freefloat.rollout` (private).
+"""One simulation run from its plan (private): :func:`run`, and the integration loops behind :func:`freefloat.simulate`
+and :func:`freefloat.rollout`.
 
-The state derivative and RK4 steps are the engine's (:mod:`freefloat.engine.calls`,
-one compiled call per run of steps); here are the fixed-step
-and adaptive (scipy ``solve_ivp``) loops, events, and the recorder that turns
-the flat states into a :class:`~freefloat.Trajectory`. The flat state is
-``x = [r_cm, v_cm, attitude (x, y, z, w), omega, q, qdot]`` (see
+:func:`run` takes the :class:`~._plan.RunPlan` that :func:`~._plan.plan_run` made, and runs it inside the engine's
+compiled loop when it can (:func:`._compiled_runs.compiled_simulation`), else in the fixed-step loop
+(:func:`_run_rk4`: runs of RK4 steps between controller samples, outputs and events as one compiled call each) or
+the adaptive one (:func:`_run_adaptive`: scipy ``solve_ivp`` over the engine's state derivative, piece by piece
+between controller samples). The state derivative and RK4 steps are the engine's (:class:`freefloat.engine.Stepper`).
+The flat state is ``x = [r_cm, v_cm, attitude (x, y, z, w), omega, q, qdot]`` (see
 :mod:`freefloat.core.state`), with the energy the joints' damping and friction have dissipated as one more
 component, last, when the run models them (:func:`~freefloat.core.state.dissipates`): the integrators integrate its
 rate (the engine's dissipated power) with the state, so every loop here carries it (the joint stops' restarts too) and
-:func:`_trajectory` takes it off into ``Trajectory.dissipated_energy``.
+the record (:mod:`._record`) takes it off into ``Trajectory.dissipated_energy``.
 """
 
 from __future__ import annotations
 
 import itertools
-import math
 from collections.abc import Callable, Iterator, Sequence
 from types import SimpleNamespace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from .. import engine
-from ..core.errors import ShapeError, SimulationError
+from ..core.errors import FreefloatError, SimulationError
 from ..core.model import Model
 from ..core.numbers import MAX_EFFORT
-from ..core.resources import MEMORY_FRACTION, available_memory, format_bytes
-from ..core.state import dissipated, unpack_state
-from ..mechanics.forces import _engine_wrenches, _wrenches
+from ..core.state import unpack_state
+from ._compiled_runs import compiled_simulation
+from ._controller import check_output, plain_torques, zero_thrust
+from ._guard import Progress
+from ._plan import RunPlan, engine_wrenches
+from ._record import _Recorder
+from ._stops import with_limit_events
+from ._wheels import user_trajectory
 from .trajectory import Trajectory
 
 
-def _engine_inputs(model: Model, external: Any) -> tuple[np.ndarray, np.ndarray]:
-    """External wrenches (constant; forces and couples (3,)) as the engine takes them."""
-    ext_i, ext_f = _engine_wrenches(model, _wrenches(external))
-    if ext_f.ndim != 2:
-        raise ShapeError(f"external: a simulation takes constant wrenches (force and torque of shape (3,)), got {ext_f.shape[:-2]} batches")
-    return ext_i, ext_f
+def run(plan: RunPlan) -> Trajectory:
+    """The simulation ``plan`` describes: inside the engine's compiled loop when it can be (a built-in controller with
+    fixed steps, no events, stops or wheels, a short run: :func:`._compiled_runs.compiled_simulation`), else the RK4 or
+    adaptive loop, with progress and the divergence guard. Ctrl-C returns the trajectory so far (status
+    ``"interrupted"``); a failure raises a :class:`SimulationError` that holds it."""
+    if plan.fixed_step is not None and not plan.events and not plan.stops.active and not plan.user.wheels:
+        compiled = compiled_simulation(plan)  # the controller inside the compiled loop, when it can be
+        if compiled is not None:
+            return with_limit_events(compiled, plan.stops)
+    rec = _Recorder(plan.model)
+    bar = Progress(plan.progress, plan.duration)
+    try:
+        plan.guard.check(0.0, plan.x0)  # an initial rate beyond meaning: stopped now, named (its first step would be non-finite)
+        status = _run_rk4(plan, rec, bar) if plan.fixed_step is not None else _run_adaptive(plan, rec, bar)
+    except KeyboardInterrupt:
+        t_stop = rec.t[-1] if rec.t else 0.0
+        return _finish(plan, rec.trajectory("interrupted", f"interrupted (Ctrl-C) after t = {t_stop:.6g} s of {plan.duration:g} s"))
+    except SimulationError as exc:
+        exc.trajectory = _finish(plan, rec.trajectory("failed", str(exc)))
+        raise
+    except (FreefloatError, ValueError, ArithmeticError, RuntimeError, TypeError, KeyError, IndexError) as exc:
+        t_fail = rec.t[-1] if rec.t else 0.0
+        message = f"simulation failed after t = {t_fail:.6g} s: {type(exc).__name__}: {exc}"
+        raise SimulationError(message, _finish(plan, rec.trajectory("failed", message))) from exc
+    finally:
+        bar.close()
+    return _finish(plan, rec.trajectory(*status))
 
 
-_ZEROS: dict[tuple[int, ...], np.ndarray] = {}
-
-
-def zero_thrust(batch: tuple[int, ...]) -> np.ndarray:
-    """A shared read-only zero thrust (batch, 3): a controller's plain joint torques carry it as their spacecraft force
-    and torque (the fixed-step loop then writes only the torques)."""
-    if batch not in _ZEROS:
-        zeros = np.zeros((*batch, 3))
-        zeros.flags.writeable = False
-        _ZEROS[batch] = zeros
-    return _ZEROS[batch]
+def _finish(plan: RunPlan, traj: Trajectory) -> Trajectory:
+    """The user's trajectory of a run: its joint-limit events, and the reaction wheels apart from the joints."""
+    traj = with_limit_events(traj, plan.stops)
+    return user_trajectory(plan.user, traj) if plan.user.wheels else traj
 
 
 def _u(model: Model, tau: np.ndarray, force: np.ndarray, torque: np.ndarray, out: np.ndarray) -> np.ndarray:
@@ -71,29 +91,6 @@ def _check_effort(t: float | None, u: np.ndarray) -> None:
             f"{MAX_EFFORT:.0e}, more than any actuator "
             "gives (it would spin the largest inertia a model may have beyond 1e4 rad/s within a second); check the "
             "controller's gains and units"
-        )
-
-
-def plain_torques(raw: np.ndarray) -> bool:
-    """True when every entry of ``raw`` is finite and within :data:`~freefloat.core.numbers.MAX_EFFORT` (N m or N).
-    For one configuration on Python floats (a third of numpy's reductions on a few values, every step of a
-    simulation); a NaN or inf makes the sum non-finite, a sum that overflows sends finite values to the full check."""
-    if raw.ndim != 1:
-        return bool(np.abs(raw).max(initial=0.0) <= MAX_EFFORT)  # NaN compares false
-    values = raw.tolist()
-    return not values or (-MAX_EFFORT <= min(values) and max(values) <= MAX_EFFORT and math.isfinite(sum(values)))
-
-
-def check_output(name: str, arr: np.ndarray) -> None:
-    """A controller's output ``name`` (an array): a ValueError that says what is wrong when an entry is not finite or
-    beyond :data:`~freefloat.core.numbers.MAX_EFFORT` (N m or N)."""
-    if not np.isfinite(arr).all():
-        raise ValueError(f"controller returned a non-finite {name}: {arr}")
-    if np.abs(arr).max(initial=0.0) > MAX_EFFORT:
-        raise ValueError(
-            f"controller returned a {name} of {np.abs(arr).max():.3g}, beyond {MAX_EFFORT:.0e} (N m or N), more than any actuator "
-            "gives (it would spin the largest inertia a model may have beyond 1e4 rad/s within a second); check the controller's "
-            "gains and units"
         )
 
 
@@ -118,9 +115,10 @@ def _record(rec: _Recorder, t: float, x: np.ndarray, act: Any, u: np.ndarray) ->
     rec.add(t, x, act)
 
 
-def _rhs(model: Model, external: Any) -> Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
-    """The state derivative ``f(x, tau, force, torque)`` of one state (the engine, one compiled call)."""
-    stepper = engine.Stepper(model, _engine_inputs(model, external))
+def _rhs(model: Model, wrenches: tuple[np.ndarray, np.ndarray]) -> Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]:
+    """The state derivative ``f(x, tau, force, torque)`` of one state (the engine, one compiled call) under the external
+    ``wrenches`` (the engine's form: :func:`~._plan.engine_wrenches`)."""
+    stepper = engine.Stepper(model, wrenches)
     u = np.zeros(model.n_joints + 6)
 
     def derivative(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
@@ -135,97 +133,13 @@ def _rhs(model: Model, external: Any) -> Callable[[np.ndarray, np.ndarray, np.nd
 
 def _stepper(model: Model, dt: float, external: Any) -> Callable[..., np.ndarray]:
     """One RK4 step of a batch of states ``step(x (B, S), tau, force, torque) -> new x`` (the engine, threads across B)."""
-    ext = _engine_inputs(model, external)
+    ext = engine_wrenches(model, external)
 
     def step(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
         u = _u(model, tau, force, torque, np.empty((*x.shape[:-1], model.n_joints + 6)))
         return engine.rk4_batch(model, x, u, dt, 1, ext)
 
     return step
-
-
-#: The recorder looks at the free memory every this many recorded states.
-RECORD_CHECK = 1 << 16
-
-
-class _Recorder:
-    def __init__(self, model: Model) -> None:
-        self.model = model
-        self.t: list[float] = []
-        self.x: list[np.ndarray] = []
-        self.act: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
-
-    def add(self, t: float, x: np.ndarray, act: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]) -> None:
-        if len(self.t) % RECORD_CHECK == RECORD_CHECK - 1:
-            self._check_memory(x)
-        self.t.append(float(t))
-        self.x.append(x.copy())  # the attitudes are normalised at the end, all at once (:meth:`trajectory`)
-        self.act.append(act)
-
-    def _check_memory(self, x: np.ndarray) -> None:
-        """A run records its states as it goes (a 1e12 s run allocates nothing up front): stop it, with what it
-        recorded, before the records and their final stacking (about 3 times the records) exceed the free memory."""
-        per_sample = 8 * (x.size + sum(np.size(a) for a in self.act[-1])) + 200  # floats, and the lists' own objects
-        recorded = len(self.t) * per_sample
-        free = available_memory()
-        if free is not None and 3 * recorded > MEMORY_FRACTION * free:
-            raise SimulationError(
-                f"the run has recorded {len(self.t):,} states ({format_bytes(recorded)}), and recording more would exceed the "
-                f"memory this machine has free ({format_bytes(free)}): record fewer states (a longer output_period) or "
-                "shorten the run; the states so far are attached"
-            )
-
-    def trajectory(self, status: str = "finished", message: str = "") -> Trajectory:
-        model = self.model
-        n = model.n_joints
-        # the records whole: an interrupt (Ctrl-C, SIGTERM) between the appends of :meth:`add` leaves one list longer
-        kept = min(len(self.t), len(self.x), len(self.act))
-        if kept:
-            xs = np.stack(self.x[:kept])
-            xs[..., 6:10] /= np.linalg.norm(xs[..., 6:10], axis=-1, keepdims=True)
-            acts = [np.stack([a[i] for a in self.act[:kept]]) for i in range(4)]
-        else:
-            xs = np.zeros((0, 13 + 2 * n))  # (no slot: no dissipated energy either)
-            acts = [np.zeros((0, n)), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0,), dtype=bool)]
-        return _trajectory(model, np.asarray(self.t[:kept]), xs, (acts[0], acts[1], acts[2], acts[3]), status, message)
-
-
-def _trajectory(
-    model: Model,
-    t: np.ndarray,
-    xs: np.ndarray,
-    acts: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-    status: str = "finished",
-    message: str = "",
-    *,
-    copy: bool = True,
-) -> Trajectory:
-    """A Trajectory from stacked flat states xs (T, ..., S) and actuation; the dissipated energy from their last slot
-    (S = 14 + 2N; zeros for states without it: :func:`~freefloat.core.state.dissipated`), the other fields from the rest.
-
-    ``copy=False`` keeps the fields as views of ``xs`` (for the large arrays of
-    batched rollouts, which nothing else holds); otherwise each field gets its own array.
-    """
-    s = unpack_state(model, xs)
-    own = np.array if copy else np.asarray
-    return Trajectory(
-        t=t,
-        q=own(s.q),
-        qdot=own(s.qdot),
-        omega=own(s.omega),
-        attitude=own(s.attitude),
-        r_cm=own(s.r_cm),
-        v_cm=own(s.v_cm),
-        joint_torque=own(acts[0]),
-        spacecraft_force=own(acts[1]),
-        spacecraft_torque=own(acts[2]),
-        saturated=own(acts[3]),
-        dissipated_energy=own(dissipated(model, xs)),
-        status=status,
-        message=message,
-        model_name=model.name,
-        model=model,
-    )
 
 
 def _check_finite(t: float, x: np.ndarray) -> None:
@@ -256,31 +170,17 @@ def _event(ev: Any, model: Model, t: float, x: np.ndarray) -> float:
         raise SimulationError(f"event {getattr(ev, '__name__', ev)!r} raised {type(exc).__name__} at t = {t:.6g} s: {exc}") from exc
 
 
-def _run_rk4(
-    model: Model,
-    x0: np.ndarray,
-    duration: float,
-    dt: float,
-    sample_period: float | None,
-    period: float,
-    command: Any,
-    events: Sequence[Any],
-    external: Any,
-    rec: _Recorder,
-    bar: Any,
-    guard: Any,
-    stops: Any,
-    view: Model | None = None,
-) -> tuple[str, str]:
+def _run_rk4(plan: RunPlan, rec: _Recorder, bar: Progress) -> tuple[str, str]:
     """Fixed-step RK4 on the engine, in place: runs of steps between samples, outputs and events go without Python.
+    Records into ``rec``, shows progress on ``bar``; returns (status, message).
 
     With joint stops, a run of steps that ends beyond a limit is redone step by step and the stop
-    acts at the end of the step that crossed (:mod:`._stops`). ``view``: the model whose states the events see (the
-    user's model with reaction wheels when ``model`` integrates them as joints; default ``model``).
+    acts at the end of the step that crossed (:mod:`._stops`). The events see the states of the user's model
+    (``plan.user``; the engine integrates ``plan.model``, its reaction wheels as joints).
     """
-    view = view or model
-    steps = round(duration / dt)  # simulate() checked that dt divides the duration
-    stepper = engine.Stepper(model, _engine_inputs(model, external))
+    model, view, command, events, guard, stops = plan.model, plan.user, plan.command, plan.events, plan.guard, plan.stops
+    dt, sample_period, steps = cast(float, plan.fixed_step), plan.sample_period, plan.steps  # (run() calls it with fixed steps)
+    stepper = engine.Stepper(model, plan.wrenches)
     n = model.n_joints
     # the compiled steps stop where Python must look: a joint beyond a stop, a rate the guard must test
     quiet_guard = guard.budget is None  # no per-step energy test: the rate test is the kernel's
@@ -290,8 +190,8 @@ def _run_rk4(
     )
     # sample instants: every step without a sample period, else the steps nearest k * sample_period
     next_sample_time = sample_period or dt
-    stride = max(1, round(period / dt))
-    x = np.array(x0, dtype=float, order="C")
+    stride = max(1, round(plan.output_period / dt))
+    x = np.array(plan.x0, dtype=float, order="C")
     x[6:10] /= np.linalg.norm(x[6:10])
     u = np.empty(n + 6)
     quiet = zero_thrust(())  # read-only: a command that carries it has no thrust
@@ -384,120 +284,135 @@ def _outputs_in(a: float, b: float, period: float, n_out: int, extra: float | No
     return grid[(grid > a + 1e-12) & (grid <= b + 1e-12)]
 
 
-def _run_adaptive(
-    model: Model,
-    x0: np.ndarray,
-    duration: float,
-    method: str,
-    rtol: float,
-    atol: float,
-    sample_period: float | None,
-    period: float,
-    command: Any,
-    events: Sequence[Any],
-    external: Any,
-    rec: _Recorder,
-    bar: Any,
-    guard: Any,
-    stops: Any,
-    view: Model | None = None,
-) -> tuple[str, str]:
-    """Adaptive integration (scipy ``solve_ivp``) piece by piece between controller samples (``view``: as in
-    :func:`_run_rk4`).
+def _run_adaptive(plan: RunPlan, rec: _Recorder, bar: Progress) -> tuple[str, str]:
+    """Adaptive integration (scipy ``solve_ivp``) piece by piece between controller samples; records into ``rec``,
+    shows progress on ``bar``; returns (status, message). The events see the user's model, as in :func:`_run_rk4`.
 
     With joint stops, the pieces end at every output instant too, terminal events locate each
     crossing of a limit (the stop acts there and the piece goes on), and a joint resting on its
     stop is put back on it at the end of each piece (:mod:`._stops`).
     """
-    n_out = int(np.floor(duration / period + 1e-9))
-    end_extra = n_out * period < duration - 1e-12  # the duration is an output instant of its own
-    derivative = _rhs(model, external)
-    ivp_events = []
-    for ev in events:
-
-        def wrapped(t: float, y: np.ndarray, ev: Any = ev) -> float:
-            return _event(ev, view or model, t, y)
-
-        wrapped.terminal = getattr(ev, "terminal", True)  # type: ignore[attr-defined]
-        wrapped.direction = getattr(ev, "direction", 0)  # type: ignore[attr-defined]
-        ivp_events.append(wrapped)
-    x = x0.copy()
-    held = command(0.0, x.copy()) if sample_period is not None else None  # copies: a controller may keep its state
+    adaptive = _Adaptive(plan, rec, bar)
+    duration, period, command = plan.duration, plan.output_period, plan.command
+    x = plan.x0.copy()
+    held = command(0.0, x.copy()) if plan.sample_period is not None else None  # copies: a controller may keep its state
     rec.add(0.0, x, held if held is not None else command(0.0, x.copy()))
-    for a, b in _pieces(duration, sample_period, period):
-        if stops.active:  # a resting joint is put back on its stop at the end of each piece: end them at the outputs too
-            cuts = [float(c) for c in _outputs_in(a, b, period, n_out, duration if end_extra else None) if c < b - 1e-12]
+    for a, b in _pieces(duration, plan.sample_period, period):
+        if plan.stops.active:  # a resting joint is put back on its stop at the end of each piece: end them at the outputs too
+            extra = duration if adaptive.end_extra else None
+            cuts = [float(c) for c in _outputs_in(a, b, period, adaptive.n_out, extra) if c < b - 1e-12]
             bounds = [a, *cuts, b]
         else:
             bounds = [a, b]
-        outputs = (period, n_out, duration, end_extra)
-        status = _adaptive_piece(
-            model, bounds, x, held, command, derivative, guard, method, rtol, atol, ivp_events, stops, rec, outputs, bar
-        )
-        x, held = status[1], status[2]
+        message, x, held = adaptive.piece(bounds, x, held)
         bar.update(b)
-        guard.clock(b)
-        if status[0]:
-            return "event", status[0]
+        plan.guard.clock(b)
+        if message:
+            return "event", message
     return "finished", ""
 
 
-def _adaptive_piece(
-    model: Model,
-    bounds: list[float],
-    x: np.ndarray,
-    held: Any,
-    command: Any,
-    derivative: Any,
-    guard: Any,
-    method: str,
-    rtol: float,
-    atol: float,
-    ivp_events: list[Any],
-    stops: Any,
-    rec: _Recorder,
-    outputs: tuple[float, int, float, bool],
-    bar: Any,
-) -> tuple[str, np.ndarray, Any]:
-    """One controller sample (held actuation) over ``bounds``; returns (event message or "", end state, next actuation).
+class _Adaptive:
+    """One adaptive run of ``plan``: the engine's state derivative, the user's events as scipy's, and the output grid
+    (``n_out`` instants k ``output_period``, and the duration when ``end_extra``: it is an output instant of its own)."""
 
-    ``outputs`` = (output period, number of outputs, duration, whether the duration is an extra output).
-    """
-    period, n_out, duration, end_extra = outputs
-    b_end = bounds[-1]
-    for a, b in itertools.pairwise(bounds):
+    def __init__(self, plan: RunPlan, rec: _Recorder, bar: Progress) -> None:
+        self.plan, self.rec, self.bar = plan, rec, bar
+        self.n_out = int(np.floor(plan.duration / plan.output_period + 1e-9))
+        self.end_extra = self.n_out * plan.output_period < plan.duration - 1e-12
+        self.derivative = _rhs(plan.model, plan.wrenches)
+        self.events: list[Any] = []
+        for ev in plan.events:
 
-        def rhs(t: float, y: np.ndarray, held: Any = held) -> np.ndarray:
-            guard.tick(t, y)
-            bar.update(t)  # progress inside a piece (a clock read between redraws)
-            tau, force, torque, _ = held if held is not None else command(t, y)
-            return derivative(y, tau, force, torque)
+            def wrapped(t: float, y: np.ndarray, ev: Any = ev) -> float:
+                return _event(ev, plan.user, t, y)
 
-        inside = _outputs_in(a, b, period, n_out, duration if end_extra else None)
-        # always evaluate at b too: the next piece starts from the state there
-        t_eval = inside if inside.size and inside[-1] >= b - 1e-12 else np.append(inside, b)
-        t_eval[-1] = b
-        sol = _solve(rhs, a, b, x, t_eval, method, rtol, atol, ivp_events, stops)
-        if sol.status == -1:
-            raise SimulationError(f"integrator failed between t = {a:.6g} and {b:.6g} s: {sol.message}")
-        x = sol.y[:, -1] if sol.y.shape[1] else x
-        _check_finite(float(sol.t[-1]) if sol.t.size else a, x)
-        _guarded(guard, rec, float(sol.t[-1]) if sol.t.size else a, x, held if held is not None else command(b, x))
-        # the actuation recorded at a sample instant is the one applied from there on
-        last = sol.status == 0 and b >= b_end and b < duration - 1e-12 * duration
-        new_held = command(b, x) if held is not None and last else held
-        for k, tk in enumerate(sol.t[: inside.size]):
-            _check_finite(float(tk), sol.y[:, k])
-            act = held if held is None or tk < b - 1e-12 else new_held
-            rec.add(float(tk), sol.y[:, k], act if act is not None else command(float(tk), sol.y[:, k]))
-        held = new_held
-        if sol.status == 1:
-            hit = [k for k, te in enumerate(sol.t_events) if len(te)]
-            t_ev = float(sol.t_events[hit[0]][0])
-            y_ev = sol.y_events[hit[0]][0]
-            rec.add(t_ev, y_ev, held if held is not None else command(t_ev, y_ev))
-            return f"event {hit[0]} at t = {t_ev:.6g} s", x, held
-    return "", x, held
+            wrapped.terminal = getattr(ev, "terminal", True)  # type: ignore[attr-defined]
+            wrapped.direction = getattr(ev, "direction", 0)  # type: ignore[attr-defined]
+            self.events.append(wrapped)
+
+    def piece(self, bounds: list[float], x: np.ndarray, held: Any) -> tuple[str, np.ndarray, Any]:
+        """One controller sample (held actuation) over ``bounds``; returns (event message or "", end state, next actuation)."""
+        plan, rec, bar, derivative = self.plan, self.rec, self.bar, self.derivative
+        guard, command = plan.guard, plan.command
+        period, duration = plan.output_period, plan.duration
+        b_end = bounds[-1]
+        for a, b in itertools.pairwise(bounds):
+
+            def rhs(t: float, y: np.ndarray, held: Any = held) -> np.ndarray:
+                guard.tick(t, y)
+                bar.update(t)  # progress inside a piece (a clock read between redraws)
+                tau, force, torque, _ = held if held is not None else command(t, y)
+                return derivative(y, tau, force, torque)
+
+            inside = _outputs_in(a, b, period, self.n_out, duration if self.end_extra else None)
+            # always evaluate at b too: the next piece starts from the state there
+            t_eval = inside if inside.size and inside[-1] >= b - 1e-12 else np.append(inside, b)
+            t_eval[-1] = b
+            sol = self.solve(rhs, a, b, x, t_eval)
+            if sol.status == -1:
+                raise SimulationError(f"integrator failed between t = {a:.6g} and {b:.6g} s: {sol.message}")
+            x = sol.y[:, -1] if sol.y.shape[1] else x
+            _check_finite(float(sol.t[-1]) if sol.t.size else a, x)
+            _guarded(guard, rec, float(sol.t[-1]) if sol.t.size else a, x, held if held is not None else command(b, x))
+            # the actuation recorded at a sample instant is the one applied from there on
+            last = sol.status == 0 and b >= b_end and b < duration - 1e-12 * duration
+            new_held = command(b, x) if held is not None and last else held
+            for k, tk in enumerate(sol.t[: inside.size]):
+                _check_finite(float(tk), sol.y[:, k])
+                act = held if held is None or tk < b - 1e-12 else new_held
+                rec.add(float(tk), sol.y[:, k], act if act is not None else command(float(tk), sol.y[:, k]))
+            held = new_held
+            if sol.status == 1:
+                hit = [k for k, te in enumerate(sol.t_events) if len(te)]
+                t_ev = float(sol.t_events[hit[0]][0])
+                y_ev = sol.y_events[hit[0]][0]
+                rec.add(t_ev, y_ev, held if held is not None else command(t_ev, y_ev))
+                return f"event {hit[0]} at t = {t_ev:.6g} s", x, held
+        return "", x, held
+
+    def solve(self, rhs: Any, a: float, b: float, x: np.ndarray, t_eval: np.ndarray) -> Any:
+        """``solve_ivp`` over (a, b); with joint stops, restarted at each crossing of a limit after the stop acted there."""
+        plan, events, stops = self.plan, self.events, self.plan.stops
+        method, rtol, atol = plan.method, plan.rtol, plan.atol
+        if not stops.active:
+            return solve_ivp(rhs, (a, b), x, method=method, rtol=rtol, atol=atol, t_eval=t_eval, events=events or None)
+        ts: list[float] = []
+        ys: list[np.ndarray] = []
+        t0, y0 = a, x
+        while True:
+            stops.release(y0)
+            limits = _stop_events(stops.model, stops)
+            todo = t_eval[t_eval > t0 + 1e-12 * max(1.0, abs(t0))]
+            sol = solve_ivp(rhs, (t0, b), y0, method=method, rtol=rtol, atol=atol, t_eval=todo, events=[*events, *limits] or None)
+            if sol.status == -1:
+                return sol
+            ts += [float(t) for t in np.asarray(sol.t)]
+            ys += [np.asarray(sol.y)[:, k].copy() for k in range(len(sol.t))]
+            hits = [k for k, te in enumerate(sol.t_events or []) if len(te)] if sol.status == 1 else []
+            if hits and hits[0] < len(events):  # a user's event: stop there (perhaps before any output instant of the piece)
+                return SimpleNamespace(
+                    status=1, message=sol.message, t=np.array(ts), y=np.stack(ys, axis=1) if ys else np.zeros((len(y0), 0)),
+                    t_events=sol.t_events[: len(events)],
+                    y_events=sol.y_events[: len(events)],
+                )  # fmt: skip
+            if not hits:
+                break
+            t_hit = float(sol.t_events[hits[0]][0])
+            joint = limits[hits[0] - len(events)].joint
+            if t_hit <= t0 + 1e-12 * max(1.0, abs(t0)):  # no progress: a bounce shorter than a step, at the limit
+                stops.resting.add(joint)  # on its stop until the piece ends (put back there)
+            t0, y0 = t_hit, sol.y_events[hits[0]][0].copy()
+            stops.apply(t0, y0, joints=[joint])
+            if b - t0 <= 1e-12 * max(1.0, abs(b)):
+                ts.append(b)
+                ys.append(y0)
+                break
+        end = ys[-1].copy()
+        if stops.beyond(end):  # a joint resting on its stop: back on it at the end of the piece
+            stops.apply(b, end)
+            ys[-1] = end
+        return SimpleNamespace(status=0, message="", t=np.array(ts), y=np.stack(ys, axis=1), t_events=None, y_events=None)
 
 
 def _stop_events(model: Model, stops: Any) -> list[Any]:
@@ -517,47 +432,3 @@ def _stop_events(model: Model, stops: Any) -> list[Any]:
                 crossing.joint = i  # type: ignore[attr-defined]
                 found.append(crossing)
     return found
-
-
-def _solve(
-    rhs: Any, a: float, b: float, x: np.ndarray, t_eval: np.ndarray, method: str, rtol: float, atol: float, events: list[Any], stops: Any
-) -> Any:
-    """``solve_ivp`` over (a, b); with joint stops, restarted at each crossing of a limit after the stop acted there."""
-    if not stops.active:
-        return solve_ivp(rhs, (a, b), x, method=method, rtol=rtol, atol=atol, t_eval=t_eval, events=events or None)
-    ts: list[float] = []
-    ys: list[np.ndarray] = []
-    t0, y0 = a, x
-    while True:
-        stops.release(y0)
-        limits = _stop_events(stops.model, stops)
-        todo = t_eval[t_eval > t0 + 1e-12 * max(1.0, abs(t0))]
-        sol = solve_ivp(rhs, (t0, b), y0, method=method, rtol=rtol, atol=atol, t_eval=todo, events=[*events, *limits] or None)
-        if sol.status == -1:
-            return sol
-        ts += [float(t) for t in np.asarray(sol.t)]
-        ys += [np.asarray(sol.y)[:, k].copy() for k in range(len(sol.t))]
-        hits = [k for k, te in enumerate(sol.t_events or []) if len(te)] if sol.status == 1 else []
-        if hits and hits[0] < len(events):  # a user's event: stop there (perhaps before any output instant of the piece)
-            return SimpleNamespace(
-                status=1, message=sol.message, t=np.array(ts), y=np.stack(ys, axis=1) if ys else np.zeros((len(y0), 0)),
-                t_events=sol.t_events[: len(events)],
-                y_events=sol.y_events[: len(events)],
-            )  # fmt: skip
-        if not hits:
-            break
-        t_hit = float(sol.t_events[hits[0]][0])
-        joint = limits[hits[0] - len(events)].joint
-        if t_hit <= t0 + 1e-12 * max(1.0, abs(t0)):  # no progress: a bounce shorter than a step, at the limit
-            stops.resting.add(joint)  # on its stop until the piece ends (put back there)
-        t0, y0 = t_hit, sol.y_events[hits[0]][0].copy()
-        stops.apply(t0, y0, joints=[joint])
-        if b - t0 <= 1e-12 * max(1.0, abs(b)):
-            ts.append(b)
-            ys.append(y0)
-            break
-    end = ys[-1].copy()
-    if stops.beyond(end):  # a joint resting on its stop: back on it at the end of the piece
-        stops.apply(b, end)
-        ys[-1] = end
-    return SimpleNamespace(status=0, message="", t=np.array(ts), y=np.stack(ys, axis=1), t_events=None, y_events=None)

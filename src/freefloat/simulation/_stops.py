@@ -18,14 +18,16 @@ stop stays on it (one impulse per step, recorded once as an impact).
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from .. import engine
 from ..core.model import Model
 from ..mechanics.momentum import zero_momentum_rate
-from .trajectory import JointLimitEvent
+from .trajectory import JointLimitEvent, Trajectory
 
-__all__ = ["MODES", "JointStops", "limit_violations"]
+__all__ = ["MODES", "JointStops", "limit_violations", "with_limit_events", "with_violations"]
 
 #: ``simulate(joint_limits=...)``: "stop" (hard stops), "flag" (no stops; violations recorded).
 MODES = ("stop", "flag")
@@ -153,3 +155,18 @@ def limit_violations(model: Model, t: np.ndarray, q: np.ndarray) -> list[JointLi
         JointLimitEvent(names[j], sides[c], at_limit[c][j], "violation", times[a], times[z], v, w if batched else None)
         for (w, j, c, a, z), v in zip(spans[order].tolist(), value[order].tolist(), strict=True)
     ]
+
+
+def with_limit_events(traj: Trajectory, stops: JointStops) -> Trajectory:
+    """A simulation's trajectory with its joint-limit events: the stops' impacts, or (stops off) the spans beyond a limit."""
+    found = stops.events if stops.active else (limit_violations(stops.model, traj.t, traj.q) if len(traj) else [])
+    return dataclasses.replace(traj, joint_limit_events=tuple(found)) if found else traj
+
+
+def with_violations(traj: Trajectory) -> Trajectory:
+    """A rollout's trajectory with its joint-limit violations (rollouts apply no stops), each with its trajectory index."""
+    model = traj.model
+    if model is None or not len(traj):
+        return traj
+    found = limit_violations(model, traj.t, traj.q)
+    return dataclasses.replace(traj, joint_limit_events=tuple(found)) if found else traj

@@ -45,7 +45,9 @@ from ..core.state import State, pack_state
 from ..core.target import Target
 from ..mechanics.impact import JOINT_MODES, Impact, impact
 from ..mechanics.kinematics import end_effector_positions
-from ._integrate import _Recorder
+from ._integrate import run
+from ._plan import plan_run, positive
+from ._record import _Recorder
 from .coast import Coast, coast
 from .pd import JointPD
 from .trajectory import Trajectory
@@ -286,17 +288,25 @@ class _Gap:
         return self.distance(t, state) - float(self.capture.within)  # type: ignore[arg-type]
 
 
-def simulate_capture(
-    simulate: Callable[..., Trajectory],
-    model: Model,
-    state: State,
-    duration: float,
-    controller: Any,
-    capture: Capture,
-    options: dict[str, Any],
-) -> CaptureRun:
-    """The two phases of a run with a capture (module docstring); ``simulate`` is :func:`freefloat.simulate`
-    (passed in: this module is below it), ``options`` its keyword arguments."""
+def simulate_capture(model: Model, state: State, duration: float, controller: Any, capture: Capture, **options: Any) -> CaptureRun:
+    """``ff.simulate(model, state, duration, controller, capture=capture, **options)``: a run with the grasp of a
+    moving target (``options``: the other keyword arguments of :func:`freefloat.simulate`, all of them).
+
+    Phase 1 simulates the robot alone (``model``) from t = 0 to the event, the target meanwhile coasting torque-free
+    (:func:`~freefloat.simulation.coast`: its CM uniformly, its attitude by Euler's equations, inertial frame). The
+    event is the time ``capture.at`` (s), or the first instant the end-effector point comes within ``capture.within``
+    (m) of the grasp point (a terminal event of the run). At the event the grasp is the impact of
+    :func:`freefloat.capture.impact` (:mod:`freefloat.mechanics.impact`: the generalized momentum balance
+    H zdot0⁺ = H+ zdot0⁻ + J_tᵀ M_t V_t⁻ + [0; tau_hat], H+ of 1991 eq. 15, J_t the J+ of the target's CM on the
+    grasping body, 1991 eqs. 7-10), which conserves the linear and angular momentum of robot plus target; phase 2
+    simulates the combined model (``impact.model``) from the post-impact state (``impact.state``) to ``duration``,
+    with the same options and absolute times (the module docstring has the details). Each phase is one run planned
+    and checked as :func:`freefloat.simulate` plans one (:func:`._plan.plan_run`, :func:`._integrate.run`).
+
+    Returns a :class:`CaptureRun`: both phases' trajectories, the impact, the event time (s), the target's motion and
+    the momentum of robot plus target (inertial frame, about the inertial origin) throughout.
+    """
+    duration = positive("duration", duration)
     if not isinstance(capture, Capture):
         raise TypeError(f"capture: expected a freefloat.Capture, got {type(capture).__name__}")
     if not isinstance(model, Model):
@@ -316,14 +326,14 @@ def simulate_capture(
 
     # phase 1: the robot alone until the event
     if capture.at is not None:
-        before = simulate(model, state, capture.at, controller, **options) if capture.at > 0.0 else _still(model, resolved, 0.0)
+        before = _phase(model, state, capture.at, controller, options) if capture.at > 0.0 else _still(model, resolved, 0.0)
         fired = before.status == "finished"
         if fired and before.t[-1] != capture.at:  # RK4's i * dt may miss the capture time by a rounding: the time asked
             before = dataclasses.replace(before, t=np.append(before.t[:-1], capture.at))
     elif gap(0.0, resolved) <= 0.0:
         before, fired = _still(model, resolved, 0.0), True
     else:
-        before = simulate(model, state, duration, controller, **{**options, "events": (*events, gap)})
+        before = _phase(model, state, duration, controller, {**options, "events": (*events, gap)})
         fired = before.status == "event" and before.message.startswith(f"event {len(events)} ")
     target = motion.at(before.t)
     distance = _closest(before, None if fired else gap, target, capture, end)  # after a grasp, the gap saw beyond it
@@ -350,7 +360,7 @@ def simulate_capture(
     else:
         later = {**options, "events": tuple(_later(ev, t_e) for ev in events)}
         try:
-            after = _shifted(simulate(grasp.model, grasp.state, remaining, _later(after_controller, t_e), **later), t_e, spent)
+            after = _shifted(_phase(grasp.model, grasp.state, remaining, _later(after_controller, t_e), later), t_e, spent)
         except SimulationError as exc:  # the message's times count from the grasp (the second run's own clock): said so
             message = f"after the grasp at t = {t_e:.6g} s (times from the grasp): {exc}"
             failed = None if exc.trajectory is None else _shifted(exc.trajectory, t_e, spent)
@@ -361,6 +371,11 @@ def simulate_capture(
     if after.message:
         message += f"; after the grasp (times from the grasp): {after.message}"
     return CaptureRun(after=after, status=after.status, message=message, **run)  # type: ignore[arg-type]
+
+
+def _phase(model: Model, state: State, duration: float, controller: Any, options: dict[str, Any]) -> Trajectory:
+    """One phase of the run: a simulation planned and checked as :func:`freefloat.simulate` plans one."""
+    return run(plan_run(model, state, duration, controller, **options))
 
 
 def _check_controllers(model: Model, controller: Any, after: Any) -> None:
