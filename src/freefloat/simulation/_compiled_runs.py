@@ -1,7 +1,7 @@
 """The built-in controllers inside the compiled loops of :func:`freefloat.simulate` and :func:`freefloat.rollout` (private).
 
 A controller that describes itself as a compiled law (``controller.compiled_law(batch)``: the controllers of
-:mod:`freefloat.control`, whose ``__call__`` runs the same law, :mod:`freefloat.engine.laws`) or a
+:mod:`freefloat.control`, whose ``__call__`` is the numpy form of the same law, :mod:`freefloat.engine.laws`) or a
 :class:`~freefloat.JointPD` runs in the engine's rollout loop (:func:`freefloat.engine.calls.law_rollout`) with no
 Python per step: a rollout of B trajectories, or one simulation as a rollout of one. The results are those of the
 Python loop (the same law, the same RK4 step, the same samples, limits and records; ``tests/control/test_compiled.py``).
@@ -139,7 +139,7 @@ def compiled_simulation(plan: RunPlan) -> Trajectory | None:
 
 #: A compiled rollout of more trajectories than this runs in chunks (progress, Ctrl-C) of at least this many.
 ROLLOUT_CHUNK_MIN = 64
-#: How much faster the kernels specialised to a structure run rollouts (measured 4-8x, docs/performance.md): for the estimate.
+#: How much faster the kernels specialised to a structure run rollouts (benchmarks/README.md): for the estimate.
 SPECIALISED_SPEEDUP = 5.0
 
 
