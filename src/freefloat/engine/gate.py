@@ -56,9 +56,9 @@ __all__ = [
     "turn_off",
 ]
 
-#: The numba versions the project tests (``pyproject.toml``: ``numba>=0.59,<0.69``), as (major, minor): lowest
+#: The numba versions the project tests (``pyproject.toml``: ``numba>=0.60,<0.69``), as (major, minor): lowest
 #: included, highest excluded.
-TESTED = ((0, 59), (0, 69))
+TESTED = ((0, 60), (0, 69))
 #: The environment variable that turns every internal off (``0``).
 ENV = "FREEFLOAT_NUMBA_INTERNALS"
 
