@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 OUT ?= out
 
-.PHONY: demo test bench docs lint clean
+.PHONY: demo test test-lowest bench docs lint clean
 
 $(VENV)/.runtime: pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -40,6 +40,31 @@ test: lint
 	$(PY) tests/warm_kernels.py
 	GOMP_SPINCOUNT=$(TEST_SPINCOUNT) $(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
 
+# make test-lowest: freefloat at the lowest versions pyproject.toml declares, in a venv of its own (.venv-lowest, made
+# again when pyproject.toml changes): tests/lowest/constraints.py pins every runtime dependency, the mjcf extra and the
+# test tools to their lower bounds (what those need is pip's choice: the newest that fits). Then the smoke run of the
+# library, every CLI command and a campaign (tests/lowest/smoke.py) and the engine's tests at the lowest numba, with
+# make test's pytest options. Its compiled kernels go into .venv-lowest/cache, apart from the user's cache.
+LOWEST := .venv-lowest
+LOWEST_PY := $(LOWEST)/bin/python
+LOWEST_CACHE := FREEFLOAT_CACHE_DIR=$(CURDIR)/$(LOWEST)/cache
+ENGINE_TESTS := tests/mechanics/test_engine.py tests/mechanics/test_numba_cache.py tests/mechanics/test_threads.py $(wildcard tests/engine)
+
+$(LOWEST)/.installed: pyproject.toml tests/lowest/constraints.py
+	rm -rf $(LOWEST)
+	$(PYTHON) -m venv $(LOWEST)
+	$(LOWEST_PY) -m pip install -q --upgrade pip
+	$(LOWEST_PY) tests/lowest/constraints.py $(LOWEST)/constraints.txt
+	$(LOWEST_PY) -m pip install -q -c $(LOWEST)/constraints.txt -e ".[mjcf]" pytest pytest-xdist hypothesis
+	touch $@
+
+test-lowest: $(LOWEST)/.installed
+	$(LOWEST_PY) tests/lowest/constraints.py --installed
+	$(LOWEST_PY) -m pip freeze --exclude-editable
+	$(LOWEST_CACHE) $(LOWEST_PY) tests/warm_kernels.py
+	$(LOWEST_CACHE) $(LOWEST_PY) tests/lowest/smoke.py
+	$(LOWEST_CACHE) GOMP_SPINCOUNT=$(TEST_SPINCOUNT) $(LOWEST_PY) -m pytest -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder $(ENGINE_TESTS)
+
 bench: $(VENV)/.test
 	$(PY) benchmarks/run.py --out $(OUT)/bench
 
@@ -49,4 +74,4 @@ docs: demo $(VENV)/.test
 	FREEFLOAT_DEMO_OUT=$(OUT) NO_MKDOCS_2_WARNING=1 $(VENV)/bin/mkdocs build --strict --site-dir $(OUT)/site
 
 clean:
-	rm -rf $(VENV) $(OUT) .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) $(LOWEST) $(OUT) .pytest_cache .mypy_cache .ruff_cache

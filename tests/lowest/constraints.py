@@ -4,7 +4,8 @@
 that ``make test-lowest`` runs (:data:`TEST_TOOLS`, from the ``test`` extra) and writes one ``name==LOW`` line per
 dependency, LOW its ``>=`` bound (``pip install -c OUT -e .[mjcf]`` then installs exactly those versions; what they
 need themselves is left to pip). A dependency without a ``>=`` bound is an error: it would not be tested at its
-lowest version.
+lowest version. ``python tests/lowest/constraints.py --installed`` prints the versions installed next to those lower
+bounds and fails where they differ.
 """
 
 from __future__ import annotations
@@ -29,6 +30,11 @@ def canonical(name: str) -> str:
     return re.sub(r"[-_.]+", "-", name).lower()
 
 
+def _name(requirement: str) -> str:
+    match = _REQUIREMENT.match(requirement)
+    return canonical(match["name"]) if match else ""
+
+
 def lower_bound(requirement: str, where: str) -> tuple[str, str]:
     """``(name, LOW)`` of a requirement string ``name[extras]>=LOW,...``; a clear error naming it without a ``>=``."""
     match = _REQUIREMENT.match(requirement)
@@ -49,7 +55,7 @@ def pins(pyproject: Path) -> dict[str, str]:
     for extra in EXTRAS:
         chosen += [(f"project.optional-dependencies.{extra}", r) for r in extras[extra]]
     tools = {canonical(t) for t in TEST_TOOLS}
-    chosen += [("project.optional-dependencies.test", r) for r in extras["test"] if lower_bound(r, "test")[0] in tools]
+    chosen += [("project.optional-dependencies.test", r) for r in extras["test"] if _name(r) in tools]
     for where, requirement in chosen:
         name, low = lower_bound(requirement, f"{pyproject}: {where}")
         if found.get(name, low) != low:
@@ -61,9 +67,38 @@ def pins(pyproject: Path) -> dict[str, str]:
     return found
 
 
+def installed() -> None:
+    """Print each pinned dependency's lower bound and the version installed in this Python's environment; exit 1 when
+    one is missing or another version (the environment is not the lowest one)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    wrong = []
+    for name, low in pins(ROOT / "pyproject.toml").items():
+        try:
+            found = version(name)
+        except PackageNotFoundError:
+            found = "not installed"
+        same = found != "not installed" and _release(found) == _release(low)
+        wrong += [] if same else [name]
+        print(f"{name:<14} >={low:<10} installed {found}{'' if same else '  <- not the lower bound'}")
+    if wrong:
+        raise SystemExit(f"not at their declared lower bounds: {wrong}")
+
+
+def _release(text: str) -> tuple[int, ...]:
+    """The release numbers of a version, trailing zeros dropped (``3`` and ``3.0.0`` are one version)."""
+    numbers = [int(part) for part in re.match(r"\d+(?:\.\d+)*", text)[0].split(".")]  # type: ignore[index]
+    while len(numbers) > 1 and numbers[-1] == 0:
+        numbers.pop()
+    return tuple(numbers)
+
+
 def main(argv: list[str]) -> None:
-    if len(argv) != 1:
-        raise SystemExit("usage: python tests/lowest/constraints.py OUT (the constraints file to write)")
+    if argv == ["--installed"]:
+        installed()
+        return
+    if len(argv) != 1 or argv[0].startswith("-"):
+        raise SystemExit("usage: python tests/lowest/constraints.py OUT (the constraints file to write) | --installed (check them)")
     lines = [f"{name}=={low}" for name, low in pins(ROOT / "pyproject.toml").items()]
     header = "# freefloat's declared lower bounds (tests/lowest/constraints.py writes this file from pyproject.toml)\n"
     Path(argv[0]).write_text(header + "\n".join(lines) + "\n", encoding="utf-8")
