@@ -226,12 +226,12 @@ def test_inverse_dynamics_fills_a_tuple_of_three() -> None:
 
 def _bad_triples(n: int) -> list[tuple[str, Any, type[Exception], str]]:
     b = (70,)
-    good = (np.empty((*b, 3)), np.empty((*b, 3)), np.empty((*b, n)))
-    both = np.empty((52, 6))  # rows 17-34 in both halves
+    good = (np.zeros((*b, 3)), np.zeros((*b, 3)), np.zeros((*b, n)))
+    both = np.zeros((52, 6))  # rows 17-34 in both halves
     return [
         (
             "an-array",
-            np.empty((*b, 6 + n)),
+            np.zeros((*b, 6 + n)),
             TypeError,
             r"^out: expected a tuple of three arrays \(spacecraft_force, spacecraft_torque, joint_torque",
         ),
@@ -239,13 +239,13 @@ def _bad_triples(n: int) -> list[tuple[str, Any, type[Exception], str]]:
         ("two", good[:2], TypeError, r"^out: expected a tuple of three arrays .*got a tuple of 2"),
         (
             "torque-wrong-shape",
-            (good[0], np.empty((*b, 4)), good[2]),
+            (good[0], np.zeros((*b, 4)), good[2]),
             ShapeError,
             r"^out\[1\] \(spacecraft_torque\): expected shape \(70, 3\)",
         ),
         (
             "joints-wrong-shape",
-            (good[0], good[1], np.empty((*b, n + 1))),
+            (good[0], good[1], np.zeros((*b, n + 1))),
             ShapeError,
             rf"^out\[2\] \(joint_torque\): expected shape \(70, {n}\)",
         ),
@@ -257,7 +257,7 @@ def _bad_triples(n: int) -> list[tuple[str, Any, type[Exception], str]]:
         ),
         (
             "torque-strided",
-            (good[0], np.empty((*b, 6))[:, ::2], good[2]),
+            (good[0], np.zeros((*b, 6))[:, ::2], good[2]),
             ValueError,
             r"^out\[1\] \(spacecraft_torque\): is not C-contiguous",
         ),
