@@ -1,7 +1,9 @@
 """The public surface: a short top level, namespaces for the rest, every public name documented, the layers kept."""
 
 import dataclasses
+import importlib
 import inspect
+import re
 import subprocess
 import sys
 import types
@@ -116,3 +118,43 @@ def test_the_import_contracts_hold() -> None:
     assert lint_imports.exists(), f"{lint_imports} not found: install the test extras (pip install -e '.[test]')"
     run = subprocess.run([str(lint_imports), "--no-cache"], cwd=ROOT, capture_output=True, text=True, check=False)
     assert run.returncode == 0, run.stdout + run.stderr
+
+
+#: ``ff.X`` / ``freefloat.x.Y`` in prose: a dotted name the docs tell a user to call or import.
+_DOTTED = re.compile(r"(?<![\w./-])(?:ff|freefloat)\.([A-Za-z_]\w*(?:\.[A-Za-z_]\w*)*)")
+
+
+def _unresolved(text: str) -> list[str]:
+    """The dotted freefloat names in ``text`` that are neither an attribute nor an importable module."""
+    bad = []
+    for match in _DOTTED.finditer(text):
+        after = text[match.end() : match.end() + 9].lstrip("` \n")
+        if match.group(1).split(".")[-1] == "md" or after.startswith("logger"):  # a page, a logger's name
+            continue
+        obj: object = ff
+        where = "freefloat"
+        for part in match.group(1).split("."):
+            if hasattr(obj, part):
+                obj, where = getattr(obj, part), f"{where}.{part}"
+                continue
+            try:
+                obj, where = importlib.import_module(f"{where}.{part}"), f"{where}.{part}"
+            except ImportError:
+                bad.append(match.group(0))
+                break
+    return bad
+
+
+def test_every_name_the_docs_give_exists() -> None:
+    """A name in docs/ or the README (``ff.LongRunWarning``, ``freefloat.core.errors.EngineWarning``) that a user would
+    import or call resolves; a logger's name and a page's file name are not names."""
+    found = {
+        f"{path.relative_to(ROOT)}: {name}"
+        for path in [*sorted((ROOT / "docs").rglob("*.md")), ROOT / "README.md"]
+        for name in _unresolved(path.read_text(encoding="utf-8"))
+    }
+    assert not found, sorted(found)
+    assert _unresolved("`ff.NoSuchWarning`, `freefloat.core.errors.NoSuch`, ff.simulate, `freefloat.progress` logger") == [
+        "ff.NoSuchWarning",
+        "freefloat.core.errors.NoSuch",
+    ]

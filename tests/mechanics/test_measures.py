@@ -260,9 +260,9 @@ def test_the_map_and_search_paths_use_the_kernel(monkeypatch: pytest.MonkeyPatch
     calls: list[str] = []
     real = _engine.jacobian_measures
 
-    def spy(model: ff.Model, q: np.ndarray, rows: object, measure: str) -> np.ndarray:
+    def spy(model: ff.Model, q: np.ndarray, rows: object, measure: str, out: np.ndarray | None = None) -> np.ndarray:
         calls.append(measure)
-        return real(model, q, rows, measure)
+        return real(model, q, rows, measure, out)
 
     monkeypatch.setattr(_engine, "jacobian_measures", spy)
     model = ff.models.papadopoulos1992(arms=1)

@@ -402,7 +402,7 @@ def run_capture_scenario(scenario: CaptureScenario, *, warn_after: float | None 
 
     The capture sequence ([detumble]) is estimated first, before the plan (:func:`estimate_capture_sequence`): one
     whose recorded states would not fit in memory raises :class:`~freefloat.MemoryBudgetError`, and one estimated
-    to take over ``warn_after`` seconds (None: never) warns :class:`~freefloat.LongRunWarning`, as ``ff.simulate`` does.
+    to take over ``warn_after`` seconds (None: never) warns :class:`~freefloat.core.errors.LongRunWarning`, as ``ff.simulate`` does.
     The robot's plan is computed once per distinct robot and path in a process (:mod:`._plan_memo`): a run with only
     the target's motion, the grasp time or the detumbling changed reuses it."""
     estimate = estimate_capture_sequence(scenario)

@@ -119,7 +119,7 @@ def estimate_sequence(model: Model, settings: DetumbleSettings, grasp_time: floa
 
 def check_sequence_estimate(estimate: RunEstimate, warn_after: float | None) -> None:
     """Refuse a sequence whose recorded states exceed the free memory (:class:`~freefloat.MemoryBudgetError`); warn
-    :class:`~freefloat.LongRunWarning` when it is estimated to take over ``warn_after`` seconds (None: never)."""
+    :class:`~freefloat.core.errors.LongRunWarning` when it is estimated to take over ``warn_after`` seconds (None: never)."""
     fix = "shorten [detumble] duration (or [grasp] time), or lengthen [detumble] sample_period"
     require_memory(estimate.memory_bytes, f"the capture sequence ({estimate.describe()})", fix)
     if warn_after is not None and estimate.seconds > warn_after:
