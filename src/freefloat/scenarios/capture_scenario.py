@@ -80,7 +80,7 @@ from ..core.errors import ModelError, UnknownNameError
 from ..core.model import MAX_LENGTH, Model, inertia_matrix
 from ..io.model_files import read_toml
 from ..mechanics.impact import GRASP_REACH
-from ..simulation._guard import RunEstimate
+from ..simulation import RunEstimate
 from ._plan_memo import fixed_plan
 from .capture_outputs import CaptureResult, plot_capture_families, plot_capture_plan, write_capture_outputs
 from .capture_sequence import run_capture_sequence

@@ -17,7 +17,7 @@ from ..control.wheels import TORQUE_BY
 from ..core.errors import LongRunWarning, ModelError
 from ..core.numbers import MAX_RATE, MAX_SPEED
 from ..core.resources import require_memory
-from ..simulation._guard import RunEstimate, estimate_run
+from ..simulation import RunEstimate, estimate_run
 from .scenario import _number, _where
 
 if TYPE_CHECKING:

@@ -83,7 +83,7 @@ from ..core.numbers import MAX_EFFORT, MAX_FREQUENCY, MAX_JOINT_VALUE, MAX_RATE,
 from ..core.state import Actuation, ActuatorLimits, State
 from ..io.model_files import load, read_toml, with_wheels
 from ..models import load_model
-from ..simulation._guard import RunEstimate, estimate_run
+from ..simulation import RunEstimate, estimate_run
 from ..simulation.pd import JointPD
 from ..simulation.simulate import METHODS, PASSIVE, simulate
 from ..simulation.trajectory import Trajectory
