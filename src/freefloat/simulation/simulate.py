@@ -252,6 +252,12 @@ def rollout(
     feed-forward) runs compiled too, with no Python per step (one call for
     the whole rollout).
 
+    ``model`` may be a sequence of B models, one per trajectory: payload variants of one robot, or the same reaction
+    wheels with other inertias, limits or friction (their number and axes the same); those run with the compiled
+    controllers. A model with reaction wheels runs as in :func:`simulate` (``State.wheel_speed`` per trajectory, the
+    wheels' limits and bearing friction; the trajectory's wheel arrays (T, B, W)), compiled with the built-in
+    controllers (``torque_by="wheels"`` included) and a ``JointPD`` (which drives no wheel).
+
     Rollouts apply no joint stops: each span of a trajectory beyond a joint
     limit is recorded in ``joint_limit_events`` (``kind == "violation"``,
     with the ``trajectory`` index).
