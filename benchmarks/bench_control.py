@@ -19,6 +19,11 @@
   batch stepped by compiled code (freefloat's batched RK4 step; MuJoCo's own batch stepper would need a Python
   conversion of each of the 1024 states per step, which would measure the conversion). Both with the largest
   difference of the recorded states between the compiled and the Python loop.
+* ``wheels`` (issue 43): a rollout of 64 servicers with reaction wheels, each its own wheels (inertia, torque and speed
+  limits, bearing friction) and initial state, with the detumbling by the wheels alone compiled
+  (``rollout(models, ..., controller=Detumble(models, torque_by="wheels", force=False))``), against the same 64 through
+  the Python loop (``simulate`` of each servicer with the controller's numpy form called every sample: per-trajectory
+  models have no batched Python loop); with the largest difference of the recorded states and wheel outputs.
 """
 
 from __future__ import annotations
@@ -131,6 +136,76 @@ def compiled_controllers(quick: bool, log: Any) -> dict[str, Any]:
     return {"single": single, "rollouts": rollouts, "load_average": os.getloadavg()}
 
 
+def _servicer(b: int) -> Any:
+    """Servicer b of the wheel benchmark: the 1992 one-arm robot with four wheels in a pyramid, their inertia, limits and
+    friction depending on b (as tests/simulation/test_wheel_rollouts.py)."""
+    import dataclasses
+
+    import freefloat as ff
+    from freefloat.core.wheels import reaction_wheel
+
+    tilt = np.arctan(1.0 / np.sqrt(2.0))
+    wheels = tuple(
+        reaction_wheel(
+            f"rw{i}",
+            axis=[np.cos(tilt) * np.cos(i * np.pi / 2), np.cos(tilt) * np.sin(i * np.pi / 2), np.sin(tilt)],
+            inertia=0.3 + 0.004 * b + 0.05 * i,
+            max_torque=None if b % 4 == 0 else 0.04 + 0.002 * b,
+            max_speed=None if b % 3 == 0 else 25.0 + 0.2 * b,
+            viscous=1e-4 * (b % 5),
+            coulomb=2e-4 * (b % 7),
+        )
+        for i in range(4)
+    )
+    return dataclasses.replace(ff.models.papadopoulos1992(arms=1), wheels=wheels)
+
+
+def wheel_rollouts(quick: bool, log: Any) -> dict[str, Any]:
+    """The wheel rollout of the module docstring: 64 servicers, 10 s (quick: 2 s) at dt = 10 ms, sampled every 3 steps."""
+    from freefloat.control import Detumble
+    from freefloat.core.state import State
+    from freefloat.simulation.simulate import rollout
+
+    batch, duration = 64, 2.0 if quick else 10.0
+    models = [_servicer(b) for b in range(batch)]
+    rng = np.random.default_rng(43)
+    columns = {
+        "q": np.array([0.5, 1.0]) + rng.uniform(-0.3, 0.3, (batch, 2)),
+        "qdot": rng.uniform(-0.02, 0.02, (batch, 2)),
+        "omega": rng.uniform(-0.04, 0.04, (batch, 3)),
+        "wheel_speed": rng.uniform(-32.0, 32.0, (batch, 4)),
+    }
+    controller = Detumble(models, rate_gain=np.linspace(0.1, 0.4, batch)[:, None], torque_by="wheels", force=False)
+    options = {"dt": DT, "sample_period": 3 * DT, "output_period": 0.1}
+    rollout(models, State(**columns), 3 * DT, controller=controller, **options)  # compiled already
+    c_wall, fast = best_of(lambda: rollout(models, State(**columns), duration, controller=controller, **options), 3)
+    t0 = time.perf_counter()
+    worst = 0.0
+    for b in range(batch):
+        own = controller.row(b)
+        start = State(**{k: v[b] for k, v in columns.items()})
+        slow = simulate(models[b], start, duration, lambda t, s, own=own: own(t, s), fixed_step=DT, sample_period=3 * DT, output_period=0.1)
+        for name in ("q", "qdot", "omega", "attitude", "wheel_angle", "wheel_speed", "wheel_torque", "joint_torque"):
+            worst = max(worst, float(np.abs(getattr(fast, name)[:, b] - getattr(slow, name)).max()))
+    p_wall = time.perf_counter() - t0
+    steps = round(duration / DT) * batch
+    out = {
+        "trajectories": batch,
+        "steps_each": round(duration / DT),
+        "compiled_wall_s": c_wall,
+        "python_loop_wall_s": p_wall,
+        "compiled_trajectory_steps_per_s": steps / c_wall,
+        "python_loop_trajectory_steps_per_s": steps / p_wall,
+        "ratio_over_python_loop": p_wall / c_wall,
+        "max_difference_compiled_vs_python": worst,
+        "saturated_trajectories": int(np.any(fast.wheel_torque_saturated | fast.wheel_speed_saturated, axis=(0, 2)).sum()),
+        "load_average": os.getloadavg(),
+    }
+    ratio = out["ratio_over_python_loop"]
+    log(f"wheel rollouts x{batch}: {c_wall:.3f} s compiled vs Python loop {p_wall:.3f} s: x{ratio:.1f}, max diff {worst:.1e}")
+    return out
+
+
 def _per_state_loop(model: Any, task: Any, targets: np.ndarray, states: Any, duration: float) -> float:
     """Trajectory steps per second of the mujoco.rollout-style loop with a Python controller called per state (as a
     MuJoCo user calls one: ``mujoco.rollout`` steps the batch, the controller runs per trajectory in Python between
@@ -190,6 +265,7 @@ def run(quick: bool, log: Any) -> dict[str, Any]:
         }
         log(f"steps {name}: freefloat {steps / ff_wall:.0f} steps/s, MuJoCo + Python controller {steps / mj_wall:.0f} steps/s, dq {dq:.1e}")
     report["compiled"] = compiled_controllers(quick, log)
+    report["wheels"] = wheel_rollouts(quick, log)
     report["settings"] = {"dt": DT, "section5_duration_s": duration, "steps_horizon_s": horizon}
     return report
 
@@ -221,5 +297,13 @@ def table(report: dict[str, Any]) -> str:
             f"{r['per_state_python_loop_trajectory_steps_per_s']:.0f} trajectory steps/s (x{r['ratio_over_per_state_python_loop']:.1f})"
         )
         lines.append(f"  load average {report['compiled']['load_average']}")
+    if "wheels" in report:
+        w = report["wheels"]
+        lines.append(
+            f"  {w['trajectories']} servicers with their own reaction wheels x {w['steps_each']} steps, detumbling by wheels: "
+            f"{w['compiled_wall_s']:.3f} s compiled, {w['python_loop_wall_s']:.3f} s Python loop (x{w['ratio_over_python_loop']:.1f}); "
+            f"max difference {w['max_difference_compiled_vs_python']:.1e}; a wheel limit acted in {w['saturated_trajectories']}; "
+            f"load average {w['load_average']}"
+        )
     lines.append(machine_line(report["machine"]))
     return "\n".join(lines)

@@ -1415,11 +1415,38 @@ CASES += [
         ShapeError,
         r"State\.wheel_speed: expected shape \(\.\.\., 0\) \('papadopoulos1992_one_arm' has no reaction wheels\)",
     ),
+    # (rollout simulates wheels now, per-trajectory wheels included: the case that it refused them became these)
     api(
-        "rollout-with-wheels",
-        lambda f: ff.rollout(ff.load("papadopoulos1992", wheels=WHEELED), ff.State(q=np.zeros((2, 4))), 0.1, dt=0.01),
-        ValueError,
-        r"model: 'papadopoulos1992' has reaction wheels, which rollout does not simulate yet; run each trajectory with",
+        "rollout-wheel-variants-of-another-number",
+        lambda f: ff.rollout(
+            [ff.load("papadopoulos1992", wheels=WHEELED), ff.load("papadopoulos1992", wheels=[*WHEELED, {**WHEELED[0], "name": "rw2"}])],
+            ff.State(q=np.zeros((2, 4))),
+            0.1,
+            dt=0.01,
+        ),
+        ModelError,
+        r"model\[1\]\.wheels: 'papadopoulos1992' has 2 reaction wheels, model\[0\] \('papadopoulos1992'\) 1; per-trajectory models "
+        r"may differ in their wheels' inertia, max_torque, max_speed, viscous and coulomb, not in their number or axes",
+    ),
+    api(
+        "rollout-wheel-variants-of-other-axes",
+        lambda f: ff.rollout(
+            [ff.load("papadopoulos1992", wheels=WHEELED), ff.load("papadopoulos1992", wheels=[{**WHEELED[0], "axis": [1.0, 0.0, 0.0]}])],
+            ff.State(q=np.zeros((2, 4))),
+            0.1,
+            dt=0.01,
+        ),
+        ModelError,
+        r"model\[1\]\.wheels: the reaction wheels of 'papadopoulos1992' spin about other axes than model\[0\]'s",
+    ),
+    api(
+        "controller-wheel-variants-of-other-axes",
+        lambda f: ff.control.Detumble(
+            [ff.load("papadopoulos1992", wheels=WHEELED), ff.load("papadopoulos1992", wheels=[{**WHEELED[0], "axis": [0.0, 1.0, 0.0]}])],
+            torque_by="wheels",
+        ),
+        ModelError,
+        r"model\[1\]\.wheels: the reaction wheels of 'papadopoulos1992' spin about other axes .* run each set of wheels as its own rollout",
     ),
     api(
         "torque-by-wheels-without-wheels",

@@ -20,6 +20,7 @@ import numpy as np
 from ..core.errors import NearSingularWarning, ShapeError
 from ..core.model import Model
 from ..core.state import Actuation, State, pack_state, unpack_state
+from ..core.wheels import check_same_wheels, wheel_arrays
 from ..engine import DETUMBLE, OPERATIONAL_SPACE, PROFILES, TRANSPOSED_JACOBIAN, actuator_bounds, make_law, same_structure, tree
 
 __all__ = ["batch_call", "batch_of", "desired_row", "detumble_law", "gains", "models_of", "task_law"]
@@ -29,12 +30,14 @@ LAW_CODES = {"transposed": TRANSPOSED_JACOBIAN, "operational": OPERATIONAL_SPACE
 
 def models_of(model: Any) -> tuple[Model, ...]:
     """A controller's models: one :class:`~freefloat.Model`, or a sequence of B payload variants of one structure
-    (the same bodies, joints and placements; mass properties per trajectory)."""
+    (the same bodies, joints and placements, the same reaction wheels' spin axes; mass properties and the wheels'
+    inertias, limits and friction per trajectory)."""
     if isinstance(model, Model):
         return (model,)
     if isinstance(model, Sequence) and not isinstance(model, (str, bytes)) and model and all(isinstance(m, Model) for m in model):
         first = tree(model[0])
         for i, other in enumerate(model[1:], start=1):
+            check_same_wheels(model[0], other, i)
             if not same_structure(first, tree(other)):
                 raise ValueError(
                     f"model[{i}]: {other.name!r} has another structure than model[0] ({model[0].name!r}); per-trajectory "
@@ -125,6 +128,7 @@ def task_law(controller: Any, batch: int | None) -> Any:
     quaternions = int(not task.planar and task.orientation == "quaternion")
     setup = np.array([LAW_CODES[controller.law.split("-")[0]], int(task.planar), quaternions, 1, profile], dtype=np.int64)
     return _law(
+        controller,
         batch=batch,
         setup=setup,
         items=items,
@@ -152,6 +156,7 @@ def detumble_law(controller: Any, batch: int | None) -> Any:
     n = models[0].n_joints
     attitude = np.eye(3)[None] if controller.attitude is None else np.asarray(controller.attitude, dtype=float)[None]
     return _law(
+        controller,
         batch=batch,
         setup=np.array([DETUMBLE, 0, 0, int(controller.force), -1], dtype=np.int64),
         models=models,
@@ -163,10 +168,19 @@ def detumble_law(controller: Any, batch: int | None) -> Any:
     )
 
 
-def _law(models: Sequence[Model], floats: np.ndarray, batch: int | None, **given: Any) -> Any:
+def _law(controller: Any, models: Sequence[Model], floats: np.ndarray, batch: int | None, setup: np.ndarray, **given: Any) -> Any:
     """A Law of the given fields for the controller's models (their floats (K, F)), for a run of ``batch`` trajectories
-    (its ``lowest`` a row per trajectory: the threads of a rollout write each their own)."""
-    return make_law(np.array(tree(models[0]).ints, dtype=np.int64), floats, lowest=np.ones(batch or 1), **given)
+    (its ``lowest`` a row per trajectory: the threads of a rollout write each their own), with the controller's
+    actuators (``controller.actuators`` = (torque_by, force_by), :mod:`freefloat.control.wheels`): the setup's last two
+    codes, and with the torque by the reaction wheels, their Js a (K, W, 3) per model and the pseudo-inverse of their axes."""
+    torque_by, force_by = controller.actuators
+    wheels: dict[str, Any] = {}
+    if torque_by == "wheels":
+        spin = [wheel_arrays(m) for m in models]
+        wheels["wheel_momentum"] = np.stack([js[:, None] * axes for axes, js in spin])
+        wheels["wheel_inverse"] = np.linalg.pinv(spin[0][0].T)  # the axes are those of every model (models_of)
+    codes = np.concatenate([setup, [int(torque_by == "wheels"), int(force_by == "none")]])
+    return make_law(np.array(tree(models[0]).ints, dtype=np.int64), floats, setup=codes, lowest=np.ones(batch or 1), **wheels, **given)
 
 
 def desired_row(desired: Any, b: int) -> Any:

@@ -158,11 +158,11 @@ class _TaskController:
         torque_by: str = "thrusters",
         force_by: str = "thrusters",
     ) -> None:
+        self.models = _compiled.models_of(model)  # one model, or payload variants per trajectory
+        model = self.models[0]
         self.actuators = check_actuators(model, torque_by, force_by)
         if not isinstance(task, TaskSpace):
             raise TypeError(f"task: expected a freefloat.TaskSpace, got {type(task).__name__}")
-        self.models = _compiled.models_of(model)  # one model, or payload variants per trajectory
-        model = self.models[0]
         if task.model is not model:
             raise ValueError(f"task: built for model {task.model.name!r}, not for {model.name!r}; build the task from this model")
         self.model = model

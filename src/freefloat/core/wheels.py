@@ -48,6 +48,7 @@ if TYPE_CHECKING:
 __all__ = [
     "WHEEL_KEYS",
     "ReactionWheel",
+    "check_same_wheels",
     "check_wheels",
     "reaction_wheel",
     "wheel_arrays",
@@ -214,6 +215,25 @@ def check_wheels(wheels: Sequence[ReactionWheel], spacecraft_inertia: np.ndarray
                 "the spacecraft body's inertia must include its wheels (locked): check each wheel's inertia (Js, kg m^2) "
                 "and the spacecraft's (docs/wheels.md)",
             )
+
+
+def check_same_wheels(first: Model, other: Model, i: int) -> None:
+    """Refuse ``other``, model[i] of a sequence of per-trajectory models, when its reaction wheels are not those of
+    ``first`` (model[0]) in number and spin axes: per-trajectory models may differ in their wheels' inertia, limits and
+    friction only (one rollout integrates one structure)."""
+    mine, theirs = wheel_arrays(first)[0], wheel_arrays(other)[0]
+    if mine.shape == theirs.shape and np.array_equal(mine, theirs):
+        return
+    if mine.shape != theirs.shape:
+        problem = f"{other.name!r} has {other.n_wheels} reaction wheels, model[0] ({first.name!r}) {first.n_wheels}"
+    else:
+        problem = f"the reaction wheels of {other.name!r} spin about other axes than model[0]'s ({first.name!r}: {mine.tolist()})"
+    raise ModelError(
+        f"model[{i}].wheels",
+        problem,
+        "per-trajectory models may differ in their wheels' inertia, max_torque, max_speed, viscous and coulomb, not in their "
+        "number or axes: run each set of wheels as its own rollout",
+    )
 
 
 def wheel_arrays(model: Model) -> tuple[np.ndarray, np.ndarray]:

@@ -15,8 +15,10 @@ The laws, at a state x = [r_cm, v_cm, quat, omega0, q, qdot]:
   singular J_z, J̄ = H+⁻¹ J_zᵀ H~, C~ = J̄ᵀ C+ − H~ J̇_z ż0 (module docstring of :mod:`freefloat.control.controllers`);
 * detumbling (eq. 27 with J_z = 1): Q_c = H+ z̈0,des + C+, z̈0,des = −k ż0 (+ K_att e_att on the ω0 rows);
 
-then [f_S; n_S; τ] = J_q⁻ᵀ Q_c (eq. 30) by forward substitution on J_q (eq. 21, the spacecraft CM's J+), and the
-controller's own actuator limits. J+, J̇+ ż0, H+ and C+ are the engine's (:mod:`.quantities`); the singular-value
+then [f_S; n_S; τ] = J_q⁻ᵀ Q_c (eq. 30) by forward substitution on J_q (eq. 21, the spacecraft CM's J+), the
+spacecraft torque sent to the reaction wheels (``torque_by="wheels"``: u = −A⁺ (n_S + ω0 × h_w), :func:`wheel_routing`) and
+the force to nobody (``force_by="none"``), the controller's own actuator limits, the simulation's, and the wheels' torque
+and speed limits (:func:`wheel_limits`). J+, J̇+ ż0, H+ and C+ are the engine's (:mod:`.quantities`); the singular-value
 ratio of J_z is the engine's measure (:func:`~.measures.jacobian_measure_lanes`).
 """
 
@@ -54,7 +56,11 @@ PROFILES = ("linear", "cubic", "minimum_jerk")
 
 #: A controller as arrays. K is 1 (shared by every trajectory) or B (one row per trajectory), field by field.
 LAW_FIELDS = (
-    ("setup", "(5,) int: law code, planar (0/1), quaternion orientations (0/1), force (detumble: 0/1), profile (-1: a set point)"),
+    (
+        "setup",
+        "(7,) int: law code, planar (0/1), quaternion orientations (0/1), force (detumble: 0/1), profile (-1: a set point), "
+        "torque by the reaction wheels (0/1), no thruster force (0/1)",
+    ),
     ("items", "(I, 2) int: each task item's kind (0 position, 1 orientation) and body"),
     ("points", "(I, 3): each position item's point, its body's frame"),
     ("ints", "the controller model's ints (layout.Tree.ints)"),
@@ -72,6 +78,11 @@ LAW_FIELDS = (
     ("attitude", "(K, 3, 3): the detumbling's commanded attitude (spacecraft -> inertial)"),
     ("attitude_gain", "(K,): its gain (1/s^2; 0: rates only)"),
     ("lowest", "(K,): written by the loops: the smallest σ_min/σ_max of J_z met at a sample (for the warning after the run)"),
+    ("wheel_momentum", "(K, W, 3): Js_i a_i of the controller model's reaction wheels (h_w = Σ Ω_i Js_i a_i, spacecraft frame)"),
+    ("wheel_inverse", "(W, 3): A⁺, the pseudo-inverse of the wheels' spin axes A = [a_1 ... a_W] (3, W)"),
+    ("wheel_limits", "(K, 2, W): the simulated model's wheel limits [max_torque; max_speed] (N m, rad/s; inf: none)"),
+    ("wheel_slot", "(samples,) int: the row of wheel_flags that controller sample k writes (-1: no recorded output holds it)"),
+    ("wheel_flags", "(K, R, 2W) bool, written by the loops: [torque saturated (W), speed saturated (W)] at the samples recorded"),
 )
 Law = namedtuple("Law", [name for name, _ in LAW_FIELDS])  # type: ignore[misc]
 
@@ -574,34 +585,111 @@ def law_one(
 
 
 @kernel(inline="always")
+def wheel_routing(L: Any, b: int, omega: np.ndarray, speed: np.ndarray, u: np.ndarray, wheel: np.ndarray) -> None:  # pragma: no cover
+    """The actuation u = [τ, f_S, n_S] (N + 6) of a law routed as its controller says (setup [5], [6]): with the torque by
+    the reaction wheels, their motor torques wheel (W,) = −A⁺ (n_S + ω0 × h_w), h_w = Σ_i Ω_i Js_i a_i (``speed`` Ω (W,)
+    relative to the spacecraft, ``omega`` ω0 (3,), spacecraft frame), and n_S = 0; with no thruster force, f_S = 0. The
+    numpy form, the reference ``tests/simulation/test_wheel_rollouts.py`` checks this one against:
+    :func:`freefloat.control.wheels.wheel_torques` and ``route_actuation``."""
+    n = u.shape[0] - 6
+    if L.setup[5] != 0:
+        spin = L.wheel_momentum[_row(L.wheel_momentum, b)]
+        h = np.zeros(3)
+        for i in range(wheel.shape[0]):
+            for j in range(3):
+                h[j] += speed[i] * spin[i, j]
+        d0 = u[n + 3] + (omega[1] * h[2] - omega[2] * h[1])
+        d1 = u[n + 4] + (omega[2] * h[0] - omega[0] * h[2])
+        d2 = u[n + 5] + (omega[0] * h[1] - omega[1] * h[0])
+        inv = L.wheel_inverse
+        for i in range(wheel.shape[0]):
+            wheel[i] = -d0 * inv[i, 0] + -d1 * inv[i, 1] + -d2 * inv[i, 2]
+        for i in range(3):
+            u[n + 3 + i] = 0.0
+    if L.setup[6] != 0:
+        for i in range(3):
+            u[n + i] = 0.0
+
+
+@kernel(inline="always")
+def wheel_limits(limits: np.ndarray, speed: np.ndarray, wheel: np.ndarray, flags: np.ndarray) -> bool:  # pragma: no cover
+    """The motor torques the wheels apply for the commands ``wheel`` (W,), in place, at the speeds ``speed`` (W,), rad/s,
+    as Basilisk's reaction-wheel model: a command beyond max_torque (``limits[0]``) clipped to it; a wheel at or beyond
+    max_speed (``limits[1]``) given no torque that would spin it faster (zero). flags (2W,) = [torque saturated, speed
+    saturated]; True if any. The numpy form: ``freefloat.simulation._wheels.limit_wheel_torque``."""
+    w = wheel.shape[0]
+    limited = False
+    for i in range(w):
+        command = wheel[i]
+        applied = min(max(command, -limits[0, i]), limits[0, i])
+        clipped = applied != command
+        stopped = abs(speed[i]) >= limits[1, i] and applied * speed[i] > 0.0
+        wheel[i] = 0.0 if stopped else applied
+        flags[i] = clipped
+        flags[w + i] = stopped
+        limited = limited or clipped or stopped
+    return limited
+
+
+@kernel(inline="always")
 def law_control(
     C: Any, P: Any, sample: int, t: float, b: int, lim: np.ndarray, x: np.ndarray, x0: int, u: np.ndarray, u0: int, step: int
 ) -> bool:  # pragma: no cover - compiled
     """The controller of the generic rollout loop (``specialise.lanes._rollout_blocks``, one lane wide: ``step`` 1), C = (the
     joint PD's arrays, a :data:`Law`): the joint PD (:func:`~.specialise.lanes.joint_pd`) when the law's code is 0, else
-    u[u0 ...] = :func:`law_one` at the state x[x0 ...] of trajectory b at time t, clipped to the controller's own
-    limits, then to the simulation's +-lim (True if any component was: as ``ActuatorLimits.apply`` of the controller,
-    then of the simulation); P = (plant model, ext_i, ext_f, scratch)."""
+    :func:`law_one` at the state x[x0 ...] of trajectory b at time t, routed (:func:`wheel_routing`), clipped to the
+    controller's own limits, then to the simulation's +-lim (True if any component was: as ``ActuatorLimits.apply`` of
+    the controller, then of the simulation), the wheels' torques to their limits (:func:`wheel_limits`; True if one
+    acted, and its flags written to ``wheel_flags`` when an output records this sample), written to u[u0 ...]; P = (plant
+    model, ext_i, ext_f, scratch).
+
+    The plant may hold W reaction wheels as its last joints (:func:`freefloat.core.wheels.wheel_joint_model`): its state
+    [r_cm, v_cm, quat, ω0, q (N), wheel angles (W), q̇ (N), wheel speeds (W)] and its u [τ (N), wheel torques (W), f_S,
+    n_S], lim alike; the law sees the controller's state [.., q, q̇] of its N joints."""
     L = C[1]
     if L.setup[0] == 0:
         return joint_pd(C[0], P, sample, t, b, lim, x, x0, u, u0, step)
     s = P[3]
     n = L.ints[2]
+    w = P[0].n_joints - n  # the plant's reaction wheels
     dim = L.kp.shape[1]
     e, edot, qc = np.empty(dim), np.empty(dim), np.empty(6 + n)
-    out = u[u0 : u0 + n + 6]
-    ratio = law_one(L, b, t, x[x0 : x0 + 13 + 2 * n], s, out, e, edot, qc)
+    xc = np.empty(13 + 2 * n)  # the controller's flat state: the plant's without the wheel angles and speeds
+    for i in range(13 + n):
+        xc[i] = x[x0 + i]
+    for j in range(n):
+        xc[13 + n + j] = x[x0 + 13 + n + w + j]
+    speed = x[x0 + 13 + 2 * n + w : x0 + 13 + 2 * n + 2 * w]
+    out = np.empty(n + 6)
+    ratio = law_one(L, b, t, xc, s, out, e, edot, qc)
     seen = _row(L.lowest, b)
     L.lowest[seen] = min(L.lowest[seen], ratio)
+    wheel = np.zeros(w)
+    wheel_routing(L, b, xc[10:13], speed, out, wheel)
     sat = False
     for j in range(n + 6):
         out[j] = min(max(out[j], -L.limits[j]), L.limits[j])  # the controller's own limits (no flag: an extra of its output)
-        if out[j] > lim[j]:
-            out[j] = lim[j]
+        k = j if j < n else j + w  # its entry of the plant's lim
+        if out[j] > lim[k]:
+            out[j] = lim[k]
             sat = True
-        elif out[j] < -lim[j]:
-            out[j] = -lim[j]
+        elif out[j] < -lim[k]:
+            out[j] = -lim[k]
             sat = True
+    if w > 0:
+        flags = np.zeros(2 * w, dtype=np.bool_)
+        sat = wheel_limits(L.wheel_limits[_row(L.wheel_limits, b)], speed, wheel, flags) or sat
+        slot = L.wheel_slot[sample] if sample < L.wheel_slot.shape[0] else -1
+        if slot >= 0:
+            record = L.wheel_flags[_row(L.wheel_flags, b), slot]
+            for i in range(2 * w):
+                record[i] = flags[i]
+    for j in range(n):
+        u[u0 + j] = out[j]
+    for i in range(w):
+        u[u0 + n + i] = wheel[i]
+    for j in range(6):
+        u[u0 + n + w + j] = out[n + j]
     return sat
 
 
@@ -611,7 +699,7 @@ def make_law(ints: np.ndarray, floats: np.ndarray, **given: Any) -> Any:
     controller model's buffers (floats (K, F)). Without fields: no law (code 0: the joint PD of the rollouts)."""
     n = int(ints[2])
     fields: dict[str, Any] = {
-        "setup": np.array([0, 0, 0, 1, -1]),
+        "setup": np.array([0, 0, 0, 1, -1, 0, 0]),
         "items": np.zeros((1, 2)),
         "points": np.zeros((1, 3)),
         "ints": ints,
@@ -629,11 +717,16 @@ def make_law(ints: np.ndarray, floats: np.ndarray, **given: Any) -> Any:
         "attitude": np.eye(3)[None],
         "attitude_gain": np.zeros(1),
         "lowest": np.ones(1),
+        "wheel_momentum": np.zeros((1, 0, 3)),
+        "wheel_inverse": np.zeros((0, 3)),
+        "wheel_limits": np.zeros((1, 2, 0)),
+        "wheel_slot": np.zeros(0),
+        "wheel_flags": np.zeros((1, 0, 0)),
         **given,
     }
-    integer = ("setup", "items", "ints")
+    kinds = {"setup": np.int64, "items": np.int64, "ints": np.int64, "wheel_slot": np.int64, "wheel_flags": np.bool_}
     names: list[str] = [name for name, _ in LAW_FIELDS]
-    return Law(**{name: np.array(fields[name], dtype=np.int64 if name in integer else np.float64) for name in names})
+    return Law(**{name: np.array(fields[name], dtype=kinds.get(name, np.float64)) for name in names})
 
 
 def same_structure(a: Any, b: Any) -> bool:
@@ -644,17 +737,18 @@ def same_structure(a: Any, b: Any) -> bool:
     return all(np.array_equal(a.fields[f.name], b.fields[f.name]) for f in BODY_FIELDS if f.role == "structure")
 
 
-def actuator_bounds(limits: Any, n: int) -> np.ndarray:
-    """An ``ActuatorLimits`` (or None) as the (N + 6,) bounds of [tau, f_S, n_S] that the loops clip to (inf: none);
-    its own checks first (the errors of ``ActuatorLimits.apply``)."""
-    out = np.full(n + 6, np.inf)
+def actuator_bounds(limits: Any, n: int, wheels: int = 0) -> np.ndarray:
+    """An ``ActuatorLimits`` (or None) as the (N + W + 6,) bounds of [tau (N), wheel torques (W), f_S, n_S] that the
+    loops clip to (inf: none; the W reaction wheels have their own limits, :func:`wheel_limits`); its own checks first
+    (the errors of ``ActuatorLimits.apply``)."""
+    out = np.full(n + wheels + 6, np.inf)
     if limits is None:
         return out
     limits.apply(np.zeros(n), np.zeros(3), np.zeros(3))
     for sl, value in (
         (slice(0, n), limits.joint_torque),
-        (slice(n, n + 3), limits.spacecraft_force),
-        (slice(n + 3, n + 6), limits.spacecraft_torque),
+        (slice(n + wheels, n + wheels + 3), limits.spacecraft_force),
+        (slice(n + wheels + 3, n + wheels + 6), limits.spacecraft_torque),
     ):
         if value is not None:
             out[sl] = np.broadcast_to(np.asarray(value, dtype=float), out[sl].shape)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -19,17 +19,44 @@ from .. import engine
 from ..core.errors import SimulationError
 from ..core.model import Model
 from ..core.state import ActuatorLimits
+from ..core.wheels import check_same_wheels, wheel_limits
 from ..engine import actuator_bounds, same_structure, tree
 from ._guard import PROGRESS_DELAY, Progress, _derivative_cost
-from ._plan import RunPlan, passive_model
+from ._plan import RunPlan, integrated_model, passive_model
 from ._record import _trajectory
+from ._wheels import user_trajectory
 from .pd import JointPD
 from .trajectory import Trajectory
 
-__all__ = ["PER_TRAJECTORY", "after_run", "compiled_rollout", "compiled_simulation", "law_of", "law_rows", "output_times", "plant_models"]
+__all__ = [
+    "PER_TRAJECTORY",
+    "Plant",
+    "after_run",
+    "compiled_rollout",
+    "compiled_simulation",
+    "law_of",
+    "law_rows",
+    "output_times",
+    "plant_models",
+]
 
 #: The fields of a control law with a row per trajectory (1 row: shared).
-PER_TRAJECTORY = ("floats", "kp", "kd", "start", "goal", "zdot", "zddot", "rate_gain", "attitude", "attitude_gain", "lowest")
+PER_TRAJECTORY = (
+    "floats",
+    "kp",
+    "kd",
+    "start",
+    "goal",
+    "zdot",
+    "zddot",
+    "rate_gain",
+    "attitude",
+    "attitude_gain",
+    "lowest",
+    "wheel_momentum",
+    "wheel_limits",
+    "wheel_flags",
+)
 
 
 #: Seconds of one sample of a compiled control law (measured 10-20 µs for the §V OSC): a run's estimate.
@@ -39,12 +66,8 @@ LAW_SAMPLE_COST = 2e-5
 def law_of(controller: Any, batch: int | None) -> Any:
     """The compiled law of ``controller`` for a run of ``batch`` trajectories (None: one simulation), or None: it has
     none (a Python controller), or it needs Python (a desired motion given as a function). Raises the controller's
-    errors for per-trajectory values of another length than the batch. A controller that drives reaction wheels
-    (``torque_by="wheels"``) or a task controller with ``force_by="none"`` runs from Python: the compiled loops route
-    nothing to wheels and zero no force (the detumbling law's ``force=False`` is in the law itself)."""
-    torque_by, force_by = getattr(controller, "actuators", ("thrusters", "thrusters"))
-    if torque_by != "thrusters" or (force_by != "thrusters" and getattr(controller, "force", True)):
-        return None
+    errors for per-trajectory values of another length than the batch. The law routes the spacecraft torque to the
+    reaction wheels (``torque_by="wheels"``) and gives no thruster force (``force_by="none"``) as its controller says."""
     make = getattr(controller, "compiled_law", None)
     return make(batch) if callable(make) else None
 
@@ -64,31 +87,41 @@ def law_rows(law: Any, rows: slice, batch: int) -> Any:
     return law._replace(**{f: getattr(law, f)[rows] for f in PER_TRAJECTORY if getattr(law, f).shape[0] == batch})
 
 
-def plant_models(model: Any, passive: str) -> tuple[Model, np.ndarray]:
-    """The model a rollout simulates and its mass properties per trajectory: ``model`` is one model, or a sequence of B
-    payload variants of one structure (:meth:`~freefloat.Model.with_payload`): (the first, with the joints' passive
-    torques as ``passive`` says, and the floats of each (K, F))."""
-    given = list(model) if isinstance(model, Sequence) and not isinstance(model, (str, bytes)) else [model]
-    for i, each in enumerate(given):
-        if isinstance(each, Model) and each.wheels:
-            where = f"model[{i}]" if len(given) > 1 or given[0] is not model else "model"
+class Plant(NamedTuple):
+    """What a rollout simulates (:func:`plant_models`)."""
+
+    #: the user's model (model[0] of per-trajectory models; ``passive`` applied): the states and trajectory are its
+    user: Model
+    #: what the engine integrates: ``user``'s reaction wheels as joints (``user`` itself without wheels)
+    model: Model
+    #: (K, F): the floats of ``model`` for each of the K models (1, or one per trajectory)
+    floats: np.ndarray
+    #: (K, 2, W): each model's wheel limits [max_torque; max_speed] (N m, rad/s; inf: none)
+    wheel_limits: np.ndarray
+    #: whether one of the K models has passive torques (damping, friction: its wheels' bearings too), so that the
+    #: states carry the dissipated energy (:func:`~freefloat.core.state.dissipates`)
+    dissipates: bool
+
+
+def plant_models(model: Any, passive: str) -> Plant:
+    """The model a rollout simulates, and its parameters per trajectory: ``model`` is one model, or a sequence of B
+    variants of one structure (payload variants, :meth:`~freefloat.Model.with_payload`; the same reaction wheels with
+    other inertias, limits or friction), the joints' passive torques as ``passive`` says."""
+    many = isinstance(model, Sequence) and not isinstance(model, (str, bytes))
+    if many and not model:
+        raise ValueError("model: an empty sequence of models; give one model or one per trajectory")
+    users = [passive_model(m, passive) for m in (model if many else [model])]
+    models = [integrated_model(u, passive) for u in users]
+    for i, other in enumerate(models[1:], start=1):
+        check_same_wheels(users[0], users[i], i)
+        if not same_structure(tree(models[0]), tree(other)):
             raise ValueError(
-                f"{where}: {each.name!r} has reaction wheels, which rollout does not simulate yet; run each trajectory with "
-                "freefloat.simulate, which integrates them (docs/wheels.md)"
+                f"model[{i}]: {users[i].name!r} has another structure than model[0] ({users[0].name!r}); per-trajectory "
+                "models must be payload variants of one robot (model.with_payload(...)): the same bodies and joints"
             )
-    if isinstance(model, Sequence) and not isinstance(model, (str, bytes)):
-        if not model:
-            raise ValueError("model: an empty sequence of models; give one model or one per trajectory")
-        models = [passive_model(m, passive) for m in model]
-        for i, other in enumerate(models[1:], start=1):
-            if not same_structure(tree(models[0]), tree(other)):
-                raise ValueError(
-                    f"model[{i}]: {other.name!r} has another structure than model[0] ({models[0].name!r}); per-trajectory "
-                    "models must be payload variants of one robot (model.with_payload(...)): the same bodies and joints"
-                )
-        return models[0], np.stack([tree(m).floats for m in models])
-    single = passive_model(model, passive)
-    return single, np.array(tree(single).floats)[None]
+    floats = np.stack([tree(m).floats for m in models])
+    limits = np.concatenate([wheel_limits_rows(u) for u in users])
+    return Plant(users[0], models[0], floats, limits, any(m.has_passive for m in models))
 
 
 def compiled_simulation(plan: RunPlan) -> Trajectory | None:
@@ -100,7 +133,8 @@ def compiled_simulation(plan: RunPlan) -> Trajectory | None:
     The run is one call of a compiled kernel, which shows no progress and defers Ctrl-C to its end: only a run estimated
     to take under :data:`~._guard.PROGRESS_DELAY` (and under the plan's wall-clock limit) goes there; a longer one runs
     in the Python-stepped loop (compiled steps between the controller's samples), with progress and Ctrl-C. The run is
-    :func:`compiled_rollout` of one trajectory."""
+    :func:`compiled_rollout` of one trajectory. The trajectory is that of ``plan.model`` (a model's reaction wheels as
+    joints, their saturation flags in ``saturated``: :func:`._wheels.user_trajectory` makes the user's)."""
     model, controller, duration, sample_period = plan.model, plan.controller, plan.duration, plan.sample_period
     wall_limit = plan.checks.wall_limit
     law = law_of(controller, None)
@@ -121,7 +155,7 @@ def compiled_simulation(plan: RunPlan) -> Trajectory | None:
     try:
         pd = controller if isinstance(controller, JointPD) else None
         bar = Progress(False, duration)
-        run = compiled_rollout(model, plan.x0[None], dt, steps, hold, stride, pd, plan.limits, plan.wrenches, bar, law)
+        run = compiled_rollout(model, plan.x0[None], dt, steps, hold, stride, pd, plan.limits, plan.wrenches, bar, law, user=plan.user)
     except SimulationError:
         return None
     if run is None:
@@ -162,24 +196,36 @@ def compiled_rollout(
     bar: Progress,
     law: Any = None,
     plant: np.ndarray | None = None,
+    user: Model | None = None,
+    wheels: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], str, str] | None:
     """A whole batched rollout with a joint PD (or none) or a control law (``law``: a built-in controller's
     ``compiled_law``), compiled, in chunks of trajectories, on the mass properties ``plant`` (the floats of 1 or B
-    payload variants of ``model``: :func:`plant_models`; None: the model's), under the external wrenches ``ext`` (the
+    variants of ``model``: :func:`plant_models`; None: the model's), under the external wrenches ``ext`` (the
     engine's form: :func:`._plan.engine_wrenches`).
 
+    ``model`` is what the engine integrates for the user's model ``user`` (None: ``model`` itself): its W reaction
+    wheels as its last joints (:func:`freefloat.core.wheels.wheel_joint_model`), their limits ``wheels`` (1 or B,
+    2, W) (None: ``user``'s) applied in the loop (:func:`freefloat.engine.laws.wheel_limits`; a joint PD drives no
+    wheel).
+
     Returns the output times (T,), the states (T, B, S), the actuation (tau, f_S, n_S,
-    saturated), the status and message; or None when the controller needs Python (a feed-forward
-    sampled at another period than the controller, or gains that do not broadcast: the Python
+    saturated; with wheels tau holds the wheel torques after the joint torques and saturated (T, B, 1 + 2W) is [any,
+    torque saturated (W), speed saturated (W)]), the status and message; or None when the controller needs Python (a
+    feed-forward sampled at another period than the controller, or gains that do not broadcast: the Python
     path reports those). A trajectory that fails (H+ not positive definite, a non-finite state)
     raises a SimulationError. The trajectories run in chunks (about 20 for a large batch) so that
     ``bar`` shows progress and Ctrl-C keeps the finished chunks (status "interrupted").
     """
+    user = model if user is None else user
     n = model.n_joints
+    w = user.n_wheels
     batch = x0.shape[0]
-    lim = actuator_bounds(limits, n)  # (the same errors as the Python path)
-    zeros = np.zeros((batch, n))
-    feed = np.zeros((1, batch, n))
+    if law is not None and (int(law.ints[2]) != n - w or (law.setup[5] and law.wheel_inverse.shape[0] != w)):
+        return None  # a controller made for another model's joints or wheels: the Python path names it
+    lim = actuator_bounds(limits, n - w, w)  # (the same errors as the Python path)
+    zeros = np.zeros((batch, n - w))
+    feed = np.zeros((1, batch, n - w))
     gains: list[Any] = [zeros, zeros, zeros, zeros]
     if law is None and controller is not None:
         gains = [controller.kp, controller.kd, controller.q_ref, controller.qdot_ref]
@@ -187,11 +233,19 @@ def compiled_rollout(
             ff = np.asarray(controller.feedforward, dtype=float)
             if ff.shape[0] > 1 and not np.isclose(float(controller.feedforward_period or 0.0), hold * dt, rtol=1e-9, atol=0.0):
                 return None
-            feed = np.broadcast_to(ff[:, None, :] if ff.ndim == 2 else ff, (ff.shape[0], batch, n))
+            feed = np.broadcast_to(ff[:, None, :] if ff.ndim == 2 else ff, (ff.shape[0], batch, n - w))
     try:
-        arrays = tuple(np.broadcast_to(np.asarray(g, dtype=float), (batch, n)) for g in gains)
+        arrays = tuple(np.broadcast_to(np.asarray(g, dtype=float), (batch, n - w)) for g in gains)
     except ValueError:
         return None
+    if w:  # the joint PD drives the robot's joints only: zero gains and references for the wheels
+        arrays = tuple(np.concatenate([a, np.zeros((batch, w))], axis=1) for a in arrays)
+    slots, held = wheel_slots(steps, hold, stride)
+    if law is not None:  # the wheels' limits (and the rows their flags go to) as the law's per-trajectory arrays
+        limits_w = wheel_limits_rows(user) if wheels is None else np.ascontiguousarray(wheels, dtype=float)
+        recorded = held.max() + 1 if w else 0
+        flags_w = np.zeros((batch, recorded, 2 * w), dtype=bool)
+        law = law._replace(wheel_limits=limits_w, wheel_slot=slots if w else slots[:0], wheel_flags=flags_w)
     per_trajectory = plant is not None and plant.shape[0] > 1
     fast = law is None and not per_trajectory and engine.specialised_rollouts(model, batch, ext)
     # chunks only for a long rollout (progress, Ctrl-C): joining the chunks copies every output once
@@ -224,7 +278,11 @@ def compiled_rollout(
     else:
         xs, us, sat = (np.concatenate([p[i] for p in parts], axis=1) for i in range(3))
         done = np.concatenate([p[3] for p in parts])
+    if w:  # [any, torque saturated (W), speed saturated (W)] at each output: the flags of the sample it holds
+        flags = np.zeros((*sat.shape, 2 * w), dtype=bool) if law is None else law.wheel_flags[: sat.shape[1], held].transpose(1, 0, 2)
+        sat = np.concatenate([sat[..., None], flags & np.isfinite(xs[..., :1])], axis=-1)
     times = output_times(dt, steps, stride)
+    acts = (us[:, :, :n], us[:, :, n : n + 3], us[:, :, n + 3 :], sat)
     if np.any(done < steps):
         first = int(np.argmin(done))
         t_fail = float(done[first] * dt)
@@ -232,6 +290,24 @@ def compiled_rollout(
             f"trajectory {first} of the rollout became non-finite or singular at t = {t_fail:.6g} s "
             "(unstable controller or too large a step?); its later samples are NaN"
         )
-        traj = _trajectory(model, times, xs, (us[:, :, :n], us[:, :, n : n + 3], us[:, :, n + 3 :], sat), "failed", message, copy=False)
-        raise SimulationError(message, traj)
-    return times, xs, (us[:, :, :n], us[:, :, n : n + 3], us[:, :, n + 3 :], sat), status, message
+        traj = _trajectory(model, times, xs, acts, "failed", message, copy=False)
+        raise SimulationError(message, user_trajectory(user, traj) if w else traj)
+    return times, xs, acts, status, message
+
+
+def wheel_slots(steps: int, hold: int, stride: int) -> tuple[np.ndarray, np.ndarray]:
+    """Where the compiled loops write the wheels' saturation flags of a rollout of ``steps`` steps, its controller
+    sampled every ``hold`` steps and its outputs every ``stride`` (:func:`output_times`): (the slot of each sample
+    (samples,), -1 for a sample no output holds; the slot each output holds (T,)). An output at step k holds the sample
+    at step ``hold * (k // hold)`` (before the last step; the last output, the sample before it)."""
+    k = np.round(output_times(1.0, steps, stride)).astype(np.int64)
+    sample = np.where(k < steps, k // hold, (steps - 1) // hold)
+    recorded, held = np.unique(sample, return_inverse=True)
+    slots = np.full((steps - 1) // hold + 1, -1, dtype=np.int64)
+    slots[recorded] = np.arange(recorded.size)
+    return slots, held.reshape(-1)
+
+
+def wheel_limits_rows(user: Model) -> np.ndarray:
+    """(1, 2, W): ``user``'s wheel limits [max_torque; max_speed] as a law's row shared by every trajectory."""
+    return np.stack(wheel_limits(user)).reshape(1, 2, user.n_wheels)

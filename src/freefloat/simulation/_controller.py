@@ -137,10 +137,11 @@ def call_controller(
         raise SimulationError(f"bad controller output at t = {t:.6g} s: {exc}") from exc
 
 
-def command_of(controller: Controller | None, user: Model, model: Model, limits: ActuatorLimits) -> Command:
-    """The controller of one simulation as its loops call it: ``command(t, x, kernel_checks=False) -> (tau, f_S, n_S,
-    saturated)`` on the flat state ``x`` of ``model`` (what the engine integrates: ``user``'s reaction wheels as
-    joints, :func:`freefloat.core.wheels.wheel_joint_model`), with the controller called on ``user``'s state.
+def command_of(controller: Controller | None, user: Model, model: Model, limits: ActuatorLimits, batch: tuple[int, ...] = ()) -> Command:
+    """The controller of one simulation (or of a rollout's ``batch`` of states) as its loops call it: ``command(t, x,
+    kernel_checks=False) -> (tau, f_S, n_S, saturated)`` on the flat state ``x`` of ``model`` (what the engine integrates:
+    ``user``'s reaction wheels as joints, :func:`freefloat.core.wheels.wheel_joint_model`), with the controller called
+    on ``user``'s state.
 
     The output is clipped to ``limits`` (:meth:`~freefloat.core.state.ActuatorLimits.apply`; ``saturated`` says where)
     and a model's wheel torques to the wheels' torque and speed limits (:func:`._wheels.limit_wheel_torque`), joined
@@ -148,8 +149,8 @@ def command_of(controller: Controller | None, user: Model, model: Model, limits:
     actuation. ``kernel_checks=True`` lets plain torques reach the compiled RK4 step unchecked (it checks them), only
     where nothing changes them before the step: no clip (which makes an inf finite) and no wheels."""
     n_wheels = user.n_wheels
-    zero = (np.zeros(model.n_joints), np.zeros(3), np.zeros(3))
-    unlimited = np.zeros(1 + 2 * n_wheels, dtype=bool) if n_wheels else np.array(False)
+    zero = (np.zeros((*batch, model.n_joints)), np.zeros((*batch, 3)), np.zeros((*batch, 3)))
+    unlimited = np.zeros((*batch, 1 + 2 * n_wheels) if n_wheels else batch, dtype=bool)
     speeds = slice(13 + 2 * model.n_joints - n_wheels, 13 + 2 * model.n_joints)
     clips = not limits.unlimited
     unchanged = not clips and not n_wheels
@@ -157,12 +158,13 @@ def command_of(controller: Controller | None, user: Model, model: Model, limits:
     def command(t: float, x: np.ndarray, kernel_checks: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         if controller is None:
             return (*zero, unlimited)
-        parts = call_controller(controller, user, t, x, (), kernel_checks and unchanged)
+        parts = call_controller(controller, user, t, x, batch, kernel_checks and unchanged)
         if not n_wheels:
             return limits.apply(*parts) if clips else (parts[0], parts[1], parts[2], unlimited)
         tau, force, torque, saturated = limits.apply(*parts[:3])
-        wheel, torque_limited, speed_limited = limit_wheel_torque(user, parts[3], x[speeds])
-        flags = np.concatenate([[bool(saturated) or torque_limited.any() or speed_limited.any()], torque_limited, speed_limited])
-        return np.concatenate([tau, wheel]), force, torque, flags
+        wheel, torque_limited, speed_limited = limit_wheel_torque(user, parts[3], x[..., speeds])
+        limited = saturated | torque_limited.any(axis=-1) | speed_limited.any(axis=-1)
+        flags = np.concatenate([limited[..., None], torque_limited, speed_limited], axis=-1)
+        return np.concatenate([tau, wheel], axis=-1), force, torque, flags
 
     return command

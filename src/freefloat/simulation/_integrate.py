@@ -40,13 +40,13 @@ from .trajectory import Trajectory
 
 def run(plan: RunPlan) -> Trajectory:
     """The simulation ``plan`` describes: inside the engine's compiled loop when it can be (a built-in controller with
-    fixed steps, no events, stops or wheels, a short run: :func:`._compiled_runs.compiled_simulation`), else the RK4 or
+    fixed steps, no events or stops, a short run: :func:`._compiled_runs.compiled_simulation`), else the RK4 or
     adaptive loop, with progress and the divergence guard. Ctrl-C returns the trajectory so far (status
     ``"interrupted"``); a failure raises a :class:`SimulationError` that holds it."""
-    if plan.fixed_step is not None and not plan.events and not plan.stops.active and not plan.user.wheels:
+    if plan.fixed_step is not None and not plan.events and not plan.stops.active:
         compiled = compiled_simulation(plan)  # the controller inside the compiled loop, when it can be
         if compiled is not None:
-            return with_limit_events(compiled, plan.stops)
+            return _finish(plan, compiled)
     rec = _Recorder(plan.model)
     bar = Progress(plan.progress, plan.duration)
     try:

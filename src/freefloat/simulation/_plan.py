@@ -28,7 +28,7 @@ from ._prerun import RunChecks, check_run
 from ._stops import JointStops
 from .pd import JointPD
 
-__all__ = ["METHODS", "PASSIVE", "RunPlan", "engine_wrenches", "passive_model", "plan_run", "positive"]
+__all__ = ["METHODS", "PASSIVE", "RunPlan", "engine_wrenches", "integrated_model", "passive_model", "plan_run", "positive"]
 
 #: The adaptive integrators of ``scipy.integrate.solve_ivp`` that ``simulate(method=...)`` accepts.
 METHODS = ("DOP853", "RK45", "RK23", "Radau", "BDF", "LSODA")
@@ -139,7 +139,7 @@ def plan_run(
     limits = limits or ActuatorLimits()
     # the controller, the events and the trajectory see the user's model; the engine integrates its reaction wheels as
     # joints (freefloat.core.wheels.wheel_joint_model: the flat state [..., q, wheel angles, qdot, wheel speeds])
-    integrated = wheel_joint_model(user) if passive == "model" else wheel_joint_model(user).without_passive()
+    integrated = integrated_model(user, passive)
     wrenches = engine_wrenches(integrated, external)  # a clear error now for bad wrenches
     x0 = pack_state(state, 0.0 if dissipates(integrated) else None)  # with the dissipated energy's slot when there are passive torques
     stops = JointStops(integrated, joint_limits, restitution)
@@ -170,6 +170,13 @@ def passive_model(model: Model, passive: Any) -> Model:
     if not isinstance(passive, str) or passive not in PASSIVE:
         raise ValueError(f"passive: {passive!r} is not one of {', '.join(map(repr, PASSIVE))} (the joints' damping and friction)")
     return model if passive == "model" else model.without_passive()
+
+
+def integrated_model(user: Model, passive: str) -> Model:
+    """What the engine integrates for the model ``user`` (``passive`` applied: :func:`passive_model`): its reaction
+    wheels as joints (:func:`freefloat.core.wheels.wheel_joint_model`, the wheels' bearing friction their joints'
+    damping and friction, dropped with ``passive="ignore"``); ``user`` itself without wheels."""
+    return wheel_joint_model(user) if passive == "model" else wheel_joint_model(user).without_passive()
 
 
 def engine_wrenches(model: Model, external: Any) -> tuple[np.ndarray, np.ndarray]:

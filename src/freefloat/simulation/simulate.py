@@ -34,7 +34,7 @@ from ..core.model import Model
 from ..core.resources import require_memory
 from ..core.state import ActuatorLimits, State, dissipates, pack_state, state_size
 from ._compiled_runs import after_run, compiled_rollout, law_of, output_times, plant_models
-from ._controller import Controller, call_controller
+from ._controller import Controller, command_of
 from ._guard import MAX_RATE, Progress
 from ._integrate import _stepper, run
 from ._plan import METHODS as METHODS
@@ -43,6 +43,7 @@ from ._plan import engine_wrenches, plan_run, positive
 from ._prerun import check_passive_step
 from ._record import _Recorder, _trajectory
 from ._stops import with_violations
+from ._wheels import user_trajectory
 from .capture_event import Capture, CaptureRun, simulate_capture
 from .pd import JointPD
 from .trajectory import Trajectory
@@ -251,6 +252,12 @@ def rollout(
     feed-forward) runs compiled too, with no Python per step (one call for
     the whole rollout).
 
+    ``model`` may be a sequence of B models, one per trajectory: payload variants of one robot, or the same reaction
+    wheels with other inertias, limits or friction (their number and axes the same); those run with the compiled
+    controllers. A model with reaction wheels runs as in :func:`simulate` (``State.wheel_speed`` per trajectory, the
+    wheels' limits and bearing friction; the trajectory's wheel arrays (T, B, W)), compiled with the built-in
+    controllers (``torque_by="wheels"`` included) and a ``JointPD`` (which drives no wheel).
+
     Rollouts apply no joint stops: each span of a trajectory beyond a joint
     limit is recorded in ``joint_limit_events`` (``kind == "violation"``,
     with the ``trajectory`` index).
@@ -263,8 +270,8 @@ def rollout(
     ``"interrupted"``: the finished trajectories of a compiled rollout (in chunks of
     trajectories), or every trajectory up to the last step of a Python-controlled one.
     """
-    model, plant = plant_models(model, passive)
-    batch = _batch_shape(initial_states, model)  # from the fields' shapes: nothing per trajectory is made before the checks
+    user, model, plant, wheels, passive_torques = plant_models(model, passive)  # model: what the engine integrates (wheels as joints)
+    batch = _batch_shape(initial_states, user)  # from the fields' shapes: nothing per trajectory is made before the checks
     if plant.shape[0] not in (1, batch[0]):
         raise ShapeError(f"model: {plant.shape[0]} per-trajectory models, but initial_states has {batch[0]} trajectories")
     limits = limits or ActuatorLimits()
@@ -280,39 +287,40 @@ def rollout(
     hold = round((sample_period or dt) / dt)
     stride = max(1, round((output_period or dt) / dt))
     outputs = steps // stride + 2
-    size = state_size(model) + dissipates(model)  # the flat state, with the dissipated energy's slot when there are passive torques
+    size = state_size(model) + passive_torques  # the flat state, with the dissipated energy's slot when there are passive torques
     require_memory(  # the recorded times, and the states and actuation of every trajectory
         float(outputs) * (1 + batch[0] * (size + model.n_joints + 7)) * 8,
         f"a rollout of {batch[0]} trajectories x {outputs} recorded states",
         "record fewer states (a longer output_period), run fewer trajectories per call, or a shorter duration",
     )
-    state = initial_states.resolve(model)
-    x = pack_state(state, 0.0 if dissipates(model) else None)
+    state = initial_states.resolve(user)
+    x = pack_state(state, 0.0 if passive_torques else None)
     if isinstance(controller, JointPD):
-        controller.check_batch((*batch, model.n_joints))
+        controller.check_batch((*batch, user.n_joints))
+
+    def users(traj: Trajectory) -> Trajectory:
+        """The user's trajectory: the reaction wheels apart from the joints, and the joint-limit violations."""
+        return with_violations(user_trajectory(user, traj) if user.wheels else traj)
+
     if batch[0] == 0:  # every check passed: the empty result, (T, 0, ...) at the times a run would record
         times = output_times(dt, steps, stride)
         none = (np.zeros((times.size, 0, model.n_joints)), np.zeros((times.size, 0, 3)), np.zeros((times.size, 0, 3)))
-        return _trajectory(model, times, np.zeros((times.size, 0, size)), (*none, np.zeros((times.size, 0), dtype=bool)))
+        flags = np.zeros((times.size, 0, *((1 + 2 * user.n_wheels,) if user.wheels else ())), dtype=bool)
+        return users(_trajectory(model, times, np.zeros((times.size, 0, size)), (*none, flags)))
     check_passive_step(model, x[0, 13 : 13 + model.n_joints], dt)  # at the first trajectory's angles
-    zero = (np.zeros((*batch, model.n_joints)), np.zeros((*batch, 3)), np.zeros((*batch, 3)))
-
-    def command(t: float, xx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        if controller is None:
-            return (*zero, np.zeros(batch, dtype=bool))
-        return limits.apply(*call_controller(controller, model, t, xx, batch))
-
+    command = command_of(controller, user, model, limits, batch)
     rec = _Recorder(model)
     bar = Progress(progress, float(duration))
     try:
         law = law_of(controller, batch[0])
         if controller is None or isinstance(controller, JointPD) or law is not None:
             pd = controller if isinstance(controller, JointPD) else None
-            compiled = compiled_rollout(model, x, dt, steps, hold, stride, pd, limits, engine_wrenches(model, external), bar, law, plant)
+            ext = engine_wrenches(model, external)
+            compiled = compiled_rollout(model, x, dt, steps, hold, stride, pd, limits, ext, bar, law, plant, user, wheels)
             after_run(controller, law)
             if compiled is not None:
                 times, xs, acts, status, message = compiled
-                return with_violations(_trajectory(model, times, xs, acts, status, message, copy=False))  # quaternions kept unit
+                return users(_trajectory(model, times, xs, acts, status, message, copy=False))  # quaternions kept unit
         if plant.shape[0] > 1:
             raise ValueError(
                 "model: per-trajectory models run with the compiled controllers only (the built-in ones: JointPD, "
@@ -336,7 +344,7 @@ def rollout(
                         f"trajectory {first} of the rollout became non-finite or moves beyond {MAX_RATE:g} rad/s at t = {i * dt:.6g} s: "
                         "the controller's output (or the initial state) is not physical, or the step too long"
                     )
-                    raise SimulationError(message, with_violations(rec.trajectory("failed", message)))
+                    raise SimulationError(message, users(rec.trajectory("failed", message)))
                 if i % hold == 0 and i < steps:
                     act = command(i * dt, x)
                 if i % stride == 0 or i == steps:
@@ -345,8 +353,8 @@ def rollout(
         except KeyboardInterrupt:
             if rec.t[-1] != i * dt:
                 rec.add(i * dt, x, act)
-            return with_violations(rec.trajectory("interrupted", f"interrupted (Ctrl-C) at t = {i * dt:.6g} s"))
-        return with_violations(rec.trajectory())
+            return users(rec.trajectory("interrupted", f"interrupted (Ctrl-C) at t = {i * dt:.6g} s"))
+        return users(rec.trajectory())
     finally:
         bar.close()
 
