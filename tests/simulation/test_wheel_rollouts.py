@@ -25,6 +25,7 @@ import freefloat as ff
 from freefloat.control import Detumble, OperationalSpaceController, TransposedJacobianController
 from freefloat.control.tasks import TaskSpace
 from freefloat.core.wheels import reaction_wheel
+from mechanics.test_specialise_dynamics import own_cache as own_cache  # the fixture
 from spies import compiled_runs, count_method_calls
 
 #: Trajectory b of the compiled rollout against the Python-path simulation b: every state and wheel output, largest
@@ -35,6 +36,9 @@ BOUND = 2e-14
 #: of up to 48 N m where no torque limit clips them: the two forms' operation orders in J_q⁻ᵀ), measured 2026-12-02.
 TASK_BOUND = 1e-13
 ACTUATION_BOUND = 1e-12
+#: The specialised rollout kernel (traced from the engine's state derivative: other operation orders) against the
+#: generic kernels and the Python path, nine trajectories of 0.5 s.
+SPECIALISED_BOUND = 1e-12
 DT = 0.01
 FIELDS = (
     "q",
@@ -267,3 +271,37 @@ def test_per_trajectory_wheels_of_another_number_or_axes_are_refused(servicers: 
         ff.rollout([servicers[0], turned], states, 0.1, dt=DT)
     with pytest.raises(ff.ModelError, match=r"model\[1\]\.wheels: .* has 3 reaction wheels"):
         Detumble([servicers[0], three], torque_by="wheels", force=False)
+
+
+def test_a_joint_pd_rollout_with_wheels_runs_on_the_specialised_kernels(
+    own_cache: None, servicers: list[ff.Model], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Nine trajectories of one servicer with wheels and a joint PD: the specialised rollout kernel of its plant (the
+    wheels as joints, their bearing friction as the joints': :func:`~freefloat.core.wheels.wheel_joint_model`) runs
+    them, and they equal the generic kernels' run and nine Python-path simulations."""
+    from freefloat.core.wheels import wheel_joint_model
+    from freefloat.engine.specialise import build as _specialise
+
+    model, batch = servicers[1], 9  # the specialised rollouts serve 8 trajectories or more
+    states = initial_states(batch, seed=13)
+    pd = ff.JointPD(kp=2.0, kd=5.0, q_ref=[0.4, 0.9])
+    generic = ff.rollout(model, states, 0.5, dt=DT, controller=pd)  # (nothing specialised yet)
+    calls: list[str] = []
+    real = _specialise.rollout
+    _specialise._ENABLED[0] = True
+    ff.mechanics.specialise(wheel_joint_model(model), ["rollout"])
+    monkeypatch.setattr(_specialise, "rollout", lambda m, t, *a: (calls.append(m.__name__), real(m, t, *a))[1])
+    fast = ff.rollout(model, states, 0.5, dt=DT, controller=pd)
+    assert calls, "the specialised rollout kernel ran"
+    worst = max(gap(fast, b, _single(generic, b)) for b in range(batch))
+    assert worst <= SPECIALISED_BOUND, worst
+    for b in range(batch):
+        slow = ff.simulate(model, row(states, b), 0.5, python(pd), fixed_step=DT, output_period=DT)
+        measured = gap(fast, b, slow)
+        print(f"specialised: generic {worst:.2e}, python {measured:.2e}")
+        assert measured <= SPECIALISED_BOUND
+
+
+def _single(batch: ff.Trajectory, b: int) -> ff.Trajectory:
+    """Trajectory b of a rollout as a single run (its batch axis dropped)."""
+    return dataclasses.replace(batch, **{name: np.asarray(getattr(batch, name))[:, b] for name in (*FIELDS, *FLAGS)})
