@@ -1,7 +1,7 @@
 """Batch drivers of the engine: each one-configuration kernel, looped over a batch, in one thread or on several.
 
 A driver is made from one *row* kernel, ``row(i, m, s, a)``: the work of row i of a batch, given the
-model ``m`` (:data:`~.layout.Arrays`), the scratch views ``s`` (:data:`~.recursions.Scratch`) and
+model ``m`` (:data:`~.layout.Arrays`), the scratch views ``s`` (:data:`~.layout.Scratch`) and
 the call's arrays ``a`` (a tuple: inputs, outputs and scalars). :func:`driver` makes from it, by
 binding it into the template written once below (:func:`_serial_template`), one range kernel over the rows
 ``[start, stop)`` of a batch (one scratch buffer per range); :class:`Batched` runs it on the whole batch, or from
@@ -21,7 +21,7 @@ import numpy as np
 
 from .cache import bind, kernel
 from .laws import law_control
-from .layout import Tree, arrays, work_size
+from .layout import Tree, arrays, scratch, work_size
 from .measures import jacobian_measure_lanes, measure_work
 from .quantities import (
     accelerations_one,
@@ -35,7 +35,7 @@ from .quantities import (
     rk4_step_rows,
     state_derivative_one,
 )
-from .recursions import kinematics, scratch
+from .recursions import kinematics
 from .specialise.lanes import LANES, rollout_loop
 from .threads import compiled_count, range_count, run_kernel, threads_for
 

@@ -4,7 +4,7 @@ Each is a numba kernel with the recursions of :mod:`.recursions` inlined into it
 inlined into its callers: the serial range kernels of the batch drivers (:mod:`.drivers`), the control laws
 (:mod:`.laws`), :func:`~.stepper.rk4_steps` (the stepper that runs one trajectory with a Python controller,
 :class:`~.calls.Stepper`) and :func:`~.stepper.state_derivative`. Each takes the scratch views ``s``
-(:data:`~.recursions.Scratch`), made once per call of its caller: passing the views into a
+(:data:`~.layout.Scratch`), made once per call of its caller: passing the views into a
 non-inlined kernel per configuration costs more than the arithmetic of a small tree. RK4 runs its
 four stages in a loop so that the derivative is inlined once (compile time).
 """

@@ -11,9 +11,8 @@ import numpy as np
 
 from ..core.numbers import MAX_EFFORT
 from .cache import floats_view, ints_view, kernel
-from .layout import arrays, buffer_lengths
+from .layout import arrays, buffer_lengths, scratch
 from .quantities import rk4_step, state_derivative_one
-from .recursions import scratch
 
 #: REASON of :func:`rk4_steps` when it refused u (an entry not finite, or beyond MAX_EFFORT); 1 and 2 are :func:`watched`'s.
 REFUSED = 4

@@ -150,8 +150,8 @@ def _symbolic_model(t: Tree, g: Graph) -> Any:
                 [0.0 if f.fold_zeros and flat[i] == 0.0 else g.input("data", start + i) for i in range(values.size)], dtype=object
             ).reshape(values.shape)
         fields[f.name] = sym
-    total_at = t.floats.shape[0] - t.ee_point.size - 1
-    points = np.array([g.input("data", total_at + 1 + i) for i in range(t.ee_point.size)], dtype=object).reshape(t.ee_point.shape)
+    total_at, points_at = t.field_offset("total_mass"), t.field_offset("ee_point")
+    points = np.array([g.input("data", points_at + i) for i in range(t.ee_point.size)], dtype=object).reshape(t.ee_point.shape)
     return Arrays(
         parent=_ints(t.parent),
         ancestor=_ints(t.ancestor),
