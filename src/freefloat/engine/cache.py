@@ -70,7 +70,8 @@ def _source_key() -> str:
     here = Path(__file__).parent
     for name in KERNEL_MODULES:
         digest.update((here / name).read_bytes())
-    digest.update((here.parent / "core" / "numbers.py").read_bytes())  # core's constants the kernels compile in (MAX_EFFORT)
+    for name in ("numbers.py", "state_layout.py"):  # core's constants the kernels compile in (MAX_EFFORT, the flat state's offsets)
+        digest.update((here.parent / "core" / name).read_bytes())
     return digest.hexdigest()[:16]
 
 

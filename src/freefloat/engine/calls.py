@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.state_layout import state_length
 from . import drivers as _drivers
 from . import laws as _laws
 from . import stepper
@@ -409,10 +410,10 @@ def accelerations(
 def state_derivative(
     model: Any, x: np.ndarray, u: np.ndarray | None = None, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES
 ) -> tuple[np.ndarray, np.ndarray]:
-    """d/dt of flat states x (..., 13 + 2N) = [r_cm, v_cm, quat xyzw, omega0, q, qdot]; (dx, ok). States of 14 + 2N
-    carry the dissipated energy last: its rate is the power the joints' damping and friction dissipate."""
+    """d/dt of flat states x (..., S) = [r_cm, v_cm, quat xyzw, omega0, q, qdot] (``core.state_layout``); (dx, ok). States
+    with the dissipated energy's slot carry it last: its rate is the power the joints' damping and friction dissipate."""
     t = tree(model)
-    size = 13 + 2 * t.n_joints + (1 if x.shape[-1] == 14 + 2 * t.n_joints else 0)
+    size = state_length(t.n_joints, x.shape[-1] == state_length(t.n_joints, True))
     batch = _batch((x, 1), (ext[1], 2), *(() if u is None else ((u, 1),)))
     xf = _flat(x, batch, (size,))
     ext_i, ext_f = _wrench_data(ext, batch)
@@ -453,9 +454,10 @@ def rollout(
     at sample k (every ``hold`` steps; ``feedforward`` (S, K, W), W = N joint torques or N + 6 with
     the thrusters, its last sample held), clipped to +-limit (N + 6). Records at step 0, every
     ``stride`` steps and the last: (states (T, K, S), u (T, K, N + 6), saturated (T, K), steps done (K)).
-    S = 13 + 2N, or 14 + 2N with the energy the joints' damping and friction dissipate in the last slot (integrated
-    with the state: :func:`~.quantities.state_derivative_one`). The specialised kernels of a model with damping or friction
-    integrate it always (:attr:`~.layout.Tree.state_size`): states without the slot run there with one added (and dropped).
+    S: the flat state (``core.state_layout``), with or without the energy the joints' damping and friction dissipate in
+    its last slot (integrated with the state: :func:`~.quantities.state_derivative_one`). The specialised kernels of a
+    model with damping or friction integrate it always (:attr:`~.layout.Tree.state_size`): states without the slot run
+    there with one added (and dropped).
     """
     t = tree(model)
     n = t.n_joints
@@ -469,7 +471,8 @@ def rollout(
         fast = _specialise.find(t, "rollout", wrenches)
         assert fast is not None
         size, given = fast.STATE, x0.shape[1]  # the module's flat state (with the dissipated energy or without), the caller's
-        x_in = x0 if given == size else np.concatenate([x0[:, : 13 + 2 * n], np.zeros((k, size - 13 - 2 * n))], axis=1)
+        bare = state_length(n)
+        x_in = x0 if given == size else np.concatenate([x0[:, :bare], np.zeros((k, size - bare))], axis=1)
         x_out = xs if given == size else new_output((xs.shape[0], k, size))
         args = (owned(x_in), *timing, (kp, kd, qref, vref, feed(feedforward)), owned(limit), x_out, us, sat, done)
         _specialise.rollout(fast, t, *args, ext_f.reshape(k, 9 * len(wrenches)))  # each trajectory's wrenches (K, 9W)
@@ -538,7 +541,7 @@ def specialised_rollouts(model: Any, batch: int, ext: tuple[np.ndarray, np.ndarr
 def rk4_batch(
     model: Any, x: np.ndarray, u: np.ndarray, dt: float, steps: int, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES
 ) -> np.ndarray:
-    """``steps`` RK4 steps of the states x (K, 13 + 2N) under u (K, N + 6) held; the new states (NaN rows where a step failed)."""
+    """``steps`` RK4 steps of the flat states x (K, S) under u (K, N + 6) held; the new states (NaN rows where a step failed)."""
     n = tree(model).n_joints
     zero = np.zeros((x.shape[0], n))
     xs, _, _, _ = rollout(model, x, dt, steps, steps, steps, (zero, zero, zero, zero), u[None], np.full(n + 6, np.inf), ext)
@@ -548,8 +551,8 @@ def rk4_batch(
 class Stepper:
     """One trajectory stepped from Python (a controller in the loop): scratch space kept between calls.
 
-    ``rk4(x, u, dt, steps)`` advances the flat state x (13 + 2N, or 14 + 2N with the energy the joints' damping and
-    friction have dissipated last: :func:`~.quantities.state_derivative_one`; float64, contiguous) in place by
+    ``rk4(x, u, dt, steps)`` advances the flat state x (``core.state_layout``: with or without the energy the joints'
+    damping and friction have dissipated last: :func:`~.quantities.state_derivative_one`; float64, contiguous) in place by
     ``steps`` RK4 steps with u held, in one compiled call, and returns ``steps``; or k < steps when
     H+ was not positive definite in step k; or -(k + 1) when x became non-finite in step k. (A
     partial of the kernel: a controller every step makes this call the hot path.)
@@ -558,7 +561,7 @@ class Stepper:
 
     def __init__(self, model: Any, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES) -> None:
         self.tree = t = tree(model)
-        self.size = 13 + 2 * t.n_joints
+        self.size = state_length(t.n_joints)
         ext_i = np.asarray(ext[0], dtype=np.int64).reshape(-1, 2)
         ext_f = np.asarray(ext[1], dtype=np.float64).reshape(-1, 9)
         header = [ext_i.shape[0], 0, 0]  # W, WATCH, REASON (see stepper.unpack)

@@ -31,6 +31,7 @@ declarations on random trees.
 from __future__ import annotations
 
 import functools
+import math
 import threading
 import weakref
 from collections import namedtuple
@@ -40,13 +41,20 @@ from typing import Any
 
 import numpy as np
 
-from .cache import bind, floats_view, inline_kernels, ints_view, slice_view  # noqa: F401 (the views: names of the generated kernels)
+from ..core import state_layout as _state
+from ..core.state_layout import ATTITUDE_AT, OMEGA_AT, Q_AT, R_CM_AT, V_CM_AT
+from .cache import bind, floats_view, inline_kernels, ints_view, kernel, slice_view  # noqa: F401 (the views: names of the generated kernels)
 
 __all__ = [
+    "ATTITUDE_AT",
     "BODY_FIELDS",
     "FLOAT_BLOCKS",
     "INT_BLOCKS",
+    "OMEGA_AT",
+    "Q_AT",
+    "R_CM_AT",
     "SCRATCH",
+    "V_CM_AT",
     "Arrays",
     "Block",
     "Field",
@@ -55,10 +63,22 @@ __all__ = [
     "Tree",
     "arrays",
     "buffer_lengths",
+    "coordinates",
+    "dissipated_at",
+    "qdot_at",
     "scratch",
+    "state_length",
     "tree",
     "work_size",
 ]
+
+
+#: The flat state's offsets in the kernels (declared in :mod:`freefloat.core.state_layout`, compiled inline; the
+#: fixed ones, ``Q_AT`` and the like, are module-level integers numba compiles in as constants).
+qdot_at = kernel(inline="always")(_state.qdot_at)
+dissipated_at = kernel(inline="always")(_state.dissipated_at)
+state_length = kernel(inline="always")(_state.state_length)
+coordinates = kernel(inline="always")(_state.coordinates)
 
 
 def _skew(u: np.ndarray) -> np.ndarray:
@@ -204,7 +224,8 @@ FLOAT_BLOCKS: tuple[Block, ...] = (
     Block("ee_point", ("E", 3), lambda m: np.reshape(m.end_effector_point, (-1, 3)), "each end effector in its body frame (m)"),
 )
 #: The floats of the model in buffer order: (name, shape in B, E and numbers).
-_FLOAT_LAYOUT = tuple((f.name, ("B", *f.shape)) for f in BODY_FIELDS) + tuple((b.name, b.shape) for b in FLOAT_BLOCKS)
+_BODY_LAYOUT: list[tuple[str, tuple[int | str, ...]]] = [(f.name, ("B", *f.shape)) for f in BODY_FIELDS]
+_FLOAT_LAYOUT = tuple(_BODY_LAYOUT + [(b.name, b.shape) for b in FLOAT_BLOCKS])
 #: The dimensions of the model's blocks as the kernels name them.
 _MODEL_DIMS = {"B": "nb", "E": "ne"}
 
@@ -310,9 +331,9 @@ class Tree:
 
     @property
     def state_size(self) -> int:
-        """The flat state the rollouts of this model integrate: 13 + 2N, and the dissipated energy (14 + 2N) when
-        :attr:`passive` (:func:`~.quantities.state_derivative_one`)."""
-        return 13 + 2 * self.n_joints + (1 if self.passive else 0)
+        """The length of the flat state the rollouts of this model integrate (:mod:`freefloat.core.state_layout`): with
+        the dissipated energy's slot when :attr:`passive` (:func:`~.quantities.state_derivative_one`)."""
+        return _state.state_length(self.n_joints, self.passive)
 
     def field_offset(self, name: str) -> int:
         """Where the float block ``name`` (a body field of :data:`BODY_FIELDS` or a block of :data:`FLOAT_BLOCKS`) starts
@@ -322,7 +343,7 @@ class Tree:
         for block, shape in _FLOAT_LAYOUT:
             if block == name:
                 return offset
-            offset += int(np.prod([sizes.get(d, d) if isinstance(d, str) else d for d in shape], dtype=np.int64))
+            offset += math.prod(sizes[d] if isinstance(d, str) else d for d in shape)
         raise KeyError(name)
 
 
@@ -392,7 +413,7 @@ class Row:
 SCRATCH_SIZES = {
     "m": "3 + n",  # the [omega0, q] block of H+
     "nz": "6 + n",  # zdot0 = [rdot_cm, omega0, qdot]
-    "size": "14 + 2 * n",  # a flat state with its trailing slot (the dissipated energy), the longest a kernel steps
+    "size": "state_length(n, True)",  # a flat state with its trailing slot (the dissipated energy), the longest a kernel steps
     "loop": "4 * size + n + 9",  # the rows of one trajectory in the rollout loop (specialise.lanes._rollout_blocks, width 1)
 }
 
@@ -473,5 +494,5 @@ def work_size(n_bodies: int, n_ee: int) -> int:
     ``n_ee`` end effectors (for B - 1 joint coordinates: enough for the N <= B - 1 of a model with mimic joints)."""
     sizes: dict[str, Any] = {"nb": n_bodies, "ne": n_ee, "n": n_bodies - 1}
     for name, expr in SCRATCH_SIZES.items():
-        sizes[name] = eval(expr, {}, sizes)  # the kernel's own expressions (above), on numbers
+        sizes[name] = eval(expr, {"state_length": _state.state_length}, sizes)  # the kernel's own expressions (above), on numbers
     return sum(int(eval(_count(r.shape, {}), {}, sizes)) for r in SCRATCH)

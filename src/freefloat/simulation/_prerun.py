@@ -27,6 +27,7 @@ import numpy as np
 
 from ..core.errors import LongRunWarning, StiffGainsWarning
 from ..core.model import Model
+from ..core.state_layout import Q_AT, span
 from ..engine import FRICTION_SPEED
 from ..mechanics.momentum import free_floating_joint_inertia
 from ._guard import MIN_WALL_BUDGET, WALL_BUDGET_FACTOR, RunEstimate, estimate_run
@@ -92,8 +93,8 @@ def check_run(
             found[id(which)] = free_floating_joint_inertia(which, q)
         return found[id(which)]
 
-    gains = _stiff_gains(user, controller, np.array(x0[13 : 13 + user.n_joints]), sample_period or fixed_step, inertia, stacklevel=5)
-    passive = _stiff_passive(model, x0[13 : 13 + model.n_joints], fixed_step, inertia, stacklevel=5)
+    gains = _stiff_gains(user, controller, np.array(x0[Q_AT : Q_AT + user.n_joints]), sample_period or fixed_step, inertia, stacklevel=5)
+    passive = _stiff_passive(model, x0[span("q", model.n_joints)], fixed_step, inertia, stacklevel=5)
     return RunChecks(estimate, wall_limit, tuple(gains), tuple(passive))
 
 
