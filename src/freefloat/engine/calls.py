@@ -87,7 +87,7 @@ def frames(model: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n_b = t.parent.shape[0]
     rot = new_output((flat.shape[0], n_b, 3, 3))
     pos = new_output((flat.shape[0], n_b, 3))
-    _drivers.frames_batch(flat.shape[0], t, flat, rot, pos)
+    _drivers.frames_batch(flat.shape[0], t, _drivers.FramesCall(q=flat, rot=rot, pos=pos))
     return rot.reshape((*batch, n_b, 3, 3)), pos.reshape((*batch, n_b, 3))
 
 
@@ -104,7 +104,7 @@ def points(model: Any, q: np.ndarray, bodies: Any, pts: Any) -> np.ndarray:
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
     out = new_output((flat.shape[0], b.shape[0], 3))
-    _drivers.points_batch(flat.shape[0], t, flat, b, p, out)
+    _drivers.points_batch(flat.shape[0], t, _drivers.PointsCall(q=flat, bodies=b, points=p, out=out))
     return out.reshape((*batch, b.shape[0], 3))
 
 
@@ -115,7 +115,7 @@ def point_jacobians(model: Any, q: np.ndarray, bodies: Any, pts: Any) -> np.ndar
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
     out = new_output((flat.shape[0], b.shape[0], 6, 6 + t.n_joints))
-    _drivers.point_jacobian_batch(flat.shape[0], t, flat, b, p, out)
+    _drivers.point_jacobian_batch(flat.shape[0], t, _drivers.PointsCall(q=flat, bodies=b, points=p, out=out))
     return out.reshape((*batch, b.shape[0], 6, 6 + t.n_joints))
 
 
@@ -128,7 +128,8 @@ def point_biases(model: Any, q: np.ndarray, velocity: np.ndarray, bodies: Any, p
     qf = _flat(q, batch, (t.n_joints,))
     vf = _flat(velocity, batch, (6 + t.n_joints,))
     out = new_output((qf.shape[0], b.shape[0], 6))
-    _drivers.point_bias_batch(qf.shape[0], t, qf, vf, b, p, *NO_WRENCHES, out)
+    ext_i, ext_f = NO_WRENCHES
+    _drivers.point_bias_batch(qf.shape[0], t, _drivers.PointBiasCall(q=qf, v=vf, bodies=b, points=p, ext_i=ext_i, ext=ext_f, out=out))
     return out.reshape((*batch, b.shape[0], 6))
 
 
@@ -141,7 +142,8 @@ def generalized_jacobian(model: Any, q: np.ndarray, out: np.ndarray | None = Non
     flat = _flat(q, batch, (t.n_joints,))
     size = flat.shape[0]
     if not _specialised_map(t, "jstar", (flat,), result.reshape((size, rows * t.n_joints))):
-        _timed(t, "jstar", size, _drivers.jstar_batch, size, t, flat, result.reshape((size, rows, t.n_joints)))
+        call = _drivers.MapCall(q=flat, out=result.reshape((size, rows, t.n_joints)))
+        _timed(t, "jstar", size, _drivers.jstar_batch, size, t, call)
     return result
 
 
@@ -163,7 +165,7 @@ def jacobian_measures(model: Any, q: np.ndarray, rows: Any, measure: str, out: n
         _specialise.measured(fast, t, flat, r, code, out)
     else:
         blocks = -(-flat.shape[0] // LANES)  # the generic measure's rows are lane blocks too
-        _timed(t, "measure", flat.shape[0], _drivers.measure_batch, blocks, t, flat, r, code, out)
+        _timed(t, "measure", flat.shape[0], _drivers.measure_batch, blocks, t, _drivers.MeasureCall(q=flat, rows=r, kind=code, out=out))
     return result
 
 
@@ -210,7 +212,7 @@ def inertia_matrix(model: Any, q: np.ndarray, out: np.ndarray | None = None) -> 
     flat = _flat(q, batch, (t.n_joints,))
     c = flat.shape[0]
     if not _specialised_map(t, "hplus", (flat,), result.reshape((c, size * size))):
-        _timed(t, "hplus", c, _drivers.hplus_batch, c, t, flat, result.reshape((c, size, size)))
+        _timed(t, "hplus", c, _drivers.hplus_batch, c, t, _drivers.MapCall(q=flat, out=result.reshape((c, size, size))))
     return result
 
 
@@ -222,7 +224,7 @@ def inertia_matrix_rate(model: Any, q: np.ndarray, qdot: np.ndarray) -> np.ndarr
     vf = _flat(qdot, batch, (t.n_joints,))
     size = 6 + t.n_joints
     out = new_output((qf.shape[0], size, size))
-    _drivers.hplus_rate_batch(qf.shape[0], t, qf, vf, out)
+    _drivers.hplus_rate_batch(qf.shape[0], t, _drivers.HplusRateCall(q=qf, qdot=vf, out=out))
     return out.reshape((*batch, size, size))
 
 
@@ -333,15 +335,7 @@ def residual_rows(
             _drivers.inverse_batch,
             size,
             t,
-            qf,
-            vf,
-            af,
-            uf,
-            t0f,
-            ext_i,
-            ext_f,
-            acceleration is not None,
-            out,
+            _drivers.InverseCall(q=qf, v=vf, acc=af, u=uf, t0=t0f, ext_i=ext_i, ext=ext_f, accelerate=acceleration is not None, out=out),
             wrenches=wrenches,
         )
     return result
@@ -394,14 +388,7 @@ def accelerations(
         _drivers.forward_batch,
         qf.shape[0],
         t,
-        qf,
-        vf,
-        uf,
-        t0f,
-        ext_i,
-        ext_f,
-        out,
-        ok,
+        _drivers.ForwardCall(q=qf, v=vf, u=uf, t0=t0f, ext_i=ext_i, ext=ext_f, out=out, ok=ok),
         wrenches=wrenches,
     )
     return result, ok.reshape(batch)
@@ -419,7 +406,8 @@ def state_derivative(
     ext_i, ext_f = _wrench_data(ext, batch)
     out = np.empty_like(xf)
     ok = np.empty(xf.shape[0], dtype=np.bool_)
-    _drivers.derivative_batch(xf.shape[0], t, xf, _actuation(u, t, batch), ext_i, ext_f, out, ok)
+    call = _drivers.DerivativeCall(x=xf, u=_actuation(u, t, batch), ext_i=ext_i, ext=ext_f, out=out, ok=ok)
+    _drivers.derivative_batch(xf.shape[0], t, call)
     return out.reshape((*batch, size)), ok.reshape(batch)
 
 
@@ -482,7 +470,27 @@ def rollout(
             xs[..., common:] = 0.0
         return xs, us, sat, done
     start = time.perf_counter()
-    _drivers.rollout_batch(k, t, owned(x0), *timing, kp, kd, qref, vref, feed(feedforward), owned(limit), ext_i, ext_f, xs, us, sat, done)
+    dt_, steps_, hold_, stride_ = timing
+    call = _drivers.RolloutCall(
+        x0=owned(x0),
+        dt=dt_,
+        steps=steps_,
+        hold=hold_,
+        stride=stride_,
+        kp=kp,
+        kd=kd,
+        qref=qref,
+        vref=vref,
+        ff=feed(feedforward),
+        lim=owned(limit),
+        ext_i=ext_i,
+        ext=ext_f,
+        xs=xs,
+        us=us,
+        sat=sat,
+        done=done,
+    )
+    _drivers.rollout_batch(k, t, call)
     if k >= _SPECIALISED_ROLLOUTS_MIN and _drivers.rollout_batch.compiled:  # work they would take
         _specialise.account(t, "rollout", time.perf_counter() - start, wrenches)
     return xs, us, sat, done
@@ -518,9 +526,25 @@ def law_rollout(
     else:
         zero = np.zeros((1, n))
         C = ((zero, zero, zero, zero, feed(np.zeros((1, 1, n)))), law)  # no joint PD: the law
-    _drivers.law_rollout_batch(
-        k, t, owned(x0), *timing, C, owned(limit), owned(t.ints, np.int64), owned(plant), ext_i, ext_f, xs, us, sat, done
+    dt_, steps_, hold_, stride_ = timing
+    call = _drivers.LawRolloutCall(
+        x0=owned(x0),
+        dt=dt_,
+        steps=steps_,
+        hold=hold_,
+        stride=stride_,
+        control=C,
+        lim=owned(limit),
+        plant_ints=owned(t.ints, np.int64),
+        plant=owned(plant),
+        ext_i=ext_i,
+        ext=ext_f,
+        xs=xs,
+        us=us,
+        sat=sat,
+        done=done,
     )
+    _drivers.law_rollout_batch(k, t, call)
     return xs, us, sat, done
 
 
