@@ -505,9 +505,7 @@ def test_the_generated_views_are_the_declared_blocks(seed: int) -> None:
             np.testing.assert_array_equal(getattr(m, b.name), np.reshape(b.read(model), shape))
         assert m.n_joints == model.n_joints
     assert _trace.traced().configuration.buffer_lengths(t.ints) == (t.ints.size, t.floats.size) == _layout.buffer_lengths(t.ints)
-    names = {"nb": model.n_bodies, "ne": t.ee_body.shape[0], "n": model.n_joints}
-    for name, expr in _layout.SCRATCH_SIZES.items():
-        names[name] = eval(expr, {}, names)
+    sizes = _layout.scratch_sizes(model.n_bodies, t.ee_body.shape[0], model.n_joints)
     work = np.arange(float(_layout.work_size(model.n_bodies, t.ee_body.shape[0])))
     for s in (
         _trace.traced().configuration.scratch(work, model.n_bodies, t.ee_body.shape[0], model.n_joints),
@@ -515,9 +513,8 @@ def test_the_generated_views_are_the_declared_blocks(seed: int) -> None:
     ):
         offset = 0
         for row in _layout.SCRATCH:
-            shape = tuple(int(eval(d, {}, names)) if isinstance(d, str) else d for d in row.shape)
             view = getattr(s, row.name)
-            assert view.shape == shape, row.name
+            assert view.shape == _layout.row_shape(row, sizes), row.name
             np.testing.assert_array_equal(view.ravel(), np.arange(offset, offset + view.size), err_msg=row.name)
             offset += view.size
     assert not set(_layout.SCRATCH_SIZES) & {r.name for r in _layout.SCRATCH}  # the sizes and the rows are apart

@@ -492,7 +492,19 @@ scratch_doc = """The :data:`Scratch` views of ``work`` (length :func:`work_size`
 def work_size(n_bodies: int, n_ee: int) -> int:
     """Length of the scratch buffer of one configuration (the rows of :data:`SCRATCH`) for ``n_bodies`` bodies and
     ``n_ee`` end effectors (for B - 1 joint coordinates: enough for the N <= B - 1 of a model with mimic joints)."""
-    sizes: dict[str, Any] = {"nb": n_bodies, "ne": n_ee, "n": n_bodies - 1}
+    sizes = scratch_sizes(n_bodies, n_ee, n_bodies - 1)
+    return sum(math.prod(row_shape(r, sizes)) for r in SCRATCH)
+
+
+def scratch_sizes(n_bodies: int, n_ee: int, n: int) -> dict[str, int]:
+    """The sizes of :data:`SCRATCH_SIZES` (and nb, ne, n) for ``n_bodies`` bodies, ``n_ee`` end effectors and ``n`` joint
+    coordinates: the kernel's own expressions, on numbers."""
+    sizes: dict[str, int] = {"nb": n_bodies, "ne": n_ee, "n": n}
     for name, expr in SCRATCH_SIZES.items():
-        sizes[name] = eval(expr, {"state_length": _state.state_length}, sizes)  # the kernel's own expressions (above), on numbers
-    return sum(int(eval(_count(r.shape, {}), {}, sizes)) for r in SCRATCH)
+        sizes[name] = int(eval(expr, {"state_length": _state.state_length}, sizes))
+    return sizes
+
+
+def row_shape(row: Row, sizes: dict[str, int]) -> tuple[int, ...]:
+    """The shape of the scratch row ``row`` for the sizes ``sizes`` (:func:`scratch_sizes`)."""
+    return tuple(int(eval(d, {}, sizes)) if isinstance(d, str) else d for d in row.shape)
