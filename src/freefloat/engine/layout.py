@@ -178,6 +178,8 @@ BODY_FIELDS: tuple[Field, ...] = (
     Field(
         "friction", (), "data", lambda m, k: m.expanded().joint_friction[k - 1] if k > 0 else 0.0, "Coulomb joint friction (N m, N)", True
     ),
+    Field("stiffness", (), "data", lambda m, k: m.expanded().joint_stiffness[k - 1] if k > 0 else 0.0, "joint spring (N m/rad, N/m)", True),
+    Field("springref", (), "data", lambda m, k: m.expanded().joint_springref[k - 1] if k > 0 else 0.0, "its relaxed value (rad, m)", True),
     Field(
         "offset",
         (),

@@ -161,7 +161,7 @@ def point_bias_one(
     none = s.acc  # no joint torques, thrusters or acceleration: zeros (6 + N)
     for i in range(n + 6):
         none[i] = 0.0
-    newton_euler(m, s, velocity, none, False, none, s.t0, ext_i, ext_f, s.b)
+    newton_euler(m, s, q, velocity, none, False, none, s.t0, ext_i, ext_f, s.b)
     total_mass = m.total_mass
     per_mass = 1.0 / total_mass
     d0, d1, d2 = -s.ff[0, 0] * per_mass, -s.ff[0, 1] * per_mass, -s.ff[0, 2] * per_mass
@@ -361,7 +361,7 @@ def inverse_one(
     (their sum by :func:`newton_euler`, which writes the rows [omega0, q])."""
     n = m.n_joints
     prepare(q, m, s, True)
-    newton_euler(m, s, velocity, acceleration, accelerate, u, t0, ext_i, ext_f, out[3:])
+    newton_euler(m, s, q, velocity, acceleration, accelerate, u, t0, ext_i, ext_f, out[3:])
     f = s.total  # the external forces, spacecraft frame
     for i in range(3):
         a = t0[0, i] * acceleration[0] + t0[1, i] * acceleration[1] + t0[2, i] * acceleration[2] if accelerate else 0.0
@@ -407,7 +407,7 @@ def accelerations_one(
     unit_momenta(m, s.axis, s.mom, s.cf, s.ci, s.g, s.h, True)
     centroidal_blocks(m, s.axis, s.mom, s.cf, s.ci, s.g, s.h, s.a, True)
     b = s.b
-    newton_euler(m, s, velocity, velocity, False, u, t0, ext_i, ext_f, b)
+    newton_euler(m, s, q, velocity, velocity, False, u, t0, ext_i, ext_f, b)
     for i in range(rows):
         b[i] = -b[i]
     ok = cholesky_solve(s.a, b, s.low)

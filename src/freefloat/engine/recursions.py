@@ -74,6 +74,15 @@ def passive_resistance(m: Any, k: int, qd: float) -> float:  # pragma: no cover 
 
 
 @kernel(inline="always")
+def passive_spring(m: Any, k: int, value: float) -> float:  # pragma: no cover - compiled
+    """The torque (force) of body joint k's spring at its joint value ``value`` (its own, or a mimic joint's: multiplier
+    times its leader's plus offset): K_k (value - springref_k); the joint feels minus this, a conservative torque (its
+    potential 1/2 K_k (value - springref_k)^2: ``mechanics.spring_energy``; ``mechanics.passive_torque`` is the numpy
+    reference). A zero stiffness is folded away by the specialiser (layout.Field.fold_zeros)."""
+    return m.stiffness[k] * (value - m.springref[k])
+
+
+@kernel(inline="always")
 def dissipated_power(m: Any, qdot: np.ndarray, o: int) -> float:  # pragma: no cover - compiled
     """The power (W) the joints' damping and friction dissipate at the joint rates ``qdot[o : o + N]``:
     sum over the body joints k of qd_k (d_k qd_k + F_k tanh(qd_k / FRICTION_SPEED)) >= 0 (:func:`passive_resistance`),
@@ -342,6 +351,7 @@ def cholesky_solve(a: np.ndarray, b: np.ndarray, low: np.ndarray) -> bool:  # pr
 def newton_euler(
     m: Any,
     s: Any,
+    q: np.ndarray,
     vel: np.ndarray,
     acc: np.ndarray,
     accelerate: bool,
@@ -357,8 +367,9 @@ def newton_euler(
     (thrusters at the spacecraft CM, spacecraft frame); external wrenches ext_i (W, 2) = [body,
     frame (0 inertial, 1 spacecraft, 2 body)], ext_f (W, 9) = [point (body frame), force, couple];
     t0 = the attitude T0 (3x3, inertial <- spacecraft; used for inertial-frame wrenches); vel =
-    zdot0 and acc = zddot0 (6 + N; rdot_cm and rddot_cm are not used). Needs :func:`prepare` with
-    inertias in ``s``; leaves the sum of the external forces (spacecraft frame) in ``s.total``.
+    zdot0 and acc = zddot0 (6 + N; rdot_cm and rddot_cm are not used); q the joint coordinates (N: the joints'
+    springs, :func:`passive_spring`). Needs :func:`prepare` with inertias in ``s``; leaves the sum of the external forces
+    (spacecraft frame) in ``s.total``.
     """
     parent, total_mass = m.parent, m.total_mass
     nb = parent.shape[0]
@@ -465,10 +476,11 @@ def newton_euler(
         t2_ = nf[k, 2] + (cf[k, 0] * d1 - cf[k, 1] * d0)
         row = axis[k, 0] * t0_ + axis[k, 1] * t1_ + axis[k, 2] * t2_
         row += mom[k, 0] * (ff[k, 0] + s * d0) + mom[k, 1] * (ff[k, 1] + s * d1) + mom[k, 2] * (ff[k, 2] + s * d2)
-        # the joint's own dynamics: its rotor (armature), viscous damping and smooth Coulomb friction (passive torques)
+        # the joint's own dynamics: its rotor (armature), viscous damping, smooth Coulomb friction and spring (passive torques)
         rk = m.multiplier[k]
         c = int(m.coordinate[k])
         row += passive_resistance(m, k, rk * vel[6 + c])
+        row += passive_spring(m, k, rk * q[c] + m.offset[k])
         if accelerate:
             row += m.armature[k] * rk * acc[6 + c]
         out[3 + c] += rk * row  # a mimic joint's row acts on its leader through the law (virtual work)

@@ -21,6 +21,7 @@ from ..core.feedback import LOG_PERIOD, interactive, progress_log
 from ..core.model import Model
 from ..core.numbers import MAX_RATE  # beyond it a run stops: the actuation or the initial state is not physical
 from ..core.state_layout import qdot_at, span, state_length
+from ..mechanics.springs import spring_energy
 
 __all__ = [
     "DIVERGENCE_ANGLE",
@@ -275,7 +276,9 @@ class DivergenceGuard:
         self.h = h
         self.what = what
         self.enabled = enabled
-        self.energy0 = self._energy(x0)
+        # the energy the motion may take without actuation: the kinetic energy, and the joints' springs' potential
+        springs = float(spring_energy(model, x0[self._q])) if model.has_springs else 0.0
+        self.energy0 = self._energy(x0) + springs
         self.budget = self._pd_budget(controller, x0)
         self.min_step = MIN_STEP_FRACTION * resolution
         self.evals = 0
@@ -386,9 +389,9 @@ class DivergenceGuard:
             if energy > 10.0 * self.energy0:
                 raise SimulationError(
                     f"the simulation diverged at t = {t:.6g} s: {who} turns at {rate:.3g} rad/s, {rate * self.h:.3g} rad per "
-                    f"{self.what} of {self.h:.3g} s, and the kinetic energy grew from {self.energy0:.3g} J to {energy:.3g} J. "
-                    "The sampled controller is unstable or the step too long: lower the gains (see StiffGainsWarning) "
-                    "or shorten the sample period / step"
+                    f"{self.what} of {self.h:.3g} s, and the kinetic energy grew to {energy:.3g} J (the energy at the start: "
+                    f"{self.energy0:.3g} J). The sampled controller is unstable or the step too long: lower the gains (see "
+                    "StiffGainsWarning) or shorten the sample period / step"
                 )
         if rate > MAX_RATE:
             raise SimulationError(
