@@ -144,7 +144,7 @@ BAD_FILES: dict[str, str | bytes] = {
     "not_mujoco.xml": "<html><body>not a robot</body></html>",
     "ball.xml": _edit(MJCF, ('type="hinge"', 'type="ball"')),
     "huge_mass.xml": _edit(MJCF, ('mass="1"', 'mass="1e12"')),
-    "stiff.xml": _edit(MJCF, ('type="hinge"', 'type="hinge" stiffness="3"')),  # dropped with a warning; refused with --strict
+    "ref.xml": _edit(MJCF, ('type="hinge"', 'type="hinge" ref="0.5"')),  # dropped with a warning; refused with --strict
     "negative_damping.xml": _edit(MJCF, ('type="hinge"', 'type="hinge" damping="-0.5"')),
     "trajectory.csv": "t,q[a]\n0,0\n",
     "trajectory.npz": "not an npz file",
@@ -1078,10 +1078,10 @@ CASES = [
         r"huge_mass\.xml: bodies\[1\] \(a\)\.mass: 1e\+12 kg is above",
     ),
     api(
-        "load-strict-stiffness",
-        lambda f: ff.load(f / "stiff.xml", strict=True),
+        "load-strict-ref",  # (was load-strict-stiffness: the joints' springs are modelled now; <joint ref> is still not)
+        lambda f: ff.load(f / "ref.xml", strict=True),
         ModelError,
-        r"stiff\.xml: MJCF <joint stiffness springref>: is not modelled by freefloat \(.*\): joint 'j' stiffness=3 springref=0 rad; remove",
+        r"ref\.xml: MJCF <joint ref>: is not modelled by freefloat \(.*\): joint 'j' ref=0\.00872665 rad; remove",
     ),
     api(
         "load-joints-unknown-name",
@@ -1091,9 +1091,9 @@ CASES = [
     ),
     api(
         "load-joints-unknown-key",
-        lambda f: ff.load("papadopoulos1992", joints={"arm1_q1": {"stiffness": 0.1}}),
+        lambda f: ff.load("papadopoulos1992", joints={"arm1_q1": {"spring": 0.1}}),  # (stiffness is a key now)
         ModelError,
-        r"^joints: arm1_q1\.stiffness: unknown key; allowed keys: armature, damping, friction",
+        r"^joints: arm1_q1\.spring: unknown key; allowed keys: armature, damping, friction, springref, stiffness",
     ),
     api(
         "load-joints-text",
@@ -1118,6 +1118,8 @@ CASES = [
     api("builder-negative-armature", _builder(joint={"armature": -1.0}), ModelError, r"joints\[0\] \(j1\)\.armature: is -1\.0"),
     api("builder-text-friction", _builder(joint={"friction": "lots"}), ModelError, r"joints\[0\] \(j1\)\.friction: cannot read 'lots'"),
     api("builder-nan-damping", _builder(joint={"damping": float("nan")}), ModelError, r"joints\[0\] \(j1\)\.damping: is nan"),
+    api("builder-negative-stiffness", _builder(joint={"stiffness": -3.0}), ModelError, r"joints\[0\] \(j1\)\.stiffness: is -3\.0"),
+    api("builder-nan-springref", _builder(joint={"springref": float("nan")}), ModelError, r"joints\[0\] \(j1\)\.springref: is nan"),
     api("simulate-passive-unknown", lambda f: ff.simulate(M(), S, 0.1, passive="off"), ValueError, r"^passive: 'off' is not one of"),
     api("rollout-passive-none", lambda f: ff.rollout(M(), ff.State(q=[Q, Q]), 0.1, dt=0.01, passive=None), ValueError, r"^passive: None"),
     api(
@@ -1533,7 +1535,7 @@ CASES += [
         ("ets7", "ets7", r"MODEL 'ets7': is a built-in model whose published data needed 3 correction\(s\) .*which strict refuses"),
         ("triangle", "{files}/triangle.urdf", r"triangle\.urdf: link\[0\] \(spacecraft\)\.inertia: violates the triangle inequality"),
         ("no-limit", "{files}/no_limit.urdf", r"no_limit\.urdf: joint\[0\] \(shoulder_yaw\)\.limit: a revolute joint without <limit>"),
-        ("stiffness", "{files}/stiff.xml", r"stiff\.xml: MJCF <joint stiffness springref>: is not modelled by freefloat .*'j' stiffness=3"),
+        ("ref", "{files}/ref.xml", r"ref\.xml: MJCF <joint ref>: is not modelled by freefloat .*'j' ref=0\.0087"),
         ("gear", "{files}/geared.urdf", r"geared\.urdf: URDF <transmission> .*: is not .*'shoulder_yaw'\) mechanicalReduction=100"),
     )
 ]

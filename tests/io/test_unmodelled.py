@@ -91,11 +91,6 @@ MJCF_CASES = {
         "MJCF <freejoint> armature, damping, frictionloss",
         "joint 'root' armature=0.02",
     ),
-    "stiffness": (
-        {"joint_attrs": 'stiffness="4" springref="0.25"'},
-        "MJCF <joint stiffness springref>",
-        "joint 'shoulder' stiffness=4 springref=0.25 rad",
-    ),
     "ref": ({"joint_attrs": 'ref="0.5"'}, "MJCF <joint ref>", "joint 'shoulder' ref=0.5 rad"),
     "tendon": (
         {"after": '<tendon><fixed name="couple"><joint joint="shoulder" coef="1"/><joint joint="elbow" coef="-1"/></fixed></tendon>'},
@@ -143,10 +138,10 @@ def test_mjcf_element_that_is_not_modelled_warns_once_is_recorded_and_strict_ref
 
 
 def test_mjcf_one_warning_lists_every_joint(tmp_path: Path) -> None:
-    path = mjcf(tmp_path, body="", after="<default><joint stiffness='2'/></default>")
+    path = mjcf(tmp_path, body="", after="<default><joint ref='0.5'/></default>")
     _, texts = loaded(path)
     assert len(texts) == 1
-    assert "joint 'shoulder' stiffness=2 springref=0 rad, joint 'elbow' stiffness=2 springref=0 rad" in texts[0], texts
+    assert "joint 'shoulder' ref=0.5 rad, joint 'elbow' ref=0.5 rad" in texts[0], texts
 
 
 def test_mjcf_with_only_ignored_elements_loads_without_a_word(tmp_path: Path) -> None:
@@ -240,20 +235,20 @@ def test_urdf_with_only_ignored_elements_loads_without_a_word(tmp_path: Path) ->
 # ----------------------------------------------------------------------------- inspect
 @pytest.mark.filterwarnings("always::freefloat.core.errors.UnmodelledElementWarning")  # its warning line is what it checks
 def test_inspect_lists_what_was_dropped_and_strict_refuses(tmp_path: Path) -> None:
-    path = mjcf(tmp_path, joint_attrs='stiffness="3"', after='<actuator><motor name="m1" joint="shoulder" gear="120"/></actuator>')
+    path = mjcf(tmp_path, joint_attrs='ref="0.3"', after='<actuator><motor name="m1" joint="shoulder" gear="120"/></actuator>')
     runner = CliRunner()
     result = runner.invoke(app, ["inspect", str(path)])
     assert result.exit_code == 0, result.output
-    assert "warning: " in result.output and "MJCF <joint stiffness springref> is not modelled and was dropped" in result.output
+    assert "warning: " in result.output and "MJCF <joint ref> is not modelled and was dropped" in result.output
     assert re.search(r"not modelled +2 kind\(s\) dropped \(listed below\)", result.output), result.output
     table = result.output.split("Not modelled: dropped when loading", 1)[1]
-    assert "MJCF <joint stiffness springref>" in table and "joint 'shoulder' stiffness=3 springref=0 rad" in table
+    assert "MJCF <joint ref>" in table and "joint 'shoulder' ref=0.3 rad" in table
     assert "actuator 'm1' gear=120" in table
     as_json = runner.invoke(app, ["inspect", "--json", str(path)])
-    assert '"unmodelled"' in as_json.output and "joint 'shoulder' stiffness=3 springref=0 rad" in as_json.output
+    assert '"unmodelled"' in as_json.output and "joint 'shoulder' ref=0.3 rad" in as_json.output
     refused = runner.invoke(app, ["inspect", "--strict", str(path)])
     assert refused.exit_code == 1
-    assert "error: " in refused.output and "MJCF <joint stiffness springref>: is not modelled by freefloat" in refused.output
+    assert "error: " in refused.output and "MJCF <joint ref>: is not modelled by freefloat" in refused.output
 
 
 def test_inspect_of_a_clean_file_says_none(tmp_path: Path) -> None:

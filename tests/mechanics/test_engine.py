@@ -482,39 +482,53 @@ def test_rollout_shows_progress_and_ctrl_c_keeps_the_finished_trajectories(monke
     assert stepped.status == "interrupted" and stepped.t[-1] == pytest.approx(0.002) and stepped.q.shape[1] == 300
 
 
-def test_the_model_layout_is_one_named_list() -> None:
-    """The three parts of the model layout agree (engine/layout.py): the fields of BODY_FIELDS, the names of Arrays
-    and the views arrays() makes of the buffers (run through the specialiser's traced twin: the same code)."""
-    from freefloat.engine import layout as _tree
+@pytest.mark.parametrize("seed", [3, 4, 5])
+def test_the_generated_views_are_the_declared_blocks(seed: int) -> None:
+    """The kernels' views are written from the declarations in engine/layout.py (BODY_FIELDS, INT_BLOCKS, FLOAT_BLOCKS,
+    SCRATCH): on random trees (mimic and prismatic joints, several end effectors), every view of arrays() (compiled and
+    traced) holds what its block reads from the model, and every scratch view of scratch() (compiled and traced) starts
+    where the declaration puts it, with its declared shape."""
+    from freefloat.engine import layout as _layout
     from freefloat.engine.specialise import trace as _trace
 
-    names = [f.name for f in _tree.BODY_FIELDS]
-    assert list(_tree.Arrays._fields) == ["parent", "ancestor", "ee_body", *names, "total_mass", "ee_point", "n_joints"]
-    assert _tree.BODY_WIDTH == sum(f.width for f in _tree.BODY_FIELDS)
-    model = build_random_model(np.random.default_rng(3), [3, 2], [0, None], [1, None], prismatic=0.5, mimic=0.4)
-    assert model.has_mimic
-    t = _tree.tree(model)
-    m = _trace.traced().configuration.arrays(t.ints, t.floats)
-    for f in _tree.BODY_FIELDS:
-        np.testing.assert_array_equal(getattr(m, f.name), t.fields[f.name])
-        for k in range(model.n_bodies):
-            np.testing.assert_array_equal(getattr(m, f.name)[k], np.reshape(f.read(model, k), f.shape))
-    np.testing.assert_array_equal(m.mass, model.mass)
-    np.testing.assert_array_equal(m.parent, model.parent)
-    np.testing.assert_array_equal(m.ee_point, np.reshape(model.end_effector_point, (-1, 3)))
-    assert m.total_mass == model.total_mass
-    assert m.n_joints == model.n_joints < model.n_bodies - 1
-    assert _trace.traced().configuration.buffer_lengths(t.ints) == (t.ints.size, t.floats.size)
+    model = build_random_model(np.random.default_rng(seed), [3, 2], [0, None], [1, None], prismatic=0.5, mimic=0.4)
+    t = _layout.tree(model)
+    sizes = {"B": model.n_bodies, "E": t.ee_body.shape[0]}
+    for m in (_trace.traced().configuration.arrays(t.ints, t.floats), _layout.arrays(t.ints, t.floats)):
+        for f in _layout.BODY_FIELDS:
+            np.testing.assert_array_equal(getattr(m, f.name), t.fields[f.name])
+            assert getattr(m, f.name).shape == (model.n_bodies, *f.shape)
+            for k in range(model.n_bodies):
+                np.testing.assert_array_equal(getattr(m, f.name)[k], np.reshape(f.read(model, k), f.shape))
+        for b in (*_layout.INT_BLOCKS, *_layout.FLOAT_BLOCKS):
+            shape = tuple(sizes.get(d, d) if isinstance(d, str) else d for d in b.shape)
+            np.testing.assert_array_equal(getattr(m, b.name), np.reshape(b.read(model), shape))
+        assert m.n_joints == model.n_joints
+    assert _trace.traced().configuration.buffer_lengths(t.ints) == (t.ints.size, t.floats.size) == _layout.buffer_lengths(t.ints)
+    sizes = _layout.scratch_sizes(model.n_bodies, t.ee_body.shape[0], model.n_joints)
+    work = np.arange(float(_layout.work_size(model.n_bodies, t.ee_body.shape[0])))
+    for s in (
+        _trace.traced().configuration.scratch(work, model.n_bodies, t.ee_body.shape[0], model.n_joints),
+        _layout.scratch(work, model.n_bodies, t.ee_body.shape[0], model.n_joints),
+    ):
+        offset = 0
+        for row in _layout.SCRATCH:
+            view = getattr(s, row.name)
+            assert view.shape == _layout.row_shape(row, sizes), row.name
+            np.testing.assert_array_equal(view.ravel(), np.arange(offset, offset + view.size), err_msg=row.name)
+            offset += view.size
+    assert not set(_layout.SCRATCH_SIZES) & {r.name for r in _layout.SCRATCH}  # the sizes and the rows are apart
 
 
 def test_the_specialiser_traces_the_engine_kernels_themselves() -> None:
     """The specialiser's interface to the engine (engine/specialise/trace.py: ENTRY_POINTS, traced()): the traced functions
     run the compiled kernels' own code (no copy of the source, no file read by path)."""
+    from freefloat.engine import layout as _layout
     from freefloat.engine import quantities as _configuration
     from freefloat.engine import recursions as _recursions
     from freefloat.engine.specialise import trace as _trace
 
     space = _trace.traced().configuration
-    for name in (*_trace.ENTRY_POINTS.values(), "prepare", "newton_euler", "scratch"):
-        kernel = getattr(_configuration, name, None) or getattr(_recursions, name)
+    for name in (*_trace.ENTRY_POINTS.values(), "prepare", "newton_euler", "scratch", "arrays"):
+        kernel = getattr(_configuration, name, None) or getattr(_recursions, name, None) or getattr(_layout, name)
         assert getattr(space, name).__code__ is kernel.py_func.__code__

@@ -18,7 +18,7 @@ from scipy.spatial.transform import Rotation
 
 from .errors import ModelError
 from .mimic import leader_limits, resolve_mimics
-from .model import JOINT_PASSIVE, Model, _vector, check_inertia, check_mass, inertia_matrix
+from .model import JOINT_PASSIVE, JOINT_SIGNED, Model, _vector, check_inertia, check_mass, inertia_matrix
 from .wheels import ReactionWheel, reaction_wheel
 
 __all__ = ["BodySpec", "EndEffectorSpec", "JointSpec", "ModelBuilder"]
@@ -75,6 +75,8 @@ class JointSpec:
     armature: float = 0.0
     damping: float = 0.0
     friction: float = 0.0
+    stiffness: float = 0.0
+    springref: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -168,6 +170,8 @@ class ModelBuilder:
         armature: float = 0.0,
         damping: float = 0.0,
         friction: float = 0.0,
+        stiffness: float = 0.0,
+        springref: float = 0.0,
     ) -> ModelBuilder:
         """Add a joint from ``parent`` to ``child``.
 
@@ -179,7 +183,8 @@ class ModelBuilder:
         ``fixed``; ``limits`` = (lower, upper) in rad (m for a prismatic joint).
         The joint's own dynamics (``Model.joint_armature`` / ``joint_damping`` / ``joint_friction``): ``armature``
         the rotor inertia reflected to the joint (kg m², kg when prismatic: with a gear ratio n and a rotor
-        inertia I_r about its axis, n² I_r), ``damping`` viscous (N m s/rad, N s/m), ``friction`` Coulomb (N m, N).
+        inertia I_r about its axis, n² I_r), ``damping`` viscous (N m s/rad, N s/m), ``friction`` Coulomb (N m, N),
+        ``stiffness`` a spring (N m/rad, N/m) relaxed at ``springref`` (rad, m): the torque -stiffness (q - springref).
         """
         index = len(self._joints)
         path = f"joints[{index}] ({name})"
@@ -221,7 +226,12 @@ class ModelBuilder:
                 axis=axis_vec / norm if norm > 0 else axis_vec,
                 lower=lower,
                 upper=upper,
-                **{key: _joint_value(value, f"{path}.{key}", what) for key, value, what in _passive_values(armature, damping, friction)},
+                **{
+                    key: _joint_value(value, f"{path}.{key}", what, signed=key in JOINT_SIGNED)
+                    for key, value, what in _passive_values(
+                        armature=armature, damping=damping, friction=friction, stiffness=stiffness, springref=springref
+                    )
+                },
             )
         )
         return self
@@ -317,20 +327,20 @@ class ModelBuilder:
         return model
 
 
-def _passive_values(armature: Any, damping: Any, friction: Any) -> list[tuple[str, Any, str]]:
-    return [(name, value, JOINT_PASSIVE[name]) for name, value in (("armature", armature), ("damping", damping), ("friction", friction))]
+def _passive_values(**values: Any) -> list[tuple[str, Any, str]]:
+    return [(name, values[name], JOINT_PASSIVE[name]) for name in JOINT_PASSIVE]
 
 
-def _joint_value(value: Any, path: str, what: str) -> float:
-    """A joint parameter >= 0 (a number), or an error naming it."""
+def _joint_value(value: Any, path: str, what: str, signed: bool = False) -> float:
+    """A joint parameter (a number; >= 0 unless ``signed``), or an error naming it."""
     if isinstance(value, (bool, np.bool_, str, bytes)):
         raise ModelError(path, f"cannot read {value!r} as a number", f"give the {what}")
     try:
         number = float(value)
     except (TypeError, ValueError):
         raise ModelError(path, f"cannot read {value!r} as a number", f"give the {what}") from None
-    if not (np.isfinite(number) and number >= 0.0):
-        raise ModelError(path, f"is {number}", f"give the {what}, finite and >= 0")
+    if not (np.isfinite(number) and (number >= 0.0 or signed)):
+        raise ModelError(path, f"is {number}", f"give the {what}, {'finite' if signed else 'finite and >= 0'}")
     return number
 
 
@@ -498,14 +508,13 @@ def _build(
             "type": "prismatic" if j.type == "prismatic" else "revolute",
             "lower": j.lower,
             "upper": j.upper,
-            "armature": j.armature,
-            "damping": j.damping,
-            "friction": j.friction,
+            **{key: getattr(j, key) for key in JOINT_PASSIVE},
         }
         for j in movable_joints
         if j.name in laws
     )
     movable_joints = free
+    passive: dict[str, Any] = {f"joint_{key}": [getattr(j, key) for j in movable_joints] for key in JOINT_PASSIVE}
     return Model(
         name=name,
         body_names=tuple(order),
@@ -524,9 +533,7 @@ def _build(
         end_effector_point=np.asarray(ee_point, dtype=float).reshape(-1, 3),
         source=source,
         joint_type=tuple("prismatic" if j.type == "prismatic" else "revolute" for j in movable_joints),
-        joint_armature=[j.armature for j in movable_joints],
-        joint_damping=[j.damping for j in movable_joints],
-        joint_friction=[j.friction for j in movable_joints],
+        **passive,
         end_effector_rule="named" if named else "leaves",
         mimic=mimic_records,
     )

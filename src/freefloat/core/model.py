@@ -168,11 +168,16 @@ JOINT_PASSIVE = {
     "armature": "rotor inertia reflected to the joint, in kg m^2 (kg for a prismatic joint)",
     "damping": "viscous damping, in N m s/rad (N s/m for a prismatic joint)",
     "friction": "Coulomb friction torque, in N m (N for a prismatic joint)",
+    "stiffness": "spring stiffness, in N m/rad (N/m for a prismatic joint)",
+    "springref": "joint value at which the spring is relaxed, in rad (m for a prismatic joint)",
 }
+#: The parameters of :data:`JOINT_PASSIVE` that may be negative (the others are >= 0).
+JOINT_SIGNED = frozenset({"springref"})
 
 
 def _joint_parameter(model: Any, name: str, value: Any, what: str) -> np.ndarray:
-    """One value >= 0 per joint (zeros for None), each error naming the joint and the fix."""
+    """One value per joint, >= 0 unless signed (:data:`JOINT_SIGNED`); zeros for None; each error naming the joint and
+    the fix."""
     n = len(model.joint_names)
     if value is None:
         return np.zeros(n)
@@ -183,8 +188,9 @@ def _joint_parameter(model: Any, name: str, value: Any, what: str) -> np.ndarray
     if arr.shape != (n,):
         raise ModelError(f"joint_{name}", f"has shape {arr.shape} for {n} joints", f"give one {what} per joint")
     for j, v in enumerate(arr):
-        if not (np.isfinite(v) and v >= 0.0):
-            raise ModelError(f"joints[{j}] ({model.joint_names[j]}).{name}", f"is {v}", f"give the {what}, finite and >= 0")
+        if not (np.isfinite(v) and (v >= 0.0 or name in JOINT_SIGNED)):
+            bound = "finite" if name in JOINT_SIGNED else "finite and >= 0"
+            raise ModelError(f"joints[{j}] ({model.joint_names[j]}).{name}", f"is {v}", f"give the {what}, {bound}")
     return arr
 
 
@@ -221,6 +227,8 @@ class Model:
         joint_damping     (N,) viscous damping: passive torque -damping qdot (N m s/rad, N s/m)
         joint_friction    (N,) Coulomb friction: passive torque of that size against qdot (N m, N), smooth
                           (:mod:`freefloat.simulation.passive`)
+        joint_stiffness   (N,) spring stiffness: passive torque -stiffness (q - springref) (N m/rad, N/m; MJCF's
+        joint_springref   ``stiffness`` and ``springref``), a conservative torque: zeros when not given
         end_effector_rule "named" (the model file or builder named them) or "leaves" (every leaf)
         corrections       every change made to the given data when loading (see ``ff.load``)
         unmodelled        every element of the file that acts on the dynamics and that freefloat
@@ -230,7 +238,7 @@ class Model:
         mimic             the mimic joints (dependent coordinates), one record each: {"joint", "body" (the body it
                           moves), "leader" (the independent joint it follows, chains resolved to their root),
                           "multiplier", "offset", "type", and its own "lower", "upper", "armature", "damping",
-                          "friction"}: q_mimic = multiplier q_leader + offset. A mimic joint has no column of q;
+                          "friction", "stiffness", "springref"}: q_mimic = multiplier q_leader + offset. A mimic joint has no column of q;
                           its body moves with the leader. Empty for most models (then N = B - 1).
         wheels            the spacecraft's reaction wheels (:class:`~freefloat.core.wheels.ReactionWheel`: spin axis in the
                           spacecraft frame, rotor inertia, torque and speed limits, friction; docs/wheels.md). The
@@ -267,6 +275,8 @@ class Model:
     joint_armature: Any = None
     joint_damping: Any = None
     joint_friction: Any = None
+    joint_stiffness: Any = None
+    joint_springref: Any = None
     unmodelled: tuple[dict[str, Any], ...] = ()
     mimic: tuple[dict[str, Any], ...] = ()
     wheels: tuple[ReactionWheel, ...] = ()
@@ -416,6 +426,8 @@ class Model:
                 joint_armature=bj["armature"],
                 joint_damping=bj["damping"],
                 joint_friction=bj["friction"],
+                joint_stiffness=bj["stiffness"],
+                joint_springref=bj["springref"],
                 mimic=(),
             )
             object.__setattr__(self, "_expanded", found)
@@ -517,6 +529,11 @@ class Model:
         return dataclasses.replace(
             self, name=f"{self.name}+{name}", mass=mass_new, com=com_new, inertia=inertia_new, payloads=(*self.payloads, record)
         )
+
+    @property
+    def has_springs(self) -> bool:
+        """True when a joint has a spring (``joint_stiffness`` > 0): a conservative passive torque -k (q - springref)."""
+        return bool(np.any(self.joint_stiffness)) or any(r.get("stiffness", 0.0) for r in self.mimic)
 
     @property
     def has_passive(self) -> bool:

@@ -19,9 +19,9 @@ batch axes (for batched rollouts); all fields then broadcast to one batch shape.
 
 The flat state vector that the integrators see is
 ``x = [r_cm (3), v_cm (3), attitude (4), omega (3), q (N), qdot (N)]``
-(:func:`pack_state`, :func:`unpack_state`), 13 + 2N numbers. A model with W reaction wheels integrates them as joints
-(:func:`freefloat.core.wheels.wheel_joint_model`): ``x = [..., omega, q (N), wheel angles (W), qdot (N), wheel_speed (W)]``,
-13 + 2(N + W) numbers. A run that models the joints' damping and friction
+(:func:`pack_state`, :func:`unpack_state`; declared once in :mod:`freefloat.core.state_layout`). A model with W reaction
+wheels integrates them as joints (:func:`freefloat.core.wheels.wheel_joint_model`):
+``x = [..., omega, q (N), wheel angles (W), qdot (N), wheel_speed (W)]``. A run that models the joints' damping and friction
 (:func:`dissipates`) carries one more, last: the energy they have dissipated since the start (J), integrated with
 the state (its rate is the dissipated power), so that it is exact to the integrator's accuracy
 (``Trajectory.dissipated_energy``); :func:`unpack_state` reads either form.
@@ -41,6 +41,7 @@ from .conventions import as_quaternion
 from .errors import ShapeError
 from .model import Model
 from .numbers import MAX_POSITION, MAX_RATE, MAX_SPEED, check_joint_values, check_largest, real_array
+from .state_layout import dissipated_at, span, state_length
 
 __all__ = ["Actuation", "ActuatorLimits", "State", "dissipated", "dissipates", "pack_state", "state_size", "unpack_state"]
 
@@ -343,21 +344,21 @@ class ActuatorLimits:
 
 
 def state_size(model: Model) -> int:
-    """Length of the flat state vector [r_cm, v_cm, attitude, omega, q, (wheel angles), qdot, (wheel speeds)]:
-    13 + 2(N + W)."""
-    return 13 + 2 * (model.n_joints + model.n_wheels)
+    """Length of the flat state vector [r_cm, v_cm, attitude, omega, q, (wheel angles), qdot, (wheel speeds)]
+    (:mod:`~freefloat.core.state_layout`), without the dissipated energy's slot."""
+    return state_length(model.n_joints + model.n_wheels)
 
 
 def dissipates(model: Model) -> bool:
     """Whether a run of ``model`` integrates the energy its joints' damping and friction dissipate, in the last slot of
-    its flat state (14 + 2N): when it has them (``model.has_passive``; a run with ``passive="ignore"`` simulates the
+    its flat state: when it has them (``model.has_passive``; a run with ``passive="ignore"`` simulates the
     model without them, which has none)."""
     return model.has_passive or any(w.viscous or w.coulomb for w in model.wheels)
 
 
 def pack_state(state: State, dissipated: Any = None) -> np.ndarray:
     """Flat state [r_cm (3), v_cm (3), attitude (4), omega (3), q (N), qdot (N)] of a resolved state; with
-    ``dissipated`` (J, a number or one per state of a batch), that energy appended as the last slot (14 + 2N).
+    ``dissipated`` (J, a number or one per state of a batch), that energy appended as the last slot.
     With wheel speeds (W > 0): [..., omega, q, wheel angles (zeros), qdot, wheel_speed] (module docstring)."""
     speed = getattr(state, "wheel_speed", None)
     if speed is not None and np.shape(speed)[-1]:
@@ -370,11 +371,11 @@ def pack_state(state: State, dissipated: Any = None) -> np.ndarray:
 
 
 def dissipated(model: Model, x: np.ndarray) -> np.ndarray:
-    """The dissipated energy (...) of flat states x (..., 13 + 2N or 14 + 2N): the last slot (a view), or zeros when the
-    states carry none (:func:`dissipates`)."""
+    """The dissipated energy (...) of flat states x (..., S), with the energy's slot or without it: the last slot (a
+    view), or zeros when the states carry none (:func:`dissipates`)."""
     n = model.n_joints + model.n_wheels
-    if x.shape[-1] == 14 + 2 * n:
-        return x[..., 13 + 2 * n]
+    if x.shape[-1] == state_length(n, True):
+        return x[..., dissipated_at(n)]
     return np.zeros(x.shape[:-1])
 
 
@@ -382,10 +383,11 @@ def unpack_state(model: Model, x: np.ndarray) -> State:
     """Inverse of :func:`pack_state` (views into ``x``, no copies and no checks); the dissipated energy's slot, if
     there, is not a field of the state (:func:`dissipated` reads it)."""
     n, w = model.n_joints, model.n_wheels
-    if x.shape[-1] not in (13 + 2 * (n + w), 14 + 2 * (n + w)):
+    if x.shape[-1] not in (state_length(n + w), state_length(n + w, True)):
         raise ShapeError(
-            f"state vector: expected shape (..., {13 + 2 * (n + w)}) for {model.name!r} (13 + 2(N + W), N = {n} joints, "
-            f"W = {w} wheels; or {14 + 2 * (n + w)} with the dissipated energy last), got {x.shape}"
+            f"state vector: expected shape (..., {state_length(n + w)}) for {model.name!r} (r_cm, v_cm, attitude, omega, "
+            f"then q and qdot of N = {n} joints and W = {w} wheels; or {state_length(n + w, True)} with the dissipated energy "
+            f"last), got {x.shape}"
         )
     parts = _parts(n, w)
     if x.ndim == 1:  # a controller's every step reads one: q and qdot now, the other views when read (:class:`_FlatState`)
@@ -406,12 +408,13 @@ def unpack_state(model: Model, x: np.ndarray) -> State:
 def _parts(n: int, w: int) -> tuple[slice, ...]:
     """The slices of the flat state that hold r_cm, v_cm, the attitude, omega, q, qdot and the wheel speeds (N joints,
     W wheels)."""
+    q, qdot = span("q", n + w), span("qdot", n + w)  # the wheels' after the joints' in each
     return (
-        slice(0, 3),
-        slice(3, 6),
-        slice(6, 10),
-        slice(10, 13),
-        slice(13, 13 + n),
-        slice(13 + n + w, 13 + 2 * n + w),
-        slice(13 + 2 * n + w, 13 + 2 * (n + w)),
+        span("r_cm", n + w),
+        span("v_cm", n + w),
+        span("attitude", n + w),
+        span("omega", n + w),
+        slice(q.start, q.start + n),
+        slice(qdot.start, qdot.start + n),
+        slice(qdot.start + n, qdot.stop),
     )

@@ -281,6 +281,8 @@ def wheel_joint_model(model: Model) -> Model:
         joint_armature=np.concatenate([model.joint_armature, np.zeros(w)]),
         joint_damping=np.concatenate([model.joint_damping, [wh.viscous for wh in model.wheels]]),
         joint_friction=np.concatenate([model.joint_friction, [wh.coulomb for wh in model.wheels]]),
+        joint_stiffness=np.concatenate([model.joint_stiffness, np.zeros(w)]),
+        joint_springref=np.concatenate([model.joint_springref, np.zeros(w)]),
         wheels=(),
     )
     object.__setattr__(model, "_wheel_joint_model", found)

@@ -8,7 +8,7 @@ batches of inputs over leading axes, and returns new arrays (or fills the caller
 
 Inside, read from the bottom up (the order an import contract checks): ``gate`` (the one module that uses numba's
 internals, each with a fallback on public numba), ``cache`` (the on-disk kernel cache) and ``buffers`` (the outputs: a
-new array or the caller's ``out``), ``layout`` (the model as named arrays, the scratch's size) and ``threads`` (a batch on
+new array or the caller's ``out``), ``layout`` (the model's and the scratch's layouts, declared once) and ``threads`` (a batch on
 numba's threads), ``recursions`` (the O(N) recursions of one configuration), ``quantities`` (J*, J+, H+,
 accelerations, the state derivative and the RK4 step of one configuration), ``measures`` (the measures of a Jacobian,
 SIMD across configurations) and ``specialise/lanes`` (the lane loops), ``laws`` (the compiled control laws),

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import linecache
 import os
 import types
 import warnings
@@ -38,7 +39,7 @@ from ..core.feedback import notice
 from . import gate
 from .gate import floats_view, ints_view, slice_view
 
-__all__ = ["CacheWarning", "bind", "cache_dir", "floats_view", "ints_view", "kernel", "slice_view"]
+__all__ = ["CacheWarning", "bind", "cache_dir", "floats_view", "inline_kernels", "ints_view", "kernel", "slice_view"]
 
 
 class CacheWarning(UserWarning):
@@ -69,7 +70,8 @@ def _source_key() -> str:
     here = Path(__file__).parent
     for name in KERNEL_MODULES:
         digest.update((here / name).read_bytes())
-    digest.update((here.parent / "core" / "numbers.py").read_bytes())  # core's constants the kernels compile in (MAX_EFFORT)
+    for name in ("numbers.py", "state_layout.py"):  # core's constants the kernels compile in (MAX_EFFORT, the flat state's offsets)
+        digest.update((here.parent / "core" / name).read_bytes())
     return digest.hexdigest()[:16]
 
 
@@ -112,17 +114,37 @@ def _announce_compile(folder: str) -> None:
     )
 
 
+#: numba's options of every kernel of the engine.
+_OPTIONS: dict[str, Any] = {"nogil": True, "error_model": "numpy", "fastmath": {"contract"}}
+
+
 def kernel(*, parallel: bool = False, inline: Literal["never", "always"] = "never") -> Callable[[Callable[..., Any]], Any]:
     """``numba.njit`` with freefloat's on-disk cache (see the module docstring)."""
 
     def wrap(func: Callable[..., Any]) -> Any:
-        options: dict[str, Any] = {"nogil": True, "error_model": "numpy", "fastmath": {"contract"}, "parallel": parallel, "inline": inline}
+        options: dict[str, Any] = {**_OPTIONS, "parallel": parallel, "inline": inline}
         dispatcher = numba.njit(cache=False, **options)(func)
         if gate.attach_cache(dispatcher, func, _EVENTS):
             return dispatcher
         return numba.njit(cache=True, **options)(func)  # numba's own cache
 
     return wrap
+
+
+def inline_kernels(text: str, names: tuple[str, ...], namespace: dict[str, Any], origin: str) -> tuple[Any, ...]:
+    """The kernels ``names`` defined by the generated Python source ``text`` (written from a declaration: the model's
+    and the scratch's views, :mod:`.layout`), compiled inline (``inline="always"``) in every kernel that calls them.
+
+    ``text`` runs in ``namespace`` (the globals of the declaring module: its functions see the module's names, as a
+    function written there would); ``origin`` names the declaration in tracebacks and :func:`inspect.getsource` (the text is
+    kept under ``<freefloat: origin>``, no file is written). An inline kernel needs no cache of its own (numba's caches need
+    a source file): its machine code is in each calling kernel's cache entry, and the calling kernels' folder is keyed
+    by the declaring module's source (:data:`KERNEL_MODULES`), from which ``text`` is written.
+    """
+    filename = f"<freefloat: {origin}>"
+    linecache.cache[filename] = (len(text), None, text.splitlines(keepends=True), filename)
+    exec(compile(text, filename, "exec"), namespace)
+    return tuple(numba.njit(cache=False, **_OPTIONS, inline="always")(namespace[name]) for name in names)
 
 
 def bind(template: Callable[..., Any], name: str, **names: Any) -> Callable[..., Any]:

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.state_layout import state_length
 from . import drivers as _drivers
 from . import laws as _laws
 from . import stepper
@@ -86,7 +87,7 @@ def frames(model: Any, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     n_b = t.parent.shape[0]
     rot = new_output((flat.shape[0], n_b, 3, 3))
     pos = new_output((flat.shape[0], n_b, 3))
-    _drivers.frames_batch(flat.shape[0], t, flat, rot, pos)
+    _drivers.frames_batch(flat.shape[0], t, _drivers.FramesCall(q=flat, rot=rot, pos=pos))
     return rot.reshape((*batch, n_b, 3, 3)), pos.reshape((*batch, n_b, 3))
 
 
@@ -103,7 +104,7 @@ def points(model: Any, q: np.ndarray, bodies: Any, pts: Any) -> np.ndarray:
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
     out = new_output((flat.shape[0], b.shape[0], 3))
-    _drivers.points_batch(flat.shape[0], t, flat, b, p, out)
+    _drivers.points_batch(flat.shape[0], t, _drivers.PointsCall(q=flat, bodies=b, points=p, out=out))
     return out.reshape((*batch, b.shape[0], 3))
 
 
@@ -114,7 +115,7 @@ def point_jacobians(model: Any, q: np.ndarray, bodies: Any, pts: Any) -> np.ndar
     batch = q.shape[:-1]
     flat = _flat(q, batch, (t.n_joints,))
     out = new_output((flat.shape[0], b.shape[0], 6, 6 + t.n_joints))
-    _drivers.point_jacobian_batch(flat.shape[0], t, flat, b, p, out)
+    _drivers.point_jacobian_batch(flat.shape[0], t, _drivers.PointsCall(q=flat, bodies=b, points=p, out=out))
     return out.reshape((*batch, b.shape[0], 6, 6 + t.n_joints))
 
 
@@ -127,7 +128,8 @@ def point_biases(model: Any, q: np.ndarray, velocity: np.ndarray, bodies: Any, p
     qf = _flat(q, batch, (t.n_joints,))
     vf = _flat(velocity, batch, (6 + t.n_joints,))
     out = new_output((qf.shape[0], b.shape[0], 6))
-    _drivers.point_bias_batch(qf.shape[0], t, qf, vf, b, p, *NO_WRENCHES, out)
+    ext_i, ext_f = NO_WRENCHES
+    _drivers.point_bias_batch(qf.shape[0], t, _drivers.PointBiasCall(q=qf, v=vf, bodies=b, points=p, ext_i=ext_i, ext=ext_f, out=out))
     return out.reshape((*batch, b.shape[0], 6))
 
 
@@ -140,7 +142,8 @@ def generalized_jacobian(model: Any, q: np.ndarray, out: np.ndarray | None = Non
     flat = _flat(q, batch, (t.n_joints,))
     size = flat.shape[0]
     if not _specialised_map(t, "jstar", (flat,), result.reshape((size, rows * t.n_joints))):
-        _timed(t, "jstar", size, _drivers.jstar_batch, size, t, flat, result.reshape((size, rows, t.n_joints)))
+        call = _drivers.MapCall(q=flat, out=result.reshape((size, rows, t.n_joints)))
+        _timed(t, "jstar", size, _drivers.jstar_batch, size, t, call)
     return result
 
 
@@ -162,7 +165,7 @@ def jacobian_measures(model: Any, q: np.ndarray, rows: Any, measure: str, out: n
         _specialise.measured(fast, t, flat, r, code, out)
     else:
         blocks = -(-flat.shape[0] // LANES)  # the generic measure's rows are lane blocks too
-        _timed(t, "measure", flat.shape[0], _drivers.measure_batch, blocks, t, flat, r, code, out)
+        _timed(t, "measure", flat.shape[0], _drivers.measure_batch, blocks, t, _drivers.MeasureCall(q=flat, rows=r, kind=code, out=out))
     return result
 
 
@@ -209,7 +212,7 @@ def inertia_matrix(model: Any, q: np.ndarray, out: np.ndarray | None = None) -> 
     flat = _flat(q, batch, (t.n_joints,))
     c = flat.shape[0]
     if not _specialised_map(t, "hplus", (flat,), result.reshape((c, size * size))):
-        _timed(t, "hplus", c, _drivers.hplus_batch, c, t, flat, result.reshape((c, size, size)))
+        _timed(t, "hplus", c, _drivers.hplus_batch, c, t, _drivers.MapCall(q=flat, out=result.reshape((c, size, size))))
     return result
 
 
@@ -221,7 +224,7 @@ def inertia_matrix_rate(model: Any, q: np.ndarray, qdot: np.ndarray) -> np.ndarr
     vf = _flat(qdot, batch, (t.n_joints,))
     size = 6 + t.n_joints
     out = new_output((qf.shape[0], size, size))
-    _drivers.hplus_rate_batch(qf.shape[0], t, qf, vf, out)
+    _drivers.hplus_rate_batch(qf.shape[0], t, _drivers.HplusRateCall(q=qf, qdot=vf, out=out))
     return out.reshape((*batch, size, size))
 
 
@@ -332,15 +335,7 @@ def residual_rows(
             _drivers.inverse_batch,
             size,
             t,
-            qf,
-            vf,
-            af,
-            uf,
-            t0f,
-            ext_i,
-            ext_f,
-            acceleration is not None,
-            out,
+            _drivers.InverseCall(q=qf, v=vf, acc=af, u=uf, t0=t0f, ext_i=ext_i, ext=ext_f, accelerate=acceleration is not None, out=out),
             wrenches=wrenches,
         )
     return result
@@ -393,14 +388,7 @@ def accelerations(
         _drivers.forward_batch,
         qf.shape[0],
         t,
-        qf,
-        vf,
-        uf,
-        t0f,
-        ext_i,
-        ext_f,
-        out,
-        ok,
+        _drivers.ForwardCall(q=qf, v=vf, u=uf, t0=t0f, ext_i=ext_i, ext=ext_f, out=out, ok=ok),
         wrenches=wrenches,
     )
     return result, ok.reshape(batch)
@@ -409,16 +397,17 @@ def accelerations(
 def state_derivative(
     model: Any, x: np.ndarray, u: np.ndarray | None = None, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES
 ) -> tuple[np.ndarray, np.ndarray]:
-    """d/dt of flat states x (..., 13 + 2N) = [r_cm, v_cm, quat xyzw, omega0, q, qdot]; (dx, ok). States of 14 + 2N
-    carry the dissipated energy last: its rate is the power the joints' damping and friction dissipate."""
+    """d/dt of flat states x (..., S) = [r_cm, v_cm, quat xyzw, omega0, q, qdot] (``core.state_layout``); (dx, ok). States
+    with the dissipated energy's slot carry it last: its rate is the power the joints' damping and friction dissipate."""
     t = tree(model)
-    size = 13 + 2 * t.n_joints + (1 if x.shape[-1] == 14 + 2 * t.n_joints else 0)
+    size = state_length(t.n_joints, x.shape[-1] == state_length(t.n_joints, True))
     batch = _batch((x, 1), (ext[1], 2), *(() if u is None else ((u, 1),)))
     xf = _flat(x, batch, (size,))
     ext_i, ext_f = _wrench_data(ext, batch)
     out = np.empty_like(xf)
     ok = np.empty(xf.shape[0], dtype=np.bool_)
-    _drivers.derivative_batch(xf.shape[0], t, xf, _actuation(u, t, batch), ext_i, ext_f, out, ok)
+    call = _drivers.DerivativeCall(x=xf, u=_actuation(u, t, batch), ext_i=ext_i, ext=ext_f, out=out, ok=ok)
+    _drivers.derivative_batch(xf.shape[0], t, call)
     return out.reshape((*batch, size)), ok.reshape(batch)
 
 
@@ -453,9 +442,10 @@ def rollout(
     at sample k (every ``hold`` steps; ``feedforward`` (S, K, W), W = N joint torques or N + 6 with
     the thrusters, its last sample held), clipped to +-limit (N + 6). Records at step 0, every
     ``stride`` steps and the last: (states (T, K, S), u (T, K, N + 6), saturated (T, K), steps done (K)).
-    S = 13 + 2N, or 14 + 2N with the energy the joints' damping and friction dissipate in the last slot (integrated
-    with the state: :func:`~.quantities.state_derivative_one`). The specialised kernels of a model with damping or friction
-    integrate it always (:attr:`~.layout.Tree.state_size`): states without the slot run there with one added (and dropped).
+    S: the flat state (``core.state_layout``), with or without the energy the joints' damping and friction dissipate in
+    its last slot (integrated with the state: :func:`~.quantities.state_derivative_one`). The specialised kernels of a
+    model with damping or friction integrate it always (:attr:`~.layout.Tree.state_size`): states without the slot run
+    there with one added (and dropped).
     """
     t = tree(model)
     n = t.n_joints
@@ -469,7 +459,8 @@ def rollout(
         fast = _specialise.find(t, "rollout", wrenches)
         assert fast is not None
         size, given = fast.STATE, x0.shape[1]  # the module's flat state (with the dissipated energy or without), the caller's
-        x_in = x0 if given == size else np.concatenate([x0[:, : 13 + 2 * n], np.zeros((k, size - 13 - 2 * n))], axis=1)
+        bare = state_length(n)
+        x_in = x0 if given == size else np.concatenate([x0[:, :bare], np.zeros((k, size - bare))], axis=1)
         x_out = xs if given == size else new_output((xs.shape[0], k, size))
         args = (owned(x_in), *timing, (kp, kd, qref, vref, feed(feedforward)), owned(limit), x_out, us, sat, done)
         _specialise.rollout(fast, t, *args, ext_f.reshape(k, 9 * len(wrenches)))  # each trajectory's wrenches (K, 9W)
@@ -479,7 +470,27 @@ def rollout(
             xs[..., common:] = 0.0
         return xs, us, sat, done
     start = time.perf_counter()
-    _drivers.rollout_batch(k, t, owned(x0), *timing, kp, kd, qref, vref, feed(feedforward), owned(limit), ext_i, ext_f, xs, us, sat, done)
+    dt_, steps_, hold_, stride_ = timing
+    call = _drivers.RolloutCall(
+        x0=owned(x0),
+        dt=dt_,
+        steps=steps_,
+        hold=hold_,
+        stride=stride_,
+        kp=kp,
+        kd=kd,
+        qref=qref,
+        vref=vref,
+        ff=feed(feedforward),
+        lim=owned(limit),
+        ext_i=ext_i,
+        ext=ext_f,
+        xs=xs,
+        us=us,
+        sat=sat,
+        done=done,
+    )
+    _drivers.rollout_batch(k, t, call)
     if k >= _SPECIALISED_ROLLOUTS_MIN and _drivers.rollout_batch.compiled:  # work they would take
         _specialise.account(t, "rollout", time.perf_counter() - start, wrenches)
     return xs, us, sat, done
@@ -515,9 +526,25 @@ def law_rollout(
     else:
         zero = np.zeros((1, n))
         C = ((zero, zero, zero, zero, feed(np.zeros((1, 1, n)))), law)  # no joint PD: the law
-    _drivers.law_rollout_batch(
-        k, t, owned(x0), *timing, C, owned(limit), owned(t.ints, np.int64), owned(plant), ext_i, ext_f, xs, us, sat, done
+    dt_, steps_, hold_, stride_ = timing
+    call = _drivers.LawRolloutCall(
+        x0=owned(x0),
+        dt=dt_,
+        steps=steps_,
+        hold=hold_,
+        stride=stride_,
+        control=C,
+        lim=owned(limit),
+        plant_ints=owned(t.ints, np.int64),
+        plant=owned(plant),
+        ext_i=ext_i,
+        ext=ext_f,
+        xs=xs,
+        us=us,
+        sat=sat,
+        done=done,
     )
+    _drivers.law_rollout_batch(k, t, call)
     return xs, us, sat, done
 
 
@@ -538,7 +565,7 @@ def specialised_rollouts(model: Any, batch: int, ext: tuple[np.ndarray, np.ndarr
 def rk4_batch(
     model: Any, x: np.ndarray, u: np.ndarray, dt: float, steps: int, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES
 ) -> np.ndarray:
-    """``steps`` RK4 steps of the states x (K, 13 + 2N) under u (K, N + 6) held; the new states (NaN rows where a step failed)."""
+    """``steps`` RK4 steps of the flat states x (K, S) under u (K, N + 6) held; the new states (NaN rows where a step failed)."""
     n = tree(model).n_joints
     zero = np.zeros((x.shape[0], n))
     xs, _, _, _ = rollout(model, x, dt, steps, steps, steps, (zero, zero, zero, zero), u[None], np.full(n + 6, np.inf), ext)
@@ -548,8 +575,8 @@ def rk4_batch(
 class Stepper:
     """One trajectory stepped from Python (a controller in the loop): scratch space kept between calls.
 
-    ``rk4(x, u, dt, steps)`` advances the flat state x (13 + 2N, or 14 + 2N with the energy the joints' damping and
-    friction have dissipated last: :func:`~.quantities.state_derivative_one`; float64, contiguous) in place by
+    ``rk4(x, u, dt, steps)`` advances the flat state x (``core.state_layout``: with or without the energy the joints'
+    damping and friction have dissipated last: :func:`~.quantities.state_derivative_one`; float64, contiguous) in place by
     ``steps`` RK4 steps with u held, in one compiled call, and returns ``steps``; or k < steps when
     H+ was not positive definite in step k; or -(k + 1) when x became non-finite in step k. (A
     partial of the kernel: a controller every step makes this call the hot path.)
@@ -558,7 +585,7 @@ class Stepper:
 
     def __init__(self, model: Any, ext: tuple[np.ndarray, np.ndarray] = NO_WRENCHES) -> None:
         self.tree = t = tree(model)
-        self.size = 13 + 2 * t.n_joints
+        self.size = state_length(t.n_joints)
         ext_i = np.asarray(ext[0], dtype=np.int64).reshape(-1, 2)
         ext_f = np.asarray(ext[1], dtype=np.float64).reshape(-1, 9)
         header = [ext_i.shape[0], 0, 0]  # W, WATCH, REASON (see stepper.unpack)

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from .cache import kernel
-from .layout import BODY_FIELDS, arrays
+from .layout import ATTITUDE_AT, BODY_FIELDS, OMEGA_AT, Q_AT, R_CM_AT, V_CM_AT, arrays, qdot_at, state_length
 from .measures import jacobian_measure_lanes, measure_work
 from .quantities import hplus_one, inverse_one, point_bias_one, point_jacobian_one, quaternion_matrix
 from .specialise.lanes import joint_pd
@@ -220,7 +220,7 @@ def task_one(
     for i in range(3):
         where[count, i] = m.com[0, i]
     jp = np.empty((count + 1, 6, 6 + n))
-    point_jacobian_one(x[13 : 13 + n], m, bodies, where, s, jp)  # spacecraft frame; leaves ⁰T_k and the CM in s
+    point_jacobian_one(x[Q_AT : Q_AT + n], m, bodies, where, s, jp)  # spacecraft frame; leaves ⁰T_k and the CM in s
     for i in range(6):
         for c in range(6 + n):
             jq[i, c] = jp[count, i, c]
@@ -242,12 +242,12 @@ def task_one(
     pb = np.zeros((count + 1, 6))
     vel = np.empty(6 + n)
     for i in range(3):
-        vel[i] = x[3 + i]
-        vel[3 + i] = x[10 + i]
+        vel[i] = x[V_CM_AT + i]
+        vel[3 + i] = x[OMEGA_AT + i]
     for j in range(n):
-        vel[6 + j] = x[13 + n + j]
+        vel[6 + j] = x[qdot_at(n) + j]
     if bias_wanted and count > 0:
-        point_bias_one(x[13 : 13 + n], vel, m, bodies[:count], where[:count], np.zeros((0, 2), dtype=np.int64), np.zeros((0, 9)), s, pb)
+        point_bias_one(x[Q_AT : Q_AT + n], vel, m, bodies[:count], where[:count], np.zeros((0, 2), dtype=np.int64), np.zeros((0, 9)), s, pb)
     zi = 0
     vi = 0
     cols = 6 + n
@@ -266,7 +266,7 @@ def task_one(
         if items[p, 0] == 0:  # a position: r_cm + T0 rho
             rows = 2 if planar else 3
             for i in range(rows):
-                z[zi + i] = x[i] + t0[i, 0] * rho[p, 0] + t0[i, 1] * rho[p, 1] + t0[i, 2] * rho[p, 2]
+                z[zi + i] = x[R_CM_AT + i] + t0[i, 0] * rho[p, 0] + t0[i, 1] * rho[p, 1] + t0[i, 2] * rho[p, 2]
                 for c in range(cols):
                     jac[vi + i, c] = block[i, c]
                 bias[vi + i] = acc[i]
@@ -474,14 +474,14 @@ def law_one(
     cols = 6 + n
     code = L.setup[0]
     t0 = np.empty((3, 3))
-    quaternion_matrix(x, 6, t0)
-    q = x[13 : 13 + n].copy()
+    quaternion_matrix(x, ATTITUDE_AT, t0)
+    q = x[Q_AT : Q_AT + n].copy()
     vel = np.empty(cols)
     for i in range(3):
-        vel[i] = x[3 + i]
-        vel[3 + i] = x[10 + i]
+        vel[i] = x[V_CM_AT + i]
+        vel[3 + i] = x[OMEGA_AT + i]
     for j in range(n):
-        vel[6 + j] = x[13 + n + j]
+        vel[6 + j] = x[qdot_at(n) + j]
     ratio = 1.0
     dim = e.shape[0]
     jq = np.empty((6, cols))  # J+ of the spacecraft CM: the top rows of J_q (eq. 21)
@@ -654,18 +654,19 @@ def law_control(
     w = P[0].n_joints - n  # the plant's reaction wheels
     dim = L.kp.shape[1]
     e, edot, qc = np.empty(dim), np.empty(dim), np.empty(6 + n)
-    xc = np.empty(13 + 2 * n)  # the controller's flat state: the plant's without the wheel angles and speeds
-    for i in range(13 + n):
+    xc = np.empty(state_length(n))  # the controller's flat state: the plant's without the wheel angles and speeds
+    for i in range(Q_AT + n):
         xc[i] = x[x0 + i]
+    rates = x0 + qdot_at(n + w)  # the plant's rates: the joints', then the wheels'
     for j in range(n):
-        xc[13 + n + j] = x[x0 + 13 + n + w + j]
-    speed = x[x0 + 13 + 2 * n + w : x0 + 13 + 2 * n + 2 * w]
+        xc[qdot_at(n) + j] = x[rates + j]
+    speed = x[rates + n : rates + n + w]
     out = np.empty(n + 6)
     ratio = law_one(L, b, t, xc, s, out, e, edot, qc)
     seen = _row(L.lowest, b)
     L.lowest[seen] = min(L.lowest[seen], ratio)
     wheel = np.zeros(w)
-    wheel_routing(L, b, xc[10:13], speed, out, wheel)
+    wheel_routing(L, b, xc[OMEGA_AT : OMEGA_AT + 3], speed, out, wheel)
     sat = False
     for j in range(n + 6):
         out[j] = min(max(out[j], -L.limits[j]), L.limits[j])  # the controller's own limits (no flag: an extra of its output)

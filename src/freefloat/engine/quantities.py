@@ -4,7 +4,7 @@ Each is a numba kernel with the recursions of :mod:`.recursions` inlined into it
 inlined into its callers: the serial range kernels of the batch drivers (:mod:`.drivers`), the control laws
 (:mod:`.laws`), :func:`~.stepper.rk4_steps` (the stepper that runs one trajectory with a Python controller,
 :class:`~.calls.Stepper`) and :func:`~.stepper.state_derivative`. Each takes the scratch views ``s``
-(:data:`~.recursions.Scratch`), made once per call of its caller: passing the views into a
+(:data:`~.layout.Scratch`), made once per call of its caller: passing the views into a
 non-inlined kernel per configuration costs more than the arithmetic of a small tree. RK4 runs its
 four stages in a loop so that the derivative is inlined once (compile time).
 """
@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from .cache import kernel
+from .layout import ATTITUDE_AT, OMEGA_AT, Q_AT, R_CM_AT, V_CM_AT, dissipated_at, qdot_at, state_length
 from .recursions import (
     centroidal_blocks,
     cholesky_solve,
@@ -160,7 +161,7 @@ def point_bias_one(
     none = s.acc  # no joint torques, thrusters or acceleration: zeros (6 + N)
     for i in range(n + 6):
         none[i] = 0.0
-    newton_euler(m, s, velocity, none, False, none, s.t0, ext_i, ext_f, s.b)
+    newton_euler(m, s, q, velocity, none, False, none, s.t0, ext_i, ext_f, s.b)
     total_mass = m.total_mass
     per_mass = 1.0 / total_mass
     d0, d1, d2 = -s.ff[0, 0] * per_mass, -s.ff[0, 1] * per_mass, -s.ff[0, 2] * per_mass
@@ -360,7 +361,7 @@ def inverse_one(
     (their sum by :func:`newton_euler`, which writes the rows [omega0, q])."""
     n = m.n_joints
     prepare(q, m, s, True)
-    newton_euler(m, s, velocity, acceleration, accelerate, u, t0, ext_i, ext_f, out[3:])
+    newton_euler(m, s, q, velocity, acceleration, accelerate, u, t0, ext_i, ext_f, out[3:])
     f = s.total  # the external forces, spacecraft frame
     for i in range(3):
         a = t0[0, i] * acceleration[0] + t0[1, i] * acceleration[1] + t0[2, i] * acceleration[2] if accelerate else 0.0
@@ -406,7 +407,7 @@ def accelerations_one(
     unit_momenta(m, s.axis, s.mom, s.cf, s.ci, s.g, s.h, True)
     centroidal_blocks(m, s.axis, s.mom, s.cf, s.ci, s.g, s.h, s.a, True)
     b = s.b
-    newton_euler(m, s, velocity, velocity, False, u, t0, ext_i, ext_f, b)
+    newton_euler(m, s, q, velocity, velocity, False, u, t0, ext_i, ext_f, b)
     for i in range(rows):
         b[i] = -b[i]
     ok = cholesky_solve(s.a, b, s.low)
@@ -425,39 +426,42 @@ def accelerations_one(
 def state_derivative_one(
     x: np.ndarray, u: np.ndarray, m: Any, ext_i: np.ndarray, ext_f: np.ndarray, s: Any, dx: np.ndarray, row: int
 ) -> bool:  # pragma: no cover - compiled
-    """dx[row] = d/dt of the flat state x = [r_cm, v_cm, quat [x, y, z, w], omega0, q, qdot] (13 + 2N) under u = [tau, f_S, n_S].
+    """dx[row] = d/dt of the flat state x = [r_cm, v_cm, quat [x, y, z, w], omega0, q, qdot] (``core.state_layout``)
+    under u = [tau, f_S, n_S].
 
     dquat/dt = 1/2 quat ⊗ [omega0, 0] (omega0 in the spacecraft frame). False if H+ is not positive definite.
-    A state with a trailing slot (14 + 2N: the energy the joints' damping and friction have dissipated since the start)
+    A state with the trailing slot (the energy the joints' damping and friction have dissipated since the start)
     gets its rate there, the dissipated power (:func:`~.recursions.dissipated_power`): the integrators integrate it
-    with the state, to their own accuracy. A state without it (13 + 2N) computes no power.
+    with the state, to their own accuracy. A state without it computes no power.
     """
     n = m.n_joints
+    qd = qdot_at(n)
     t0, vel, acc, q = s.t0, s.vel, s.acc, s.joints
-    quaternion_matrix(x, 6, t0)
+    quaternion_matrix(x, ATTITUDE_AT, t0)
     for i in range(3):
-        vel[i] = x[3 + i]
-        vel[3 + i] = x[10 + i]
+        vel[i] = x[V_CM_AT + i]
+        vel[3 + i] = x[OMEGA_AT + i]
     for j in range(n):
-        q[j] = x[13 + j]
-        vel[6 + j] = x[13 + n + j]
+        q[j] = x[Q_AT + j]
+        vel[6 + j] = x[qd + j]
     ok = accelerations_one(q, vel, u, t0, m, ext_i, ext_f, s, acc)
-    norm = math.sqrt(x[6] * x[6] + x[7] * x[7] + x[8] * x[8] + x[9] * x[9])
-    qx, qy, qz, qw = x[6] / norm, x[7] / norm, x[8] / norm, x[9] / norm
-    o0, o1, o2 = x[10], x[11], x[12]
+    a = ATTITUDE_AT
+    norm = math.sqrt(x[a] * x[a] + x[a + 1] * x[a + 1] + x[a + 2] * x[a + 2] + x[a + 3] * x[a + 3])
+    qx, qy, qz, qw = x[a] / norm, x[a + 1] / norm, x[a + 2] / norm, x[a + 3] / norm
+    o0, o1, o2 = x[OMEGA_AT], x[OMEGA_AT + 1], x[OMEGA_AT + 2]
     for i in range(3):
-        dx[row, i] = x[3 + i]
-        dx[row, 3 + i] = acc[i]
-        dx[row, 10 + i] = acc[3 + i]
-    dx[row, 6] = 0.5 * (qw * o0 + (qy * o2 - qz * o1))
-    dx[row, 7] = 0.5 * (qw * o1 + (qz * o0 - qx * o2))
-    dx[row, 8] = 0.5 * (qw * o2 + (qx * o1 - qy * o0))
-    dx[row, 9] = -0.5 * (qx * o0 + qy * o1 + qz * o2)
+        dx[row, R_CM_AT + i] = x[V_CM_AT + i]
+        dx[row, V_CM_AT + i] = acc[i]
+        dx[row, OMEGA_AT + i] = acc[3 + i]
+    dx[row, a] = 0.5 * (qw * o0 + (qy * o2 - qz * o1))
+    dx[row, a + 1] = 0.5 * (qw * o1 + (qz * o0 - qx * o2))
+    dx[row, a + 2] = 0.5 * (qw * o2 + (qx * o1 - qy * o0))
+    dx[row, a + 3] = -0.5 * (qx * o0 + qy * o1 + qz * o2)
     for j in range(n):
-        dx[row, 13 + j] = x[13 + n + j]
-        dx[row, 13 + n + j] = acc[6 + j]
-    if x.shape[0] > 13 + 2 * n:  # the slot of the dissipated energy (a number while tracing: the rollout's state size)
-        dx[row, 13 + 2 * n] = dissipated_power(m, x, 13 + n)
+        dx[row, Q_AT + j] = x[qd + j]
+        dx[row, qd + j] = acc[6 + j]
+    if x.shape[0] > state_length(n):  # the slot of the dissipated energy (a number while tracing: the rollout's state size)
+        dx[row, dissipated_at(n)] = dissipated_power(m, x, qd)
     return ok
 
 
@@ -469,8 +473,8 @@ def rk4_step(x: np.ndarray, u: np.ndarray, dt: float, m: Any, ext_i: np.ndarray,
     single simulations, through :func:`rk4_step_rows`); the specialised rollouts step 64 lanes at once by the same
     formulas, written a second time for rows of lanes (``specialise.lanes._rk4_rows``; tests/mechanics/test_specialise.py
     checks the two paths against each other). The four stages run in one loop so that the derivative is compiled
-    (inlined) once; the stage derivatives stay in ``s.k`` (4, S). x may carry the dissipated energy's slot (14 + 2N:
-    :func:`state_derivative_one`); the stage state is cut to x's size, which says whether it does.
+    (inlined) once; the stage derivatives stay in ``s.k`` (4, S). x may carry the dissipated energy's slot
+    (:func:`state_derivative_one`); the stage state is cut to x's size, which says whether it does.
     """
     size = x.shape[0]
     k, y = s.k, s.y[:size]
@@ -486,8 +490,9 @@ def rk4_step(x: np.ndarray, u: np.ndarray, dt: float, m: Any, ext_i: np.ndarray,
     c = dt / 6.0
     for i in range(size):
         x[i] = x[i] + c * (k[0, i] + 2.0 * k[1, i] + 2.0 * k[2, i] + k[3, i])
-    norm = math.sqrt(x[6] * x[6] + x[7] * x[7] + x[8] * x[8] + x[9] * x[9])
-    for i in range(6, 10):
+    a = ATTITUDE_AT
+    norm = math.sqrt(x[a] * x[a] + x[a + 1] * x[a + 1] + x[a + 2] * x[a + 2] + x[a + 3] * x[a + 3])
+    for i in range(a, a + 4):
         x[i] = x[i] / norm
     return ok
 

@@ -50,12 +50,11 @@ kernel of :mod:`.quantities`: faster than calls that pass array views.
 from __future__ import annotations
 
 import math
-from collections import namedtuple
 from typing import Any
 
 import numpy as np
 
-from .cache import floats_view, kernel
+from .cache import kernel
 
 #: The joint speed (rad/s, m/s) over which Coulomb friction builds up: the friction torque of a joint is
 #: -F tanh(qdot / FRICTION_SPEED) (F = ``Model.joint_friction``), 76 % of F at this speed and 99.9 % at 4 times it.
@@ -75,6 +74,15 @@ def passive_resistance(m: Any, k: int, qd: float) -> float:  # pragma: no cover 
 
 
 @kernel(inline="always")
+def passive_spring(m: Any, k: int, value: float) -> float:  # pragma: no cover - compiled
+    """The torque (force) of body joint k's spring at its joint value ``value`` (its own, or a mimic joint's: multiplier
+    times its leader's plus offset): K_k (value - springref_k); the joint feels minus this, a conservative torque (its
+    potential 1/2 K_k (value - springref_k)^2: ``mechanics.spring_energy``; ``mechanics.passive_torque`` is the numpy
+    reference). A zero stiffness is folded away by the specialiser (layout.Field.fold_zeros)."""
+    return m.stiffness[k] * (value - m.springref[k])
+
+
+@kernel(inline="always")
 def dissipated_power(m: Any, qdot: np.ndarray, o: int) -> float:  # pragma: no cover - compiled
     """The power (W) the joints' damping and friction dissipate at the joint rates ``qdot[o : o + N]``:
     sum over the body joints k of qd_k (d_k qd_k + F_k tanh(qd_k / FRICTION_SPEED)) >= 0 (:func:`passive_resistance`),
@@ -85,145 +93,6 @@ def dissipated_power(m: Any, qdot: np.ndarray, o: int) -> float:  # pragma: no c
         qd = m.multiplier[k] * qdot[o + int(m.coordinate[k])]
         power += qd * passive_resistance(m, k, qd)
     return power
-
-
-#: Scratch space of one configuration: views of one flat buffer, made once per batch range (or per
-#: stepper call) and passed down, so no kernel pays for making views at every configuration.
-Scratch = namedtuple(
-    "Scratch",
-    [
-        "rot",
-        "pos",
-        "axis",
-        "mom",  # kinematics: ⁰T_k, joint positions p_k, axes u_k, p_k x u_k
-        "own_f",
-        "own_i",
-        "cf",
-        "ci",  # first moments m_k c_k and inertias about O: own and composite
-        "g",
-        "h",  # linear and angular momentum (about O) of the subtree of joint l at unit rate
-        "w",
-        "v",
-        "al",
-        "be",
-        "nf",
-        "ff",  # Newton-Euler: spatial velocity, acceleration, force
-        "pt",
-        "fo",
-        "no",
-        "total",
-        "re",  # 3-vectors
-        "a",
-        "low",
-        "b",
-        "x",  # the [omega0, q] block of H+, its Cholesky factor, a right-hand side, D^-1 D_q
-        "t0",
-        "vel",
-        "acc",  # attitude, zdot0, zddot0
-        "k",
-        "y",  # RK4: the four stage derivatives (4, S), the stage state (S = 14 + 2N: room for the dissipated energy)
-        "joints",  # (N): joint values read from a state
-        "rows",  # (4 S + N + 9): the rows of one trajectory in the rollout loop (specialise.lanes._rollout_blocks, width 1)
-        "jac",  # (6E, N): a J* whose measure is wanted
-        "sel",  # (6E N): spare room after jac (no kernel reads it: the measures work in their own block buffer)
-    ],
-)
-
-
-@kernel(inline="always")
-def scratch(work: np.ndarray, nb: int, ne: int, n: int) -> Any:  # pragma: no cover - compiled
-    """The :data:`Scratch` views of ``work`` (length :func:`~.layout.work_size`) for ``nb`` bodies, ``ne`` end effectors
-    and ``n`` joint coordinates (``m.n_joints``: B - 1 less the mimic joints).
-
-    The views neither count references to ``work`` nor check bounds (cheaper: :func:`~.gate.floats_view`;
-    the length is checked here once), so ``work`` must outlive them: it is always an argument of the calling kernel
-    (or a contiguous slice of one), held by the Python caller for the whole call; never a buffer made inside a kernel,
-    which numba may free after its last use (``tests/mechanics/test_engine.py`` checks every call).
-    """
-    m = 3 + n
-    size = 14 + 2 * n  # a flat state with its trailing slot (the dissipated energy), the longest a kernel steps
-    o = 0
-    rot = floats_view(work, o, (nb, 3, 3))
-    o += 9 * nb
-    pos = floats_view(work, o, (nb, 3))
-    o += 3 * nb
-    axis = floats_view(work, o, (nb, 3))
-    o += 3 * nb
-    mom = floats_view(work, o, (nb, 3))
-    o += 3 * nb
-    own_f = floats_view(work, o, (nb, 3))
-    o += 3 * nb
-    own_i = floats_view(work, o, (nb, 3, 3))
-    o += 9 * nb
-    cf = floats_view(work, o, (nb, 3))
-    o += 3 * nb
-    ci = floats_view(work, o, (nb, 3, 3))
-    o += 9 * nb
-    six = floats_view(work, o, (8, nb, 3))  # g, h, w, v, al, be, nf, ff
-    o += 24 * nb
-    vec = floats_view(work, o, (5, 3))
-    o += 15
-    a = floats_view(work, o, (m, m))
-    o += m * m
-    low = floats_view(work, o, (m, m))
-    o += m * m
-    b = floats_view(work, o, m)
-    o += m
-    x = floats_view(work, o, (3, n))
-    o += 3 * n
-    t0 = floats_view(work, o, (3, 3))
-    o += 9
-    vel = floats_view(work, o, 6 + n)
-    o += 6 + n
-    acc = floats_view(work, o, 6 + n)
-    o += 6 + n
-    stages = floats_view(work, o, (5, size))
-    o += 5 * size
-    joints = floats_view(work, o, n)
-    o += n
-    rows = floats_view(work, o, 4 * size + n + 9)
-    o += 4 * size + n + 9
-    jac = floats_view(work, o, (6 * ne, n))
-    o += 6 * ne * n
-    sel = floats_view(work, o, 6 * ne * n)
-    if o + 6 * ne * n > work.shape[0]:
-        raise ValueError("freefloat: the scratch buffer is shorter than work_size")
-    return Scratch(
-        rot,
-        pos,
-        axis,
-        mom,
-        own_f,
-        own_i,
-        cf,
-        ci,
-        six[0],
-        six[1],
-        six[2],
-        six[3],
-        six[4],
-        six[5],
-        six[6],
-        six[7],
-        vec[0],
-        vec[1],
-        vec[2],
-        vec[3],
-        vec[4],
-        a,
-        low,
-        b,
-        x,
-        t0,
-        vel,
-        acc,
-        stages[0:4],
-        stages[4],
-        joints,
-        rows,
-        jac,
-        sel,
-    )
 
 
 # ----------------------------------------------------------------- kinematics
@@ -482,6 +351,7 @@ def cholesky_solve(a: np.ndarray, b: np.ndarray, low: np.ndarray) -> bool:  # pr
 def newton_euler(
     m: Any,
     s: Any,
+    q: np.ndarray,
     vel: np.ndarray,
     acc: np.ndarray,
     accelerate: bool,
@@ -497,8 +367,9 @@ def newton_euler(
     (thrusters at the spacecraft CM, spacecraft frame); external wrenches ext_i (W, 2) = [body,
     frame (0 inertial, 1 spacecraft, 2 body)], ext_f (W, 9) = [point (body frame), force, couple];
     t0 = the attitude T0 (3x3, inertial <- spacecraft; used for inertial-frame wrenches); vel =
-    zdot0 and acc = zddot0 (6 + N; rdot_cm and rddot_cm are not used). Needs :func:`prepare` with
-    inertias in ``s``; leaves the sum of the external forces (spacecraft frame) in ``s.total``.
+    zdot0 and acc = zddot0 (6 + N; rdot_cm and rddot_cm are not used); q the joint coordinates (N: the joints'
+    springs, :func:`passive_spring`). Needs :func:`prepare` with inertias in ``s``; leaves the sum of the external forces
+    (spacecraft frame) in ``s.total``.
     """
     parent, total_mass = m.parent, m.total_mass
     nb = parent.shape[0]
@@ -605,10 +476,11 @@ def newton_euler(
         t2_ = nf[k, 2] + (cf[k, 0] * d1 - cf[k, 1] * d0)
         row = axis[k, 0] * t0_ + axis[k, 1] * t1_ + axis[k, 2] * t2_
         row += mom[k, 0] * (ff[k, 0] + s * d0) + mom[k, 1] * (ff[k, 1] + s * d1) + mom[k, 2] * (ff[k, 2] + s * d2)
-        # the joint's own dynamics: its rotor (armature), viscous damping and smooth Coulomb friction (passive torques)
+        # the joint's own dynamics: its rotor (armature), viscous damping, smooth Coulomb friction and spring (passive torques)
         rk = m.multiplier[k]
         c = int(m.coordinate[k])
         row += passive_resistance(m, k, rk * vel[6 + c])
+        row += passive_spring(m, k, rk * q[c] + m.offset[k])
         if accelerate:
             row += m.armature[k] * rk * acc[6 + c]
         out[3 + c] += rk * row  # a mimic joint's row acts on its leader through the law (virtual work)

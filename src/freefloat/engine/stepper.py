@@ -11,9 +11,8 @@ import numpy as np
 
 from ..core.numbers import MAX_EFFORT
 from .cache import floats_view, ints_view, kernel
-from .layout import arrays, buffer_lengths
+from .layout import OMEGA_AT, Q_AT, arrays, buffer_lengths, qdot_at, scratch
 from .quantities import rk4_step, state_derivative_one
-from .recursions import scratch
 
 #: REASON of :func:`rk4_steps` when it refused u (an entry not finite, or beyond MAX_EFFORT); 1 and 2 are :func:`watched`'s.
 REFUSED = 4
@@ -56,13 +55,13 @@ def watched(x: np.ndarray, watch: np.ndarray) -> int:  # pragma: no cover - comp
     fast = watch[0]
     reason = 0
     for i in range(3):
-        if 1.7320508075688772 * abs(x[10 + i]) > fast:
+        if 1.7320508075688772 * abs(x[OMEGA_AT + i]) > fast:
             reason = 1
     for j in range(n):
-        if abs(x[13 + n + j]) > watch[1 + 2 * n + j]:
+        if abs(x[qdot_at(n) + j]) > watch[1 + 2 * n + j]:
             reason = 1
     for j in range(n):
-        v = x[13 + j]
+        v = x[Q_AT + j]
         if v < watch[1 + j] or v > watch[1 + n + j]:
             reason |= 2
             break

@@ -158,6 +158,9 @@ def from_mjmodel(mj: Any, source: str = "", *, end_effectors: EndEffectors = Non
             armature=float(mj.dof_armature[dof]),
             damping=float(mj.dof_damping[dof]),
             friction=float(mj.dof_frictionloss[dof]),  # MuJoCo's is dry friction; freefloat's is smooth (docs/model-files.md)
+            stiffness=float(mj.jnt_stiffness[j]),
+            # MuJoCo's springref is a qpos; freefloat's q = 0 is the drawn configuration, qpos = ref (qpos0)
+            springref=float(mj.qpos_spring[mj.jnt_qposadr[j]] - mj.qpos0[mj.jnt_qposadr[j]]),
         )
 
     _joint_equalities(mujoco, mj, joints, where, builder)

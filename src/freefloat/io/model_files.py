@@ -42,7 +42,7 @@ from .unmodelled import report_unmodelled, urdf_unmodelled
 __all__ = ["load", "load_toml", "load_urdf", "save", "to_toml_dict", "to_urdf_string"]
 
 _BODY_KEYS = {"name", "mass", "inertia", "com", "end_effector", "end_effector_name", "frame"}
-_JOINT_KEYS = {"name", "type", "parent", "child", "origin", "rpy", "axis", "limits", "armature", "damping", "friction", "mimic"}
+_JOINT_KEYS = {"name", "type", "parent", "child", "origin", "rpy", "axis", "limits", *JOINT_PASSIVE, "mimic"}
 _MIMIC_KEYS = {"joint", "multiplier", "offset"}
 _TOP_KEYS = {"name", "description", "bodies", "joints", "end_effectors", "corrections", "wheels"}
 _CORRECTION_KEYS = {"body", "field", "given", "why"}
@@ -58,7 +58,8 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
     every leaf. ``strict``: refuse non-physical inertias instead of correcting them (URDF, MJCF).
     The loaded model must be physical as a whole: H+ positive definite at q = 0.
     ``joints``: the joints' own dynamics, for files that cannot say them (URDF has no rotor inertia) or to
-    replace the file's: ``{joint name: {"armature": kg m², "damping": N m s/rad, "friction": N m}}``
+    replace the file's: ``{joint name: {"armature": kg m², "damping": N m s/rad, "friction": N m, "stiffness": N m/rad,
+    "springref": rad}}``
     (docs/model-files.md), or the path of a TOML file of such tables (``[panda_joint1]`` then
     ``armature = 0.1``). A value given here replaces the file's; the others keep the file's.
     ``wheels``: the spacecraft's reaction wheels, for files that cannot say them (URDF, MJCF) or to replace the
@@ -112,13 +113,14 @@ def load(path: str | Path, *, end_effectors: EndEffectors = None, strict: bool =
 
 
 def with_joint_dynamics(model: Model, joints: Any) -> Model:
-    """``model`` with the joints' armature, damping and friction of ``joints`` (see :func:`load`), each name checked."""
+    """``model`` with the joints' armature, damping, friction and springs of ``joints`` (see :func:`load`), each name
+    checked."""
     where = "joints"
     if isinstance(joints, (str, os.PathLike)):
         where = str(joints)
         joints = read_toml(Path(joints), "joint dynamics file")
     if not isinstance(joints, dict):
-        raise TypeError(f"joints: expected a table {{joint name: {{armature, damping, friction}}}} or a TOML file, got {joints!r}")
+        raise TypeError(f"joints: expected a table {{joint name: {{armature, damping, ...}}}} or a TOML file, got {joints!r}")
     values = {key: np.array(getattr(model, f"joint_{key}"), dtype=float) for key in JOINT_PASSIVE}
     mimic = {record["joint"]: dict(record) for record in model.mimic}  # a mimic joint's own dynamics are in its record
     for name, entry in joints.items():
@@ -141,10 +143,8 @@ def with_joint_dynamics(model: Model, joints: Any) -> Model:
             if isinstance(value, (bool, str)) or not isinstance(value, (int, float)):
                 raise ModelError(f"{where}: {name}.{key}", f"cannot read {value!r} as a number", f"give the {JOINT_PASSIVE[key]}")
             values[key][model.joint_names.index(name)] = float(value)
-    return dataclasses.replace(
-        model, joint_armature=values["armature"], joint_damping=values["damping"], joint_friction=values["friction"],
-        mimic=tuple(mimic[record["joint"]] for record in model.mimic),
-    )  # fmt: skip
+    given: dict[str, Any] = {f"joint_{key}": values[key] for key in JOINT_PASSIVE}
+    return dataclasses.replace(model, **given, mimic=tuple(mimic[record["joint"]] for record in model.mimic))
 
 
 def _xml_root(path: Path) -> str:
@@ -251,9 +251,7 @@ def from_dict(data: dict[str, Any], source: str = "", *, end_effectors: EndEffec
             axis=joint.get("axis", (0.0, 0.0, 1.0)),
             type=joint.get("type", "revolute"),
             limits=joint.get("limits"),
-            armature=joint.get("armature", 0.0),
-            damping=joint.get("damping", 0.0),
-            friction=joint.get("friction", 0.0),
+            **{key: joint.get(key, 0.0) for key in JOINT_PASSIVE},
         )
         if "mimic" in joint:  # mimic = {joint = "leader", multiplier = 1.0, offset = 0.0}: q = multiplier q_leader + offset
             law = joint["mimic"]
@@ -396,7 +394,7 @@ def to_toml_dict(model: Model) -> dict[str, Any]:
             }
             if joint["type"] != "continuous" and (np.isfinite(own.joint_lower[j]) or np.isfinite(own.joint_upper[j])):
                 joint["limits"] = [float(own.joint_lower[j]), float(own.joint_upper[j])]
-            for key in ("armature", "damping", "friction"):
+            for key in JOINT_PASSIVE:
                 value = float(getattr(own, f"joint_{key}")[j])
                 if value != 0.0:
                     joint[key] = value
@@ -729,6 +727,14 @@ def to_urdf_string(model: Model) -> str:
         warnings.warn(
             f"{model.name}: URDF has no element for a joint's rotor inertia: the armature of joint {rotors} is not written "
             "(save as TOML to keep it, or give it to ff.load(..., joints=...) when reading the URDF)",
+            UnmodelledElementWarning,
+            stacklevel=3,
+        )
+    if np.any(own.joint_stiffness):
+        springs = ", ".join(f"{own.joint_names[j]!r} {own.joint_stiffness[j]:g}" for j in np.flatnonzero(own.joint_stiffness))
+        warnings.warn(
+            f"{model.name}: URDF has no element for a joint's spring: the stiffness of joint {springs} is not written "
+            "(save as TOML or MJCF to keep it)",
             UnmodelledElementWarning,
             stacklevel=3,
         )

@@ -35,10 +35,17 @@ def _fmt(values: Any) -> str:
 
 
 def _passive_attributes(model: Model, j: int) -> str:
-    """MJCF attributes of joint j's rotor inertia, damping and friction (``armature``, ``damping``, ``frictionloss``; MuJoCo's
-    frictionloss is dry friction, exact at rest, where freefloat's is smooth), only where not zero."""
+    """MJCF attributes of joint j's rotor inertia, damping, friction and spring (``armature``, ``damping``, ``frictionloss``,
+    ``stiffness``, ``springref``; MuJoCo's frictionloss is dry friction, exact at rest, where freefloat's is smooth), only
+    where not zero."""
     out = ""
-    for attribute, values in (("armature", model.joint_armature), ("damping", model.joint_damping), ("frictionloss", model.joint_friction)):
+    for attribute, values in (
+        ("armature", model.joint_armature),
+        ("damping", model.joint_damping),
+        ("frictionloss", model.joint_friction),
+        ("stiffness", model.joint_stiffness),
+        ("springref", model.joint_springref),
+    ):
         if values[j] != 0.0:
             out += f' {attribute}="{float(values[j])!r}"'
     return out

@@ -93,7 +93,13 @@ ELEMENTS: tuple[Element, ...] = (
         NOT_MODELLED,
         "an inertia or a drag on the spacecraft's own motion (freefloat's spacecraft floats free)",
     ),
-    Element("mjcf.joint.stiffness", "MJCF", "<joint stiffness springref>", NOT_MODELLED, "a joint spring, -stiffness (q - springref)"),
+    Element(
+        "mjcf.joint.stiffness",
+        "MJCF",
+        "<joint stiffness springref> of a hinge or slide",
+        MODELLED,
+        "a joint spring, -stiffness (q - springref) (Model.joint_stiffness, joint_springref)",
+    ),
     Element(
         "mjcf.joint.ref",
         "MJCF",
@@ -268,14 +274,6 @@ def _one_dof_joints(mj: Any) -> Iterable[tuple[int, int, str]]:
             yield j, int(mj.jnt_qposadr[j]), units[int(mj.jnt_type[j])]
 
 
-def _mjcf_stiffness(mj: Any) -> list[str]:
-    out = []
-    for j, a, unit in _one_dof_joints(mj):
-        if mj.jnt_stiffness[j] != 0.0:
-            out.append(f"joint {_name(mj, 'mjOBJ_JOINT', j)} stiffness={mj.jnt_stiffness[j]:g} springref={mj.qpos_spring[a]:g} {unit}")
-    return out
-
-
 def _mjcf_ref(mj: Any) -> list[str]:
     return [f"joint {_name(mj, 'mjOBJ_JOINT', j)} ref={mj.qpos0[a]:g} {unit}" for j, a, unit in _one_dof_joints(mj) if mj.qpos0[a] != 0.0]
 
@@ -354,7 +352,6 @@ def _name(mj: Any, kind: str, index: int) -> str:
 
 _MJCF_FINDERS: dict[str, Finder] = {
     "mjcf.freejoint.passive": _mjcf_free_joint,
-    "mjcf.joint.stiffness": _mjcf_stiffness,
     "mjcf.joint.ref": _mjcf_ref,
     "mjcf.tendon": _mjcf_tendons,
     "mjcf.equality.other": _mjcf_equality(joint=False),

@@ -63,6 +63,7 @@ from .momentum import (
     zero_momentum_rate,
 )
 from .specialised import auto_specialise, is_specialised, specialise
+from .springs import spring_energy, spring_torque
 
 
 def release_buffers() -> int:
@@ -116,6 +117,8 @@ __all__ = [
     "release_buffers",
     "spacecraft_fixed_dynamics",
     "specialise",
+    "spring_energy",
+    "spring_torque",
     "system_cm",
     "system_inertia_matrix",
     "system_inertia_matrix_rate",

@@ -78,8 +78,10 @@ from .forces import _actuation_0, _actuation_parts, _engine_wrenches, _generaliz
 from .jacobians import actuation_jacobian
 from .kinematics import _rotations, _slides
 from .momentum import system_inertia_matrix
+from .springs import spring_torque
 
 __all__ = [
+    "dissipative_torque",
     "forward_dynamics",
     "inverse_dynamics",
     "nonlinear_forces",
@@ -402,8 +404,8 @@ def forward_dynamics(
             raise SingularConfigurationError("H+ (1991 eq. 15)", float(np.min(np.linalg.det(h))), "the mass properties are not physical")
         return acc
     q_0 = _generalized_forces_0(model, q, joint_torque, spacecraft_force, spacecraft_torque, _wrenches(external), t0)
-    if model.has_passive:
-        q_0 = _plus_joint_rows(q_0, passive_torque(model, v[..., 6:]))
+    if model.has_passive or model.has_springs:
+        q_0 = _plus_joint_rows(q_0, passive_torque(model, v[..., 6:], q))
     batch = np.broadcast_shapes(q.shape[:-1], v.shape[:-1], q_0.shape[:-1])
     out = np.empty((*batch, 6 + model.n_joints))
     out[..., 0:3] = _rotate(t0, q_0[..., 0:3]) / model.total_mass
@@ -467,8 +469,8 @@ def inverse_dynamics(
     total = np.concatenate([np.broadcast_to(first, (*batch, 3)), np.broadcast_to(rows, batch + rows.shape[-1:])], axis=-1)
     if wrenches:
         total = total - _generalized_forces_0(model, q, None, None, None, wrenches, t0)
-    if model.has_passive:
-        total = _plus_joint_rows(total, -passive_torque(model, v[..., 6:]))
+    if model.has_passive or model.has_springs:
+        total = _plus_joint_rows(total, -passive_torque(model, v[..., 6:], q))
     return _actuation_0(model, q, total)
 
 
@@ -499,11 +501,24 @@ def _plus_joint_rows(total: np.ndarray, joint_rows: np.ndarray) -> np.ndarray:
     return total + np.concatenate([np.zeros((*joint_rows.shape[:-1], 6)), joint_rows], axis=-1)
 
 
-def passive_torque(model: Model, qdot: Any) -> np.ndarray:
+def passive_torque(model: Model, qdot: Any, q: Any = None) -> np.ndarray:
     """The joints' passive torques (..., N) at the joint rates ``qdot`` (N m, N for a prismatic joint): viscous damping
     -d qdot and smooth Coulomb friction -F tanh(qdot / v_s), with d = ``model.joint_damping``, F = ``model.joint_friction``
-    and v_s = :data:`FRICTION_SPEED` (0.01 rad/s or m/s). The reference form in numpy; the engine adds the same torques
-    in its Newton-Euler rows (:func:`~._recursions.newton_euler`). They are internal: they change no momentum."""
+    and v_s = :data:`FRICTION_SPEED` (0.01 rad/s or m/s), and the joints' springs -K (q - q_ref) at the joint values
+    ``q`` (:func:`~.springs.spring_torque`; ``q`` is needed when a joint has one: ``model.has_springs``). The reference
+    form in numpy; the engine adds the same torques in its Newton-Euler rows (``engine.recursions.newton_euler``). They
+    are internal: they change no momentum."""
+    resisted = dissipative_torque(model, qdot)
+    if not model.has_springs:
+        return resisted
+    if q is None:
+        raise ValueError(f"q: {model.name!r} has joint springs (joint_stiffness), whose torque needs the joint values q; pass q")
+    return resisted + spring_torque(model, q)
+
+
+def dissipative_torque(model: Model, qdot: Any) -> np.ndarray:
+    """The joints' damping and friction torques (..., N) at the joint rates ``qdot``: the part of :func:`passive_torque`
+    that dissipates energy (its power, -sum torque qdot >= 0, is ``Trajectory.dissipated_energy``'s rate)."""
     qd = _joints(model, qdot, "qdot")
     if model.has_mimic:  # each mimic joint's own torque, at its rate, acts on its leader through the law
         body = model.expanded()

@@ -21,6 +21,7 @@ from ..core.errors import ShapeError, SimulationError
 from ..core.model import Model
 from ..core.numbers import MAX_EFFORT
 from ..core.state import Actuation, ActuatorLimits, State, unpack_state
+from ..core.state_layout import span
 from ._wheels import limit_wheel_torque
 
 __all__ = ["Command", "Controller", "actuation", "call_controller", "check_output", "command_of", "plain_torques", "zero_thrust"]
@@ -151,7 +152,8 @@ def command_of(controller: Controller | None, user: Model, model: Model, limits:
     n_wheels = user.n_wheels
     zero = (np.zeros((*batch, model.n_joints)), np.zeros((*batch, 3)), np.zeros((*batch, 3)))
     unlimited = np.zeros((*batch, 1 + 2 * n_wheels) if n_wheels else batch, dtype=bool)
-    speeds = slice(13 + 2 * model.n_joints - n_wheels, 13 + 2 * model.n_joints)
+    rates = span("qdot", model.n_joints)
+    speeds = slice(rates.stop - n_wheels, rates.stop)
     clips = not limits.unlimited
     unchanged = not clips and not n_wheels
 

@@ -20,6 +20,8 @@ from ..core.errors import SimulationError
 from ..core.feedback import LOG_PERIOD, interactive, progress_log
 from ..core.model import Model
 from ..core.numbers import MAX_RATE  # beyond it a run stops: the actuation or the initial state is not physical
+from ..core.state_layout import qdot_at, span, state_length
+from ..mechanics.springs import spring_energy
 
 __all__ = [
     "DIVERGENCE_ANGLE",
@@ -135,7 +137,7 @@ def estimate_run(
         samples = round(duration / sample_period) if sample_period else 0
         steps = max(samples, outputs)
         seconds = steps * 12 * cost + samples * _SAMPLE_COST + outputs * _SAMPLE_COST
-    width = 13 + 2 * model.n_joints + model.n_joints + 7
+    width = state_length(model.n_joints) + model.n_joints + 7
     return RunEstimate(int(steps), int(samples), int(outputs), int(outputs * width * 8), float(seconds), fixed_step is None)
 
 
@@ -266,11 +268,17 @@ class DivergenceGuard:
         self.wall_limit = wall_limit  # independent of ``enabled``: divergence_guard=False still ends
         self.duration = duration
         self.started = time.perf_counter()
-        self.n = model.n_joints
+        self.n = n = model.n_joints
+        # the flat state's blocks the tests read (core.state_layout): q, the robot's joint rates, the wheels' speeds, v_cm, omega0
+        self._q, self._v_cm, self._omega = span("q", n), span("v_cm", n), span("omega", n)
+        self._rates = slice(qdot_at(n), qdot_at(n) + self.robot)
+        self._speeds = slice(qdot_at(n) + self.robot, qdot_at(n) + n)
         self.h = h
         self.what = what
         self.enabled = enabled
-        self.energy0 = self._energy(x0)
+        # the energy the motion may take without actuation: the kinetic energy, and the joints' springs' potential
+        springs = float(spring_energy(model, x0[self._q])) if model.has_springs else 0.0
+        self.energy0 = self._energy(x0) + springs
         self.budget = self._pd_budget(controller, x0)
         self.min_step = MIN_STEP_FRACTION * resolution
         self.evals = 0
@@ -285,25 +293,24 @@ class DivergenceGuard:
         n = self.n
         try:
             kp = np.broadcast_to(np.asarray(controller.kp, dtype=float), (n,))
-            error = np.broadcast_to(np.asarray(controller.q_ref, dtype=float), (n,)) - x0[13 : 13 + n]
+            error = np.broadcast_to(np.asarray(controller.q_ref, dtype=float), (n,)) - x0[self._q]
         except ValueError:
             return None
         return self.energy0 + 0.5 * float(np.sum(np.abs(kp) * error**2))
 
     def _energy(self, x: np.ndarray) -> float:
-        n = self.n
-        velocity = np.concatenate([x[3:6], x[10:13], x[13 + n : 13 + 2 * n]])  # (a dissipated energy may follow)
+        velocity = np.concatenate([x[self._v_cm], x[self._omega], x[span("qdot", self.n)]])  # (a dissipated energy may follow)
         # the engine's H+ directly: a diverging state is past what the public calls accept (|q| > 1e6), and is what is measured
         with np.errstate(over="ignore", invalid="ignore"):
-            h_plus = engine.inertia_matrix(self.model, np.ascontiguousarray(x[13 : 13 + n]))
+            h_plus = engine.inertia_matrix(self.model, np.ascontiguousarray(x[self._q]))
             energy = 0.5 * float(velocity @ h_plus @ velocity)
         return energy if np.isfinite(energy) else np.inf
 
     def _rates_grew(self, x: np.ndarray) -> bool:
         """Whether the fastest rate is 1.2x the one at the last energy test (the kinetic energy, an H+ evaluation,
         cannot have grown much without the rates growing: it is tested then, not at every step)."""
-        rates = x[13 + self.n : 13 + self.n + self.robot]
-        rate = max(float(np.abs(rates).max(initial=0.0)), float(np.abs(x[10:13]).max()), float(np.abs(x[3:6]).max()))
+        rates = x[self._rates]
+        rate = max(float(np.abs(rates).max(initial=0.0)), float(np.abs(x[self._omega]).max()), float(np.abs(x[self._v_cm]).max()))
         if rate <= 1.2 * self.rate_checked:
             return False
         self.rate_checked = rate
@@ -312,8 +319,8 @@ class DivergenceGuard:
     def _fastest(self, x: np.ndarray) -> tuple[str, float, str]:
         """The fastest joint or the spacecraft: (who, rate, unit of the rate)."""
         n = self.n
-        rates = np.abs(x[13 + n : 13 + n + self.robot])
-        spin = float(np.linalg.norm(x[10:13]))
+        rates = np.abs(x[self._rates])
+        spin = float(np.linalg.norm(x[self._omega]))
         if n and rates.max() >= spin:
             i = int(np.argmax(rates))
             return f"joint {self.model.joint_names[i]!r}", float(rates[i]), "m/s" if self.model.prismatic[i] else "rad/s"
@@ -341,13 +348,13 @@ class DivergenceGuard:
             return True
         if self.budget is not None:
             return False
-        rates, spin = values[13 + self.n : 13 + self.n + self.robot], values[10:13]
+        rates, spin = values[self._rates], values[self._omega]
         bound = max(max(rates, default=0.0), -min(rates, default=0.0), 1.7320508075688772 * max(max(spin), -min(spin)))
         return bound <= self.rate_limit and self._wheels_below(values)
 
     def _wheels_below(self, x: Any) -> bool:
         """True when every reaction wheel turns slower than :data:`MAX_RATE` (always, for a model without wheels)."""
-        return self.robot == self.n or float(np.abs(np.asarray(x[13 + self.n + self.robot : 13 + 2 * self.n])).max()) <= MAX_RATE
+        return self.robot == self.n or float(np.abs(np.asarray(x[self._speeds])).max()) <= MAX_RATE
 
     def check(self, t: float, x: np.ndarray) -> None:
         """Raise if the state at ``t`` has grown without bound (the growth and energy tests)."""
@@ -364,10 +371,10 @@ class DivergenceGuard:
                     "or shorten the sample period"
                 )
         # fast path, every step: a bound on the fastest rate in plain floats (the spin norm <= sqrt(3) max |omega_i|)
-        rates, spin = x[13 + self.n : 13 + self.n + self.robot].tolist(), x[10:13].tolist()
+        rates, spin = x[self._rates].tolist(), x[self._omega].tolist()
         bound = max(max(rates, default=0.0), -min(rates, default=0.0), 1.7320508075688772 * max(max(spin), -min(spin)))
         if not self._wheels_below(x):
-            speeds = np.abs(x[13 + self.n + self.robot : 13 + 2 * self.n])
+            speeds = np.abs(x[self._speeds])
             i = int(np.argmax(speeds))
             raise SimulationError(
                 f"the simulation left what the model can mean at t = {t:.6g} s: reaction wheel "
@@ -382,9 +389,9 @@ class DivergenceGuard:
             if energy > 10.0 * self.energy0:
                 raise SimulationError(
                     f"the simulation diverged at t = {t:.6g} s: {who} turns at {rate:.3g} rad/s, {rate * self.h:.3g} rad per "
-                    f"{self.what} of {self.h:.3g} s, and the kinetic energy grew from {self.energy0:.3g} J to {energy:.3g} J. "
-                    "The sampled controller is unstable or the step too long: lower the gains (see StiffGainsWarning) "
-                    "or shorten the sample period / step"
+                    f"{self.what} of {self.h:.3g} s, and the kinetic energy grew to {energy:.3g} J (the energy at the start: "
+                    f"{self.energy0:.3g} J). The sampled controller is unstable or the step too long: lower the gains (see "
+                    "StiffGainsWarning) or shorten the sample period / step"
                 )
         if rate > MAX_RATE:
             raise SimulationError(

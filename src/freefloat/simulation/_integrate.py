@@ -28,6 +28,7 @@ from ..core.errors import FreefloatError, SimulationError
 from ..core.model import Model
 from ..core.numbers import MAX_EFFORT
 from ..core.state import unpack_state
+from ..core.state_layout import Q_AT, span
 from ._compiled_runs import compiled_simulation
 from ._controller import check_output, plain_torques, zero_thrust
 from ._guard import Progress
@@ -122,7 +123,7 @@ def _rhs(model: Model, wrenches: tuple[np.ndarray, np.ndarray]) -> Callable[[np.
     u = np.zeros(model.n_joints + 6)
 
     def derivative(x: np.ndarray, tau: np.ndarray, force: np.ndarray, torque: np.ndarray) -> np.ndarray:
-        out = np.empty(x.shape[0])  # 13 + 2N, or 14 + 2N with the dissipated energy
+        out = np.empty(x.shape[0])  # the flat state's length, with the dissipated energy or without it
         if not stepper.derivative(np.ascontiguousarray(x, dtype=float), _u(model, tau, force, torque, u), out):
             _check_effort(None, u)
             raise SimulationError("H+ (1991 eq. 15) is not positive definite at this state: the mass properties are not physical")
@@ -192,7 +193,8 @@ def _run_rk4(plan: RunPlan, rec: _Recorder, bar: Progress) -> tuple[str, str]:
     next_sample_time = sample_period or dt
     stride = max(1, round(plan.output_period / dt))
     x = np.array(plan.x0, dtype=float, order="C")
-    x[6:10] /= np.linalg.norm(x[6:10])
+    attitude = span("attitude", n)
+    x[attitude] /= np.linalg.norm(x[attitude])
     u = np.empty(n + 6)
     quiet = zero_thrust(())  # read-only: a command that carries it has no thrust
     act = command(0.0, x.copy(), True)  # the kernel checks the plain torques before it steps (Stepper.REFUSED)
@@ -424,7 +426,7 @@ def _stop_events(model: Model, stops: Any) -> list[Any]:
         for limit, direction in ((stops.upper[i], 1.0), (stops.lower[i], -1.0)):
             if np.isfinite(limit):
 
-                def crossing(t: float, y: np.ndarray, index: int = 13 + i, limit: float = float(limit)) -> float:
+                def crossing(t: float, y: np.ndarray, index: int = Q_AT + i, limit: float = float(limit)) -> float:
                     return float(y[index] - limit)
 
                 crossing.terminal = True  # type: ignore[attr-defined]

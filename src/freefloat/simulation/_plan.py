@@ -20,6 +20,7 @@ from ..core.errors import ShapeError
 from ..core.model import Model
 from ..core.numbers import tolerance_problem
 from ..core.state import ActuatorLimits, State, dissipates, pack_state
+from ..core.state_layout import span
 from ..core.wheels import wheel_joint_model
 from ..mechanics.forces import _engine_wrenches, _wrenches
 from ._controller import Command, command_of
@@ -46,7 +47,8 @@ class RunPlan:
                        damping and friction as ``passive`` says
         user           the user's model (``passive`` applied): the controller, the events and the trajectory see it
     The times (s)
-        x0             the flat initial state of ``model`` (13 + 2N, + 1 for the dissipated energy; not modified)
+        x0             the flat initial state of ``model`` (``core.state_layout``; with the dissipated energy's slot when it
+                       integrates it; not modified)
         duration       the run's length
         fixed_step     the RK4 step; None: the adaptive integrator ``method`` (scipy ``solve_ivp``, ``rtol``, ``atol``)
         steps          the number of RK4 steps (``fixed_step`` divides ``duration``; 0 for the adaptive integrator)
@@ -143,7 +145,7 @@ def plan_run(
     wrenches = engine_wrenches(integrated, external)  # a clear error now for bad wrenches
     x0 = pack_state(state, 0.0 if dissipates(integrated) else None)  # with the dissipated energy's slot when there are passive torques
     stops = JointStops(integrated, joint_limits, restitution)
-    stops.check_initial(x0[13 : 13 + integrated.n_joints])
+    stops.check_initial(x0[span("q", integrated.n_joints)])
     period = output_period or max(0.01, fixed_step or 0.0)
     checks = check_run(
         integrated, user, x0, controller, duration, fixed_step=fixed_step, sample_period=sample_period,

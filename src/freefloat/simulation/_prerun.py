@@ -27,15 +27,19 @@ import numpy as np
 
 from ..core.errors import LongRunWarning, StiffGainsWarning
 from ..core.model import Model
+from ..core.state_layout import Q_AT, span
 from ..engine import FRICTION_SPEED
 from ..mechanics.momentum import free_floating_joint_inertia
 from ._guard import MIN_WALL_BUDGET, WALL_BUDGET_FACTOR, RunEstimate, estimate_run
 from .pd import JointPD
 
-__all__ = ["RK4_REAL_LIMIT", "RunChecks", "check_passive_step", "check_run", "pd_gain_bounds", "pd_stability"]
+__all__ = ["RK4_IMAGINARY_LIMIT", "RK4_REAL_LIMIT", "RunChecks", "check_passive_step", "check_run", "pd_gain_bounds", "pd_stability"]
 
 #: RK4's stability limit on the negative real axis: a decay rate c (1/s) is integrated stably by steps dt with c dt below it.
 RK4_REAL_LIMIT = 2.785
+#: RK4's stability limit on the imaginary axis (2 sqrt 2): an oscillation of w (rad/s) is integrated stably by steps dt
+#: with w dt below it.
+RK4_IMAGINARY_LIMIT = 2.828
 
 JointInertia = Callable[[Model, np.ndarray], np.ndarray]
 
@@ -92,8 +96,8 @@ def check_run(
             found[id(which)] = free_floating_joint_inertia(which, q)
         return found[id(which)]
 
-    gains = _stiff_gains(user, controller, np.array(x0[13 : 13 + user.n_joints]), sample_period or fixed_step, inertia, stacklevel=5)
-    passive = _stiff_passive(model, x0[13 : 13 + model.n_joints], fixed_step, inertia, stacklevel=5)
+    gains = _stiff_gains(user, controller, np.array(x0[Q_AT : Q_AT + user.n_joints]), sample_period or fixed_step, inertia, stacklevel=5)
+    passive = _stiff_passive(model, x0[span("q", model.n_joints)], fixed_step, inertia, stacklevel=5)
     return RunChecks(estimate, wall_limit, tuple(gains), tuple(passive))
 
 
@@ -203,9 +207,10 @@ def _stiff_passive(model: Model, q0: np.ndarray, step: float | None, inertia: Jo
 
     Near rest the smooth friction acts as a damping of F / v_s (:data:`~freefloat.engine.FRICTION_SPEED`); with the
     joint's viscous damping d and its effective inertia m (the diagonal of ``inertia(model, q0)``, the free-floating
-    joint inertia), the joint's rate decays at c = (d + F / v_s) / m, and RK4 needs c step < :data:`RK4_REAL_LIMIT`.
+    joint inertia), the joint's rate decays at c = (d + F / v_s) / m, and RK4 needs c step < :data:`RK4_REAL_LIMIT`. A
+    joint's spring K makes it oscillate at w = sqrt(K / m), and RK4 needs w step < :data:`RK4_IMAGINARY_LIMIT`.
     """
-    if step is None or model.n_joints == 0 or not model.has_passive:
+    if step is None or model.n_joints == 0 or not (model.has_passive or model.has_springs):
         return []
     m = np.diagonal(inertia(model, q0))
     # a column of q feels its joint's damping and friction and its mimic joints' (multiplier r): r^2 d, and near rest r^2 F / v_s
@@ -219,11 +224,27 @@ def _stiff_passive(model: Model, q0: np.ndarray, step: float | None, inertia: Jo
         for i in np.argsort(-rate)
         if rate[i] * step >= RK4_REAL_LIMIT
     ]
+    stiffness = own.joint_stiffness @ law**2
+    omega = np.sqrt(stiffness / m)
+    springs = [
+        f"joint {model.joint_names[i]!r} (effective inertia {m[i]:.3g}, spring {stiffness[i]:.3g}: it oscillates at "
+        f"{omega[i]:.3g} rad/s) needs steps below {RK4_IMAGINARY_LIMIT / omega[i]:.3g} s"
+        for i in np.argsort(-omega)
+        if omega[i] * step >= RK4_IMAGINARY_LIMIT
+    ]
     if lines:
         warnings.warn(
             f"RK4 steps of {step:.3g} s cannot follow the joints' damping and friction: " + "; ".join(lines) + ". Take shorter "
             "steps, use the adaptive integrator (no fixed_step), or simulate without them (passive='ignore'); the run will "
             "diverge.",
+            StiffGainsWarning,
+            stacklevel=stacklevel,
+        )
+    if springs:
+        lines += springs
+        warnings.warn(
+            f"RK4 steps of {step:.3g} s cannot follow the joints' springs: " + "; ".join(springs) + ". Take shorter "
+            "steps or use the adaptive integrator (no fixed_step); the run will diverge.",
             StiffGainsWarning,
             stacklevel=stacklevel,
         )

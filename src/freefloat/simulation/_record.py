@@ -14,6 +14,7 @@ from ..core.errors import SimulationError
 from ..core.model import Model
 from ..core.resources import MEMORY_FRACTION, available_memory, format_bytes
 from ..core.state import dissipated, unpack_state
+from ..core.state_layout import span, state_length
 from .trajectory import Trajectory
 
 #: The recorder looks at the free memory every this many recorded states.
@@ -56,10 +57,11 @@ class _Recorder:
         kept = min(len(self.t), len(self.x), len(self.act))
         if kept:
             xs = np.stack(self.x[:kept])
-            xs[..., 6:10] /= np.linalg.norm(xs[..., 6:10], axis=-1, keepdims=True)
+            attitude = span("attitude", n)
+            xs[..., attitude] /= np.linalg.norm(xs[..., attitude], axis=-1, keepdims=True)
             acts = [np.stack([a[i] for a in self.act[:kept]]) for i in range(4)]
         else:
-            xs = np.zeros((0, 13 + 2 * n))  # (no slot: no dissipated energy either)
+            xs = np.zeros((0, state_length(n)))  # (no slot: no dissipated energy either)
             acts = [np.zeros((0, n)), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0,), dtype=bool)]
         return _trajectory(model, np.asarray(self.t[:kept]), xs, (acts[0], acts[1], acts[2], acts[3]), status, message)
 
@@ -75,7 +77,7 @@ def _trajectory(
     copy: bool = True,
 ) -> Trajectory:
     """A Trajectory from stacked flat states xs (T, ..., S) and actuation; the dissipated energy from their last slot
-    (S = 14 + 2N; zeros for states without it: :func:`~freefloat.core.state.dissipated`), the other fields from the rest.
+    (zeros for states without it: :func:`~freefloat.core.state.dissipated`), the other fields from the rest.
 
     ``copy=False`` keeps the fields as views of ``xs`` (for the large arrays of
     batched rollouts, which nothing else holds); otherwise each field gets its own array.

@@ -24,6 +24,7 @@ import numpy as np
 
 from .. import engine
 from ..core.model import Model
+from ..core.state_layout import span
 from ..mechanics.momentum import zero_momentum_rate
 from .trajectory import JointLimitEvent, Trajectory
 
@@ -63,6 +64,7 @@ class JointStops:
         self.upper = np.asarray(model.joint_upper, dtype=float)
         self.active = mode == "stop" and bool(np.any(np.isfinite(self.lower) | np.isfinite(self.upper)))
         self._n = int(model.n_joints)
+        self._q = span("q", self._n)  # the flat state's joint values (core.state_layout)
         self._bounds = list(zip(self.lower.tolist(), self.upper.tolist(), strict=True))  # the per-step test in plain floats
         self.events: list[JointLimitEvent] = []
         self.at_stop: set[int] = set()  # at a stop since the last recorded impact
@@ -70,7 +72,7 @@ class JointStops:
 
     def release(self, x: np.ndarray) -> None:
         """Forget the joints of the flat state x that are back inside their limits."""
-        q = x[13 : 13 + self.model.n_joints]
+        q = x[self._q]
         for i in list(self.at_stop):
             if self.lower[i] + _RELEASE < q[i] < self.upper[i] - _RELEASE:
                 self.at_stop.discard(i)
@@ -92,7 +94,7 @@ class JointStops:
     def beyond(self, x: np.ndarray | list[float]) -> bool:
         """Whether a joint of the flat state x (an array, or its ``tolist()``) is beyond a limit."""
         # plain floats: ~0.5 us for a few joints, against ~4 us for numpy's reductions (this runs every step)
-        values = x[13 : 13 + self._n]
+        values = x[self._q]
         for value, (low, high) in zip(values if isinstance(values, list) else values.tolist(), self._bounds, strict=True):
             if value > high or value < low:
                 return True
@@ -101,7 +103,7 @@ class JointStops:
     def apply(self, t: float, x: np.ndarray, joints: list[int] | None = None) -> None:
         """Put every joint beyond its limit (or the ``joints`` given, at their limit) back on it and apply its impulse."""
         n = self.model.n_joints
-        q, qdot, omega = x[13 : 13 + n], x[13 + n : 13 + 2 * n], x[10:13]  # (a dissipated energy after them: untouched)
+        q, qdot, omega = x[self._q], x[span("qdot", n)], x[span("omega", n)]  # (a dissipated energy after them: untouched)
         self.release(x)
         for i in range(n) if joints is None else joints:
             side = _side(float(q[i]), self.lower[i], self.upper[i])

@@ -33,6 +33,7 @@ from ..core.errors import ShapeError, SimulationError
 from ..core.model import Model
 from ..core.resources import require_memory
 from ..core.state import ActuatorLimits, State, dissipates, pack_state, state_size
+from ..core.state_layout import span
 from ._compiled_runs import after_run, compiled_rollout, law_of, output_times, plant_models
 from ._controller import Controller, command_of
 from ._guard import MAX_RATE, Progress
@@ -307,7 +308,7 @@ def rollout(
         none = (np.zeros((times.size, 0, model.n_joints)), np.zeros((times.size, 0, 3)), np.zeros((times.size, 0, 3)))
         flags = np.zeros((times.size, 0, *((1 + 2 * user.n_wheels,) if user.wheels else ())), dtype=bool)
         return users(_trajectory(model, times, np.zeros((times.size, 0, size)), (*none, flags)))
-    check_passive_step(model, x[0, 13 : 13 + model.n_joints], dt)  # at the first trajectory's angles
+    check_passive_step(model, x[0, span("q", model.n_joints)], dt)  # at the first trajectory's angles
     command = command_of(controller, user, model, limits, batch)
     rec = _Recorder(model)
     bar = Progress(progress, float(duration))
@@ -335,8 +336,8 @@ def rollout(
                 tau, force, torque, _ = act
                 x = step(x, tau, force, torque)
                 with np.errstate(invalid="ignore"):
-                    rates = np.concatenate([x[:, 10:13], x[:, 13 + n : 13 + 2 * n]], axis=-1)  # omega0 and qdot
-                    bad = ~(np.abs(rates) <= MAX_RATE).all(axis=-1) | ~np.isfinite(x[:, : 13 + n]).all(axis=-1)
+                    rates = np.concatenate([x[:, span("omega", n)], x[:, span("qdot", n)]], axis=-1)  # omega0 and qdot
+                    bad = ~(np.abs(rates) <= MAX_RATE).all(axis=-1) | ~np.isfinite(x[:, : span("q", n).stop]).all(axis=-1)
                 if bad.any():  # the divergence guard of simulate: a non-finite state, or a rate beyond what the model can mean
                     first = int(np.argmax(bad))
                     rec.add(i * dt, x, act)

@@ -20,7 +20,7 @@ from ..core.conventions import attitude_matrix, euler321_from_matrix
 from ..core.model import Model
 from ..core.numbers import computed_states
 from ..core.state import State
-from ..mechanics.dynamics import passive_torque
+from ..mechanics.dynamics import dissipative_torque, passive_torque
 from ..mechanics.kinematics import end_effector_positions, end_effector_rotations, point_positions
 from ..mechanics.momentum import angular_momentum, kinetic_energy
 
@@ -162,9 +162,10 @@ class Trajectory:
 
     @cached_property
     def passive_torque(self) -> np.ndarray:
-        """The joints' passive torques at the output times (T, N) (T, B, N for a rollout): damping and friction
-        (:func:`freefloat.mechanics.passive_torque`; zeros for a model without, or a run with ``passive="ignore"``)."""
-        return passive_torque(self._need_model(), self.qdot)
+        """The joints' passive torques at the output times (T, N) (T, B, N for a rollout): damping, friction and springs
+        (:func:`freefloat.mechanics.passive_torque`; zeros for a model without, or a run with ``passive="ignore"``, which
+        keeps the springs)."""
+        return passive_torque(self._need_model(), self.qdot, self.q)
 
     @cached_property
     def end_effector_positions(self) -> np.ndarray:
@@ -378,7 +379,7 @@ def _older_file_dissipation(path: Path, model: Model | None, t: np.ndarray, qdot
         UserWarning,
         stacklevel=3,
     )
-    power = -np.sum(passive_torque(model, qdot) * qdot, axis=-1)
+    power = -np.sum(dissipative_torque(model, qdot) * qdot, axis=-1)
     steps = 0.5 * (power[1:] + power[:-1]) * np.diff(t).reshape((-1,) + (1,) * (power.ndim - 1))
     return np.concatenate([np.zeros_like(power[:1]), np.cumsum(steps, axis=0)], axis=0)
 

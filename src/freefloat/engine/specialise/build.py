@@ -150,17 +150,11 @@ def _symbolic_model(t: Tree, g: Graph) -> Any:
                 [0.0 if f.fold_zeros and flat[i] == 0.0 else g.input("data", start + i) for i in range(values.size)], dtype=object
             ).reshape(values.shape)
         fields[f.name] = sym
-    total_at = t.floats.shape[0] - t.ee_point.size - 1
-    points = np.array([g.input("data", total_at + 1 + i) for i in range(t.ee_point.size)], dtype=object).reshape(t.ee_point.shape)
-    return Arrays(
-        parent=_ints(t.parent),
-        ancestor=_ints(t.ancestor),
-        ee_body=_ints(t.ee_body),
-        total_mass=g.input("data", total_at),
-        ee_point=points,
-        n_joints=t.n_joints,
-        **fields,
-    )
+    total_at, points_at = t.field_offset("total_mass"), t.field_offset("ee_point")
+    points = np.array([g.input("data", points_at + i) for i in range(t.ee_point.size)], dtype=object).reshape(t.ee_point.shape)
+    views: dict[str, Any] = {"parent": _ints(t.parent), "ancestor": _ints(t.ancestor), "ee_body": _ints(t.ee_body), **fields}
+    views.update(total_mass=g.input("data", total_at), ee_point=points, n_joints=t.n_joints)
+    return Arrays(**views)
 
 
 def _ints(a: np.ndarray) -> np.ndarray:
@@ -170,9 +164,9 @@ def _ints(a: np.ndarray) -> np.ndarray:
 def trace(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[Graph, list[Any], int]:
     """The graph of one configuration of ``kind`` for the structure of ``t``: (graph, outputs, inputs per lane).
 
-    Inputs "W" rows: "jstar" q (N); "rollout" the state x (S = ``t.state_size``: 13 + 2N, and the dissipated energy when
+    Inputs "W" rows: "jstar" q (N); "rollout" the flat state x (S = ``t.state_size``: with the dissipated energy when
     a joint has damping or friction) then u (N + 6). Outputs: "jstar" J* (6E x N, row-major); "rollout" dx/dt (S: with
-    the dissipated power, the engine's, when S = 14 + 2N). Guards: the Cholesky pivots.
+    the dissipated power, the engine's, when x has that slot). Guards: the Cholesky pivots.
     ``wrenches`` (kinds :data:`WRENCH_KINDS`): the external wrenches' layout (:func:`layout`: bodies and frames,
     numbers while tracing); their values ext_f (W x 9) are inputs: of a map, the rows after its other inputs
     (:func:`wrench_inputs`); of a rollout, the rows after the rollout loop's buffer (:func:`~.lanes.rollout_rows`),
@@ -402,7 +396,7 @@ def source(t: Tree, kind: str, wrenches: Layout = ()) -> tuple[str, list[int], i
         "from freefloat.engine.cache import kernel\n\n"
         f"SLOTS = {slots!r}\nROWS = {rows}\nWRENCHES = {wrenches!r}\nEXT_AT = {ext_at}\n"
         f"COLUMNS = np.array({columns!r}, dtype=np.int64)\n"
-        + (f"STATE = {t.state_size}  # the flat state (13 + 2N; 14 + 2N with the dissipated energy)\n" if kind == "rollout" else "")
+        + (f"STATE = {t.state_size}  # the length of the flat state (with the dissipated energy or without)\n" if kind == "rollout" else "")
         + "\n\n@kernel()\n"
     )
     guarded = f"GUARDED = {bool(g.guards)}\n\n\n"

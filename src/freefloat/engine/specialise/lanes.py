@@ -25,6 +25,7 @@ import numba
 import numpy as np
 
 from ..cache import bind
+from ..layout import ATTITUDE_AT, Q_AT, coordinates, qdot_at
 
 __all__ = [
     "LANES",
@@ -52,7 +53,7 @@ def joint_pd(
     sample * sample stride + b * trajectory stride + j, so that any layout of the caller's array is read in place:
     ``feed``), u = ff[sample, b] (its last sample held) + kp (qref - q) + kd (vref - qdot), clipped to +-lim.
 
-    The state is x[x0 + i * step] (i = 0 .. 13 + 2N) and u is written to u[u0 + j * step] (j = 0 .. N + 6):
+    The flat state is x[x0 + i * step] (i = 0, 1, ...: ``core.state_layout``) and u is written to u[u0 + j * step] (j = 0 .. N + 6):
     step 1 for one trajectory, LANES for a lane of a block (``_rollout_blocks``). True if any
     component was clipped. A controller of the rollout loop has this signature (``P``: the lane kernel's data).
     """
@@ -63,7 +64,7 @@ def joint_pd(
     for j in range(n + 6):
         val = ff[at + j] if j < width else 0.0
         if j < n:
-            val += kp[b, j] * (qref[b, j] - x[x0 + (13 + j) * step]) + kd[b, j] * (vref[b, j] - x[x0 + (13 + n + j) * step])
+            val += kp[b, j] * (qref[b, j] - x[x0 + (Q_AT + j) * step]) + kd[b, j] * (vref[b, j] - x[x0 + (qdot_at(n) + j) * step])
         if val > lim[j]:
             val = lim[j]
             sat = True
@@ -248,12 +249,12 @@ def _rk4_rows(P: Any, W: np.ndarray, width: int, size: int, nu: int, dt: float) 
     for i in range(size * width):
         W[o_x + i] += c * W[o_acc + i]
     for lane_ in range(width):  # the quaternion renormalised
-        a = W[o_x + 6 * width + lane_]
-        b = W[o_x + 7 * width + lane_]
-        cc = W[o_x + 8 * width + lane_]
-        d = W[o_x + 9 * width + lane_]
+        a = W[o_x + ATTITUDE_AT * width + lane_]
+        b = W[o_x + (ATTITUDE_AT + 1) * width + lane_]
+        cc = W[o_x + (ATTITUDE_AT + 2) * width + lane_]
+        d = W[o_x + (ATTITUDE_AT + 3) * width + lane_]
         norm = math.sqrt(a * a + b * b + cc * cc + d * d)
-        for i in range(6, 10):
+        for i in range(ATTITUDE_AT, ATTITUDE_AT + 4):
             W[o_x + i * width + lane_] /= norm
 
 
@@ -293,7 +294,7 @@ def _rollout_blocks(
     (a lane kernel's data; the generic step's model, wrenches and scratch).
     """
     size = X0.shape[1]
-    n = (size - 13) // 2
+    n = coordinates(size)
     nu = n + 6
     k_total = X0.shape[0]
     o_u = size * width

@@ -340,7 +340,9 @@ def traced() -> types.SimpleNamespace:
     twins: dict[str, Any] = {}
     for key, value in list(names.items()):
         py_func = getattr(value, "py_func", None)
-        if py_func is not None:
+        if py_func is not None and py_func.__module__.startswith("freefloat.core"):  # core's arithmetic on numbers (the
+            twins[key] = py_func  # flat state's offsets: core.state_layout), run as it is
+        elif py_func is not None:
             twins[key] = types.FunctionType(py_func.__code__, names, key, py_func.__defaults__, py_func.__closure__)
     names.update(twins)
     names.update(math=_MATH, floats_view=slice_view, ints_view=slice_view, _pick=_pick)
