@@ -13,6 +13,7 @@ from typing import Any
 
 import pytest
 
+import freefloat
 import freefloat.mechanics._batches
 
 
@@ -103,3 +104,32 @@ def count_method_calls(monkeypatch: pytest.MonkeyPatch, cls: type, name: str) ->
 
     monkeypatch.setattr(cls, name, spy)
     return calls
+
+
+class Paths:
+    """Runs a simulation on one path and asserts that it took it (the spies above)."""
+
+    def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        from freefloat.control import Detumble, OperationalSpaceController, TransposedJacobianController
+
+        self.runs = compiled_runs(monkeypatch)
+        laws = (TransposedJacobianController, OperationalSpaceController, Detumble, freefloat.JointPD)
+        self.calls = [count_method_calls(monkeypatch, cls, "__call__") for cls in laws]
+
+    def compiled(self, law: str, run: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        """``run(*args, **kwargs)``, which must run ``law`` inside the compiled loop and never call a controller from
+        Python."""
+        runs, calls = len(self.runs), sum(map(len, self.calls))
+        out = run(*args, **kwargs)
+        assert self.runs[runs:] and set(self.runs[runs:]) == {law}, f"the compiled loop ran {self.runs[runs:]}, not {law}"
+        assert sum(map(len, self.calls)) == calls, "the compiled run called the controller from Python"
+        return out
+
+    def python(self, run: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
+        """``run(*args, **kwargs)``, which must call the controller from Python every sample and run no compiled law."""
+        runs, calls = len(self.runs), sum(map(len, self.calls))
+        out = run(*args, **kwargs)
+        laws = [r for r in self.runs[runs:] if r != "joint_pd"]  # (the Python loop's compiled RK4 steps between samples)
+        assert not laws, f"the Python run ran a compiled law: {laws}"
+        assert sum(map(len, self.calls)) > calls
+        return out

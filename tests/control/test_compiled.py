@@ -12,7 +12,6 @@ models and a few dozen steps: the kernels are compiled once per machine (engine/
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -25,7 +24,7 @@ from freefloat.control.desired import StraightLine
 from freefloat.control.tasks import TaskSpace
 from freefloat.core.errors import ShapeError
 from freefloat.papers.paper1991 import section5_setup
-from spies import compiled_runs, count_method_calls
+from spies import Paths
 
 BOUND = 1e-12
 STATES = ("q", "qdot", "omega", "attitude", "r_cm", "v_cm")
@@ -59,33 +58,6 @@ def gap(a: ff.Trajectory, b: ff.Trajectory, row: int | None = None, fields: tupl
 
     assert np.array_equal(of(a, "saturated", row), b.saturated)
     return max(float(np.max(np.abs(of(a, f, row) - of(b, f, None)) / (1.0 + np.abs(of(b, f, None))))) for f in fields)
-
-
-class Paths:
-    """Runs a simulation on one path and asserts that it took it (the spies of tests/spies.py)."""
-
-    def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
-        self.runs = compiled_runs(monkeypatch)
-        laws = (TransposedJacobianController, OperationalSpaceController, Detumble, ff.JointPD)
-        self.calls = [count_method_calls(monkeypatch, cls, "__call__") for cls in laws]
-
-    def compiled(self, law: str, run: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
-        """``run(*args, **kwargs)``, which must run ``law`` inside the compiled loop and never call a controller from
-        Python."""
-        runs, calls = len(self.runs), sum(map(len, self.calls))
-        out = run(*args, **kwargs)
-        assert self.runs[runs:] and set(self.runs[runs:]) == {law}, f"the compiled loop ran {self.runs[runs:]}, not {law}"
-        assert sum(map(len, self.calls)) == calls, "the compiled run called the controller from Python"
-        return out
-
-    def python(self, run: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
-        """``run(*args, **kwargs)``, which must call the controller from Python every sample and run no compiled law."""
-        runs, calls = len(self.runs), sum(map(len, self.calls))
-        out = run(*args, **kwargs)
-        laws = [r for r in self.runs[runs:] if r != "joint_pd"]  # (the Python loop's compiled RK4 steps between samples)
-        assert not laws, f"the Python run ran a compiled law: {laws}"
-        assert sum(map(len, self.calls)) > calls
-        return out
 
 
 @pytest.fixture

@@ -26,7 +26,7 @@ from freefloat.control import Detumble, OperationalSpaceController, TransposedJa
 from freefloat.control.tasks import TaskSpace
 from freefloat.core.wheels import reaction_wheel
 from mechanics.test_specialise_dynamics import own_cache as own_cache  # the fixture
-from spies import compiled_runs, count_method_calls
+from spies import Paths
 
 #: Trajectory b of the compiled rollout against the Python-path simulation b: every state and wheel output, largest
 #: absolute difference over every output of the 64 trajectories. Measured 2026-12-02 (2-core dev VM): 7.1e-15 (the
@@ -109,30 +109,6 @@ def gap(fast: ff.Trajectory, b: int, slow: ff.Trajectory, fields: tuple[str, ...
     for name in FLAGS:
         assert np.array_equal(np.asarray(getattr(fast, name))[:, b], getattr(slow, name)), name
     return max(float(np.abs(np.asarray(getattr(fast, f))[:, b] - getattr(slow, f)).max()) for f in fields)
-
-
-class Paths:
-    """Runs a simulation on one path and asserts that it took it (the spies of tests/spies.py)."""
-
-    def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
-        self.runs = compiled_runs(monkeypatch)
-        laws = (TransposedJacobianController, OperationalSpaceController, Detumble, ff.JointPD)
-        self.calls = [count_method_calls(monkeypatch, cls, "__call__") for cls in laws]
-
-    def compiled(self, law: str, run: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
-        runs, calls = len(self.runs), sum(map(len, self.calls))
-        out = run(*args, **kwargs)
-        assert self.runs[runs:] and set(self.runs[runs:]) == {law}, f"the compiled loop ran {self.runs[runs:]}, not {law}"
-        assert sum(map(len, self.calls)) == calls, "the compiled run called the controller from Python"
-        return out
-
-    def python(self, run: Callable[..., Any], *args: Any, **kwargs: Any) -> Any:
-        runs, calls = len(self.runs), sum(map(len, self.calls))
-        out = run(*args, **kwargs)
-        laws = [r for r in self.runs[runs:] if r != "joint_pd"]  # (the Python loop's compiled RK4 steps between samples)
-        assert not laws, f"the Python run ran a compiled law: {laws}"
-        assert sum(map(len, self.calls)) > calls
-        return out
 
 
 @pytest.fixture
