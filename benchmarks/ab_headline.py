@@ -7,9 +7,10 @@ Each round runs ``benchmarks/run.py --only core --only dynamics --only control``
 first and this checkout next, in fresh processes: the earlier revision from a ``git worktree`` in a temporary folder
 (its own benchmarks, its own engine, its own kernel cache: ``run.py`` warms every kernel before timing anything).
 ``--startup`` adds one run of the start-up benchmark per revision (its cold figure compiles every kernel: minutes).
-The report has, for every rate or time that both revisions measured under the same name, each revision's best over
-the rounds and the ratio this / base as a speed (above 1: this checkout is faster), with the load average of every
-run. The machine is noisy: a ratio within the spread of one revision's own rounds is noise, and the report gives that
+The report has, for every rate or time that both revisions measured under the same name (and J* into the caller's
+``out=``, which the base lacks, against the base's J*: ``base_figure`` names it), each revision's best over the
+rounds and the ratio this / base as a speed (above 1: this checkout is faster), with the load average of every run.
+The machine is noisy: a ratio within the spread of one revision's own rounds is noise, and the report gives that
 spread. Not part of ``make bench`` (it runs ``make bench``'s core twice per round).
 """
 
@@ -28,6 +29,10 @@ from typing import Any
 BASE = "1dcf09e"
 ROOT = Path(__file__).resolve().parents[1]
 HEADLINE = ("core", "dynamics", "control")
+#: A figure of this checkout compared with another of the base, where the base has no figure of that name: J* into
+#: the caller's ``out=`` against the base's J* without it (the base recycled its own outputs, which this checkout
+#: leaves to the caller).
+COUNTERPARTS = (("/jstar_out/", "/jstar/"),)
 
 
 def flatten(report: Any, prefix: str = "") -> dict[str, float]:
@@ -108,18 +113,26 @@ def compare(runs: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
     flat = {label: [flatten(r) for r in rs] for label, rs in runs.items()}
     loads = {label: [v for r in fs for k, v in r.items() if k.endswith("load_average_at_start/0")] for label, fs in flat.items()}
     figures: dict[str, Any] = {}
-    keys = set().union(*flat["base"]) & set().union(*flat["this"])
-    for key in sorted(keys):
+    base_keys, this_keys = set().union(*flat["base"]), set().union(*flat["this"])
+    pairs = {key: key for key in base_keys & this_keys}
+    for key in this_keys - base_keys:
+        for mine, theirs in COUNTERPARTS:
+            if mine in key and key.replace(mine, theirs) in base_keys:
+                pairs[key] = key.replace(mine, theirs)
+    for key in sorted(pairs):
         sign = direction(key)
         if not sign:
             continue
-        values = {label: [r[key] for r in fs if key in r and r[key] > 0] for label, fs in flat.items()}
+        source = {"base": pairs[key], "this": key}
+        values = {label: [r[source[label]] for r in fs if source[label] in r and r[source[label]] > 0] for label, fs in flat.items()}
         if not values["base"] or not values["this"]:
             continue
         best = {label: (max(v) if sign > 0 else min(v)) for label, v in values.items()}
         spread = {label: (max(v) / min(v) if len(v) > 1 else None) for label, v in values.items()}
         speed = best["this"] / best["base"] if sign > 0 else best["base"] / best["this"]
         figures[key] = {"base": best["base"], "this": best["this"], "speed_this_over_base": speed, "spread_within": spread}
+        if pairs[key] != key:
+            figures[key]["base_figure"] = pairs[key]
     return {"figures": figures, "load_average_at_start": loads, "runs": {label: len(rs) for label, rs in runs.items()}}
 
 

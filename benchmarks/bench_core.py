@@ -274,14 +274,18 @@ def bench_system(system: System, configs: int, pinocchio_configs: int, repeats: 
     with generic():
         result["verification_generic"] = verify(system, loop, q, configs)
 
+    # jstar_out: J* into one array the caller owns, reused call after call (out=; how a sweep over chunks gets the speed)
+    jstar_buffer = np.empty((len(q), 6 * model.n_end_effectors, model.n_joints))
     calls = {
         "jstar": lambda: ff.generalized_jacobian(model, q),
+        "jstar_out": lambda: ff.generalized_jacobian(model, q, out=jstar_buffer),
         "det": lambda: system.freefloat_det(q),
         "sigma_min": lambda: ff.mechanics.jacobian_measure(model, q, None, "sigma_min"),
     }
     sub = q[:pinocchio_configs]
     log(f"[{system.key}] Pinocchio loop, {len(sub):,} configurations, best of {repeats}")
-    theirs = {key: rate(best_of(lambda key=key: loop.loop(key, sub), repeats), len(sub)) for key in calls}
+    theirs = {key: rate(best_of(lambda key=key: loop.loop(key, sub), repeats), len(sub)) for key in calls if key != "jstar_out"}
+    theirs["jstar_out"] = theirs["jstar"]  # the Pinocchio loop makes J* one configuration at a time either way
     result["pinocchio_loop"] = theirs
     for engine in ("specialised", "generic"):
         for threads in thread_counts():
@@ -331,6 +335,9 @@ def run_core(configs: int, pinocchio_configs: int, repeats: int, log: Callable[[
             "det: det J* (square singularity rows) or the manipulability; sigma_min: the smallest singular value of the "
             "singularity rows (ff.mechanics.jacobian_measure; Pinocchio loop: numpy's SVD of its J*). measure_vs_jstar: "
             "the measure's configs/s over J*'s in the same engine and thread count (the measures never write J*).",
+            "jstar: a new result array each call (the previous one dropped, as a loop over chunks does); jstar_out: "
+            "into one array the caller owns and passes as out= call after call (its pages already mapped); the Pinocchio "
+            "loop's figure is the same for both.",
             "memory_write: numpy fill of a 512 MiB array on one thread (GB/s); jstar_write_GB_per_s: the bytes of J* "
             "written per second (8 x 6E x N per configuration) and jstar_write_share_of_fill its share of that bandwidth.",
         ],
@@ -359,9 +366,9 @@ def table(report: dict[str, Any]) -> str:
     lines.append(head)
     lines.append("-" * len(head))
     for key, res in report["systems"].items():
-        for name in ("jstar", "det", "sigma_min"):
-            label = {"jstar": "J*", "det": res["det"], "sigma_min": "sigma_min"}[name]
-            err = res["verification"][f"max_rel_err_{name}"]
+        for name in ("jstar", "jstar_out", "det", "sigma_min"):
+            label = {"jstar": "J*", "jstar_out": "J* into out=", "det": res["det"], "sigma_min": "sigma_min"}[name]
+            err = res["verification"][f"max_rel_err_{'jstar' if name == 'jstar_out' else name}"]
             for sub_key, sub in res.items():
                 if "threads_" not in sub_key:
                     continue

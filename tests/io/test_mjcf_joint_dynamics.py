@@ -20,43 +20,9 @@ import numpy as np
 import pytest
 
 import freefloat as ff
-from freefloat.io.mujoco_bridge import from_mujoco_state, mujoco_state
+from mjcf_arms import JOINTS, order, set_state, state_of, write_arms
 from oracle_checks import MARGIN, assert_within, relative_error
 
-ARMS = """
-<mujoco model="two_arm_rotors">
-  <option gravity="0 0 0" timestep="0.001" integrator="RK4"/>
-  <worldbody>
-    <body name="bus" pos="0 0 0">
-      <freejoint name="root"/>
-      <inertial pos="0 0 0" mass="500" diaginertia="60 70 80"/>
-      {arm_a}
-      {arm_b}
-    </body>
-  </worldbody>
-  <actuator>
-    {motors}
-  </actuator>
-</mujoco>
-"""
-
-ARM = """
-      <body name="{p}upper" pos="{x} 0.4 0.5" euler="0 0 {yaw}">
-        <joint name="{p}shoulder" type="hinge" axis="0 0 1" armature="0.05" damping="2.0"{f1}/>
-        <inertial pos="0.35 0 0" mass="6" diaginertia="0.02 0.25 0.25"/>
-        <body name="{p}fore" pos="0.7 0 0">
-          <joint name="{p}elbow" type="hinge" axis="0 1 0" armature="0.03" damping="1.2"{f2}/>
-          <inertial pos="0.3 0 0" mass="4" diaginertia="0.01 0.12 0.12"/>
-          <body name="{p}hand" pos="0.6 0 0">
-            <joint name="{p}wrist" type="hinge" axis="1 0 0" armature="0.01" damping="0.5"{f3}/>
-            <inertial pos="0.05 0 0" mass="1.5" diaginertia="0.004 0.003 0.003"/>
-            <site name="{p}tool" pos="0.1 0 0"/>
-          </body>
-        </body>
-      </body>
-"""
-
-JOINTS = [f"{p}{j}" for p in ("a_", "b_") for j in ("shoulder", "elbow", "wrist")]
 #: Agreement with MuJoCo on this file (relative; the simulation's in rad), measured 2026-11-26 on the 2-core dev VM
 #: (MuJoCo 4.0.0, numpy 2.4.6): kinetic energy 7.5e-16, forward dynamics 4.2e-14, final q of the 5 s run 4.4e-16 (both
 #: RK4 at 1 ms).
@@ -67,16 +33,10 @@ SIMULATION_MEASURED = 4.5e-16
 
 def write(tmp_path: Path, *, friction: bool = True) -> Path:
     """The two-arm file; ``friction`` False leaves the joints' ``frictionloss`` out."""
-    losses = {f"f{i}": f' frictionloss="{value}"' if friction else "" for i, value in enumerate((0.4, 0.25, 0.1), start=1)}
-    arms = [ARM.format(p="a_", x=0.6, yaw=0.3, **losses), ARM.format(p="b_", x=-0.6, yaw=2.8, **losses)]
-    text = ARMS.format(arm_a=arms[0], arm_b=arms[1], motors="".join(f'<motor joint="{j}" gear="1"/>' for j in JOINTS))
+    losses = [f' frictionloss="{value}"' if friction else "" for value in (0.4, 0.25, 0.1)]
+    joints = ('armature="0.05" damping="2.0"', 'armature="0.03" damping="1.2"', 'armature="0.01" damping="0.5"')
     path = tmp_path / ("arms.xml" if friction else "arms_no_friction.xml")
-    path.write_text(text, encoding="utf-8")
-    return path
-
-
-def order(mj: mujoco.MjModel, model: ff.Model) -> tuple[list[int], list[int]]:
-    return [mj.joint(n).qposadr[0] for n in model.joint_names], [mj.joint(n).dofadr[0] for n in model.joint_names]
+    return write_arms(path, [j + f for j, f in zip(joints, losses, strict=True)], motors=True, name="two_arm_rotors")
 
 
 def test_the_joint_parameters_are_read(tmp_path: Path) -> None:
@@ -93,16 +53,14 @@ def test_kinetic_energy_and_forward_dynamics_agree_with_mujoco(tmp_path: Path) -
     assert not model.joint_friction.any() and model.joint_damping.all() and model.joint_armature.all()
     mj = mujoco.MjModel.from_xml_path(str(path))
     data = mujoco.MjData(mj)
-    qadr, vadr = order(mj, model)
+    _, vadr = order(mj, model)
     rng = np.random.default_rng(21)
     worst_energy = worst_forward = 0.0
     for _ in range(5):
         state = ff.State(
             q=rng.uniform(-1.0, 1.0, 6), qdot=rng.normal(size=6), omega=rng.normal(scale=0.05, size=3), v_cm=[0.1, 0.0, -0.05]
         ).resolve(model)
-        qpos_s, qvel_s = mujoco_state(model, state)
-        data.qpos[0:7], data.qvel[0:6] = qpos_s[0:7], qvel_s[0:6]
-        data.qpos[qadr], data.qvel[vadr] = qpos_s[7:], qvel_s[6:]
+        set_state(mj, data, model, state)
         data.ctrl[:] = 0.0
         mujoco.mj_forward(mj, data)
         full = np.zeros((mj.nv, mj.nv))
@@ -124,16 +82,11 @@ def test_five_seconds_with_damping_agree_with_mujoco(tmp_path: Path) -> None:
     model = ff.load(path)
     mj = mujoco.MjModel.from_xml_path(str(path))
     data = mujoco.MjData(mj)
-    qadr, vadr = order(mj, model)
     state = ff.State(q=np.linspace(-0.8, 0.9, 6), qdot=np.linspace(1.5, -1.0, 6), omega=[0.01, 0.02, -0.03]).resolve(model)
-    qpos_s, qvel_s = mujoco_state(model, state)
-    data.qpos[0:7], data.qvel[0:6] = qpos_s[0:7], qvel_s[0:6]
-    data.qpos[qadr], data.qvel[vadr] = qpos_s[7:], qvel_s[6:]
+    set_state(mj, data, model, state)
     for _ in range(5000):
         mujoco.mj_step(mj, data)
-    qpos = np.concatenate([data.qpos[0:7], data.qpos[qadr]])
-    qvel = np.concatenate([data.qvel[0:6], data.qvel[vadr]])
-    final = from_mujoco_state(model, qpos, qvel)
+    final = state_of(mj, data, model)
     traj = ff.simulate(model, state, 5.0, fixed_step=1e-3, joint_limits="flag")
     error = float(np.abs(traj.q[-1] - final.q).max())
     assert np.abs(traj.q[-1] - traj.q[0]).max() > 0.1, "the arms should move"
@@ -149,11 +102,8 @@ def test_armature_error_of_1e_7_is_seen_by_the_energy_bound(tmp_path: Path) -> N
     wrong = dataclasses.replace(model, joint_armature=model.joint_armature * (1.0 + 1e-7 * (np.arange(6) == 2)))
     mj = mujoco.MjModel.from_xml_path(str(path))
     data = mujoco.MjData(mj)
-    qadr, vadr = order(mj, model)
     state = ff.State(q=np.zeros(6), qdot=np.array([0.0, 0.0, 3.0, 0.0, 0.0, 0.0])).resolve(model)
-    qpos_s, qvel_s = mujoco_state(model, state)
-    data.qpos[0:7], data.qvel[0:6] = qpos_s[0:7], qvel_s[0:6]
-    data.qpos[qadr], data.qvel[vadr] = qpos_s[7:], qvel_s[6:]
+    set_state(mj, data, model, state)
     mujoco.mj_forward(mj, data)
     full = np.zeros((mj.nv, mj.nv))
     mujoco.mj_fullM(mj, data, full)

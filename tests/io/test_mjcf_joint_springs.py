@@ -21,43 +21,12 @@ import numpy as np
 import pytest
 
 import freefloat as ff
-from freefloat.io.mujoco_bridge import from_mujoco_state, mujoco_state, to_mjcf
+from freefloat.io.mujoco_bridge import to_mjcf
 from mechanics.test_specialise_dynamics import own_cache as own_cache  # the fixture
+from mjcf_arms import JOINTS, order, set_state, state_of, write_arms
 from oracle_checks import MARGIN, assert_within, relative_error
 from trees import build_random_model
 
-ARMS = """
-<mujoco model="two_arm_springs">
-  <compiler angle="radian"/>
-  <option gravity="0 0 0" timestep="0.001" integrator="RK4"/>
-  <worldbody>
-    <body name="bus" pos="0 0 0">
-      <freejoint name="root"/>
-      <inertial pos="0 0 0" mass="500" diaginertia="60 70 80"/>
-      {arm_a}
-      {arm_b}
-    </body>
-  </worldbody>
-</mujoco>
-"""
-
-ARM = """
-      <body name="{p}upper" pos="{x} 0.4 0.5" euler="0 0 {yaw}">
-        <joint name="{p}shoulder" type="hinge" axis="0 0 1" stiffness="40" springref="0.6"/>
-        <inertial pos="0.35 0 0" mass="6" diaginertia="0.02 0.25 0.25"/>
-        <body name="{p}fore" pos="0.7 0 0">
-          <joint name="{p}elbow" type="hinge" axis="0 1 0" stiffness="12" springref="-0.4"/>
-          <inertial pos="0.3 0 0" mass="4" diaginertia="0.01 0.12 0.12"/>
-          <body name="{p}hand" pos="0.6 0 0">
-            <joint name="{p}wrist" type="slide" axis="1 0 0" stiffness="5" springref="0.05"/>
-            <inertial pos="0.05 0 0" mass="1.5" diaginertia="0.004 0.003 0.003"/>
-            <site name="{p}tool" pos="0.1 0 0"/>
-          </body>
-        </body>
-      </body>
-"""
-
-JOINTS = [f"{p}{j}" for p in ("a_", "b_") for j in ("shoulder", "elbow", "wrist")]
 #: Agreement with MuJoCo on this file (relative; the simulation's in rad and m), measured 2026-12-02 on the 2-core dev
 #: VM (MuJoCo 4.0.0, numpy 2.4.6): forward dynamics 6.6e-15, final q of the 5 s run 1.4e-14 (both RK4 at 1 ms); the
 #: drift of the kinetic energy plus the springs' potential over the run, relative to it, 2.9e-11 (RK4's error at 1 ms).
@@ -67,21 +36,8 @@ ENERGY_DRIFT_MEASURED = 2.9e-11
 
 
 def write(tmp_path: Path) -> Path:
-    arms = [ARM.format(p="a_", x=0.6, yaw=0.3), ARM.format(p="b_", x=-0.6, yaw=2.8)]
-    path = tmp_path / "springs.xml"
-    path.write_text(ARMS.format(arm_a=arms[0], arm_b=arms[1]), encoding="utf-8")
-    return path
-
-
-def order(mj: mujoco.MjModel, model: ff.Model) -> tuple[list[int], list[int]]:
-    return [mj.joint(n).qposadr[0] for n in model.joint_names], [mj.joint(n).dofadr[0] for n in model.joint_names]
-
-
-def set_state(mj: mujoco.MjModel, data: mujoco.MjData, model: ff.Model, state: ff.State) -> None:
-    qadr, vadr = order(mj, model)
-    qpos_s, qvel_s = mujoco_state(model, state)
-    data.qpos[0:7], data.qvel[0:6] = qpos_s[0:7], qvel_s[0:6]
-    data.qpos[qadr], data.qvel[vadr] = qpos_s[7:], qvel_s[6:]
+    joints = ('stiffness="40" springref="0.6"', 'stiffness="12" springref="-0.4"', 'stiffness="5" springref="0.05"')
+    return write_arms(tmp_path / "springs.xml", joints, wrist_type="slide", angle="radian", name="two_arm_springs")
 
 
 def without_springs(model: ff.Model) -> ff.Model:
@@ -130,12 +86,11 @@ def test_five_seconds_with_springs_agree_with_mujoco_and_conserve_the_energy(tmp
     model = ff.load(path)
     mj = mujoco.MjModel.from_xml_path(str(path))
     data = mujoco.MjData(mj)
-    qadr, vadr = order(mj, model)
     state = ff.State(q=np.linspace(-0.8, 0.9, 6), qdot=np.linspace(1.5, -1.0, 6), omega=[0.01, 0.02, -0.03]).resolve(model)
     set_state(mj, data, model, state)
     for _ in range(5000):
         mujoco.mj_step(mj, data)
-    final = from_mujoco_state(model, np.concatenate([data.qpos[0:7], data.qpos[qadr]]), np.concatenate([data.qvel[0:6], data.qvel[vadr]]))
+    final = state_of(mj, data, model)
     traj = ff.simulate(model, state, 5.0, fixed_step=1e-3, joint_limits="flag")
     assert np.abs(traj.q[-1] - traj.q[0]).max() > 0.1, "the arms should move"
     assert_within("final q after 5 s with springs vs MuJoCo", float(np.abs(traj.q[-1] - final.q).max()), MARGIN * SIMULATION_MEASURED)
