@@ -36,3 +36,10 @@ def allocate(parameters: dict[str, Any]) -> dict[str, Any]:
     """Take ``parameters["mib"]`` MiB, 32 MiB at a time (each page written), and hold it to the end."""
     held = [np.ones(32 << 17) for _ in range(int(parameters["mib"]) // 32)]  # 32 MiB of float64 each
     return {"held_mib": float(sum(a.nbytes for a in held) >> 20)}
+
+
+def threads(parameters: dict[str, Any]) -> dict[str, Any]:
+    """numba's thread count in the task thread that computes the run (what the engine's batched kernels use)."""
+    import numba
+
+    return {"numba_threads": float(numba.get_num_threads())}

@@ -66,6 +66,20 @@ def test_scheduler_and_local_cluster_give_the_same_runs(cluster: Cluster, tmp_pa
     assert (tmp_path / "cluster" / "report" / "summary.md").is_file()
 
 
+def test_workers_started_by_hand_share_their_machine_s_cores(cluster: Cluster, tmp_path: Path) -> None:
+    """The module's two workers, started as ``dask worker --nthreads 1`` without NUMBA_NUM_THREADS (numba's default:
+    every core in each), run each run on half the machine's cores, as a local cluster of two workers does: the
+    campaign registers its worker plugin (issue 44: set by freefloat, not by a recipe the user must follow)."""
+    runs = {"i": {"values": [0, 1, 2, 3]}}
+    spec = campaign(tmp_path, function="campaign_runs:threads", parameters=runs, record={"scalars": ["numba_threads"]})
+    there = freefloat(spec, "--out", tmp_path / "cluster", "--scheduler", cluster.address)
+    here = freefloat(spec, "--out", tmp_path / "local", "--workers", "2")
+    assert there.returncode == here.returncode == 0, there.stderr + here.stderr
+    share = max(1, (os.cpu_count() or 1) // 2)
+    assert read_runs(tmp_path / "cluster").column("numba_threads").to_pylist() == [float(share)] * 4
+    assert read_runs(tmp_path / "local").column("numba_threads").to_pylist() == [float(share)] * 4
+
+
 def test_a_worker_killed_mid_campaign_loses_nothing(cluster: Cluster, tmp_path: Path) -> None:
     doomed = cluster.worker("doomed")
     spec = marked_campaign(tmp_path, 6, gated=True)

@@ -38,6 +38,8 @@ PRIVATE_ATTRIBUTES = {
     "fndesc",
     "pipeline_class",
     "compute_fingerprint",
+    "targetctx",
+    "add_overload",
 }
 
 
@@ -191,3 +193,44 @@ def test_a_lookup_that_fails_at_its_first_use_falls_back_to_the_pool(monkeypatch
     assert pooled and all(p > 1 for p in pooled)  # the first call's ranges, and the second's, on the pool
     np.testing.assert_array_equal(first, expected)
     np.testing.assert_array_equal(second, expected)
+
+
+READY = """
+import json, sys
+import numpy as np
+from freefloat.engine import gate, stops
+q = np.zeros((3, 2, 2)); lower = np.full(2, -1.0); upper = np.full(2, 1.0)
+opened, furthest = np.empty((2, 2, 2), dtype=np.int64), np.empty((2, 2, 2))
+args = (q, lower, upper, 0, 2, opened, furthest, np.empty((8, 5), dtype=np.int64), np.empty(8))
+report = {"ready": gate.ready(stops.limit_spans, args), "signatures": len(stops.limit_spans.signatures)}
+stops.limit_spans_batch(q, lower, upper)
+report["after_call"] = gate.ready(stops.limit_spans, args)
+report["misses"] = sum(stops.limit_spans.stats.cache_misses.values())
+print(json.dumps(report))
+"""
+
+
+def test_ready_loads_from_the_cache_and_never_compiles(tmp_path: Path) -> None:
+    """``gate.ready``: False on an empty cache, without compiling (no signature after it); True once the kernel is
+    compiled; in the next process, True at once, loaded from the cache (no miss: nothing compiled)."""
+    env = {**os.environ, "FREEFLOAT_CACHE_DIR": str(tmp_path / "cache")}
+    runs = []
+    for _ in range(2):
+        done = subprocess.run([sys.executable, "-c", READY], env=env, capture_output=True, text=True, timeout=600, check=False)
+        assert done.returncode == 0, done.stderr
+        runs.append(json.loads(done.stdout.strip().splitlines()[-1]))
+    assert runs[0] == {"ready": False, "signatures": 0, "after_call": True, "misses": 1}
+    assert runs[1] == {"ready": True, "signatures": 1, "after_call": True, "misses": 0}
+
+
+def test_ready_without_the_threads_internal_asks_the_public_signatures(monkeypatch: pytest.MonkeyPatch) -> None:
+    from freefloat.engine import stops
+
+    monkeypatch.setattr(gate, "_THREADS", None)
+    assert gate.ready(stops.limit_spans, ()) is bool(stops.limit_spans.signatures)
+
+    class Fresh:
+        def __init__(self) -> None:
+            self.signatures: list[object] = []
+
+    assert gate.ready(Fresh(), ()) is False

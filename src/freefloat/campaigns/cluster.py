@@ -13,7 +13,15 @@ from urllib.parse import urlsplit
 
 from ..core.errors import CampaignError
 
-__all__ = ["ALLOWED_FAILURES", "CONNECT_TIMEOUT", "WORKER_TIMEOUT", "check_cluster_options", "dask_client", "local_threads"]
+__all__ = [
+    "ALLOWED_FAILURES",
+    "CONNECT_TIMEOUT",
+    "WORKER_TIMEOUT",
+    "check_cluster_options",
+    "dask_client",
+    "local_threads",
+    "share_threads",
+]
 
 #: Seconds to wait for an external scheduler to answer.
 CONNECT_TIMEOUT = 4.0
@@ -54,6 +62,7 @@ def dask_client(
             raise CampaignError(f"--scheduler {scheduler}: the scheduler answered, then the connection failed ({_one_line(exc)})") from None
         with _quiet("distributed.client"), client:  # (its ERROR lines when the scheduler goes: our one line says it)
             _wait_for_workers(client, scheduler, WORKER_TIMEOUT if worker_timeout is None else worker_timeout)
+            share_threads(client, numba_threads)
             yield client
         return
     threads = numba_threads if numba_threads is not None else local_threads(workers or 1)
@@ -70,6 +79,7 @@ def dask_client(
             silence_logs=logging.CRITICAL,
         )
     with cluster, Client(cluster, set_as_default=False) as client:
+        share_threads(client, threads)
         yield client
 
 
@@ -237,6 +247,18 @@ def _address(address: str) -> tuple[str, int]:
     if parts.scheme not in SCHEMES:
         raise CampaignError(f"--scheduler {address}: unknown scheme {parts.scheme}://; use tcp://host:port (or tls://, ws://, wss://)")
     return parts.hostname, port
+
+
+def share_threads(client: Any, threads: int | None) -> None:
+    """Register :class:`.worker_threads.ThreadShare` with the cluster of ``client`` (the task threads by host, from the
+    scheduler): every worker, there or joining, runs each run on its share of its machine's cores."""
+    from .worker_threads import ThreadShare
+
+    task_threads: dict[str, int] = {}
+    for address, count in client.nthreads().items():
+        host = urlsplit(address).hostname or ""
+        task_threads[host] = task_threads.get(host, 0) + int(count)
+    client.register_plugin(ThreadShare(threads, task_threads))
 
 
 def local_threads(workers: int) -> int:

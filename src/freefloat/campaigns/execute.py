@@ -13,12 +13,14 @@ more elsewhere (``allowed-failures``), then the runner stores it as failed by it
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import math
 import os
 import socket
 import time
 import traceback
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,7 +29,28 @@ import numpy as np
 
 from .spec import get_path, set_path
 
-__all__ = ["RunOutcome", "RunTask", "execute_run", "scalar_value"]
+__all__ = ["NUMBA_THREADS", "RunOutcome", "RunTask", "execute_run", "scalar_value"]
+
+#: The numba threads of each run in this worker process (one entry), set by the campaign's worker plugin
+#: (:class:`.cluster.ThreadShare`) when the worker joins; empty outside a campaign's worker.
+NUMBA_THREADS: list[int] = []
+
+
+@contextlib.contextmanager
+def _run_threads() -> Iterator[None]:
+    """The run's numba threads (:data:`NUMBA_THREADS`; numba's thread count is a setting of the calling thread, the
+    worker's task thread), the worker's own setting again after the run."""
+    if not NUMBA_THREADS:
+        yield
+        return
+    import numba
+
+    before = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(NUMBA_THREADS[0], int(numba.config.NUMBA_NUM_THREADS))))  # type: ignore[attr-defined]
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
 
 
 @dataclass(frozen=True)
@@ -157,7 +180,8 @@ def execute_run(task: RunTask) -> RunOutcome:
     worker = f"{socket.gethostname()}:{os.getpid()}"
     try:
         try:
-            scalars, series = _compute(task)
+            with _run_threads():
+                scalars, series = _compute(task)
         except EnvironmentFailure as exc:  # the campaign's module: no run can run on this worker
             return RunOutcome(task.run_id, task.index, "environment", str(exc), worker=worker, failure="module")
         except ImportError as exc:  # a module missing for this run (its own code, or a package it needs): retried

@@ -132,8 +132,9 @@ def run_campaign(
 ) -> CampaignRun:
     """Run the campaign's missing runs into ``out`` (module docstring). ``max_runs``: only the first N of the plan;
     ``window``: runs submitted at a time (default twice the cluster's threads, at least 4); ``on_started``: called
-    with the client once it is connected; ``numba_threads``: threads of the batched kernels in each run (default: on a
-    local cluster the cores shared between its workers, :func:`local_threads`; on an existing one, its workers');
+    with the client once it is connected; ``numba_threads``: threads of the batched kernels in each run (default: each
+    machine's cores shared between the task threads of the workers on it, :func:`.cluster.share_threads`, as
+    :func:`.cluster.local_threads` shares them on a local cluster);
     ``worker_timeout``: seconds to wait for a worker (default :data:`WORKER_TIMEOUT`).
 
     Before the plan is drawn and before any cluster starts: the options, ``out`` and (with ``resume``) every stored

@@ -23,8 +23,8 @@ import numpy as np
 
 from ..core.state_layout import state_length
 from . import drivers as _drivers
+from . import gate, stepper
 from . import laws as _laws
-from . import stepper
 from .buffers import new_output, owned
 from .layout import Tree, tree, work_size
 from .measures import MEASURE_CODES
@@ -623,6 +623,16 @@ class Stepper:
     def reason_at(self) -> int:
         """Where in :attr:`ints` the kernel leaves :attr:`reason` (a loop that steps every few microseconds reads it there)."""
         return self._header + 2
+
+    def ready(self) -> dict[str, bool]:
+        """Whether :attr:`rk4` (``"rk4"``) and :meth:`derivative` (``"derivative"``) run without compiling: their
+        kernels compiled in this process or loaded now from the cache (:func:`.gate.ready`; never compiles)."""
+        x = np.zeros(self.size)
+        u = np.zeros(self.tree.n_joints + 6)
+        return {
+            "rk4": gate.ready(stepper.rk4_steps, (self.ints, self.floats, x, u, 0.0, 0)),
+            "derivative": gate.ready(stepper.state_derivative, (self.ints, self.floats, x, u, x)),
+        }
 
     def derivative(self, x: np.ndarray, u: np.ndarray, out: np.ndarray) -> bool:
         """out = d/dt x under u; False if H+ is not positive definite."""

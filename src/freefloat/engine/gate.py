@@ -51,6 +51,7 @@ __all__ = [
     "launch_threads",
     "machine_address",
     "off",
+    "ready",
     "slice_view",
     "threads_launched",
     "turn_off",
@@ -376,10 +377,7 @@ def machine_address(run: Any, args: tuple[Any, ...]) -> int:
     key = (run, *(fingerprint(a) for a in args))
     found = _ADDRESSES.get(key)
     if found is None:
-        _, folded = run.fold_argument_types(tuple(run.typeof_pyval(a) for a in args), {})
-        types = tuple(
-            nbtypes.BaseTuple.from_types(t.types) if isinstance(t, (nbtypes.StarArgTuple, nbtypes.StarArgUniTuple)) else t for t in folded
-        )
+        types = _argument_types(run, args)
         result = run.overloads.get(types)
         if result is None:
             run.compile(types)
@@ -388,6 +386,37 @@ def machine_address(run: Any, args: tuple[Any, ...]) -> int:
             raise NotAVoidKernel(f"freefloat: run_kernel calls kernels that return nothing, not {result.signature.return_type}")
         found = _ADDRESSES[key] = int(result.library.get_pointer_to_function(result.fndesc.llvm_func_name))
     return found
+
+
+def _argument_types(run: Any, args: tuple[Any, ...]) -> tuple[Any, ...]:
+    """numba's types of ``args`` as ``run``'s dispatcher keys its overloads (a ``*args`` tuple as the tuple of its types)."""
+    assert _THREADS is not None
+    nbtypes = _THREADS[3]
+    _, folded = run.fold_argument_types(tuple(run.typeof_pyval(a) for a in args), {})
+    stars = (nbtypes.StarArgTuple, nbtypes.StarArgUniTuple)
+    return tuple(nbtypes.BaseTuple.from_types(t.types) if isinstance(t, stars) else t for t in folded)
+
+
+def ready(run: Any, args: tuple[Any, ...]) -> bool:
+    """Whether the kernel ``run`` (a numba dispatcher) has machine code for ``args`` without compiling: compiled in
+    this process, or loaded now from its cache. Never compiles. With the ``threads`` internal off (it types the
+    arguments): whether ``run`` has any compiled overload in this process."""
+    if _THREADS is None:
+        return bool(run.signatures)
+    from numba.core.compiler_lock import global_compiler_lock
+
+    types = _argument_types(run, args)
+    if types in run.overloads:
+        return True
+    with global_compiler_lock:  # what the dispatcher's compile does before it compiles: the cache's overload, if any
+        if types in run.overloads:
+            return True
+        found = run._cache.load_overload(types, run.targetctx)
+        if found is None:
+            return False
+        run.targetctx.insert_user_function(found.entry_point, found.fndesc, [found.library])
+        run.add_overload(found)
+        return True
 
 
 def threads_launched() -> bool:

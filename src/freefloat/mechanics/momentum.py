@@ -211,15 +211,16 @@ def zero_momentum_rate(h_plus: np.ndarray, qdot: np.ndarray | None = None, h0: n
     return out[..., 0] if column else out
 
 
-def free_floating_joint_inertia(model: Model, q: Any) -> np.ndarray:
+def free_floating_joint_inertia(model: Model, q: Any, *, method: str = "recursive") -> np.ndarray:
     """Joint-space inertia with the spacecraft free, (..., N, N): D_qq - D_q^T D^-1 D_q.
 
     The Schur complement of H+ (1991 eqs. 15-17) on its joint block: the inertia
     that joint torques meet when the spacecraft floats (zero momentum, the
     generalized inertia matrix of the free-floating system). Its diagonal entry i
-    is joint i's effective inertia (kg m^2) with the other joints held.
+    is joint i's effective inertia (kg m^2) with the other joints held. ``method``: H+'s, as in
+    :func:`system_inertia_matrix`.
     """
-    h = system_inertia_matrix(model, q)
+    h = system_inertia_matrix(model, q, method=method)
     return h[..., 6:, 6:] + np.swapaxes(h[..., 3:6, 6:], -1, -2) @ zero_momentum_rate(h)
 
 

@@ -148,7 +148,7 @@ def compiled_simulation(plan: RunPlan) -> Trajectory | None:
     hold = max(1, round(ratio))
     if sample_period is not None and sample_period > dt and abs(hold * dt - sample_period) > 1e-12 * sample_period:
         return None
-    seconds = steps * (4.0 * _derivative_cost(model) + (LAW_SAMPLE_COST if law is not None else 0.0) / hold)
+    seconds = steps * (4.0 * _derivative_cost(model, fixed_step=True)[0] + (LAW_SAMPLE_COST if law is not None else 0.0) / hold)
     if seconds > PROGRESS_DELAY or (wall_limit is not None and seconds > 0.5 * wall_limit):
         return None
     stride = max(1, round(plan.output_period / dt))
@@ -250,7 +250,7 @@ def compiled_rollout(
     fast = law is None and not per_trajectory and engine.specialised_rollouts(model, batch, ext)
     # chunks only for a long rollout (progress, Ctrl-C): joining the chunks copies every output once
     threads = max(1, os.cpu_count() or 1)
-    seconds = _derivative_cost(model) * 4 * steps * batch / threads / (SPECIALISED_SPEEDUP if fast else 1.0)
+    seconds = _derivative_cost(model, fixed_step=True)[0] * 4 * steps * batch / threads / (SPECIALISED_SPEEDUP if fast else 1.0)
     long_run = bar.enabled and (bar.callback is not None or bar.delay == 0.0 or seconds > PROGRESS_DELAY)
     least = ROLLOUT_CHUNK_MIN * threads if fast else ROLLOUT_CHUNK_MIN  # specialised: a lane block per thread at least
     chunk = batch if batch <= least or not long_run else least * -(-max(least, -(-batch // 20)) // least)

@@ -20,7 +20,8 @@ from ..core.errors import SimulationError
 from ..core.feedback import LOG_PERIOD, interactive, progress_log
 from ..core.model import Model
 from ..core.numbers import MAX_RATE  # beyond it a run stops: the actuation or the initial state is not physical
-from ..core.state_layout import qdot_at, span, state_length
+from ..core.state_layout import ATTITUDE_AT, qdot_at, span, state_length
+from ..mechanics.momentum import system_inertia_matrix
 from ..mechanics.springs import spring_energy
 
 __all__ = [
@@ -61,7 +62,8 @@ class RunEstimate:
     ``steps``: RK4 steps (adaptive: a lower bound, one step per controller sample or output);
     ``samples``: controller evaluations; ``outputs``: recorded states; ``memory_bytes``: the
     recorded arrays; ``seconds``: estimated wall time (adaptive: a lower bound, the step count
-    is not known before the run).
+    is not known before the run); ``compiles``: the engine's kernels for the run are not compiled on this machine
+    yet (the run compiles them first; ``seconds`` excludes that and comes from a typical per-body cost, not timed).
     """
 
     steps: int
@@ -70,6 +72,7 @@ class RunEstimate:
     memory_bytes: int
     seconds: float
     adaptive: bool
+    compiles: bool = False
 
     def describe(self) -> str:
         """One line: steps, samples, outputs, memory and time."""
@@ -77,6 +80,7 @@ class RunEstimate:
         return (
             f"{bound}{self.steps:.3g} steps, {self.samples:.3g} controller samples, {self.outputs:.3g} recorded states "
             f"({self.memory_bytes / 1e6:.3g} MB), estimated {bound}{_duration(self.seconds)}"
+            + (", after compiling the engine's kernels for this machine (once)" if self.compiles else "")
         )
 
 
@@ -93,22 +97,42 @@ def _duration(seconds: float) -> str:
 _EVAL_COST: dict[tuple[int, int], float] = {}
 
 
-def _derivative_cost(model: Model) -> float:
-    """Seconds per state derivative of ``model`` on this machine (timed once per tree size)."""
+#: Seconds per body per state derivative assumed before the engine's kernels are compiled on this machine (the
+#: estimate of a first run, which compiles them at its start): a conservative figure for a current CPU core.
+UNTIMED_COST_PER_BODY = 1e-6
+
+
+def _derivative_cost(model: Model, *, fixed_step: bool = False) -> tuple[float, bool]:
+    """Seconds per state derivative of ``model`` on this machine, and whether that was timed.
+
+    Timed once per tree size, on a kernel that is ready (compiled in this process or in the cache; never compiled
+    for the estimate): one RK4 step of the stepper (four derivatives), the kernel of a fixed-step run with a Python
+    controller, first when ``fixed_step``; else the state derivative, the adaptive integrators' kernel, first. Before
+    either is compiled, :data:`UNTIMED_COST_PER_BODY` per body, not timed (False).
+    """
     n = model.n_joints
     key = (model.n_bodies, n)
     if key not in _EVAL_COST:
         stepper = engine.Stepper(model)
+        ready = stepper.ready()
         x = np.zeros(stepper.size)
-        x[9] = 1.0
+        x[ATTITUDE_AT + 3] = 1.0  # the unit quaternion [x, y, z, w]
         u = np.zeros(n + 6)
-        out = np.empty_like(x)
-        stepper.derivative(x, u, out)  # compiled and warm
+        order = ("rk4", "derivative") if fixed_step else ("derivative", "rk4")
+        kind = next((k for k in order if ready[k]), None)
+        if kind is None:
+            return UNTIMED_COST_PER_BODY * model.n_bodies, False
+        y, out = x.copy(), np.empty_like(x)
+        repeats = 20 if kind == "rk4" else 50
         start = time.perf_counter()
-        for _ in range(50):
-            stepper.derivative(x, u, out)
-        _EVAL_COST[key] = (time.perf_counter() - start) / 50
-    return _EVAL_COST[key]
+        for _ in range(repeats):
+            if kind == "rk4":
+                y[:] = x
+                stepper.rk4(y, u, 1e-6, 1)
+            else:
+                stepper.derivative(x, u, out)
+        _EVAL_COST[key] = (time.perf_counter() - start) / (repeats * (4 if kind == "rk4" else 1))
+    return _EVAL_COST[key], True
 
 
 def estimate_run(
@@ -128,7 +152,7 @@ def estimate_run(
     """
     period = output_period or max(0.01, fixed_step or 0.0)
     outputs = int(duration / period) + 1
-    cost = _derivative_cost(model)
+    cost, timed = _derivative_cost(model, fixed_step=fixed_step is not None)
     if fixed_step is not None:
         steps = round(duration / fixed_step)
         samples = round(duration / sample_period) if sample_period else steps
@@ -138,7 +162,7 @@ def estimate_run(
         steps = max(samples, outputs)
         seconds = steps * 12 * cost + samples * _SAMPLE_COST + outputs * _SAMPLE_COST
     width = state_length(model.n_joints) + model.n_joints + 7
-    return RunEstimate(int(steps), int(samples), int(outputs), int(outputs * width * 8), float(seconds), fixed_step is None)
+    return RunEstimate(int(steps), int(samples), int(outputs), int(outputs * width * 8), float(seconds), fixed_step is None, not timed)
 
 
 class Progress:
@@ -278,7 +302,7 @@ class DivergenceGuard:
         self.enabled = enabled
         # the energy the motion may take without actuation: the kinetic energy, and the joints' springs' potential
         springs = float(spring_energy(model, x0[self._q])) if model.has_springs else 0.0
-        self.energy0 = self._energy(x0) + springs
+        self.energy0 = self._energy(x0, initial=True) + springs
         self.budget = self._pd_budget(controller, x0)
         self.min_step = MIN_STEP_FRACTION * resolution
         self.evals = 0
@@ -298,11 +322,15 @@ class DivergenceGuard:
             return None
         return self.energy0 + 0.5 * float(np.sum(np.abs(kp) * error**2))
 
-    def _energy(self, x: np.ndarray) -> float:
+    def _energy(self, x: np.ndarray, *, initial: bool = False) -> float:
         velocity = np.concatenate([x[self._v_cm], x[self._omega], x[span("qdot", self.n)]])  # (a dissipated energy may follow)
-        # the engine's H+ directly: a diverging state is past what the public calls accept (|q| > 1e6), and is what is measured
+        # the initial state's H+ by the barycentric sums (one configuration, numpy: no kernel to compile before the run);
+        # later, the engine's H+ directly: a diverging state is past what the public calls accept (|q| > 1e6)
         with np.errstate(over="ignore", invalid="ignore"):
-            h_plus = engine.inertia_matrix(self.model, np.ascontiguousarray(x[self._q]))
+            if initial:
+                h_plus = system_inertia_matrix(self.model, x[self._q], method="barycentric")
+            else:
+                h_plus = engine.inertia_matrix(self.model, np.ascontiguousarray(x[self._q]))
             energy = 0.5 * float(velocity @ h_plus @ velocity)
         return energy if np.isfinite(energy) else np.inf
 
