@@ -43,14 +43,10 @@ def _run_threads() -> Iterator[None]:
     if not NUMBA_THREADS:
         yield
         return
-    import numba
+    from .. import engine
 
-    before = numba.get_num_threads()
-    numba.set_num_threads(max(1, min(NUMBA_THREADS[0], int(numba.config.NUMBA_NUM_THREADS))))  # type: ignore[attr-defined]
-    try:
+    with engine.numba_threads(NUMBA_THREADS[0]):
         yield
-    finally:
-        numba.set_num_threads(before)
 
 
 @dataclass(frozen=True)

@@ -49,6 +49,7 @@ from .specialise.build import layout as wrench_layout
 from .specialise.build import specialise as specialise_structure
 from .stepper import REFUSED
 from .stops import limit_spans_batch
+from .threads import numba_threads
 
 __all__ = [
     "AUTO_AFTER",
@@ -76,6 +77,7 @@ __all__ = [
     "law_rollout",
     "limit_spans_batch",
     "make_law",
+    "numba_threads",
     "owned",
     "point_biases",
     "point_jacobians",

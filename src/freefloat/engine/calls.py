@@ -624,15 +624,14 @@ class Stepper:
         """Where in :attr:`ints` the kernel leaves :attr:`reason` (a loop that steps every few microseconds reads it there)."""
         return self._header + 2
 
-    def ready(self) -> dict[str, bool]:
-        """Whether :attr:`rk4` (``"rk4"``) and :meth:`derivative` (``"derivative"``) run without compiling: their
-        kernels compiled in this process or loaded now from the cache (:func:`.gate.ready`; never compiles)."""
+    def ready(self, kind: str) -> bool:
+        """Whether :attr:`rk4` (``kind`` ``"rk4"``) or :meth:`derivative` (``"derivative"``) runs without compiling: its
+        kernel compiled in this process or loaded now from the cache (:func:`.gate.ready`; never compiles)."""
         x = np.zeros(self.size)
         u = np.zeros(self.tree.n_joints + 6)
-        return {
-            "rk4": gate.ready(stepper.rk4_steps, (self.ints, self.floats, x, u, 0.0, 0)),
-            "derivative": gate.ready(stepper.state_derivative, (self.ints, self.floats, x, u, x)),
-        }
+        if kind == "rk4":
+            return gate.ready(stepper.rk4_steps, (self.ints, self.floats, x, u, 0.0, 0))
+        return gate.ready(stepper.state_derivative, (self.ints, self.floats, x, u, x))
 
     def derivative(self, x: np.ndarray, u: np.ndarray, out: np.ndarray) -> bool:
         """out = d/dt x under u; False if H+ is not positive definite."""

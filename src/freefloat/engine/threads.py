@@ -29,10 +29,11 @@ returns).
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor, wait
 from typing import Any
 
@@ -210,3 +211,14 @@ def run_kernel(run: Any, pre: tuple[Any, ...], work: np.ndarray, post: tuple[Any
     if raised:
         for r in map(int, np.flatnonzero(failed)):
             one(r, r * count // parts, (r + 1) * count // parts)
+
+
+@contextlib.contextmanager
+def numba_threads(count: int) -> Iterator[None]:
+    """The calling thread's numba thread count set to ``count`` (at most numba's own), its own again on exit."""
+    before = numba.get_num_threads()
+    numba.set_num_threads(max(1, min(int(count), int(numba.config.NUMBA_NUM_THREADS))))  # type: ignore[attr-defined]
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)

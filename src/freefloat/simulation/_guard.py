@@ -114,12 +114,11 @@ def _derivative_cost(model: Model, *, fixed_step: bool = False) -> tuple[float, 
     key = (model.n_bodies, n)
     if key not in _EVAL_COST:
         stepper = engine.Stepper(model)
-        ready = stepper.ready()
         x = np.zeros(stepper.size)
         x[ATTITUDE_AT + 3] = 1.0  # the unit quaternion [x, y, z, w]
         u = np.zeros(n + 6)
         order = ("rk4", "derivative") if fixed_step else ("derivative", "rk4")
-        kind = next((k for k in order if ready[k]), None)
+        kind = next((k for k in order if stepper.ready(k)), None)  # the first ready one: the other is not loaded
         if kind is None:
             return UNTIMED_COST_PER_BODY * model.n_bodies, False
         y, out = x.copy(), np.empty_like(x)
