@@ -32,7 +32,7 @@ from .spec import get_path, set_path
 __all__ = ["NUMBA_THREADS", "RunOutcome", "RunTask", "execute_run", "scalar_value"]
 
 #: The numba threads of each run in this worker process (one entry), set by the campaign's worker plugin
-#: (:class:`.cluster.ThreadShare`) when the worker joins; empty outside a campaign's worker.
+#: (:class:`.worker_threads.ThreadShare`) when the worker joins; empty outside a campaign's worker.
 NUMBA_THREADS: list[int] = []
 
 
