@@ -4,7 +4,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 OUT ?= out
 
-.PHONY: demo test test-lowest bench docs lint clean
+.PHONY: demo test test-lowest bench docs lint clean kernels
 
 $(VENV)/.runtime: pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -22,8 +22,8 @@ demo: $(VENV)/.runtime
 	$(VENV)/bin/freefloat demo --out $(OUT) --overwrite
 
 lint: $(VENV)/.test
-	$(VENV)/bin/ruff check src tests benchmarks examples docs/_site_hooks.py
-	$(VENV)/bin/ruff format --check src tests benchmarks examples docs/_site_hooks.py
+	$(VENV)/bin/ruff check src tests benchmarks examples tools docs/_site_hooks.py
+	$(VENV)/bin/ruff format --check src tests benchmarks examples tools docs/_site_hooks.py
 	$(VENV)/bin/mypy
 	$(VENV)/bin/lint-imports --no-cache
 
@@ -36,9 +36,13 @@ TEST_WORKERS ?= 2
 # runtimes ignore it) made tests/simulation, tests/control and test_engine.py 72 s instead of 84 s (measured).
 TEST_SPINCOUNT ?= 10000
 
+# The suite runs on the portable kernels freefloat ships where this machine has not compiled its own (no background
+# compile beside the test workers); tests/engine/test_portable.py tests the other settings.
+TEST_KERNELS ?= portable
+
 test: lint
-	$(PY) tests/warm_kernels.py
-	GOMP_SPINCOUNT=$(TEST_SPINCOUNT) $(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
+	FREEFLOAT_KERNELS=$(TEST_KERNELS) $(PY) tests/warm_kernels.py
+	FREEFLOAT_KERNELS=$(TEST_KERNELS) GOMP_SPINCOUNT=$(TEST_SPINCOUNT) $(PY) -m pytest -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder
 
 # make test-lowest: freefloat at the lowest versions pyproject.toml declares, in a venv of its own (.venv-lowest, made
 # again when pyproject.toml changes): tests/lowest/constraints.py pins every runtime dependency, the mjcf extra and the
@@ -48,7 +52,8 @@ test: lint
 LOWEST := .venv-lowest
 LOWEST_PY := $(LOWEST)/bin/python
 LOWEST_CACHE := FREEFLOAT_CACHE_DIR=$(CURDIR)/$(LOWEST)/cache
-ENGINE_TESTS := tests/mechanics/test_engine.py tests/mechanics/test_numba_cache.py tests/mechanics/test_threads.py $(wildcard tests/engine)
+ENGINE_TESTS := tests/mechanics/test_engine.py tests/mechanics/test_numba_cache.py tests/mechanics/test_threads.py \
+	$(filter-out tests/engine/test_portable.py,$(wildcard tests/engine/*.py))
 
 $(LOWEST)/.installed: pyproject.toml tests/lowest/constraints.py
 	rm -rf $(LOWEST)
@@ -64,6 +69,12 @@ test-lowest: $(LOWEST)/.installed
 	$(LOWEST_CACHE) $(LOWEST_PY) tests/warm_kernels.py
 	$(LOWEST_CACHE) $(LOWEST_PY) tests/lowest/smoke.py
 	$(LOWEST_CACHE) GOMP_SPINCOUNT=$(TEST_SPINCOUNT) $(LOWEST_PY) -m pytest -n $(TEST_WORKERS) --dist loadfile --no-loadscope-reorder $(ENGINE_TESTS)
+
+# make kernels: the portable kernels freefloat ships (src/freefloat/engine/portable/: the warm-up's kernels compiled
+# for numba's portable CPU), built again after a change to the engine's kernel sources (until then
+# tests/engine/test_portable.py fails and every user compiles on first use): minutes.
+kernels: $(VENV)/.runtime
+	$(PY) tools/portable_kernels.py
 
 bench: $(VENV)/.test
 	$(PY) benchmarks/run.py --out $(OUT)/bench

@@ -15,24 +15,69 @@ to the end of the work:
   payload on this arm makes H+ so ill-conditioned (smallest eigenvalue ~0.01) that the diagonal
   joint PD used here is unstable at 1 ms: a property of the controller, not of the engine.)
 * ``fully_cold``: the same as ``new_model_warm_cache`` with ``FREEFLOAT_CACHE_DIR`` set to a new
-  empty folder (first use ever: the engine compiles every kernel it needs); only measured.
+  empty folder and ``FREEFLOAT_KERNELS=native`` (first use ever, compiling every kernel it needs); only measured.
+* ``first_use``: issue 44's targets on a new machine, each call alone in a fresh process with a new empty cache
+  folder and the default ``FREEFLOAT_KERNELS=auto`` (the portable kernels shipped with freefloat; the background
+  compile it starts is stopped when the call is done), from before ``import freefloat`` to the end: the first J* of
+  10^5 (target 5 s), the first 1 s simulation with a Python controller (10 s), with the compiled ``ff.JointPD``
+  (20 s), the first rollout of 64 trajectories of 1 s (20 s); each also with this machine's own kernels warm
+  (``native``, compiled once beforehand), and the same work again in the same process (``again_s``: the speed of
+  the portable kernels against this machine's own).
 """
 
 from __future__ import annotations
 
 import json
 import os
+import signal
 import subprocess
 import sys
 import tempfile
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from bench_core import machine_info, machine_line
 
 TARGET_NEW_MODEL_S = 2.0
 TARGET_PAYLOAD_S = 1.0
+#: Issue 44's targets for a first use on a new machine (s, from before ``import freefloat``).
+FIRST_USE_TARGETS = {"import": 1.5, "jstar": 5.0, "python_controller": 10.0, "compiled_controller": 20.0, "rollout": 20.0}
+
+_FIRST_USE = """
+import json, os, signal, sys, time
+t0 = time.perf_counter()
+import freefloat as ff
+t_import = time.perf_counter() - t0
+import numpy as np
+from freefloat.engine import kernel_status
+model = ff.models.spacecraft_7dof()
+n = model.n_joints
+pd = ff.JointPD(kp=np.full(n, 40.0), kd=np.full(n, 8.0), q_ref=np.full(n, 0.3))
+
+def work(kind):
+    if kind == "import":
+        return
+    if kind == "jstar":
+        ff.generalized_jacobian(model, np.random.default_rng(0).uniform(-np.pi, np.pi, size=(100_000, n)))
+    elif kind == "python_controller":
+        ff.simulate(model, ff.State(q=np.zeros(n)), 1.0, controller=lambda t, s: pd(t, s), fixed_step=1e-3)
+    elif kind == "compiled_controller":
+        ff.simulate(model, ff.State(q=np.zeros(n)), 1.0, controller=pd, fixed_step=1e-3)
+    else:
+        ff.rollout(model, ff.State(q=np.zeros((64, n))), 1.0, dt=1e-3, controller=pd)
+
+kind = sys.argv[1]
+work(kind)
+total = time.perf_counter() - t0
+t1 = time.perf_counter()
+work(kind)
+again = time.perf_counter() - t1
+status = kernel_status()
+print(json.dumps({"import_s": t_import, "total_s": total, "again_s": again, "background": status["background"],
+                  "portable": bool(status["portable"])}))
+"""
 
 _PRELUDE = """
 import json, time
@@ -66,6 +111,7 @@ shape, samples = work(model)
 print(json.dumps({"import_s": t_import, "total_s": time.perf_counter() - t0, "mass_factor": f,
                   "jstar_shape": list(shape), "samples": samples}))
 """,
+    "first_use": _FIRST_USE,
     "payload": _PRELUDE
     + """
 base = ff.models.spacecraft_7dof()
@@ -79,10 +125,10 @@ print(json.dumps({"import_s": t_import, "variant_s": t_variant, "total_s": time.
 }
 
 
-def child(name: str, env: dict[str, str] | None = None, timeout: float | None = None) -> dict[str, Any]:
+def child(name: str, env: dict[str, str] | None = None, timeout: float | None = None, args: tuple[str, ...] = ()) -> dict[str, Any]:
     """Run one snippet in a fresh interpreter; its JSON line, plus the wall time seen from outside."""
     t0 = time.perf_counter()
-    done = subprocess.run([sys.executable, "-c", _CODE[name]], env=env, capture_output=True, text=True, timeout=timeout)
+    done = subprocess.run([sys.executable, "-c", _CODE[name], *args], env=env, capture_output=True, text=True, timeout=timeout)
     if done.returncode != 0:
         raise RuntimeError(f"startup child {name!r} failed:\n{done.stderr[-3000:]}")
     out: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
@@ -97,6 +143,45 @@ def best(name: str, repeats: int, key: str, log: Callable[[str], None]) -> dict[
         log(f"[startup] {name} run {i + 1}/{repeats}: {runs[-1][key]:.3f} s")
     top = min(runs, key=lambda r: r[key])
     return {**top, "runs_s": [r[key] for r in runs], "best_s": top[key]}
+
+
+def _stop_background(cache: str) -> None:
+    """Stop the background compile a first use started in ``cache`` (its process group), so that it does not load
+    the next measurement."""
+    for marker in Path(cache).rglob("native-compile.started"):
+        try:
+            os.killpg(int(marker.read_text()), signal.SIGKILL)
+        except (OSError, ValueError):
+            pass
+
+
+def first_use(repeats: int, log: Callable[[str], None]) -> dict[str, Any]:
+    """Each of issue 44's first-use targets in fresh processes: empty caches (``auto``), then warm native kernels."""
+    out: dict[str, Any] = {"targets_s": FIRST_USE_TARGETS}
+    with tempfile.TemporaryDirectory() as warm:
+        native = dict(os.environ, FREEFLOAT_CACHE_DIR=warm, FREEFLOAT_KERNELS="native", FREEFLOAT_AUTO_SPECIALISE="0")
+        for kind in FIRST_USE_TARGETS:
+            child("first_use", env=native, timeout=1800, args=(kind,))  # compiles this machine's kernels, once
+        for kind in FIRST_USE_TARGETS:
+            runs, warm_runs = [], []
+            for i in range(repeats):
+                with tempfile.TemporaryDirectory() as empty:
+                    env = dict(os.environ, FREEFLOAT_CACHE_DIR=empty, FREEFLOAT_KERNELS="auto", FREEFLOAT_AUTO_SPECIALISE="0")
+                    try:
+                        runs.append(child("first_use", env=env, timeout=1800, args=(kind,)))
+                    finally:
+                        _stop_background(empty)
+                warm_runs.append(child("first_use", env=native, timeout=1800, args=(kind,)))
+                first, warm_s = runs[-1]["total_s"], warm_runs[-1]["total_s"]
+                log(f"[startup] first use {kind} run {i + 1}/{repeats}: {first:.2f} s (warm native {warm_s:.2f} s)")
+            top, top_warm = min(runs, key=lambda r: r["total_s"]), min(warm_runs, key=lambda r: r["total_s"])
+            out[kind] = {
+                "empty_cache": {**top, "runs_s": [r["total_s"] for r in runs], "best_s": top["total_s"]},
+                "warm_native": {**top_warm, "runs_s": [r["total_s"] for r in warm_runs], "best_s": top_warm["total_s"]},
+                "portable_over_native_again": min(r["again_s"] for r in runs) / max(min(r["again_s"] for r in warm_runs), 1e-9),
+                "pass": top["total_s"] <= FIRST_USE_TARGETS[kind],
+            }
+    return out
 
 
 def run(quick: bool, log: Callable[[str], None], cold: bool | None = None) -> dict[str, Any]:
@@ -129,10 +214,13 @@ def run(quick: bool, log: Callable[[str], None], cold: bool | None = None) -> di
         log("[startup] fully cold (empty FREEFLOAT_CACHE_DIR): compiles everything it needs")
         with tempfile.TemporaryDirectory() as tmp:
             try:
-                report["fully_cold"] = child("new_model", env=dict(os.environ, FREEFLOAT_CACHE_DIR=tmp), timeout=1800)
+                env = dict(os.environ, FREEFLOAT_CACHE_DIR=tmp, FREEFLOAT_KERNELS="native")
+                report["fully_cold"] = child("new_model", env=env, timeout=1800)
                 report["fully_cold"]["best_s"] = report["fully_cold"]["total_s"]
             except subprocess.TimeoutExpired:
                 report["fully_cold"] = {"error": "timed out after 1800 s"}
+    log("[startup] first use on a new machine (empty caches, portable kernels), each target alone")
+    report["first_use"] = first_use(repeats, log)
     if hasattr(os, "getloadavg"):
         report["machine"]["load_average_at_end"] = list(os.getloadavg())
     return report
@@ -161,6 +249,14 @@ def table(report: dict[str, Any]) -> str:
         lines.append(f"{'fully cold (empty cache)':58s} {cold['error']}")
     else:
         lines.append(f"{'fully cold (empty FREEFLOAT_CACHE_DIR): as new model':58s} {cold['best_s']:9.3f}")
+    first = report.get("first_use")
+    if first:
+        lines.append(f"{'first use, empty cache (auto: portable kernels) / warm native':58s} {'seconds':>9s} {'target':>8s} {'pass':>5s}")
+        for kind, target in first["targets_s"].items():
+            row = first[kind]
+            warm_s, again = row["warm_native"]["best_s"], row["portable_over_native_again"]
+            label = f"  {kind}: {warm_s:.2f} s warm native; portable/native again x{again:.2f}"
+            lines.append(f"{label:58s} {row['empty_cache']['best_s']:9.2f} {target:8.1f} {'yes' if row['pass'] else 'NO':>5s}")
     lines.append(f"best of {report['settings']['repeats']} processes; warm-up run {report['warmup_run']['total_s']:.1f} s")
     lines.append(machine_line(report["machine"]))
     return "\n".join(lines)

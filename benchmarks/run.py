@@ -20,6 +20,9 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+# the figures are of this machine's own kernels (compiled by the warm-up below), never of the portable ones freefloat
+# ships (the start-up benchmark measures those, in processes of its own)
+os.environ["FREEFLOAT_KERNELS"] = "native"
 
 from bench_core import machine_info
 

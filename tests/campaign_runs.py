@@ -38,6 +38,27 @@ def allocate(parameters: dict[str, Any]) -> dict[str, Any]:
     return {"held_mib": float(sum(a.nbytes for a in held) >> 20)}
 
 
+_RECORDERS: list[Any] = []
+
+
+def compiles(parameters: dict[str, Any]) -> dict[str, Any]:
+    """A short fixed-step simulation with a joint PD on the worker; how many kernels the worker's process has compiled
+    (numba's compile events, counted from its first run of this function) and whether it loaded portable kernels."""
+    from numba.core import event
+
+    import freefloat as ff
+    from freefloat.engine import kernel_status
+
+    if not _RECORDERS:
+        _RECORDERS.append(event.RecordingListener())
+        event.register("numba:compile", _RECORDERS[0])
+    model = ff.models.papadopoulos1992()
+    n = model.n_joints
+    ff.simulate(model, ff.State(q=np.full(n, 0.1 * parameters["i"])), 0.05, ff.JointPD(kp=1.0, kd=1.0), fixed_step=1e-3)
+    count = sum(1 for _, e in _RECORDERS[0].buffer if e.is_start)
+    return {"compiles": float(count), "portable": float(bool(kernel_status()["portable"]))}
+
+
 def threads(parameters: dict[str, Any]) -> dict[str, Any]:
     """numba's thread count in the task thread that computes the run (what the engine's batched kernels use)."""
     import numba

@@ -11,6 +11,9 @@ matplotlib.use("Agg")
 # no background compiles in the suite's processes and the commands it starts (tests/mechanics/test_auto_specialise.py
 # turns automatic specialisation on where it tests it)
 os.environ["FREEFLOAT_AUTO_SPECIALISE"] = "0"
+# ... and no background compile of this machine's kernels: a kernel not in the cache loads from the portable kernels
+# freefloat ships (or compiles in the process that needs it); tests/engine/test_portable.py tests the other settings
+os.environ.setdefault("FREEFLOAT_KERNELS", "portable")
 sys.path.insert(0, str(Path(__file__).parent))
 
 # The generic kernels compile into the user's cache folder, as in any use (keyed by numba's version and the engine's

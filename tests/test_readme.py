@@ -257,6 +257,11 @@ def test_readme_commands_run_top_to_bottom(tmp_path: Path) -> None:
     outputs = dict(ran)
     out = tmp_path / "out"
 
+    # freefloat kernels: the suite's setting (make test: portable) and the portable kernels this checkout ships, in use
+    text = outputs["freefloat kernels"]
+    assert "setting: FREEFLOAT_KERNELS=portable" in text, text
+    assert re.search(r"^portable kernels: \d+ for numba ", text, flags=re.M), text
+
     # freefloat inspect papadopoulos1992: Table I's masses; its barycentric vectors are Table II's coefficients
     text = outputs["freefloat inspect papadopoulos1992"]
     assert f"total mass          {TABLE_I_MASS:g} kg" in text and "size                5 bodies, 4 joints, 2 end effectors" in text

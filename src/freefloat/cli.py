@@ -338,6 +338,60 @@ DETJ_MAP_PNG = "detJ_map_1992_one_arm_captured.png"
 LONG_RUN_S = 60.0
 
 
+@app.command("kernels")
+def kernels_command(
+    compile_now: Annotated[
+        bool,
+        typer.Option("--compile", help="Compile this machine's own kernels now (what a new user's first calls need: minutes, once)."),
+    ] = False,
+    json_output: Annotated[bool, typer.Option("--json", help="Print one JSON object instead of text.")] = False,
+) -> None:
+    """Say where the engine's compiled kernels come from on this machine: its own cache, or the portable kernels
+    shipped with freefloat (for any CPU of its kind, up to about 1.8x slower) while its own compile in the background
+    (FREEFLOAT_KERNELS: auto, portable or native; docs/performance.md)."""
+    from .engine import kernel_status
+
+    with user_errors():
+        if compile_now:
+            import time
+
+            from . import warmup
+
+            start = time.perf_counter()
+            typer.echo("compiling this machine's kernels (minutes, once) ...", err=True)
+            with _env(KERNELS="native"):
+                warmup.main([])
+            typer.echo(f"compiled or loaded in {time.perf_counter() - start:.0f} s", err=True)
+        status = kernel_status()
+    if json_output:
+        typer.echo(json.dumps(status, indent=2))
+        return
+    manifest = status["manifest"]
+    typer.echo(f"setting: FREEFLOAT_KERNELS={status['setting']}")
+    typer.echo(f"this machine's kernels: {status['native']} compiled in {status['folder']} (background compile: {status['background']})")
+    if status["portable"]:
+        built = f"numba {manifest['numba']}, Python {manifest['python']}, {manifest['triple']}"
+        typer.echo(f"portable kernels: {manifest['kernels']} for {built}, in {status['portable']}")
+    else:
+        typer.echo(f"portable kernels: not used ({status['portable_note'] or 'FREEFLOAT_KERNELS=native'})")
+
+
+@contextlib.contextmanager
+def _env(**values: str) -> Iterator[None]:
+    """``FREEFLOAT_<NAME>=value`` for the duration (the child processes inherit it)."""
+    names = {f"freefloat_{name}".upper(): value for name, value in values.items()}
+    before = {name: os.environ.get(name) for name in names}
+    os.environ.update(names)
+    try:
+        yield
+    finally:
+        for name, value in before.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
 @app.command("demo")
 def demo_command(
     out: Annotated[Path, typer.Option("--out", parser=_out_path, metavar="DIR", help="Output directory (created).")] = Path("out"),

@@ -11,7 +11,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -47,6 +47,7 @@ class Cluster:
     address: str
     folder: Path
     processes: list[subprocess.Popen[bytes]]
+    env: dict[str, str] = field(default_factory=dict)  # the workers' environment beyond environment()
 
     @property
     def modules(self) -> Path:
@@ -58,22 +59,22 @@ class Cluster:
         log = self.folder / f"{name}.log"
         command = [sys.executable, "-m", "distributed.cli.dask_worker", self.address, "--nthreads", "1", "--no-nanny"]
         with log.open("wb") as sink:  # the child keeps its own descriptor
-            process = subprocess.Popen(
-                [*command, "--no-dashboard", "--name", name], env=environment(self.modules), stdout=subprocess.DEVNULL, stderr=sink
-            )
+            env = {**environment(self.modules), **self.env}
+            process = subprocess.Popen([*command, "--no-dashboard", "--name", name], env=env, stdout=subprocess.DEVNULL, stderr=sink)
         self.processes.append(process)
         wait_for(lambda: "Registered to" in log.read_text(errors="replace"), f"worker {name} to register")
         return process
 
 
 @contextlib.contextmanager
-def start_cluster(folder: Path, workers: tuple[str, ...] = ("w1", "w2")) -> Iterator[Cluster]:
-    """A scheduler (and ``workers``) started in ``folder``, stopped at the end (the workers first)."""
+def start_cluster(folder: Path, workers: tuple[str, ...] = ("w1", "w2"), env: dict[str, str] | None = None) -> Iterator[Cluster]:
+    """A scheduler (and ``workers``, with ``env`` added to their environment) started in ``folder``, stopped at the end
+    (the workers first)."""
     file = folder / "scheduler.json"
     command = [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard"]
     with (folder / "scheduler.log").open("wb") as sink:
         scheduler = subprocess.Popen([*command, "--scheduler-file", str(file)], env=environment(), stdout=subprocess.DEVNULL, stderr=sink)
-    running = Cluster("", folder, [scheduler])
+    running = Cluster("", folder, [scheduler], dict(env or {}))
     running.modules.mkdir()
     try:
         running.address = wait_for(lambda: file.is_file() and json.loads(file.read_text() or "{}").get("address"), "the scheduler file")

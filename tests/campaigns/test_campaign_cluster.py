@@ -80,6 +80,24 @@ def test_workers_started_by_hand_share_their_machine_s_cores(cluster: Cluster, t
     assert read_runs(tmp_path / "local").column("numba_threads").to_pylist() == [float(share)] * 4
 
 
+def test_fresh_workers_load_the_portable_kernels_and_compile_nothing(tmp_path: Path) -> None:
+    """A fresh cluster: a scheduler and two ``dask worker`` processes whose cache folder is empty. Each run loads the
+    portable kernels freefloat ships; no worker compiles a kernel (numba's compile events, counted in every run)
+    (issue 44: a fresh cluster is productive in seconds; the time to the first result is in ``make bench``)."""
+    (tmp_path / "dask").mkdir()
+    fresh = {"FREEFLOAT_CACHE_DIR": str(tmp_path / "empty"), "FREEFLOAT_KERNELS": "portable"}
+    with start_cluster(tmp_path / "dask", env=fresh) as running:
+        runs = {"i": {"values": [0, 1, 2, 3]}}
+        spec = campaign(tmp_path, function="campaign_runs:compiles", parameters=runs, record={"scalars": ["compiles", "portable"]})
+        done = freefloat(spec, "--out", tmp_path / "out", "--scheduler", running.address)
+    assert done.returncode == 0, done.stderr
+    table = read_runs(tmp_path / "out")
+    assert table.column("portable").to_pylist() == [1.0] * 4
+    assert table.column("compiles").to_pylist() == [0.0] * 4
+    compiled = [f for f in (tmp_path / "empty").rglob("*.nbc") if not any(part.endswith("-portable") for part in f.parts)]
+    assert compiled == [], "a worker wrote compiled kernels into its cache"
+
+
 def test_a_worker_killed_mid_campaign_loses_nothing(cluster: Cluster, tmp_path: Path) -> None:
     doomed = cluster.worker("doomed")
     spec = marked_campaign(tmp_path, 6, gated=True)

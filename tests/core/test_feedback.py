@@ -8,11 +8,12 @@ import pytest
 import freefloat as ff
 from freefloat.analysis import _workspace_search
 from freefloat.core import feedback
-from freefloat.engine import cache as _numba_cache
+from freefloat.engine import folders as _numba_cache
 
 
 def test_the_first_compile_is_announced_once(monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
     monkeypatch.setattr(_numba_cache, "_ANNOUNCED", [])
+    monkeypatch.setattr(_numba_cache, "_PORTABLE_STATE", {})  # nothing known of the portable kernels: no reason added
     _numba_cache._announce_compile("/somewhere/numba/0.68-abc/_engine")
     _numba_cache._announce_compile("/somewhere/numba/0.68-abc/_drivers")
     err = capsys.readouterr().err.splitlines()
@@ -25,11 +26,16 @@ def test_the_first_compile_is_announced_once(monkeypatch: pytest.MonkeyPatch, ca
 def test_a_cache_miss_announces_and_a_hit_does_not(monkeypatch: pytest.MonkeyPatch) -> None:
     said: list[str] = []
     monkeypatch.setattr(_numba_cache, "_announce_compile", lambda folder: said.append(folder))
+    import dataclasses
+
     from numba.core.caching import FunctionCache  # the gate's cache is numba's, with freefloat's folder
 
     from freefloat.engine import gate
 
     assert gate._CACHE is not None
+    # nothing portable and no compile lock: the miss is this machine's cache's own
+    events = dataclasses.replace(_numba_cache.EVENTS, portable=lambda: None, hold=lambda index, name: False)
+    monkeypatch.setattr(gate._CACHE[1], "events", events)
     monkeypatch.setattr(FunctionCache, "load_overload", lambda self, sig, ctx: None)  # a miss
     cache = gate._CACHE[1](_numba_cache.cache_dir)
     assert cache.load_overload(None, None) is None and len(said) == 1

@@ -213,7 +213,7 @@ print(json.dumps(report))
 def test_ready_loads_from_the_cache_and_never_compiles(tmp_path: Path) -> None:
     """``gate.ready``: False on an empty cache, without compiling (no signature after it); True once the kernel is
     compiled; in the next process, True at once, loaded from the cache (no miss: nothing compiled)."""
-    env = {**os.environ, "FREEFLOAT_CACHE_DIR": str(tmp_path / "cache")}
+    env = {**os.environ, "FREEFLOAT_CACHE_DIR": str(tmp_path / "cache"), "FREEFLOAT_KERNELS": "native"}
     runs = []
     for _ in range(2):
         done = subprocess.run([sys.executable, "-c", READY], env=env, capture_output=True, text=True, timeout=600, check=False)

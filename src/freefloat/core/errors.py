@@ -20,6 +20,7 @@ __all__ = [
     "ModelError",
     "NearSingularWarning",
     "PathDoesNotFitError",
+    "SettingError",
     "ShapeError",
     "SimulationError",
     "SingularConfigurationError",
@@ -130,6 +131,11 @@ class MemoryBudgetError(FreefloatError, ValueError):
     """A call would need more memory than the machine has free: refused before anything is allocated, with the
     estimate and the way out (fewer samples, a coarser grid, smaller batches) in the message
     (:func:`freefloat.core.resources.require_memory`)."""
+
+
+class SettingError(FreefloatError, ValueError):
+    """An environment variable of freefloat's holds a value it does not accept: the message names the variable and
+    its values."""
 
 
 class PathDoesNotFitError(FreefloatError, ValueError):

@@ -38,6 +38,9 @@ from .calls import (
     specialised_rollouts,
     state_derivative,
 )
+from .drivers import Batched as _Batched
+from .folders import KERNELS_ENV, cache_dir, kernel_status, kernels_setting, portable_dir, source_key
+from .gate import recorded_compiles
 from .laws import DETUMBLE, OPERATIONAL_SPACE, PROFILES, TRANSPOSED_JACOBIAN, actuator_bounds, make_law, same_structure
 from .layout import Tree, tree
 from .recursions import FRICTION_SPEED
@@ -51,11 +54,16 @@ from .stepper import REFUSED
 from .stops import limit_spans_batch
 from .threads import numba_threads
 
+#: The batch size from which a batched call runs on threads (the warm-up compiles the threaded drivers with it).
+PARALLEL_MIN = _Batched.PARALLEL_MIN
+
 __all__ = [
     "AUTO_AFTER",
     "DETUMBLE",
     "FRICTION_SPEED",
+    "KERNELS_ENV",
     "OPERATIONAL_SPACE",
+    "PARALLEL_MIN",
     "PROFILES",
     "REFUSED",
     "SPECIALISED_KINDS",
@@ -67,6 +75,7 @@ __all__ = [
     "accelerations",
     "actuator_bounds",
     "auto_enabled",
+    "cache_dir",
     "check_out",
     "find_specialised",
     "frames",
@@ -74,6 +83,8 @@ __all__ = [
     "inertia_matrix",
     "inertia_matrix_rate",
     "jacobian_measures",
+    "kernel_status",
+    "kernels_setting",
     "law_rollout",
     "limit_spans_batch",
     "make_law",
@@ -82,11 +93,14 @@ __all__ = [
     "point_biases",
     "point_jacobians",
     "points",
+    "portable_dir",
+    "recorded_compiles",
     "residual_rows",
     "rk4_batch",
     "rollout",
     "same_structure",
     "set_auto",
+    "source_key",
     "specialise_structure",
     "specialised_rollouts",
     "state_derivative",

@@ -26,6 +26,7 @@ from . import drivers as _drivers
 from . import gate, stepper
 from . import laws as _laws
 from .buffers import new_output, owned
+from .folders import compile_seconds
 from .layout import Tree, tree, work_size
 from .measures import MEASURE_CODES
 from .specialise import build as _specialise
@@ -632,6 +633,12 @@ class Stepper:
         if kind == "rk4":
             return gate.ready(stepper.rk4_steps, (self.ints, self.floats, x, u, 0.0, 0))
         return gate.ready(stepper.state_derivative, (self.ints, self.floats, x, u, x))
+
+    def compile_seconds(self, kind: str) -> float | None:
+        """About how long the kernel of :attr:`rk4` (``kind`` ``"rk4"``) or :meth:`derivative` (``"derivative"``) takes
+        to compile (s: measured when the portable kernels were built, :func:`.folders.compile_seconds`), None if not
+        known."""
+        return compile_seconds("rk4_steps" if kind == "rk4" else "state_derivative")
 
     def derivative(self, x: np.ndarray, u: np.ndarray, out: np.ndarray) -> bool:
         """out = d/dt x under u; False if H+ is not positive definite."""

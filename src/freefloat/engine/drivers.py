@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from . import gate
 from .cache import bind, kernel
 from .laws import law_control
 from .layout import Tree, arrays, scratch, work_size
@@ -110,11 +111,11 @@ class Batched:
         if type(a) is not self.call:
             raise TypeError(f"freefloat: the driver takes a {self.call.__name__}, not a {type(a).__name__}")
         length = work_size(t.n_bodies, t.ee_body.shape[0])
-        before = (len(self.serial.signatures), compiled_count())
+        before = (gate.overload_count(self.serial), compiled_count())
         parts = threads_for(size, self.PARALLEL_MIN)
         work = np.empty((range_count(size, parts), length))
         run_kernel(self.serial, (t.ints, t.floats), work, tuple(a), size, parts)  # its items: the kernel names them again
-        self.compiled = before[0] > 0 and before == (len(self.serial.signatures), compiled_count())
+        self.compiled = before[0] > 0 and before == (gate.overload_count(self.serial), compiled_count())
 
 
 def driver(name: str, row: Any, call: Any, *, parallel_min: int | None = None) -> Batched:

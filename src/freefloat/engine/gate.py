@@ -27,7 +27,7 @@ import contextlib
 import os
 import re
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
 
@@ -51,7 +51,9 @@ __all__ = [
     "launch_threads",
     "machine_address",
     "off",
+    "overload_count",
     "ready",
+    "recorded_compiles",
     "slice_view",
     "threads_launched",
     "turn_off",
@@ -145,19 +147,43 @@ def _say(*names: str) -> None:
 # ----------------------------------------------------------------- cache: freefloat's own folder
 @dataclass(frozen=True)
 class CacheEvents:
-    """What the cache does on the engine's behalf: the folder of a kernel's files and the three things it reports."""
+    """What the cache does on the engine's behalf: where a kernel's files are, what marks them as this engine
+    source's, where the portable kernels are, and the four things it reports."""
 
     folder: Callable[[], str]  # the cache folder of this numba version and engine source
-    missed: Callable[[str], None]  # a kernel not in the cache (compiled now): its folder
+    stamp: Callable[[], str]  # the engine source's key: the stamp of every index (not the files' dates or paths)
+    portable: Callable[[], str | None]  # the folder of the portable kernels (compiled for any CPU), None when none
+    missed: Callable[[str], None]  # a kernel neither in the cache nor portable (compiled now): its folder
+    loaded_portable: Callable[[str], None]  # a kernel loaded from the portable folder: that folder
+    hold: Callable[[str, str], bool]  # take the compile lock of a kernel (its index file, its name): False if not taken
+    release: Callable[[str], None]  # give back the compile lock of a kernel's index file, if this process holds it
     broken: Callable[[str, str, BaseException], None]  # unreadable files (folder, kernel, error): compiled again
     unwritable: Callable[[str, BaseException], None]  # the cache could not be written (folder, error)
 
 
+#: The CPU name and features numba compiles for with ``NUMBA_CPU_NAME=generic`` (its portable target): the part of
+#: a cache entry's key that names the machine, beside the target triple.
+PORTABLE_CPU = ("generic", "")
+#: The freefloat package's folder: a kernel's cache files are kept under its source folder's path relative to it,
+#: so that a cache is the same wherever freefloat is installed.
+_PACKAGE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
 def _cache_classes() -> Any:
-    from numba.core.caching import CompileResultCacheImpl, FunctionCache, NullCache, _CacheLocator, _SourceFileBackedLocatorMixin
+    from numba.core.caching import (
+        CompileResultCacheImpl,
+        FunctionCache,
+        IndexDataCacheFile,
+        NullCache,
+        _CacheLocator,
+        _SourceFileBackedLocatorMixin,
+    )
 
     class Locator(_SourceFileBackedLocatorMixin, _CacheLocator):
-        """Cache files of a kernel under freefloat's folder, keyed by its source file's path."""
+        """Cache files of a kernel under freefloat's folder, in a subfolder named by its source file's folder in the
+        package (``engine``, ``engine-specialise``) and stamped with the engine source's key: a cache built in one
+        checkout or installation loads in another of the same source (numba's own locator names the folder by a hash
+        of its absolute path)."""
 
         events: CacheEvents
 
@@ -168,6 +194,16 @@ def _cache_classes() -> Any:
 
         def get_cache_path(self) -> str:
             return self._cache_path
+
+        def get_source_stamp(self) -> str:
+            return self.events.stamp()
+
+        @classmethod
+        def get_suitable_cache_subpath(cls, py_file: str) -> str:
+            folder = os.path.relpath(os.path.dirname(os.path.abspath(py_file)), _PACKAGE)
+            if folder.startswith(os.pardir):  # not a file of the package: numba's own subfolder
+                return str(super().get_suitable_cache_subpath(py_file))
+            return folder.replace(os.sep, "-")
 
         @classmethod
         def from_function(cls, py_func: Callable[..., Any], py_file: str) -> Any:
@@ -183,9 +219,22 @@ def _cache_classes() -> Any:
         _impl_class = Impl
         events: CacheEvents
 
-        def load_overload(self, sig: Any, target_context: Any) -> Any:
+        def load_overload(self, sig: Any, target_context: Any, compiling: bool = True) -> Any:
+            """The kernel's machine code for ``sig`` from this machine's cache, else from the portable folder, else
+            None: then (``compiling``, numba's dispatcher compiles next) this process takes the kernel's compile lock
+            first, waiting while another process compiles it, and loads what that process saved; the lock is given
+            back once the compiled kernel is saved (:meth:`save_overload`)."""
+            index = self._cache_file._index_path
+            self.events.release(index)  # a compile of this kernel that failed in this process
+            portable = self.events.portable()  # outside the try: a bad setting is the user's error, raised
             try:
                 found = super().load_overload(sig, target_context)
+                if found is None and portable is not None:
+                    found = self._load_portable(portable, sig, target_context)
+                if found is None and compiling and self.events.hold(index, self._py_func.__qualname__):
+                    found = super().load_overload(sig, target_context)  # saved while this process waited
+                    if found is not None:
+                        self.events.release(index)
             except Exception as exc:  # a cache must never cost a traceback: whatever is wrong with the files
                 self.events.broken(self.cache_path, self._py_func.__qualname__, exc)
                 self._drop_index()
@@ -195,16 +244,39 @@ def _cache_classes() -> Any:
                 self.events.missed(self.cache_path)
             return found
 
+        def _load_portable(self, folder: str, sig: Any, target_context: Any) -> Any:
+            """The kernel compiled for numba's portable CPU (``generic``) in the portable ``folder``, for this target
+            triple, this signature and this bytecode; None when it is not there. Never saved into the native cache."""
+            locator = self._impl.locator
+            files = IndexDataCacheFile(
+                cache_path=os.path.join(folder, locator.get_suitable_cache_subpath(locator._py_file)),
+                filename_base=self._impl.filename_base,
+                source_stamp=locator.get_source_stamp(),
+            )
+            signature, (triple, *_), code = self._index_key(sig, target_context.codegen())
+            try:
+                data = files.load((signature, (triple, *PORTABLE_CPU), code))
+                found = None if data is None else self._impl.rebuild(target_context, data)
+            except Exception as exc:  # damaged portable files: said, and the kernel compiled (this machine's cache kept)
+                self.events.broken(folder, self._py_func.__qualname__, exc)
+                return None
+            if found is not None:
+                self.events.loaded_portable(folder)
+            return found
+
         def save_overload(self, sig: Any, data: Any) -> None:
-            for attempt in range(2):
-                try:
-                    super().save_overload(sig, data)
-                    return
-                except Exception as exc:
-                    if attempt == 0 and not isinstance(exc, PermissionError):
-                        self._drop_index()  # an unreadable index: start it afresh and try once more
-                        continue
-                    self.events.unwritable(self.cache_path, exc)
+            try:
+                for attempt in range(2):
+                    try:
+                        super().save_overload(sig, data)
+                        return
+                    except Exception as exc:
+                        if attempt == 0 and not isinstance(exc, PermissionError):
+                            self._drop_index()  # an unreadable index: start it afresh and try once more
+                            continue
+                        self.events.unwritable(self.cache_path, exc)
+            finally:
+                self.events.release(self._cache_file._index_path)
 
         def _drop_index(self) -> None:
             index = getattr(self._cache_file, "_index_path", None)
@@ -397,6 +469,16 @@ def _argument_types(run: Any, args: tuple[Any, ...]) -> tuple[Any, ...]:
     return tuple(nbtypes.BaseTuple.from_types(t.types) if isinstance(t, stars) else t for t in folded)
 
 
+def overload_count(run: Any) -> int:
+    """How many signatures the numba dispatcher ``run`` holds machine code for in this process (compiled or loaded):
+    the size of its overloads, at the cost of a ``len`` (numba's public ``signatures`` lists them, hashing every
+    argument type of every signature: tens of microseconds once a kernel has a few dozen, on every call that asks)."""
+    try:
+        return len(run.overloads)
+    except (AttributeError, TypeError):
+        return len(run.signatures)
+
+
 def ready(run: Any, args: tuple[Any, ...]) -> bool:
     """Whether the kernel ``run`` (a numba dispatcher) has machine code for ``args`` without compiling: compiled in
     this process, or loaded now from its cache. Never compiles. With the ``threads`` internal off (it types the
@@ -411,12 +493,46 @@ def ready(run: Any, args: tuple[Any, ...]) -> bool:
     with global_compiler_lock:  # what the dispatcher's compile does before it compiles: the cache's overload, if any
         if types in run.overloads:
             return True
-        found = run._cache.load_overload(types, run.targetctx)
+        cache = run._cache
+        if _CACHE is not None and isinstance(cache, _CACHE[1]):
+            found = cache.load_overload(types, run.targetctx, compiling=False)  # without taking the compile lock
+        else:
+            found = cache.load_overload(types, run.targetctx)  # numba's own cache
         if found is None:
             return False
         run.targetctx.insert_user_function(found.entry_point, found.fndesc, [found.library])
         run.add_overload(found)
         return True
+
+
+@contextlib.contextmanager
+def recorded_compiles() -> Iterator[dict[str, float]]:
+    """The kernels this process compiles inside the block: the dict yielded is filled, at the end, with the longest
+    compile of each (its name: seconds), from numba's compile events (``numba.core.event``, ``numba:compile``); left
+    empty where numba has no such events."""
+    took: dict[str, float] = {}
+    try:
+        from numba.core import event
+    except ImportError:
+        yield took
+        return
+    recorder = event.RecordingListener()
+    event.register("numba:compile", recorder)
+    try:
+        yield took
+    finally:
+        event.unregister("numba:compile", recorder)
+        started: dict[int, float] = {}
+        for when, happened in recorder.buffer:
+            data = happened.data if isinstance(happened.data, dict) else {}
+            dispatcher = data.get("dispatcher")
+            if dispatcher is None:
+                continue
+            if happened.is_start:
+                started[id(data)] = when
+            elif id(data) in started:
+                name = str(dispatcher.py_func.__qualname__)
+                took[name] = round(max(took.get(name, 0.0), when - started.pop(id(data))), 2)
 
 
 def threads_launched() -> bool:

@@ -151,7 +151,7 @@ def _fan_out(address: int, pre: Any, work: np.ndarray, post: Any, count: int, fa
 def compiled_count() -> int:
     """How many signatures of :func:`_fan_out` this process has compiled or loaded (one per signature of the kernels it
     has called on threads): a call that raised it compiled one."""
-    return len(_fan_out.signatures)
+    return gate.overload_count(_fan_out)
 
 
 def _flat(values: tuple[Any, ...]) -> tuple[Any, ...]:

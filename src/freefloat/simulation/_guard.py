@@ -63,7 +63,9 @@ class RunEstimate:
     ``samples``: controller evaluations; ``outputs``: recorded states; ``memory_bytes``: the
     recorded arrays; ``seconds``: estimated wall time (adaptive: a lower bound, the step count
     is not known before the run); ``compiles``: the engine's kernels for the run are not compiled on this machine
-    yet (the run compiles them first; ``seconds`` excludes that and comes from a typical per-body cost, not timed).
+    yet (the run compiles them first; ``seconds`` excludes that and comes from a typical per-body cost, not timed);
+    ``compile_seconds``: about how long that compile takes (the time measured when freefloat's portable kernels were
+    built), None when not known.
     """
 
     steps: int
@@ -73,14 +75,18 @@ class RunEstimate:
     seconds: float
     adaptive: bool
     compiles: bool = False
+    compile_seconds: float | None = None
 
     def describe(self) -> str:
-        """One line: steps, samples, outputs, memory and time."""
+        """One line: steps, samples, outputs, memory and time (and the compile before the run, if any)."""
         bound = "at least " if self.adaptive else ""
+        compiling = ""
+        if self.compiles:
+            about = f"about {_duration(self.compile_seconds)} of " if self.compile_seconds else ""
+            compiling = f", after {about}compiling the engine's kernels for this machine (once)"
         return (
             f"{bound}{self.steps:.3g} steps, {self.samples:.3g} controller samples, {self.outputs:.3g} recorded states "
-            f"({self.memory_bytes / 1e6:.3g} MB), estimated {bound}{_duration(self.seconds)}"
-            + (", after compiling the engine's kernels for this machine (once)" if self.compiles else "")
+            f"({self.memory_bytes / 1e6:.3g} MB), estimated {bound}{_duration(self.seconds)}" + compiling
         )
 
 
@@ -161,7 +167,10 @@ def estimate_run(
         steps = max(samples, outputs)
         seconds = steps * 12 * cost + samples * _SAMPLE_COST + outputs * _SAMPLE_COST
     width = state_length(model.n_joints) + model.n_joints + 7
-    return RunEstimate(int(steps), int(samples), int(outputs), int(outputs * width * 8), float(seconds), fixed_step is None, not timed)
+    compile_s = None if timed else engine.Stepper(model).compile_seconds("rk4" if fixed_step is not None else "derivative")
+    return RunEstimate(
+        int(steps), int(samples), int(outputs), int(outputs * width * 8), float(seconds), fixed_step is None, not timed, compile_s
+    )
 
 
 class Progress:

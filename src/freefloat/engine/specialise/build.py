@@ -52,7 +52,7 @@ from .. import layout as _tree
 from .. import measures as _measures
 from .. import quantities as _configuration
 from .. import recursions as _recursions
-from ..cache import CacheWarning, cache_dir
+from ..folders import CacheWarning, cache_dir
 from ..layout import BODY_FIELDS, Arrays, Tree, work_size
 from ..threads import range_count, run_kernel, threads_for
 from . import lanes as _lanes

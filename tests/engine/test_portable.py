@@ -1,0 +1,122 @@
+"""The portable kernels freefloat ships, one compile per kernel and machine, and caches that must not load (issue 44).
+
+Every case runs in fresh processes with a cache folder of its own (``FREEFLOAT_CACHE_DIR``): what a kernel does on
+first use is only seen in a process that has not used it. Compiles are counted with numba's event API
+(``numba:compile``, one event per kernel compiled). The portable kernels are built for the newest numba the project
+supports: ``make test-lowest`` leaves this file out (there they are not used, which ``test_compile_once.py``
+checks).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+
+#: Run in the child: J* of a batch on threads and a short fixed-step simulation, the compiles counted, the results
+#: and what the engine said on standard error.
+FIRST_USE = """
+import json, sys
+from numba.core import event
+import numpy as np
+recorder = event.RecordingListener()
+event.register("numba:compile", recorder)
+import freefloat as ff
+from freefloat.engine import kernel_status
+model = ff.models.papadopoulos1992()
+q = np.random.default_rng(3).uniform(-1.0, 1.0, size=(256, model.n_joints))
+jstar = ff.generalized_jacobian(model, q)
+traj = ff.simulate(model, ff.State(q=q[0]), 0.05, controller=ff.JointPD(kp=1.0, kd=1.0), fixed_step=1e-3)
+compiled = sorted({str(data["dispatcher"].py_func.__qualname__) for _, e in recorder.buffer
+                   for data in [e.data] if e.is_start and isinstance(data, dict) and "dispatcher" in data})
+print(json.dumps({"compiled": compiled, "jstar": jstar.tolist(), "q_end": traj.q[-1].tolist(), "status": kernel_status()}))
+"""
+
+
+def child(code: str, cache: Path, setting: str, *args: str, timeout: float = 600) -> tuple[dict[str, object], str]:
+    env = dict(os.environ, FREEFLOAT_CACHE_DIR=str(cache), FREEFLOAT_KERNELS=setting, FREEFLOAT_AUTO_SPECIALISE="0")
+    done = subprocess.run([sys.executable, "-c", code, *args], env=env, capture_output=True, text=True, timeout=timeout)
+    assert done.returncode == 0, done.stderr[-3000:]
+    return json.loads(done.stdout.strip().splitlines()[-1]), done.stderr
+
+
+def test_a_fresh_machine_loads_the_portable_kernels_and_compiles_none_of_them(tmp_path: Path) -> None:
+    """An empty cache: J* on threads and a simulation with a joint PD load the shipped kernels (nothing compiled, said
+    once), the numbers those of this machine's kernels; the background compile is not started with ``portable``."""
+    portable, said = child(FIRST_USE, tmp_path / "portable", "portable")
+    assert portable["compiled"] == [], portable["compiled"]
+    assert said.count("using the portable kernels shipped with freefloat") == 1, said
+    assert "compiling the engine's kernels" not in said, said
+    status = portable["status"]
+    assert isinstance(status, dict) and status["portable"] and status["background"] == "not started"
+    assert status["native"] == 0, "portable kernels were written into this machine's cache"
+    native, said = child(FIRST_USE, tmp_path / "native", "native")
+    assert native["compiled"], "an empty cache with FREEFLOAT_KERNELS=native compiled nothing"
+    assert "using the portable kernels" not in said
+    # the same numbers: the portable code differs from this machine's in the order of floating-point operations only
+    np.testing.assert_allclose(portable["jstar"], native["jstar"], rtol=1e-12, atol=1e-13)
+    np.testing.assert_allclose(portable["q_end"], native["q_end"], rtol=1e-11, atol=1e-13)
+
+
+def test_auto_starts_one_background_compile_per_machine(tmp_path: Path) -> None:
+    """``auto``: the first process that loads a portable kernel starts this machine's compile in a background
+    process; a second process started meanwhile does not start another; once that process has died unfinished, the
+    next one starts it again."""
+    cache = tmp_path / "cache"
+    marker = "native-compile.started"
+    first, said = child(FIRST_USE, cache, "auto")
+    assert "compiling in a background process" in said, said
+    folder = Path(str(first["status"]["folder"]))  # type: ignore[index]
+    pid = int((folder / marker).read_text())
+    try:
+        os.kill(pid, 0)  # alive
+        second, said = child(FIRST_USE, cache, "auto")
+        assert "compiling in a background process" not in said and second["status"]["background"] == "running"  # type: ignore[index]
+        assert int((folder / marker).read_text()) == pid
+    finally:
+        os.killpg(pid, signal.SIGKILL)
+    for _ in range(100):
+        try:
+            os.waitpid(pid, os.WNOHANG)
+        except ChildProcessError:
+            pass
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            break
+        time.sleep(0.05)
+    _, said = child(FIRST_USE, cache, "auto")
+    assert "compiling in a background process" in said, said
+    os.killpg(int((folder / marker).read_text()), signal.SIGKILL)
+
+
+def test_another_numba_s_portable_kernels_are_not_loaded(tmp_path: Path) -> None:
+    """A manifest of another numba version: the portable kernels are not used, every kernel compiles on this machine,
+    and the compile notice says why (once)."""
+    code = (
+        textwrap.dedent(
+            f"""
+        import json, pathlib
+        from freefloat.engine import folders as cache
+        manifest = cache.portable_manifest()
+        manifest["numba"] = "0.0.1"
+        other = pathlib.Path({str(tmp_path)!r}) / "kernels.json"
+        other.write_text(json.dumps(manifest))
+        cache.PORTABLE_MANIFEST = other
+        """
+        )
+        + FIRST_USE
+    )
+    report, said = child(code, tmp_path / "cache", "portable")
+    assert report["compiled"], "nothing compiled: the portable kernels of another numba were loaded"
+    assert "using the portable kernels" not in said
+    assert said.count("the portable kernels shipped with freefloat are for numba 0.0.1") == 1, said
