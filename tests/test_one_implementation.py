@@ -50,7 +50,14 @@ ENGINE_CALLERS = {
     "engine/laws.py",  # the control laws: H+ and C+ of the engine (hplus_one), never their own
 }
 #: Modules allowed to import numba (the compiled engine and its cache).
-NUMBA_MODULES = {"engine/gate.py", "engine/cache.py", "engine/threads.py", "engine/specialise/lanes.py", "engine/specialise/build.py"}
+NUMBA_MODULES = {
+    "engine/gate.py",
+    "engine/cache.py",
+    "engine/folders.py",
+    "engine/threads.py",
+    "engine/specialise/lanes.py",
+    "engine/specialise/build.py",
+}
 
 
 def _functions() -> list[tuple[str, ast.FunctionDef, ast.Module]]:
