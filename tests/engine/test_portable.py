@@ -59,6 +59,8 @@ def test_a_fresh_machine_loads_the_portable_kernels_and_compiles_none_of_them(tm
     status = portable["status"]
     assert isinstance(status, dict) and status["portable"] and status["background"] == "not started"
     assert status["native"] == 0, "portable kernels were written into this machine's cache"
+    again, said = child(FIRST_USE, tmp_path / "portable", "portable")  # the next process: said once per machine
+    assert again["compiled"] == [] and "using the portable kernels" not in said, said
     native, said = child(FIRST_USE, tmp_path / "native", "native")
     assert native["compiled"], "an empty cache with FREEFLOAT_KERNELS=native compiled nothing"
     assert "using the portable kernels" not in said

@@ -249,11 +249,23 @@ def _unpack(folder: Path) -> None:
 
 
 def _loaded_portable(folder: str) -> None:
-    """Once per process, at the first portable kernel loaded: say so, and (``auto``) start this machine's compile."""
+    """At the first portable kernel a process loads: (``auto``) start this machine's compile, and say so when it
+    started one or when no process of this cache folder has said it before (the marker ``announced`` in ``folder``):
+    once per machine, not in every process."""
     if "said" in _PORTABLE_STATE:
         return
     _PORTABLE_STATE["said"] = "yes"
-    if kernels_setting() == "auto" and start_native_compile():
+    started = kernels_setting() == "auto" and start_native_compile()
+    try:
+        os.close(os.open(Path(folder) / "announced", os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        first = True
+    except FileExistsError:
+        first = False
+    except OSError:  # a folder that cannot be written: said in every process
+        first = True
+    if not (started or first):
+        return
+    if started:
         then = "this machine's own are compiling in a background process (once; the next processes load them)"
     elif kernels_setting() == "auto":
         then = "this machine's own are compiling in the background or compiled (the next processes load them)"
