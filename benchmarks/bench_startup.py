@@ -54,7 +54,8 @@ import numpy as np
 from freefloat.engine import kernel_status
 model = ff.models.spacecraft_7dof()
 n = model.n_joints
-pd = ff.JointPD(kp=np.full(n, 40.0), kd=np.full(n, 8.0), q_ref=np.full(n, 0.3))
+inertia = np.diagonal(ff.system_inertia_matrix(model, np.zeros(n), method="barycentric"))[6:]  # numpy: no kernel
+pd = ff.JointPD(kp=400.0 * inertia, kd=28.0 * inertia, q_ref=np.full(n, 0.3))
 
 def work(kind):
     if kind == "import":

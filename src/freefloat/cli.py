@@ -347,7 +347,7 @@ def kernels_command(
     json_output: Annotated[bool, typer.Option("--json", help="Print one JSON object instead of text.")] = False,
 ) -> None:
     """Say where the engine's compiled kernels come from on this machine: its own cache, or the portable kernels
-    shipped with freefloat (for any CPU of its kind, up to about 1.8x slower) while its own compile in the background
+    shipped with freefloat (for any CPU of its kind, up to about 2.5x slower) while its own compile in the background
     (FREEFLOAT_KERNELS: auto, portable or native; docs/performance.md)."""
     from .engine import kernel_status
 

@@ -24,7 +24,7 @@ cannot be used, the kernels keep numba's own cache, ``cache=True``).
 Portable kernels: freefloat ships the generic kernels compiled for numba's portable CPU (``NUMBA_CPU_NAME=generic``:
 any CPU of the target triple) for the numba version and Python it was built with (:data:`PORTABLE_ARCHIVE`, its
 manifest :data:`PORTABLE_MANIFEST`). A kernel that is not in this machine's cache is loaded from them, unpacked once
-into the cache folder (:func:`portable_dir`), instead of compiled; they run up to about 1.8x slower than kernels
+into the cache folder (:func:`portable_dir`), instead of compiled; they run up to about 2.5x slower than kernels
 compiled for this machine. ``FREEFLOAT_KERNELS`` (:data:`KERNELS_ENV`) chooses: ``auto`` (the default) loads them and
 starts one background process per machine that compiles this machine's own (:func:`start_native_compile`: the next
 processes load those); ``portable`` loads them and compiles nothing in the background; ``native`` never loads them
@@ -272,7 +272,7 @@ def _loaded_portable(folder: str) -> None:
     else:
         then = "freefloat kernels --compile compiles this machine's own (a few minutes, once)"
     notice(
-        f"using the portable kernels shipped with freefloat (for any {platform_cpu()} CPU, up to about 1.8x slower "
+        f"using the portable kernels shipped with freefloat (for any {platform_cpu()} CPU, up to about 2.5x slower "
         f"than kernels compiled for this machine): {then}"
     )
 
