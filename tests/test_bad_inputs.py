@@ -43,7 +43,7 @@ import freefloat as ff
 from bad_case import SCENARIO_FILES, Case, api, cli
 from bad_case import add_file as _add
 from freefloat.cli import app
-from freefloat.core.errors import MemoryBudgetError, ModelCorrectionWarning, ModelError, ShapeError, UnknownNameError
+from freefloat.core.errors import MemoryBudgetError, ModelCorrectionWarning, ModelError, SettingError, ShapeError, UnknownNameError
 
 ROOT = Path(__file__).resolve().parents[1]
 ARM_URDF = ROOT / "examples" / "models" / "six_dof_arm.urdf"
@@ -802,7 +802,29 @@ def _builder(body: dict[str, Any] | None = None, joint: dict[str, Any] | None = 
     return run
 
 
+def _kernels_setting(value: str) -> str:
+    """``FREEFLOAT_KERNELS=value`` read as the engine reads it at the first kernel a process needs (the variable put
+    back after; the subprocess cases are in tests/engine/test_compile_once.py)."""
+    from freefloat.engine import kernels_setting
+
+    before = os.environ.get("FREEFLOAT_KERNELS")
+    os.environ["FREEFLOAT_KERNELS"] = value
+    try:
+        return kernels_setting()
+    finally:
+        if before is None:
+            del os.environ["FREEFLOAT_KERNELS"]
+        else:
+            os.environ["FREEFLOAT_KERNELS"] = before
+
+
 CASES = [
+    api(
+        "env-kernels-unknown",
+        lambda f: _kernels_setting("fast"),
+        SettingError,
+        r"^FREEFLOAT_KERNELS='fast' is not a setting: use one of auto, portable, native",
+    ),
     # ---- loading files and names
     api("load-none", lambda f: ff.load(None), TypeError, r"^path: expected a model file path or a built-in model name"),
     api("load-int", lambda f: ff.load(123), TypeError, r"^path: expected a model file path"),
