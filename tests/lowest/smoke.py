@@ -18,6 +18,7 @@ It prints one line per step with its wall time and exits 1 at the first failure,
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -34,7 +35,7 @@ EXAMPLES = ROOT / "examples"
 FREEFLOAT = Path(sys.executable).with_name("freefloat")  # the console script of this environment
 
 #: The commands of ``freefloat --help``, each with what it is run on (see :func:`commands`).
-COMMANDS = ("inspect", "specialise", "demo", "workspace", "capture", "simulate", "reproduce", "campaign")
+COMMANDS = ("inspect", "specialise", "kernels", "demo", "workspace", "capture", "simulate", "reproduce", "campaign")
 
 #: A two-link free-floating arm in MJCF (MuJoCo's parser reads it): the spacecraft (a free joint) and two hinges.
 TINY_MJCF = """<mujoco model="tiny">
@@ -183,6 +184,7 @@ def commands(tmp: Path) -> dict[str, Callable[[], object]]:
         "specialise": lambda: run(
             ["specialise", "papadopoulos1991", "--kind", "jstar"], cwd=tmp, env={"FREEFLOAT_CACHE_DIR": str(tmp / "cache")}
         ),
+        "kernels": lambda: kernels(tmp),
         "demo": lambda: run(["demo", "--out", tmp / "demo"], cwd=tmp),
         "workspace": lambda: run(["workspace", "papadopoulos1992-one-arm", "--samples", "16", "--out", tmp / "workspace"], cwd=tmp),
         "capture": lambda: run(["capture", capture, "--out", tmp / "capture"], cwd=tmp),
@@ -190,6 +192,16 @@ def commands(tmp: Path) -> dict[str, Callable[[], object]]:
         "reproduce": lambda: run(["reproduce", "1992", "--out", tmp / "reproduce"], cwd=tmp),
         "campaign": lambda: campaign(tmp),
     }
+
+
+def kernels(tmp: Path) -> None:
+    """``freefloat kernels``: the text and the JSON agree on the setting and on where this machine's kernels are."""
+    text = run(["kernels"], cwd=tmp)
+    status = json.loads(run(["kernels", "--json"], cwd=tmp))
+    check(f"FREEFLOAT_KERNELS={status['setting']}" in text, f"freefloat kernels: setting {status['setting']!r} not in\n{text}")
+    check(str(status["folder"]) in text, f"freefloat kernels: folder {status['folder']} not in\n{text}")
+    native = status["native"]
+    check(isinstance(native, int) and native > 0, f"freefloat kernels: {native!r} native kernels after the warm-up")
 
 
 def campaign(tmp: Path) -> None:
