@@ -64,3 +64,13 @@ def threads(parameters: dict[str, Any]) -> dict[str, Any]:
     import numba
 
     return {"numba_threads": float(numba.get_num_threads())}
+
+
+def frames(parameters: dict[str, Any]) -> dict[str, Any]:
+    """The body frames of the 1992 servicer at joint angles ``0.1 i`` (one of the engine's kernels, compiled on a fresh
+    worker that does not load the portable ones): the x coordinate of the last body's origin."""
+    import freefloat as ff
+
+    model = ff.models.papadopoulos1992()
+    _, origins = ff.forward_kinematics(model, np.full(model.n_joints, 0.1 * parameters["i"]))
+    return {"x": float(origins[-1, 0])}

@@ -14,6 +14,7 @@ import os
 import re
 import signal
 import subprocess
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -22,7 +23,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import tomli_w
-from clusters import PATIENCE, Cluster, campaign, freefloat, marked_campaign, marks, start_cluster, stored, wait_for
+from clusters import PATIENCE, Cluster, campaign, environment, freefloat, marked_campaign, marks, start_cluster, stored, wait_for
 
 from freefloat.campaigns import load_campaign, plan_runs, read_runs, read_series
 
@@ -96,6 +97,25 @@ def test_fresh_workers_load_the_portable_kernels_and_compile_nothing(tmp_path: P
     assert table.column("compiles").to_pylist() == [0.0] * 4
     compiled = [f for f in (tmp_path / "empty").rglob("*.nbc") if not any(part.endswith("-portable") for part in f.parts)]
     assert compiled == [], "a worker wrote compiled kernels into its cache"
+
+
+def test_the_client_says_while_fresh_workers_compile_the_engine(tmp_path: Path) -> None:
+    """Two ``dask worker`` processes with an empty cache and no portable kernels (``FREEFLOAT_KERNELS=native``) compile
+    the engine's kernel of the runs (one of them, the other waits for it: one machine); meanwhile the client's progress
+    (a log line on stderr, not a terminal) says how many workers compile the engine and for how long (issue 44)."""
+    (tmp_path / "dask").mkdir()
+    fresh = {"FREEFLOAT_CACHE_DIR": str(tmp_path / "empty"), "FREEFLOAT_KERNELS": "native"}
+    with start_cluster(tmp_path / "dask", env=fresh) as running:
+        spec = campaign(tmp_path, function="campaign_runs:frames", parameters={"i": {"values": [0, 1, 2, 3]}}, record={"scalars": ["x"]})
+        command = [sys.executable, "-m", "freefloat", "campaign", str(spec), "--out", str(tmp_path / "out"), "--scheduler", running.address]
+        done = subprocess.run(command, env=environment(), capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert "4 ok, 0 failed" in done.stdout, done.stdout
+    said = re.findall(r"waiting: ([12]) workers? compiling the engine, (\S+) s elapsed", done.stderr)
+    assert said, done.stderr
+    assert list((tmp_path / "empty").rglob("*.nbc")), "no kernel compiled into the workers' cache"
+    x = read_runs(tmp_path / "out").column("x").to_pylist()
+    assert len(set(x)) == 4, x
 
 
 def test_a_worker_killed_mid_campaign_loses_nothing(cluster: Cluster, tmp_path: Path) -> None:

@@ -13,6 +13,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numba
 import pytest
@@ -103,3 +104,50 @@ def test_an_unknown_kernels_setting_is_refused_naming_the_variable(tmp_path: Pat
             "error: FREEFLOAT_KERNELS='fast' is not a setting: use one of auto, portable, native"
         ), lines
     assert not any((tmp_path / "cache").rglob("*.nbi")), "a kernel was compiled or unpacked before the setting was checked"
+
+
+#: The child of the watch test: the engine's compile watcher and a progress bar (logging, no terminal) around a call
+#: that compiles (or loads) the kernel of ``slow_kernel``; prints what the watcher was told.
+WATCHED = """
+import json, logging, sys, time
+sys.path.insert(0, sys.argv[1])
+logging.basicConfig(level=logging.INFO, stream=sys.stdout, format="%(name)s|%(message)s")
+from freefloat import engine
+from freefloat.simulation._guard import Progress
+import slow_kernel
+seen = []
+with engine.watch_compiles(lambda what, seconds: seen.append([what, seconds])):
+    bar = Progress(None, 1.0)
+    start = time.perf_counter()
+    value = slow_kernel.slow(0.5)
+    took = time.perf_counter() - start
+    time.sleep(1.5)  # (the watcher's last word comes within its period)
+    bar.close()
+print(json.dumps({"seen": seen, "took": took, "after": engine.compiling_now()}))
+"""
+
+
+def test_a_compile_is_watched_while_it_lasts_and_a_progress_bar_says_so(tmp_path: Path) -> None:
+    """While a kernel compiles, the thread that needs it is blocked: the engine's compile watcher tells its watchers
+    what compiles (at the start, every half second, and once at the end with how long it took), and a progress bar
+    that is open logs "waiting: compiling the engine's kernel ..." with the time so far. A kernel the cache holds is
+    loaded: nothing is watched (issue 44: a progress bar that waits for a compile says so)."""
+    (tmp_path / "slow_kernel.py").write_text(SLOW_KERNEL)
+    env = dict(os.environ, FREEFLOAT_CACHE_DIR=str(tmp_path / "cache"), FREEFLOAT_KERNELS="native")
+
+    def child() -> tuple[dict[str, Any], list[str]]:
+        done = subprocess.run([sys.executable, "-c", WATCHED, str(tmp_path)], env=env, capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr[-3000:]
+        lines = done.stdout.strip().splitlines()
+        return json.loads(lines[-1]), [line.split("|", 1)[1] for line in lines if line.startswith("freefloat.progress|")]
+
+    compiled, logged = child()
+    what = "compiling the engine's kernel slow for this machine (once)"
+    seen, took = compiled["seen"], compiled["took"]
+    assert took > 2.5, f"the kernel compiled in {took:.2f} s: too short to watch the progress bar's delay pass"
+    assert [entry[0] for entry in seen[:-1]] == [what] * (len(seen) - 1) and seen[-1][0] is None, seen
+    assert len(seen) - 1 >= took / 0.5 - 2, f"{len(seen) - 1} calls in {took:.2f} s"  # every half second
+    assert abs(seen[-1][1] - took) < 0.7 and compiled["after"] is None, (seen[-1], took)
+    assert any(line.startswith("simulating: 0 / 1 s (0%)") and f"; waiting: {what}, " in line for line in logged), logged
+    loaded, logged = child()
+    assert loaded["seen"] == [] and logged == [], (loaded, logged)

@@ -229,3 +229,51 @@ def test_progress_outside_a_terminal_goes_to_the_logger(monkeypatch: pytest.Monk
     lines = [r.getMessage() for r in caplog.records if r.name == "freefloat.progress"]
     assert bar.bar is None and 3 <= len(lines) <= 39 / LOG_PERIOD + 1
     assert lines[0] == "simulating: 2 / 10 s (20%), 10 s elapsed, about 40 s left", lines[0]
+
+
+def test_progress_says_what_it_waits_for_and_leaves_the_wait_out_of_the_estimate(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """A wait (a compile of the engine's kernels, a campaign's workers compiling) is said at once, then with the log's
+    period, with its length; the rate and the time left count the work's own wall time, not the wait (issue 44)."""
+    clock = [0.0]
+    monkeypatch.setattr("freefloat.simulation._guard.time.perf_counter", lambda: clock[0])
+    monkeypatch.setattr("freefloat.simulation._guard.interactive", lambda: False)
+    caplog.set_level("INFO", logger="freefloat.progress")
+    bar = Progress(None, 10.0, what="campaign c", unit="runs", rate=True)
+    for now, call in [
+        (3.0, lambda: bar.update(1.0)),
+        (4.0, lambda: bar.waiting("2 workers compiling the engine")),
+        (5.0, lambda: bar.waiting("2 workers compiling the engine")),  # (within the log's period: not logged)
+        (20.0, lambda: bar.waiting("2 workers compiling the engine")),
+        (44.0, lambda: bar.waiting(None)),
+        (60.0, lambda: bar.update(5.0)),
+    ]:
+        clock[0] = now
+        call()
+    bar.close()
+    lines = [r.getMessage() for r in caplog.records if r.name == "freefloat.progress"]
+    assert lines == [
+        # (3 s: within the first log period, no line) the wait is said at once
+        "campaign c: 1 / 10 runs (10%), 0.25 runs/s, 4 s elapsed, about 36 s left; waiting: 2 workers compiling the engine, 0 s elapsed",
+        "campaign c: 1 / 10 runs (10%), 0.25 runs/s, 20 s elapsed, about 36 s left; waiting: 2 workers compiling the engine, 16 s elapsed",
+        "campaign c: 1 / 10 runs (10%), 0.25 runs/s, 44 s elapsed, about 36 s left",
+        "campaign c: 5 / 10 runs (50%), 0.25 runs/s, 60 s elapsed, about 20 s left",  # (60 s left if the wait counted)
+    ], lines
+    assert bar.waited == 40.0
+
+
+def test_a_bar_on_a_terminal_shows_the_wait_beside_the_estimate(monkeypatch: pytest.MonkeyPatch) -> None:
+    """On a terminal the bar appears for a wait (nothing else would redraw it: the thread that waits is blocked) and
+    shows what it waits for; the note goes when the wait ends."""
+    monkeypatch.setattr("freefloat.simulation._guard.interactive", lambda: True)
+    bar = Progress(True, 10.0)
+    bar.waiting("compiling the engine's kernel rk4_steps for this machine (once)")
+    assert bar.bar is not None
+    fields = bar.bar.tasks[0].fields
+    assert fields["note"] == "waiting: compiling the engine's kernel rk4_steps for this machine (once), 0 s elapsed", fields
+    bar.waiting(None)
+    bar.update(2.0)
+    assert bar.bar.tasks[0].fields["note"] == "" and bar.bar.tasks[0].fields["left"].startswith("about "), bar.bar.tasks[0].fields
+    bar.close()
+    assert bar.bar is None

@@ -251,14 +251,16 @@ def _address(address: str) -> tuple[str, int]:
 
 def share_threads(client: Any, threads: int | None) -> None:
     """Register :class:`.worker_threads.ThreadShare` with the cluster of ``client`` (the task threads by host, from the
-    scheduler): every worker, there or joining, runs each run on its share of its machine's cores."""
-    from .worker_threads import ThreadShare
+    scheduler): every worker, there or joining, runs each run on its share of its machine's cores; and
+    :class:`.worker_threads.CompileNews`: every worker tells the client when it compiles the engine's kernels."""
+    from .worker_threads import CompileNews, ThreadShare
 
     task_threads: dict[str, int] = {}
     for address, count in client.nthreads().items():
         host = urlsplit(address).hostname or ""
         task_threads[host] = task_threads.get(host, 0) + int(count)
     client.register_plugin(ThreadShare(threads, task_threads))
+    client.register_plugin(CompileNews())
 
 
 def local_threads(workers: int) -> int:

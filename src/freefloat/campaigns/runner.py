@@ -51,7 +51,8 @@ ENVIRONMENT_STOP = 8
 @dataclass(frozen=True)
 class CampaignRun:
     """What one invocation did: ``planned`` runs in the campaign, ``selected`` (the first ``max_runs``),
-    ``skipped`` (already stored), ``ok`` and ``failed`` now, ``interrupted`` (Ctrl-C), wall ``seconds``."""
+    ``skipped`` (already stored), ``ok`` and ``failed`` now, ``interrupted`` (Ctrl-C), wall ``seconds`` (and
+    ``first_result``: those until the first run finished)."""
 
     out: Path
     campaign_id: str
@@ -65,6 +66,7 @@ class CampaignRun:
     unfinished: int = 0
     unfinished_reason: str = ""
     retried: int = 0
+    first_result: float | None = None  # seconds from the start to the first run finished now (None: none finished)
 
     def line(self) -> str:
         """One line for the terminal."""
@@ -150,6 +152,7 @@ def run_campaign(
     selected = plan[:max_runs] if max_runs is not None else plan
     counts = {"ok": 0, "failed": 0, "environment": 0}
     reasons: list[str] = []
+    first_result: list[float] = []
     interrupted = False
     with contextlib.ExitStack() as held:
         lock = CampaignStore.lock(out)  # an existing directory: held (or refused) before the survey and any cluster
@@ -176,7 +179,7 @@ def run_campaign(
                     patience = WORKER_TIMEOUT if worker_timeout is None else worker_timeout
                     timing = (flush_seconds, flush_runs, patience)
                     try:
-                        interrupted = _drive(client, spec, store, todo, limit, bar, counts, reasons, timing, scheduler)
+                        interrupted = _drive(client, spec, store, todo, limit, bar, counts, reasons, timing, scheduler, first_result)
                     finally:
                         bar.close()
             except KeyboardInterrupt:  # (Ctrl-C, SIGTERM while the cluster starts, waits for workers or stops: nothing lost)
@@ -184,6 +187,7 @@ def run_campaign(
     return CampaignRun(
         Path(out), spec.campaign_id, len(plan), len(selected), len(selected) - len(todo), counts["ok"], counts["failed"],
         interrupted, time.perf_counter() - start, counts["environment"], reasons[0] if reasons else "", retried,
+        first_result[0] - start if first_result else None,
     )  # fmt: skip
 
 
@@ -198,12 +202,16 @@ def _drive(
     reasons: list[str],
     timing: tuple[float, int, float],
     scheduler: str | None = None,
+    first_result: list[float] | None = None,
 ) -> bool:
     """Submit, collect and store; True when interrupted (Ctrl-C, SIGTERM). ``timing``: (flush every so many s, or so
-    many rows; the seconds a cluster may have no worker while runs wait)."""
+    many rows; the seconds a cluster may have no worker while runs wait); ``first_result`` gets the time
+    (``time.perf_counter``) at which the first run finished."""
     from distributed import as_completed
 
     flush_seconds, flush_runs, patience = timing
+    compiling = _compile_news(client)
+    first_result = [] if first_result is None else first_result
     queue = iter(todo)
     running: dict[Any, Run] = {}
     finished = as_completed(loop=client.loop)
@@ -227,7 +235,9 @@ def _drive(
         nonlocal alone
         while not finished.has_ready():
             time.sleep(0.1)
-            if client.nthreads():
+            workers = client.nthreads()
+            _say_compiles(bar, compiling, workers)
+            if workers:
                 alone = None
                 continue
             now = time.perf_counter()
@@ -265,7 +275,10 @@ def _drive(
             store.write_series(outcome)
             pending.append(outcome)
             counts[outcome.status] += 1
-        bar.update(float(counts["ok"] + counts["failed"] + counts["environment"]))
+        done = counts["ok"] + counts["failed"] + counts["environment"]
+        if done and not first_result:
+            first_result.append(time.perf_counter())
+        bar.update(float(done))
         if errors:
             raise errors[0]
 
@@ -301,4 +314,37 @@ def _drive(
         ) from None
     finally:
         flush()
+        with contextlib.suppress(Exception):  # (the scheduler gone: nothing to unsubscribe from)
+            client.unsubscribe_topic(_compile_topic())
     return stopping
+
+
+def _compile_news(client: Any) -> dict[str, float]:
+    """The workers compiling the engine's kernels now, as their :class:`.worker_threads.CompileNews` tell the client:
+    {worker address: since (this process's clock)}, kept up to date by Dask's event handler."""
+    compiling: dict[str, float] = {}
+
+    def heard(event: tuple[float, dict[str, Any]]) -> None:
+        news = event[1]
+        if news.get("what"):
+            compiling.setdefault(str(news["worker"]), time.perf_counter() - float(news.get("seconds", 0.0)))
+        else:
+            compiling.pop(str(news.get("worker")), None)
+
+    client.subscribe_topic(_compile_topic(), heard)
+    return compiling
+
+
+def _compile_topic() -> str:
+    from .worker_threads import COMPILE_TOPIC  # (Dask's plugin module: imported once a campaign has a cluster)
+
+    return COMPILE_TOPIC
+
+
+def _say_compiles(bar: Progress, compiling: dict[str, float], workers: dict[str, Any]) -> None:
+    """The progress says how many workers compile the engine (a worker that left the cluster no longer counts), and the
+    time it waits for them is left out of its estimate of the time left."""
+    for gone in [address for address in list(compiling) if address not in workers]:
+        compiling.pop(gone, None)
+    count = len(compiling)
+    bar.waiting(f"{count} worker{'s' if count > 1 else ''} compiling the engine" if count else None)

@@ -39,7 +39,16 @@ from .calls import (
     state_derivative,
 )
 from .drivers import Batched as _Batched
-from .folders import KERNELS_ENV, cache_dir, kernel_status, kernels_setting, portable_dir, source_key
+from .folders import (
+    KERNELS_ENV,
+    cache_dir,
+    compiling_now,
+    kernel_status,
+    kernels_setting,
+    portable_dir,
+    source_key,
+    watch_compiles,
+)
 from .gate import recorded_compiles
 from .laws import DETUMBLE, OPERATIONAL_SPACE, PROFILES, TRANSPOSED_JACOBIAN, actuator_bounds, make_law, same_structure
 from .layout import Tree, tree
@@ -77,6 +86,7 @@ __all__ = [
     "auto_enabled",
     "cache_dir",
     "check_out",
+    "compiling_now",
     "find_specialised",
     "frames",
     "generalized_jacobian",
@@ -105,5 +115,6 @@ __all__ = [
     "specialised_rollouts",
     "state_derivative",
     "tree",
+    "watch_compiles",
     "wrench_layout",
 ]

@@ -37,6 +37,7 @@ machine code.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import json
@@ -46,7 +47,10 @@ import subprocess
 import sys
 import tarfile
 import tempfile
+import threading
+import time
 import warnings
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -67,12 +71,14 @@ __all__ = [
     "CacheWarning",
     "cache_dir",
     "compile_seconds",
+    "compiling_now",
     "kernel_status",
     "kernels_setting",
     "portable_dir",
     "portable_manifest",
     "source_key",
     "start_native_compile",
+    "watch_compiles",
 ]
 
 
@@ -372,7 +378,8 @@ _WAITED: list[bool] = []
 def _hold(index: str, name: str) -> bool:
     """Take the compile lock of the kernel whose cache index is ``index`` (a file lock beside it, given back when its
     process ends however it ends): at once, or after waiting (said once per process) while another process compiles
-    the kernel; False when the lock cannot be made (an unwritable folder) or the wait ran out (:data:`COMPILE_WAIT`)."""
+    the kernel; False when the lock cannot be made (an unwritable folder) or the wait ran out (:data:`COMPILE_WAIT`).
+    From here until :func:`_release`, the kernel is what this process compiles (:func:`watch_compiles`)."""
     if index in _LOCKS:
         return True
     try:
@@ -384,10 +391,13 @@ def _hold(index: str, name: str) -> bool:
             if not _WAITED:
                 _WAITED.append(True)
                 notice(f"waiting for another process that compiles the engine's kernel {name} for this machine (once)")
+            _begin(index, f"waiting for another process that compiles the engine's kernel {name}")
             lock.acquire(timeout=COMPILE_WAIT)
     except (OSError, filelock.Timeout):
+        _end(index)
         return False
     _LOCKS[index] = lock
+    _begin(index, f"compiling the engine's kernel {name} for this machine (once)")
     return True
 
 
@@ -395,6 +405,80 @@ def _release(index: str) -> None:
     lock = _LOCKS.pop(index, None)
     if lock is not None:
         lock.release()
+    _end(index)
+
+
+# ----------------------------------------------------------------- what this process compiles now
+#: How often (s) a compile's watchers are told that it still runs (:func:`watch_compiles`).
+WATCH_PERIOD = 0.5
+_ACTIVE: dict[str, tuple[str, float]] = {}  # a kernel's index -> (what this process does for it, since)
+_WATCHERS: list[Callable[[str | None, float], None]] = []
+_ACTIVITY = threading.Lock()
+_TICKER: list[threading.Thread] = []
+
+
+def compiling_now() -> tuple[str, float] | None:
+    """What this process waits for now: (what, seconds so far) of its longest-running compile of an engine kernel
+    ("compiling the engine's kernel rk4_steps for this machine (once)", or "waiting for another process that compiles
+    the engine's kernel ..."), None when it compiles nothing."""
+    with _ACTIVITY:
+        if not _ACTIVE:
+            return None
+        what, since = min(_ACTIVE.values(), key=lambda entry: entry[1])
+    return what, time.perf_counter() - since
+
+
+@contextlib.contextmanager
+def watch_compiles(callback: Callable[[str | None, float], None]) -> Iterator[None]:
+    """Inside the block, ``callback(what, seconds)`` is called, from a thread of its own, when this process starts to
+    compile one of the engine's kernels (or to wait for another process that compiles it), every
+    :data:`WATCH_PERIOD` s while that lasts (``what`` as :func:`compiling_now` says it, ``seconds`` so far), and once
+    with ``what`` None when it has ended (``seconds``: how long it lasted). A compile blocks the thread that needs the
+    kernel: this is how a progress bar of that thread can say what it waits for."""
+    with _ACTIVITY:
+        _WATCHERS.append(callback)
+    try:
+        yield
+    finally:
+        with _ACTIVITY:
+            _WATCHERS.remove(callback)
+
+
+def _begin(index: str, what: str) -> None:
+    with _ACTIVITY:
+        since = _ACTIVE.get(index, (what, time.perf_counter()))[1]
+        _ACTIVE[index] = (what, since)
+        if not _WATCHERS or _TICKER:
+            return
+        ticker = threading.Thread(target=_tick, name="freefloat-compile-watch", daemon=True)
+        _TICKER.append(ticker)
+    ticker.start()
+
+
+def _end(index: str) -> None:
+    with _ACTIVITY:
+        _ACTIVE.pop(index, None)
+
+
+def _tick() -> None:
+    """Tell the watchers what this process compiles until it compiles nothing (or nobody watches), then that it ended."""
+    first = time.perf_counter()
+    try:
+        while True:
+            now = compiling_now()
+            with _ACTIVITY:
+                watchers = list(_WATCHERS)
+                if now is None or not watchers:
+                    _TICKER.clear()
+                    break
+            for callback in watchers:
+                callback(*now)
+            time.sleep(WATCH_PERIOD)
+        for callback in watchers:
+            callback(None, time.perf_counter() - first)
+    except BaseException:  # (a watcher that raises: no more watching in this compile; never the compile's failure)
+        with _ACTIVITY:
+            _TICKER.clear()
 
 
 #: What freefloat's cache reports (:class:`.gate.CacheEvents`).

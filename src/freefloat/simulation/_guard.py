@@ -8,6 +8,8 @@
 
 from __future__ import annotations
 
+import contextlib
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -182,6 +184,10 @@ class Progress:
     The bar is drawn on standard error when it is a terminal; elsewhere (a batch job, a notebook,
     a CI log) the same progress goes to the ``freefloat.progress`` logger at INFO, one line every
     :data:`freefloat.core.feedback.LOG_PERIOD` seconds. ``what`` names the work ("simulating").
+
+    While the work waits (:meth:`waiting`: a compile of one of the engine's kernels in this process, said by the
+    engine's compile watcher, or the workers of a campaign compiling), the bar or the log says what it waits for and
+    for how long; the time left is estimated from the work done per second of wall time without the waits.
     """
 
     def __init__(
@@ -202,7 +208,17 @@ class Progress:
         self.start = time.perf_counter()
         self.last = 0.0
         self.next_t = 0.0
+        self.t = 0.0
         self.bar: Any = None
+        self.waited = 0.0  # wall time (s) the work waited (compiles), left out of the rate and the time left
+        self.note = ""  # what it waits for now, and for how long ("" when it waits for nothing)
+        self._wait_since: float | None = None
+        self._wait_said = True
+        self._lock = threading.Lock()
+        self._watch: contextlib.ExitStack | None = None
+        if self.enabled and self.callback is None:
+            self._watch = contextlib.ExitStack()
+            self._watch.enter_context(engine.watch_compiles(lambda what, _: self.waiting(what)))
 
     def update(self, t: float) -> None:
         """Report simulated time ``t`` (s)."""
@@ -217,45 +233,85 @@ class Progress:
         if now - self.last < 0.1:
             return
         self.last = now
-        if self.bar is None:
-            if now - self.start < self.delay:
-                return
-            if not interactive():  # no terminal: a line to the logger now and then
-                if now - self.logged >= LOG_PERIOD:
-                    self.logged = now
-                    elapsed = now - self.start
-                    left = f", about {_duration(elapsed * (self.duration - t) / t)} left" if t > 0 else ""
-                    progress_log.info(
-                        "%s: %.4g / %.4g %s (%.0f%%)%s, %s elapsed%s", self.what, t, self.duration, self.unit,
-                        100.0 * t / self.duration, self._rate(t, elapsed), _duration(elapsed), left,
-                    )  # fmt: skip
-                return
-            from rich.console import Console
-            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+        self.t = float(t)
+        self._show(now)
 
-            self.bar = Progress(
-                TextColumn(self.what),
-                BarColumn(),
-                TextColumn("{task.completed:.4g} / {task.total:.4g} " + self.unit),
-                TextColumn("{task.fields[rate]}"),
-                TimeElapsedColumn(),
-                TimeRemainingColumn(),
-                console=Console(stderr=True),
-                transient=True,
-            )
-            self.bar.start()
-            self.bar.add_task(self.what, total=self.duration, rate="")
-        self.bar.update(self.bar.task_ids[0], completed=float(t), rate=self._rate(t, now - self.start))
+    def waiting(self, what: str | None) -> None:
+        """The work waits for ``what`` ("compiling the engine's kernel rk4_steps for this machine (once)", "2 workers
+        compiling the engine") from now until this is called with None: said with the time waited so far (called
+        again to redraw it), and that time left out of the rate and of the estimate of the time left."""
+        if not self.enabled or self.callback is not None:
+            return
+        now = time.perf_counter()
+        if what is None:
+            if self._wait_since is None:
+                return
+            self.waited += now - self._wait_since
+            self._wait_since, self.note = None, ""
+        else:
+            if self._wait_since is None:
+                self._wait_since, self._wait_said = now, False
+            self.note = f"{what}, {_duration(now - self._wait_since)} elapsed"
+        self._show(now)
 
-    def _rate(self, t: float, elapsed: float) -> str:
-        """``", 2.5 runs/s"`` with ``rate`` (the work done per second of wall time so far), else empty."""
-        return f", {t / elapsed:.3g} {self.unit}/s" if self.rate and elapsed > 0 else ""
+    def _working(self, now: float) -> float:
+        """Wall time (s) of work so far: the time since the start without the waits."""
+        waiting = now - self._wait_since if self._wait_since is not None else 0.0
+        return max(now - self.start - self.waited - waiting, 0.0)
+
+    def _left(self, now: float) -> str:
+        t = self.t
+        return f"about {_duration(self._working(now) * (self.duration - t) / t)} left" if t > 0 else ""
+
+    def _show(self, now: float) -> None:
+        """Draw the bar, or log a line (every :data:`LOG_PERIOD` s, and when a wait starts), once the delay is over."""
+        with self._lock:
+            if self.bar is None:
+                if now - self.start < self.delay:
+                    return
+                if not interactive():  # no terminal: a line to the logger now and then
+                    if now - self.logged >= LOG_PERIOD or (self.note and not self._wait_said):
+                        self.logged, self._wait_said = now, True
+                        left, elapsed = self._left(now), now - self.start
+                        progress_log.info(
+                            "%s: %.4g / %.4g %s (%.0f%%)%s, %s elapsed%s%s", self.what, self.t, self.duration, self.unit,
+                            100.0 * self.t / self.duration, self._rate(now), _duration(elapsed), f", {left}" if left else "",
+                            f"; waiting: {self.note}" if self.note else "",
+                        )  # fmt: skip
+                    return
+                from rich.console import Console
+                from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+                self.bar = Progress(
+                    TextColumn(self.what),
+                    BarColumn(),
+                    TextColumn("{task.completed:.4g} / {task.total:.4g} " + self.unit),
+                    TextColumn("{task.fields[rate]}"),
+                    TimeElapsedColumn(),
+                    TextColumn("{task.fields[left]}"),
+                    TextColumn("{task.fields[note]}"),
+                    console=Console(stderr=True),
+                    transient=True,
+                )
+                self.bar.start()
+                self.bar.add_task(self.what, total=self.duration, rate="", left="", note="")
+            note = f"waiting: {self.note}" if self.note else ""
+            self.bar.update(self.bar.task_ids[0], completed=self.t, rate=self._rate(now), left=self._left(now), note=note)
+
+    def _rate(self, now: float) -> str:
+        """``", 2.5 runs/s"`` with ``rate`` (the work done per second of wall time so far, without the waits), else empty."""
+        working = self._working(now)
+        return f", {self.t / working:.3g} {self.unit}/s" if self.rate and working > 0 else ""
 
     def close(self) -> None:
-        """Remove the bar (if one appeared)."""
-        if self.bar is not None:
-            self.bar.stop()
-            self.bar = None
+        """Remove the bar (if one appeared) and stop watching the engine's compiles."""
+        if self._watch is not None:
+            self._watch.close()
+            self._watch = None
+        with self._lock:
+            if self.bar is not None:
+                self.bar.stop()
+                self.bar = None
 
 
 class DivergenceGuard:
